@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Runs every test of luxnode. Installs what the tests need when it is missing, so it works on a
+# fresh machine with only the Rust toolchain. This is the README's test command; .ci/run calls it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! cargo nextest --version >/dev/null 2>&1; then
+  echo "== cargo-nextest missing: installing it"
+  cargo install cargo-nextest --locked
+fi
+
+echo "== tests (release build: the physics tests cast millions of rays)"
+cargo nextest run --release --no-fail-fast "$@"

@@ -1,0 +1,291 @@
+//! `luxnode`: the command line of the node. It parses arguments, reads files through the
+//! library, prints results; all logic lives in the library.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+use luxnode::board::{Board, SceneSource};
+use luxnode::photometry::IntensityDistribution;
+use luxnode::scene::{LoadOptions, Scene};
+
+#[derive(Parser)]
+#[command(
+    name = "luxnode",
+    version,
+    about = "Desk illuminance from a ceiling ToF + RGB camera"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Summarise a photometric file (EULUMDAT .ldt or IES .ies).
+    Photometry {
+        /// The file.
+        file: PathBuf,
+        /// Print the summary as one JSON object.
+        #[arg(long, conflicts_with = "csv")]
+        json: bool,
+        /// Print the unfolded intensity table as CSV (c_deg,gamma_deg,intensity_cd).
+        #[arg(long)]
+        csv: bool,
+        /// Also write the distribution as EULUMDAT to this file.
+        #[arg(long, value_name = "FILE")]
+        to_ldt: Option<PathBuf>,
+        /// Also write the distribution as IES LM-63-2002 to this file.
+        #[arg(long, value_name = "FILE")]
+        to_ies: Option<PathBuf>,
+    },
+    /// Scene directories (the format of ../shared/scenes/README.md).
+    Scene {
+        #[command(subcommand)]
+        command: SceneCommand,
+    },
+    /// Run the node on a board.
+    Run {
+        /// The board file, e.g. boards/sim/board.toml.
+        #[arg(long)]
+        board: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+enum SceneCommand {
+    /// Validate a scene directory and print what it contains; non-zero exit on errors.
+    Check {
+        /// The scene directory.
+        dir: PathBuf,
+        #[command(flatten)]
+        load: SceneArgs,
+    },
+}
+
+#[derive(clap::Args)]
+struct SceneArgs {
+    /// Length unit of the scene's coordinates.
+    #[arg(long, value_enum, default_value_t = Unit::M)]
+    unit: Unit,
+    /// Which photometric file wins when a luminaire names both.
+    #[arg(long, value_enum, default_value_t = Prefer::Ldt)]
+    prefer: Prefer,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Unit {
+    /// Metres.
+    M,
+    /// Millimetres.
+    Mm,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Prefer {
+    /// EULUMDAT.
+    Ldt,
+    /// IES.
+    Ies,
+}
+
+impl SceneArgs {
+    fn options(&self) -> LoadOptions {
+        LoadOptions {
+            unit_to_m: match self.unit {
+                Unit::M => 1.0,
+                Unit::Mm => 0.001,
+            },
+            photometry: match self.prefer {
+                Prefer::Ldt => luxnode::scene::PhotometryPreference::Ldt,
+                Prefer::Ies => luxnode::scene::PhotometryPreference::Ies,
+            },
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Photometry {
+            file,
+            json,
+            csv,
+            to_ldt,
+            to_ies,
+        } => photometry(&file, json, csv, to_ldt.as_deref(), to_ies.as_deref()),
+        Command::Scene {
+            command: SceneCommand::Check { dir, load },
+        } => scene_check(&dir, &load.options()),
+        Command::Run { board } => run_board(&board),
+    }
+}
+
+/// "N (a .. b°, step s°)" for an angle grid.
+fn describe_grid(v: &[f64]) -> String {
+    let n = v.len();
+    match n {
+        0 => "none".into(),
+        1 => format!("1 ({}°)", v[0]),
+        _ => {
+            let step = v[1] - v[0];
+            let uniform = v.windows(2).all(|w| ((w[1] - w[0]) - step).abs() < 1e-6);
+            let spacing = if uniform {
+                format!("step {step}°")
+            } else {
+                "non-uniform".into()
+            };
+            format!("{n} ({} .. {}°, {spacing})", v[0], v[n - 1])
+        }
+    }
+}
+
+fn photometry(
+    file: &Path,
+    json: bool,
+    csv: bool,
+    to_ldt: Option<&Path>,
+    to_ies: Option<&Path>,
+) -> Result<ExitCode> {
+    let d = IntensityDistribution::load(file)?;
+    if let Some(out) = to_ldt {
+        std::fs::write(out, d.to_ldt()?).with_context(|| format!("writing {}", out.display()))?;
+    }
+    if let Some(out) = to_ies {
+        std::fs::write(out, d.to_ies()).with_context(|| format!("writing {}", out.display()))?;
+    }
+    if csv {
+        print!("{}", d.to_csv());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let flux = d.flux_lm();
+    let down = d.zonal_flux_lm(0.0, 90.0);
+    let (max_cd, max_c, max_g) = d.max_intensity();
+    let mut warnings = d.meta.warnings.clone();
+    if let Some(lor) = d.lor_pct() {
+        if lor > 100.5 {
+            warnings.push(format!(
+                "integrated flux exceeds the rated lamp flux (light output ratio {lor:.1} %)"
+            ));
+        }
+        if let Some(declared) = d.meta.declared_lor_pct
+            && (lor - declared).abs() > 0.02 * declared.max(1.0)
+        {
+            warnings.push(format!(
+                "declared light output ratio {declared} % but the table integrates to {lor:.1} %"
+            ));
+        }
+    }
+    if json {
+        let v = serde_json::json!({
+            "file": file.display().to_string(),
+            "format": d.format().to_string(),
+            "symmetry": d.symmetry().name(),
+            "isym": d.symmetry().isym(),
+            "luminaire": d.meta.luminaire,
+            "manufacturer": d.meta.manufacturer,
+            "c_planes_stored": d.stored_c_deg().len(),
+            "c_planes_unfolded": d.c_grid_deg().len(),
+            "gamma_angles": d.gamma_grid_deg().len(),
+            "gamma_min_deg": d.gamma_grid_deg().first(),
+            "gamma_max_deg": d.gamma_grid_deg().last(),
+            "flux_lm": flux,
+            "downward_flux_lm": down,
+            "max_cd": max_cd,
+            "max_c_deg": max_c,
+            "max_gamma_deg": max_g,
+            "absolute_photometry": d.meta.absolute,
+            "lamp_flux_lm": d.meta.lamp_flux_lm,
+            "lor_pct": d.lor_pct(),
+            "declared_lor_pct": d.meta.declared_lor_pct,
+            "tilt_include": d.meta.tilt.is_some(),
+            "warnings": warnings,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("file:           {}", file.display());
+    println!("format:         {}", d.format());
+    if !d.meta.luminaire.is_empty() {
+        println!("luminaire:      {}", d.meta.luminaire);
+    }
+    if !d.meta.manufacturer.is_empty() {
+        println!("manufacturer:   {}", d.meta.manufacturer);
+    }
+    println!("symmetry:       {}", d.symmetry());
+    println!(
+        "C planes:       {} stored, {} after unfolding to 0..360°",
+        describe_grid(d.stored_c_deg()),
+        d.c_grid_deg().len()
+    );
+    println!("gamma angles:   {}", describe_grid(d.gamma_grid_deg()));
+    if d.meta.absolute {
+        println!("photometry:     absolute");
+    } else if let (Some(lamp), Some(lor)) = (d.meta.lamp_flux_lm, d.lor_pct()) {
+        println!("photometry:     relative, lamp flux {lamp:.1} lm, light output ratio {lor:.1} %");
+    }
+    println!(
+        "total flux:     {flux:.2} lm (downward {down:.2} lm, {:.1} %)",
+        if flux > 0.0 { 100.0 * down / flux } else { 0.0 }
+    );
+    println!("max intensity:  {max_cd:.2} cd at C {max_c}° gamma {max_g}°");
+    if let Some(t) = &d.meta.tilt {
+        println!(
+            "tilt:           TILT=INCLUDE, {} angles, factor {:.3} at 0° .. {:.3} at {}°",
+            t.angles_deg.len(),
+            t.factors[0],
+            t.factors[t.factors.len() - 1],
+            t.angles_deg[t.angles_deg.len() - 1]
+        );
+    }
+    for w in &warnings {
+        println!("warning:        {w}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn scene_check(dir: &Path, options: &LoadOptions) -> Result<ExitCode> {
+    if !dir.is_dir() {
+        bail!("{} is not a directory", dir.display());
+    }
+    match Scene::load(dir, options) {
+        Ok(scene) => {
+            print!("{}", scene.summary());
+            println!("OK: scene {} is valid", scene.name);
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => {
+            eprintln!("{errors}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn run_board(path: &Path) -> Result<ExitCode> {
+    let board = Board::load(path)?;
+    println!(
+        "luxnode {} on board {}: {}",
+        env!("CARGO_PKG_VERSION"),
+        board.name,
+        board.description
+    );
+    let scene = match &board.scene {
+        SceneSource::DemoOffice => luxnode::demo::demo_office(),
+        SceneSource::Directory(dir) => Scene::load(dir, &LoadOptions::default())
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .with_context(|| format!("board {} scene", board.name))?,
+    };
+    print!("{}", scene.summary());
+    Ok(ExitCode::SUCCESS)
+}
