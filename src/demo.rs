@@ -12,11 +12,8 @@ use std::sync::Arc;
 use glam::{DMat3, DVec3};
 
 use crate::photometry::IntensityDistribution;
-use crate::scene::{
-    Camera, Desk, Desks, Luminaire, Material, Mesh, ObjReport, Scene, Sensor, Triangle,
-};
+use crate::scene::{Camera, Desk, Desks, Luminaire, MeshBuilder, ObjReport, Scene, Sensor};
 use crate::sensor::AngularResponse;
-use crate::units::Reflectance;
 
 /// Room size, m.
 pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];
@@ -24,77 +21,6 @@ pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];
 pub const LUMINAIRE_FLUX_LM: f64 = 4000.0;
 /// Desk top height, m.
 const DESK_Z_M: f64 = 0.75;
-
-struct Builder {
-    mesh: Mesh,
-}
-
-impl Builder {
-    fn material(&mut self, name: &str, rho: f64) -> u32 {
-        let rho = Reflectance::new(rho).unwrap_or(Reflectance::ZERO);
-        self.mesh.materials.push(Material {
-            name: name.to_owned(),
-            rho,
-        });
-        (self.mesh.materials.len() - 1) as u32
-    }
-
-    fn group(&mut self, name: &str) -> u32 {
-        if let Some(i) = self.mesh.groups.iter().position(|g| g == name) {
-            return i as u32;
-        }
-        self.mesh.groups.push(name.to_owned());
-        (self.mesh.groups.len() - 1) as u32
-    }
-
-    /// A planar quad a→b→c→d, counter-clockwise seen from its front.
-    fn quad(&mut self, corners: [DVec3; 4], group: &str, material: u32) {
-        let group = self.group(group);
-        let base = self.mesh.positions_m.len() as u32;
-        self.mesh.positions_m.extend_from_slice(&corners);
-        for v in [[base, base + 1, base + 2], [base, base + 2, base + 3]] {
-            self.mesh.triangles.push(Triangle { v, group, material });
-        }
-    }
-
-    /// A closed box with outward faces (the bottom face is left out when it stands on the floor).
-    fn solid_box(&mut self, lo: DVec3, hi: DVec3, group: &str, material: u32) {
-        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        let (x0, y0, z0, x1, y1, z1) = (lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
-        self.quad(
-            [p(x0, y0, z1), p(x1, y0, z1), p(x1, y1, z1), p(x0, y1, z1)],
-            group,
-            material,
-        );
-        self.quad(
-            [p(x0, y0, z0), p(x1, y0, z0), p(x1, y0, z1), p(x0, y0, z1)],
-            group,
-            material,
-        );
-        self.quad(
-            [p(x1, y1, z0), p(x0, y1, z0), p(x0, y1, z1), p(x1, y1, z1)],
-            group,
-            material,
-        );
-        self.quad(
-            [p(x0, y1, z0), p(x0, y0, z0), p(x0, y0, z1), p(x0, y1, z1)],
-            group,
-            material,
-        );
-        self.quad(
-            [p(x1, y0, z0), p(x1, y1, z0), p(x1, y1, z1), p(x1, y0, z1)],
-            group,
-            material,
-        );
-        if z0 > 1e-9 {
-            self.quad(
-                [p(x0, y1, z0), p(x1, y1, z0), p(x1, y0, z0), p(x0, y0, z0)],
-                group,
-                material,
-            );
-        }
-    }
-}
 
 /// The demo luminaire's distribution at 1 lm per... scaled to [`LUMINAIRE_FLUX_LM`].
 pub fn demo_photometry() -> IntensityDistribution {
@@ -115,49 +41,28 @@ pub fn demo_photometry() -> IntensityDistribution {
 pub fn demo_office() -> Scene {
     let [lx, ly, lz] = ROOM_M;
     let p = DVec3::new;
-    let mut b = Builder {
-        mesh: Mesh::default(),
-    };
-    let floor = b.material("floor", 0.25);
-    let ceiling = b.material("ceiling", 0.80);
-    let wall = b.material("wall", 0.60);
-    let desk = b.material("desk", 0.45);
-    let cabinet = b.material("cabinet", 0.55);
-    let door = b.material("door", 0.35);
-    let window = b.material("window", 0.10);
-    let opening = b.material("luminaire_opening", 0.0);
+    let mut b = MeshBuilder::new();
+    // Constant reflectances below 1: these cannot fail.
+    let mut material = |name: &str, rho: f64| b.material(name, rho).unwrap_or_default();
+    let floor = material("floor", 0.25);
+    let ceiling = material("ceiling", 0.80);
+    let wall = material("wall", 0.60);
+    let desk = material("desk", 0.45);
+    let cabinet = material("cabinet", 0.55);
+    let door = material("door", 0.35);
+    let window = material("window", 0.10);
+    let opening = material("luminaire_opening", 0.0);
 
-    // Room shell, faces into the room.
-    b.quad(
-        [p(0., 0., 0.), p(lx, 0., 0.), p(lx, ly, 0.), p(0., ly, 0.)],
-        "floor",
-        floor,
-    );
-    b.quad(
-        [p(0., ly, lz), p(lx, ly, lz), p(lx, 0., lz), p(0., 0., lz)],
-        "ceiling",
-        ceiling,
-    );
-    b.quad(
-        [p(0., 0., 0.), p(0., 0., lz), p(lx, 0., lz), p(lx, 0., 0.)],
-        "wall_s",
-        wall,
-    );
-    b.quad(
-        [p(lx, ly, 0.), p(lx, ly, lz), p(0., ly, lz), p(0., ly, 0.)],
-        "wall_n",
-        wall,
-    );
-    b.quad(
-        [p(0., ly, 0.), p(0., ly, lz), p(0., 0., lz), p(0., 0., 0.)],
-        "wall_w",
-        wall,
-    );
-    b.quad(
-        [p(lx, 0., 0.), p(lx, 0., lz), p(lx, ly, lz), p(lx, ly, 0.)],
-        "wall_e",
-        wall,
-    );
+    // Room shell, faces into the room: the ceiling and floor carry their own reflectance.
+    let shell = [("floor", floor), ("ceiling", ceiling)];
+    for (name, m) in shell {
+        let others: Vec<&str> = ["floor", "ceiling", "wall_s", "wall_n", "wall_w", "wall_e"]
+            .into_iter()
+            .filter(|f| *f != name)
+            .collect();
+        b.room(DVec3::new(lx, ly, lz), m, &others);
+    }
+    b.room(DVec3::new(lx, ly, lz), wall, &["floor", "ceiling"]);
     // Door on the west wall, window band on the east wall (2 mm proud of the wall).
     let e = 0.002;
     b.quad(
@@ -278,7 +183,7 @@ pub fn demo_office() -> Scene {
 
     Scene {
         name: "demo office (built in)".into(),
-        mesh: b.mesh,
+        mesh: b.build(),
         luminaires,
         sensors,
         desks: Some(Desks {

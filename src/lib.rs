@@ -15,6 +15,8 @@
 //! |---|---|---|
 //! | [`units`] | no_std | physical quantities with their unit in the name |
 //! | [`layout`] | no_std | the `memory.x` regions (the `FORMFACTORS` flash region's size) |
+//! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
+//! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
 //! | `photometry` | std | EULUMDAT / IES LM-63 parsing into one [`photometry::IntensityDistribution`] |
 //! | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation |
 //! | `sensor` | std | the desk sensor model: light sensitivity curve (LSC), cosine error f2 |
@@ -53,6 +55,14 @@ pub mod layout {
     );
 }
 
+pub mod solver;
+
+#[cfg(feature = "std")]
+pub mod engine;
+#[cfg(feature = "std")]
+pub mod evaluate;
+#[cfg(feature = "std")]
+pub mod rng;
 #[cfg(feature = "std")]
 pub mod sensor;
 

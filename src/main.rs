@@ -7,8 +7,10 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use luxnode::board::{Board, SceneSource};
+use luxnode::engine::{DirectModel, PatchSettings, RaySetKind, Settings};
+use luxnode::evaluate::{Computed, compare};
 use luxnode::photometry::IntensityDistribution;
-use luxnode::scene::{LoadOptions, Scene};
+use luxnode::scene::{LoadOptions, Scenario, Scene, read_states, read_truth};
 
 #[derive(Parser)]
 #[command(
@@ -45,12 +47,142 @@ enum Command {
         #[command(subcommand)]
         command: SceneCommand,
     },
+    /// Compute desk illuminance for lighting scenarios.
+    Simulate(Box<SimulateArgs>),
     /// Run the node on a board.
     Run {
         /// The board file, e.g. boards/sim/board.toml.
         #[arg(long)]
         board: PathBuf,
     },
+}
+
+#[derive(clap::Args)]
+struct SimulateArgs {
+    /// The scene directory (CAD input).
+    #[arg(long)]
+    scene: PathBuf,
+    #[command(flatten)]
+    load: SceneArgs,
+    /// All luminaires on (the default when no state is given).
+    #[arg(long, conflicts_with_all = ["on", "states"])]
+    all_on: bool,
+    /// These luminaire ids on (comma separated), the others off.
+    #[arg(long, value_delimiter = ',', conflicts_with = "states")]
+    on: Option<Vec<u32>>,
+    /// A CSV of scenarios (header with scenario_id and luminaires_on, ids separated by ';').
+    #[arg(long)]
+    states: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]
+    format: OutputFormat,
+    #[command(flatten)]
+    engine: EngineArgs,
+    /// Compare with this truth file (default: the scene's truth.csv when present).
+    #[arg(long)]
+    truth: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct EngineArgs {
+    /// Rays per patch (Isocell: 1000 becomes 1083).
+    #[arg(long, default_value_t = 1000)]
+    rays: usize,
+    /// Rays per sensor.
+    #[arg(long, default_value_t = 10000)]
+    sensor_rays: usize,
+    /// Largest patch edge, m.
+    #[arg(long, default_value_t = 0.5)]
+    patch_size: f64,
+    /// Largest patch edge over distance to the nearest sensor (0: uniform patches).
+    #[arg(long, default_value_t = 0.5)]
+    detail: f64,
+    /// Ray set.
+    #[arg(long, value_enum, default_value_t = RaySetArg::Isocell)]
+    ray_set: RaySetArg,
+    /// Points over each luminaire opening for direct light on patches (sensors: 16 times as many).
+    #[arg(long, default_value_t = 16)]
+    opening_samples: usize,
+    /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's.
+    #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
+    direct: DirectArg,
+    /// Model the luminaires' LDC (off: Lambertian luminaires of the same flux).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    ldc: OnOff,
+    /// Model the sensors' LSC (off: ideal cosine sensors).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    lsc: OnOff,
+    /// Reciprocity and closure rectification.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    rectify: OnOff,
+    /// Rectification stops when every row sum is this close to its closure target.
+    #[arg(long, default_value_t = 1e-9)]
+    rectify_tolerance: f64,
+    /// Seed of every pseudo-random choice.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum OutputFormat {
+    /// scenario_id,sensor_id,lux
+    Csv,
+    /// One JSON object.
+    Json,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum RaySetArg {
+    /// Isocell (stratified).
+    Isocell,
+    /// Monte Carlo (cosine weighted).
+    Mc,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DirectArg {
+    /// Exact.
+    Exact,
+    /// The paper's formulation.
+    Paper,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+impl EngineArgs {
+    fn settings(&self) -> Settings {
+        let d = Settings::default();
+        Settings {
+            patches: PatchSettings {
+                patch_size_m: self.patch_size,
+                detail_ratio: self.detail,
+                min_patch_m: (self.patch_size / 8.0).min(d.patches.min_patch_m),
+            },
+            rays: self.rays,
+            sensor_rays: self.sensor_rays,
+            ray_set: match self.ray_set {
+                RaySetArg::Isocell => RaySetKind::Isocell,
+                RaySetArg::Mc => RaySetKind::MonteCarlo { seed: self.seed },
+            },
+            opening_samples: self.opening_samples,
+            direct: match self.direct {
+                DirectArg::Exact => DirectModel::Exact,
+                DirectArg::Paper => DirectModel::Paper,
+            },
+            ldc: self.ldc == OnOff::On,
+            lsc: self.lsc == OnOff::On,
+            rectify: self.rectify == OnOff::On,
+            rectify_tolerance: self.rectify_tolerance,
+            seed: self.seed,
+            ..d
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -128,6 +260,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Scene {
             command: SceneCommand::Check { dir, load },
         } => scene_check(&dir, &load.options()),
+        Command::Simulate(args) => simulate(&args),
         Command::Run { board } => run_board(&board),
     }
 }
@@ -287,5 +420,134 @@ fn run_board(path: &Path) -> Result<ExitCode> {
             .with_context(|| format!("board {} scene", board.name))?,
     };
     print!("{}", scene.summary());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn load_scene(dir: &Path, options: &LoadOptions) -> Result<Scene> {
+    if !dir.is_dir() {
+        bail!("{} is not a scene directory", dir.display());
+    }
+    Scene::load(dir, options).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
+    let scene = load_scene(&args.scene, &args.load.options())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let scenarios: Vec<Scenario> = if let Some(path) = &args.states {
+        read_states(path)?
+    } else if let Some(on) = &args.on {
+        vec![Scenario {
+            id: format!(
+                "on:{}",
+                on.iter().map(u32::to_string).collect::<Vec<_>>().join(";")
+            ),
+            on: on.clone(),
+        }]
+    } else {
+        vec![Scenario {
+            id: "all_on".into(),
+            on: scene.luminaires.iter().map(|l| l.id).collect(),
+        }]
+    };
+    for s in &scenarios {
+        for id in &s.on {
+            if scene.luminaire(*id).is_none() {
+                bail!("scenario {}: luminaire {id} is not in the scene", s.id);
+            }
+        }
+    }
+    let settings = args.engine.settings();
+    let model = luxnode::engine::commission(&scene, &settings)?;
+    let st = &model.stats;
+    eprintln!(
+        "model: {} patches, {} rays/patch, {} rays/sensor, {} form factors; {} ms ({})",
+        st.patches,
+        st.rays_per_patch,
+        st.rays_per_sensor,
+        st.nnz,
+        st.total().as_millis(),
+        st.timings
+            .iter()
+            .map(|(n, t)| format!("{n} {} ms", t.as_millis()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    eprintln!(
+        "rays: {:.3} % left the scene; {:.2} % of the surface is covered{}; solver iterations {:?}",
+        100.0 * st.escaped_fraction,
+        100.0 * st.covered_fraction,
+        st.rectify.map_or(String::new(), |r| format!(
+            "; rectified in {} sweeps (reciprocity {:.1e}, closure {:.1e})",
+            r.iterations, r.reciprocity_error, r.closure_error
+        )),
+        st.iterations
+    );
+    for (id, f2) in model.sensor_ids.iter().zip(&model.sensor_f2) {
+        if *f2 > 0.0 {
+            eprintln!("sensor {id}: cosine error f2 = {:.1} %", 100.0 * f2);
+        }
+    }
+    let mut computed = Vec::new();
+    for sc in &scenarios {
+        let levels: Vec<f64> = model
+            .luminaire_ids
+            .iter()
+            .map(|id| if sc.on.contains(id) { 1.0 } else { 0.0 })
+            .collect();
+        let lux = model.sensor_lux(&levels)?;
+        for (sensor, lux) in model.sensor_ids.iter().zip(lux) {
+            computed.push(Computed {
+                scenario: sc.id.clone(),
+                sensor: *sensor,
+                lux,
+            });
+        }
+    }
+    match args.format {
+        OutputFormat::Csv => {
+            println!("scenario_id,sensor_id,lux");
+            for c in &computed {
+                println!("{},{},{:.3}", c.scenario, c.sensor, c.lux);
+            }
+        }
+        OutputFormat::Json => {
+            let v = serde_json::json!({
+                "scene": scene.name,
+                "patches": st.patches,
+                "rays_per_patch": st.rays_per_patch,
+                "scenarios": scenarios.iter().map(|sc| serde_json::json!({
+                    "scenario_id": sc.id,
+                    "luminaires_on": sc.on,
+                    "sensors": computed.iter().filter(|c| c.scenario == sc.id)
+                        .map(|c| serde_json::json!({"sensor_id": c.sensor, "lux": c.lux}))
+                        .collect::<Vec<_>>(),
+                })).collect::<Vec<_>>(),
+            });
+            println!("{}", serde_json::to_string_pretty(&v)?);
+        }
+    }
+    let truth_path = args
+        .truth
+        .clone()
+        .or_else(|| Some(args.scene.join("truth.csv")).filter(|p| p.exists()));
+    if let Some(path) = truth_path {
+        let truth = read_truth(&path)?;
+        if let Some(a) = compare(&computed, &truth) {
+            eprintln!(
+                "against {}: error {:.2} % (mean |error| {:.1} lx over {} values, bias {:+.2} %), worst sensor {:.2} %",
+                path.display(),
+                100.0 * a.error,
+                a.mean_abs_lx,
+                a.pairs,
+                100.0 * a.bias,
+                100.0 * a.worst_sensor
+            );
+            for (s, e) in &a.per_sensor {
+                eprintln!("  sensor {s}: {:.2} %", 100.0 * e);
+            }
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }

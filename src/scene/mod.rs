@@ -12,8 +12,10 @@
 //! (OBJ/MTL) or JSON path; every error of every file is collected so one run shows them all.
 //! Zero-area triangles are dropped and counted (a warning), never an error.
 
+mod builder;
 mod files;
 mod obj;
+mod states;
 mod summary;
 
 use std::path::{Path, PathBuf};
@@ -21,8 +23,10 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec3};
 
+pub use builder::MeshBuilder;
 pub use files::{LoadOptions, PhotometryPreference};
 pub use obj::ObjReport;
+pub use states::{Scenario, TruthRow, read_states, read_truth};
 pub use summary::SceneSummary;
 
 use crate::photometry::{IntensityDistribution, PhotometryError};

@@ -1,0 +1,414 @@
+//! Patch-to-patch form factors by ray casting (Malley's method with an Isocell set).
+//!
+//! From each reflecting patch i, `N` rays leave with cosine-distributed directions (the ray set,
+//! turned by a per-patch azimuth to decorrelate patches) from origins spread evenly over the
+//! patch (an R2 low-discrepancy sequence mapped to the triangle), so the estimate is the
+//! area-to-area factor, not a centroid's: `F_ij = (rays from i reaching the front of j) / N`.
+//! Rays that leave the scene give the escaped fraction `F_sp,i` (open scenes).
+//!
+//! Covered surface: a ray that meets a back face started from a point that another object
+//! covers (wall behind a window pane 2 mm in front of it, ceiling above a luminaire, floor under
+//! a cabinet): every direction from such a point meets the inside of the cover. Those samples
+//! are dropped, so each patch's row describes its *visible* part, whose area is
+//! `A_i × visible_i`. Without this, a partly covered patch's exitance is diluted by its dark
+//! hidden part while everything that looks at it sees only the lit part: a systematic
+//! underestimate. Rows are sparse (CSR), f64.
+//!
+//! Rectification (physics.md §4): see [`rectify`]. Pairs that no ray connected stay exactly zero.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::patches::Patches;
+use super::raycast::{Hit, RayCaster};
+use super::rayset::{RaySet, frame, to_world};
+use crate::rng::hash64;
+
+/// Sparse rows, f64 values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Csr {
+    /// Row starts, length rows + 1.
+    pub row_ptr: Vec<u32>,
+    /// Column indices, ascending within a row.
+    pub col: Vec<u32>,
+    /// Values.
+    pub val: Vec<f64>,
+}
+
+impl Csr {
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.row_ptr.len().saturating_sub(1)
+    }
+
+    /// Entries of row `i` as (column, value).
+    pub fn row(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
+        self.col[a..b]
+            .iter()
+            .copied()
+            .zip(self.val[a..b].iter().copied())
+    }
+
+    /// Sum of row `i`.
+    pub fn row_sum(&self, i: usize) -> f64 {
+        self.row(i).map(|(_, v)| v).sum()
+    }
+
+    /// Value at (i, j), 0 when absent.
+    pub fn get(&self, i: usize, j: u32) -> f64 {
+        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
+        match self.col[a..b].binary_search(&j) {
+            Ok(k) => self.val[a + k],
+            Err(_) => 0.0,
+        }
+    }
+
+    /// A borrowed view for the solver.
+    pub fn view(&self) -> crate::solver::CsrView<'_, f64> {
+        crate::solver::CsrView {
+            row_ptr: &self.row_ptr,
+            col: &self.col,
+            val: &self.val,
+        }
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.col.len()
+    }
+
+    /// Builds from per-row sorted (column, value) lists.
+    pub fn from_rows(rows: Vec<Vec<(u32, f64)>>) -> Self {
+        let mut out = Csr {
+            row_ptr: Vec::with_capacity(rows.len() + 1),
+            ..Csr::default()
+        };
+        out.row_ptr.push(0);
+        for r in rows {
+            for (c, v) in r {
+                out.col.push(c);
+                out.val.push(v);
+            }
+            out.row_ptr.push(out.col.len() as u32);
+        }
+        out
+    }
+}
+
+/// Form factors of a scene.
+#[derive(Debug, Clone)]
+pub struct FormFactors {
+    /// F_ij.
+    pub f: Csr,
+    /// Escaped fraction per patch (of its visible rays, those that left the scene).
+    pub escaped: Vec<f64>,
+    /// Visible fraction of each patch's area (rays that did not start under a cover).
+    pub visible: Vec<f64>,
+    /// Whether rays were cast from the patch (black patches are skipped: they never reflect).
+    pub cast: Vec<bool>,
+    /// Rays per patch.
+    pub rays_per_patch: usize,
+}
+
+/// The R2 low-discrepancy sequence (Roberts 2018) point `k` with a per-patch shift.
+fn r2(k: usize, shift: (f64, f64)) -> (f64, f64) {
+    const A1: f64 = 0.754_877_666_246_692_7; // 1/φ₂
+    const A2: f64 = 0.569_840_290_998_053_3; // 1/φ₂²
+    let k = k as f64;
+    ((shift.0 + A1 * k).fract(), (shift.1 + A2 * k).fract())
+}
+
+/// A per-patch pseudo-random shift and azimuth, from the patch id and a seed.
+pub(crate) fn patch_jitter(i: usize, seed: u64) -> ((f64, f64), f64) {
+    let h = hash64(seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    let u = (h >> 11) as f64 / (1u64 << 53) as f64;
+    let h2 = hash64(h);
+    let v = (h2 >> 11) as f64 / (1u64 << 53) as f64;
+    let a = hash64(h2) as f64 / u64::MAX as f64 * std::f64::consts::TAU;
+    ((u, v), a)
+}
+
+/// Sample point `k` of patch `i` (area-uniform, stratified along the sequence).
+pub(crate) fn patch_point(patches: &Patches, i: usize, k: usize, shift: (f64, f64)) -> DVec3 {
+    let (u, v) = r2(k, shift);
+    patches.point_m(i, u, v)
+}
+
+/// Casts the rays of every reflecting patch and builds the sparse rows.
+pub fn compute(patches: &Patches, caster: &RayCaster, rays: &RaySet, seed: u64) -> FormFactors {
+    let n = patches.len();
+    let nr = rays.len();
+    let inv = 1.0 / nr as f64;
+    let rows: Vec<(Vec<(u32, f64)>, f64, f64, bool)> = (0..n)
+        .into_par_iter()
+        .map_init(
+            || Vec::<u32>::new(),
+            |hits, i| {
+                if patches.rho[i] <= 0.0 || patches.area_m2[i] <= 0.0 {
+                    return (Vec::new(), 0.0, 1.0, false);
+                }
+                let (shift, azimuth) = patch_jitter(i, seed);
+                let fr = frame(patches.normal[i], azimuth);
+                let mut escaped = 0usize;
+                let mut covered = 0usize;
+                hits.clear();
+                for (k, d) in rays.dirs.iter().enumerate() {
+                    let origin =
+                        caster.offset(patch_point(patches, i, k, shift), patches.normal[i]);
+                    match caster.closest(origin, to_world(&fr, *d)) {
+                        Hit::Front { patch, .. } if patch as usize != i => hits.push(patch),
+                        Hit::Front { .. } | Hit::Back { .. } => covered += 1,
+                        Hit::Miss => escaped += 1,
+                    }
+                }
+                let valid = nr - covered;
+                if valid == 0 {
+                    return (Vec::new(), 0.0, 0.0, true);
+                }
+                let w = 1.0 / valid as f64;
+                hits.sort_unstable();
+                let mut row: Vec<(u32, f64)> = Vec::new();
+                for &j in hits.iter() {
+                    match row.last_mut() {
+                        Some((c, v)) if *c == j => *v += w,
+                        _ => row.push((j, w)),
+                    }
+                }
+                (row, escaped as f64 * w, valid as f64 * inv, true)
+            },
+        )
+        .collect();
+    let mut escaped = Vec::with_capacity(n);
+    let mut visible = Vec::with_capacity(n);
+    let mut cast = Vec::with_capacity(n);
+    let mut csr_rows = Vec::with_capacity(n);
+    for (row, e, l, c) in rows {
+        csr_rows.push(row);
+        escaped.push(e);
+        visible.push(l);
+        cast.push(c);
+    }
+    FormFactors {
+        f: Csr::from_rows(csr_rows),
+        escaped,
+        visible,
+        cast,
+        rays_per_patch: nr,
+    }
+}
+
+/// Outcome of a rectification.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RectifyReport {
+    /// Closure passes done.
+    pub iterations: u32,
+    /// Largest relative reciprocity error `|A_i F_ij − A_j F_ji| / (A_i F_ij + A_j F_ji)` at the end.
+    pub reciprocity_error: f64,
+    /// Largest closure error `|Σ_j F_ij − (1 − F_sp,i)|` at the end.
+    pub closure_error: f64,
+}
+
+/// The maximum-likelihood common exchange area of a pair for binomial ray counts (Masset):
+/// the smaller root of `2 n η² − b η + c = 0`, with
+/// `b = A_i n (F_ij + 1) + A_j n (F_ji + 1)` and `c = A_i A_j n (F_ij + F_ji)`.
+pub fn ml_exchange_area(a_i: f64, a_j: f64, f_ij: f64, f_ji: f64, n_rays: f64) -> f64 {
+    let b = a_i * n_rays * (f_ij + 1.0) + a_j * n_rays * (f_ji + 1.0);
+    let c = a_i * a_j * n_rays * (f_ij + f_ji);
+    let disc = (b * b - 8.0 * n_rays * c).max(0.0);
+    // the smaller root, written to avoid cancellation
+    let q = 0.5 * (b + disc.sqrt());
+    if q > 0.0 { c / q } else { 0.0 }
+}
+
+/// Enforces reciprocity and closure among the patches rays were cast from, in place
+/// (physics.md §4):
+///
+/// 1. **Reciprocity**, Masset's modified Van Leersum step: every pair of patches that either saw
+///    the other gets one exchange area `G_ij = G_ji`, the maximum-likelihood estimate from both
+///    ray counts ([`ml_exchange_area`]); `A_i F_ij = G_ij` then holds exactly. Areas are the
+///    visible areas `A_i × visible_i`.
+/// 2. **Closure** by symmetric diagonal scaling (View3D's NormAF idea): find `x_i > 0` with
+///    `Σ_j x_i G_ij x_j / A_i = 1 − F_sp,i` and set `F_ij = x_i G_ij x_j / A_i`. The scaled matrix
+///    stays exactly reciprocal at every pass, the closure error is spread over rows *and*
+///    columns in proportion to the entries (Van Leersum's row scaling, made symmetric), and
+///    entries no ray found stay exactly zero.
+///
+/// Entries toward patches no rays were cast from (black surfaces) have no partner; they scale
+/// with their row only.
+pub fn rectify(
+    ff: &mut FormFactors,
+    patch_area_m2: &[f64],
+    tolerance: f64,
+    max_iterations: u32,
+) -> RectifyReport {
+    let n = ff.f.rows();
+    let area: Vec<f64> = patch_area_m2
+        .iter()
+        .zip(&ff.visible)
+        .map(|(a, v)| a * v)
+        .collect();
+    // Only patches with a visible part take part (a fully covered patch has no exchange area).
+    let takes_part: Vec<bool> = (0..n).map(|i| ff.cast[i] && area[i] > 0.0).collect();
+
+    // 1. Symmetric pattern among taking-part patches: (j, i) exists wherever (i, j) does.
+    let mut rows: Vec<Vec<(u32, f64)>> = (0..n).map(|i| ff.f.row(i).collect()).collect();
+    let mut additions: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for i in 0..n {
+        if !takes_part[i] {
+            continue;
+        }
+        for &(j, _) in &rows[i] {
+            let j = j as usize;
+            if takes_part[j]
+                && ff.f.get(j, i as u32) == 0.0
+                && !ff.f.row(j).any(|(c, _)| c as usize == i)
+            {
+                additions[j].push(i as u32);
+            }
+        }
+    }
+    for (j, add) in additions.into_iter().enumerate() {
+        if !add.is_empty() {
+            rows[j].extend(add.into_iter().map(|i| (i, 0.0)));
+            rows[j].sort_unstable_by_key(|e| e.0);
+        }
+    }
+    ff.f = Csr::from_rows(rows);
+    let nnz = ff.f.nnz();
+    let row_of: Vec<u32> = (0..n)
+        .flat_map(|i| {
+            std::iter::repeat_n(i as u32, (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize)
+        })
+        .collect();
+    let mut partner = vec![u32::MAX; nnz];
+    partner.par_iter_mut().enumerate().for_each(|(k, p)| {
+        let i = row_of[k] as usize;
+        let j = ff.f.col[k] as usize;
+        if takes_part[i] && takes_part[j] {
+            let (a, b) = (ff.f.row_ptr[j] as usize, ff.f.row_ptr[j + 1] as usize);
+            if let Ok(q) = ff.f.col[a..b].binary_search(&(i as u32)) {
+                *p = (a + q) as u32;
+            }
+        }
+    });
+
+    // 2. Exchange areas: ML common value for partnered pairs, A_i F_ij for one-sided entries.
+    let n_rays = ff.rays_per_patch as f64;
+    let old = ff.f.val.clone();
+    let mut g = vec![0.0; nnz];
+    g.par_iter_mut().enumerate().for_each(|(k, gk)| {
+        let i = row_of[k] as usize;
+        let j = ff.f.col[k] as usize;
+        *gk = match partner[k] {
+            u32::MAX => area[i] * old[k],
+            p => ml_exchange_area(area[i], area[j], old[k], old[p as usize], n_rays),
+        };
+    });
+
+    // 3. Symmetric scaling to closure.
+    let target: Vec<f64> = ff.escaped.iter().map(|e| 1.0 - e).collect();
+    let mut x = vec![1.0f64; n];
+    let row_sum = |i: usize, x: &[f64], g: &[f64]| -> f64 {
+        let (a, b) = (ff.f.row_ptr[i] as usize, ff.f.row_ptr[i + 1] as usize);
+        let mut s = 0.0;
+        for k in a..b {
+            let xj = if partner[k] == u32::MAX {
+                1.0
+            } else {
+                x[ff.f.col[k] as usize]
+            };
+            s += g[k] * xj;
+        }
+        x[i] * s / area[i]
+    };
+    let mut report = RectifyReport {
+        iterations: 0,
+        reciprocity_error: 0.0,
+        closure_error: 0.0,
+    };
+    for it in 1..=max_iterations.max(1) {
+        let mut worst: f64 = 0.0;
+        for i in 0..n {
+            if !takes_part[i] {
+                continue;
+            }
+            let s = row_sum(i, &x, &g);
+            if s > 0.0 {
+                worst = worst.max((s - target[i]).abs());
+                x[i] *= target[i] / s;
+            }
+        }
+        report.iterations = it;
+        if worst < tolerance {
+            break;
+        }
+    }
+    ff.f.val.par_iter_mut().enumerate().for_each(|(k, v)| {
+        let i = row_of[k] as usize;
+        if !takes_part[i] {
+            return;
+        }
+        let xj = if partner[k] == u32::MAX {
+            1.0
+        } else {
+            x[ff.f.col[k] as usize]
+        };
+        *v = x[i] * g[k] * xj / area[i];
+    });
+    report.reciprocity_error = reciprocity_error(&ff.f, &partner, &area);
+    report.closure_error = (0..n)
+        .filter(|&i| takes_part[i] && ff.f.row_sum(i) > 0.0)
+        .map(|i| (ff.f.row_sum(i) - target[i]).abs())
+        .fold(0.0, f64::max);
+    report
+}
+
+fn reciprocity_error(f: &Csr, partner: &[u32], area_m2: &[f64]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for i in 0..f.rows() {
+        for k in f.row_ptr[i] as usize..f.row_ptr[i + 1] as usize {
+            let p = partner[k];
+            if p == u32::MAX {
+                continue;
+            }
+            let j = f.col[k] as usize;
+            let a = area_m2[i] * f.val[k];
+            let b = area_m2[j] * f.val[p as usize];
+            if a + b > 0.0 {
+                worst = worst.max((a - b).abs() / (a + b));
+            }
+        }
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ml_reciprocity_example() {
+        // physics.md §10 C1
+        let eta = ml_exchange_area(1.0, 2.0, 0.3, 0.16, 1000.0);
+        assert!((eta - 0.3058131).abs() < 1e-7, "{eta}");
+        assert!((eta / 2.0 - 0.1529065).abs() < 1e-7);
+    }
+
+    #[test]
+    fn ml_keeps_a_consistent_pair() {
+        // A_i F_ij = A_j F_ji already: η is that exchange area (idempotence)
+        let eta = ml_exchange_area(1.0, 2.0, 0.3, 0.15, 1000.0);
+        assert!((eta - 0.3).abs() < 1e-12, "{eta}");
+    }
+
+    #[test]
+    fn csr_rows() {
+        let m = Csr::from_rows(vec![vec![(1, 0.5), (3, 0.25)], vec![], vec![(0, 1.0)]]);
+        assert_eq!(m.rows(), 3);
+        assert_eq!(m.get(0, 3), 0.25);
+        assert_eq!(m.get(0, 2), 0.0);
+        assert_eq!(m.get(1, 0), 0.0);
+        assert_eq!(m.row_sum(0), 0.75);
+    }
+}

@@ -1,0 +1,717 @@
+//! The lighting engine: from a [`Scene`] to a commissioned [`Model`] that answers the
+//! illuminance at every sensor (and patch) for any dimming state.
+//!
+//! ```text
+//! scene ─► patches ─► BVH ─► form factors (Isocell, CSR) ─► rectification
+//!                       └──► direct light per luminaire (photometry × opening × shadow rays)
+//!                       └──► sensor gather rows (Isocell from each sensor, s(θ)/cos θ)
+//!   per luminaire at 100 %: solve B = ρ (E_dir + F B)  ─► basis exitances, response matrix
+//! ```
+//!
+//! Radiosity is linear in emission, so each luminaire is solved once at 100 %; a dimming state
+//! (a level `x_l` in [0, 1] per luminaire) is then a weighted sum: `E_s = Σ_l x_l R_sl`
+//! (superposition). [`Model::solve_state`] re-solves the whole system for a state as a check.
+//!
+//! Sensor reading (physics.md §3.5): `E_s = Σ_l x_l E^dir_sl + Σ_j G_sj B_j` where the direct part
+//! weighs each opening point by the sensor's response s(θ) and `G_sj = (1/N) Σ_{rays k → j}
+//! s(θ_k)/cos θ_k` over a cosine-distributed Isocell set from the sensor.
+//!
+//! The paper's formulation ([`DirectModel::Paper`]) is kept for the ablation: the luminaire's
+//! opening emits rays weighted by its LDC (`I`, not the consistent `I / cos γ`), its flux lands
+//! on the patches it hits, and sensors see the opening as a Lambertian patch of exitance Φ/A.
+
+mod direct;
+pub mod formfactor;
+pub mod patches;
+pub mod raycast;
+pub mod rayset;
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+pub use formfactor::{Csr, FormFactors, RectifyReport};
+pub use patches::{PatchSettings, Patches};
+pub use rayset::{RaySet, RaySetKind, isocell_count};
+
+use crate::photometry::IntensityDistribution;
+use crate::scene::{Luminaire, Scene};
+use crate::sensor::AngularResponse;
+use crate::solver::{self, CsrSystem, SolveOptions, SolveReport};
+use direct::Receiver;
+use raycast::{Hit, RayCaster};
+use rayset::{frame, to_world};
+
+/// How direct light reaches patches and sensors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectModel {
+    /// Exact: photometry over the opening, inverse square, shadow rays.
+    Exact,
+    /// The paper: LDC-weighted rays from the opening patches.
+    Paper,
+}
+
+/// Every knob of the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Patch subdivision.
+    pub patches: PatchSettings,
+    /// Rays per patch (Isocell rounds up: 1000 → 1083).
+    pub rays: usize,
+    /// Rays per sensor.
+    pub sensor_rays: usize,
+    /// Isocell or Monte Carlo.
+    pub ray_set: RaySetKind,
+    /// Points over each luminaire's opening for direct light on patches; sensors use 16 times
+    /// as many (they are few, and a partial shadow right next to one decides its reading).
+    pub opening_samples: usize,
+    /// Points per patch at which direct light is averaged.
+    pub patch_direct_points: usize,
+    /// Exact or paper direct light.
+    pub direct: DirectModel,
+    /// Use the luminaires' LDC (off: a Lambertian luminaire of the same flux).
+    pub ldc: bool,
+    /// Use the sensors' LSC (off: ideal cosine sensors).
+    pub lsc: bool,
+    /// Reciprocity and closure rectification of the form factors.
+    pub rectify: bool,
+    /// Rectification stops when every row sum is this close to its closure target.
+    pub rectify_tolerance: f64,
+    /// Solver stop.
+    pub solve: SolveOptions,
+    /// Seed for every pseudo-random choice (per-patch jitter, Monte Carlo sets).
+    pub seed: u64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            patches: PatchSettings::default(),
+            rays: 1000,
+            sensor_rays: 10_000,
+            ray_set: RaySetKind::Isocell,
+            opening_samples: 16,
+            patch_direct_points: 8,
+            direct: DirectModel::Exact,
+            ldc: true,
+            lsc: true,
+            rectify: true,
+            rectify_tolerance: 1e-9,
+            solve: SolveOptions::default(),
+            seed: 1,
+        }
+    }
+}
+
+/// Why the engine could not produce a model.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// A knob is out of range.
+    #[error("invalid setting: {0}")]
+    Settings(String),
+    /// The scene has nothing to compute on.
+    #[error("nothing to compute: {0}")]
+    Empty(String),
+    /// A radiosity solve failed.
+    #[error("radiosity solve for {what}: {source}")]
+    Solve {
+        /// Which solve.
+        what: String,
+        /// Why.
+        source: solver::SolveError,
+    },
+    /// A dimming state does not fit the model.
+    #[error("dimming state: {0}")]
+    State(String),
+}
+
+/// Counts and timings of one commissioning.
+#[derive(Debug, Clone, Default)]
+pub struct Stats {
+    /// Patches.
+    pub patches: usize,
+    /// Rays per patch.
+    pub rays_per_patch: usize,
+    /// Rays per sensor.
+    pub rays_per_sensor: usize,
+    /// Non-zero form factors.
+    pub nnz: usize,
+    /// Area-weighted mean fraction of patch rays that left the scene.
+    pub escaped_fraction: f64,
+    /// Covered fraction of the reflecting surface area (hidden behind or under other objects).
+    pub covered_fraction: f64,
+    /// Rectification outcome.
+    pub rectify: Option<RectifyReport>,
+    /// Solver iterations per luminaire.
+    pub iterations: Vec<u32>,
+    /// (stage, wall time).
+    pub timings: Vec<(&'static str, Duration)>,
+}
+
+impl Stats {
+    /// Total wall time.
+    pub fn total(&self) -> Duration {
+        self.timings.iter().map(|t| t.1).sum()
+    }
+}
+
+/// A commissioned model: everything needed to answer any dimming state.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// The settings it was made with.
+    pub settings: Settings,
+    /// The patches.
+    pub patches: Patches,
+    /// Form factors (rectified when the setting says so).
+    pub ff: FormFactors,
+    /// Luminaire ids, in scene order (the order of every per-luminaire array).
+    pub luminaire_ids: Vec<u32>,
+    /// Luminaire flux at 100 %, lm.
+    pub luminaire_flux_lm: Vec<f64>,
+    /// Sensor ids, in scene order.
+    pub sensor_ids: Vec<u32>,
+    /// Direct illuminance per luminaire at 100 % on each patch, lx: `[luminaire][patch]`.
+    pub direct_patch_lx: Vec<Vec<f64>>,
+    /// Direct reading per luminaire at 100 % at each sensor, lx: `[sensor][luminaire]`.
+    pub direct_sensor_lx: Vec<Vec<f64>>,
+    /// Sensor gather rows over patches (weights `s/cos / N`).
+    pub gather: Csr,
+    /// Exitance per luminaire at 100 %, lm/m²: `[luminaire][patch]`.
+    pub basis_b: Vec<Vec<f64>>,
+    /// Sensor reading per luminaire at 100 %, lx: `[sensor][luminaire]`.
+    pub response_lx: Vec<Vec<f64>>,
+    /// Cosine error f2 of each sensor as modelled.
+    pub sensor_f2: Vec<f64>,
+    /// Counts and timings.
+    pub stats: Stats,
+}
+
+fn timed<T>(stats: &mut Stats, stage: &'static str, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let out = f();
+    stats.timings.push((stage, t0.elapsed()));
+    out
+}
+
+/// A Lambertian distribution with the same flux (the "no LDC" ablation).
+fn lambertian_like(d: &IntensityDistribution) -> IntensityDistribution {
+    let flux = d.flux_lm();
+    let shape = IntensityDistribution::from_gamma_fn(1.0, "lambertian", |g| {
+        if g < std::f64::consts::FRAC_PI_2 {
+            g.cos()
+        } else {
+            0.0
+        }
+    });
+    shape.scaled_to_flux(flux).unwrap_or(shape)
+}
+
+fn check_settings(s: &Settings) -> Result<(), EngineError> {
+    let p = &s.patches;
+    let bad = |m: &str| Err(EngineError::Settings(m.to_owned()));
+    if !(p.patch_size_m.is_finite() && p.patch_size_m > 0.0) {
+        return bad("patch size must be a length > 0 m");
+    }
+    if !(p.min_patch_m.is_finite() && p.min_patch_m > 0.0) {
+        return bad("minimum patch size must be a length > 0 m");
+    }
+    if !(p.detail_ratio.is_finite() && p.detail_ratio >= 0.0) {
+        return bad("detail ratio must be >= 0");
+    }
+    if s.rays == 0 || s.rays > 1_000_000 {
+        return bad("rays per patch must be 1..=1000000");
+    }
+    if s.sensor_rays == 0 || s.sensor_rays > 10_000_000 {
+        return bad("rays per sensor must be 1..=10000000");
+    }
+    if s.opening_samples == 0 || s.opening_samples > 4096 {
+        return bad("opening samples must be 1..=4096");
+    }
+    if s.patch_direct_points == 0 || s.patch_direct_points > 4096 {
+        return bad("direct points per patch must be 1..=4096");
+    }
+    if !(s.solve.tolerance.is_finite() && s.solve.tolerance > 0.0) {
+        return bad("solver tolerance must be > 0");
+    }
+    Ok(())
+}
+
+/// Commissions a scene: patches, form factors, direct light, sensor rows, one solve per
+/// luminaire.
+pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineError> {
+    check_settings(settings)?;
+    if scene.mesh.triangles.is_empty() {
+        return Err(EngineError::Empty("the scene has no geometry".into()));
+    }
+    let mut stats = Stats::default();
+    let luminaires: Vec<Luminaire> = scene
+        .luminaires
+        .iter()
+        .map(|l| {
+            let mut l = l.clone();
+            if !settings.ldc {
+                l.photometry = std::sync::Arc::new(lambertian_like(&l.photometry));
+            }
+            l
+        })
+        .collect();
+    let responses: Vec<AngularResponse> = scene
+        .sensors
+        .iter()
+        .map(|s| {
+            if settings.lsc {
+                s.response.clone()
+            } else {
+                AngularResponse::Cosine
+            }
+        })
+        .collect();
+
+    let interest: Vec<patches::Viewpoint> = scene
+        .sensors
+        .iter()
+        .map(|s| patches::Viewpoint {
+            position_m: s.position_m,
+            normal: s.normal,
+        })
+        .collect();
+    let patches = timed(&mut stats, "patches", || {
+        patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut |_| false)
+    });
+    if patches.is_empty() {
+        return Err(EngineError::Empty("no patches".into()));
+    }
+    let caster = timed(&mut stats, "bvh", || RayCaster::new(&patches));
+    let rays = RaySet::new(settings.ray_set, settings.rays);
+    let mut ff = timed(&mut stats, "form factors", || {
+        formfactor::compute(&patches, &caster, &rays, settings.seed)
+    });
+    let cast_area: f64 = (0..patches.len())
+        .filter(|&i| ff.cast[i])
+        .map(|i| patches.area_m2[i])
+        .sum();
+    if cast_area > 0.0 {
+        let mean = |v: &[f64]| {
+            (0..patches.len())
+                .filter(|&i| ff.cast[i])
+                .map(|i| v[i] * patches.area_m2[i])
+                .sum::<f64>()
+                / cast_area
+        };
+        stats.escaped_fraction = mean(&ff.escaped);
+        stats.covered_fraction = 1.0 - mean(&ff.visible);
+    }
+    if settings.rectify {
+        let r = timed(&mut stats, "rectification", || {
+            formfactor::rectify(&mut ff, &patches.area_m2, settings.rectify_tolerance, 500)
+        });
+        stats.rectify = Some(r);
+    }
+
+    // Direct light on patches, per luminaire.
+    let k = settings.opening_samples;
+    let direct_patch_lx: Vec<Vec<f64>> =
+        timed(&mut stats, "direct light", || match settings.direct {
+            DirectModel::Exact => luminaires
+                .iter()
+                .map(|l| {
+                    direct_on_patches(l, &opening_points_for(l, k), &patches, &caster, settings)
+                })
+                .collect(),
+            DirectModel::Paper => luminaires
+                .iter()
+                .map(|l| paper_direct_on_patches(l, &patches, &caster, &rays, settings))
+                .collect(),
+        });
+
+    // Sensor rows.
+    let sensor_rays = RaySet::new(settings.ray_set, settings.sensor_rays);
+    let (gather, direct_sensor_lx) = timed(&mut stats, "sensors", || {
+        let rows: Vec<(Vec<(u32, f64)>, Vec<f64>)> = scene
+            .sensors
+            .par_iter()
+            .zip(responses.par_iter())
+            .map(|(s, resp)| {
+                let row = gather_row(
+                    s.position_m,
+                    s.normal,
+                    resp,
+                    &caster,
+                    &sensor_rays,
+                    settings,
+                );
+                let direct: Vec<f64> = match settings.direct {
+                    DirectModel::Exact => luminaires
+                        .iter()
+                        .map(|l| {
+                            direct::illuminance_lx(
+                                l,
+                                &opening_points_for(l, 16 * k),
+                                s.position_m,
+                                s.normal,
+                                Receiver::Sensor(resp),
+                                &caster,
+                            )
+                        })
+                        .collect(),
+                    DirectModel::Paper => luminaires
+                        .iter()
+                        .map(|l| {
+                            let (ids, area) = opening_patches(l, &patches);
+                            if area <= 0.0 {
+                                return 0.0;
+                            }
+                            let exitance = l.flux_lm / area;
+                            row.iter()
+                                .filter(|(j, _)| ids.contains(j))
+                                .map(|(_, w)| w * exitance)
+                                .sum()
+                        })
+                        .collect(),
+                };
+                (row, direct)
+            })
+            .collect();
+        let (g, d): (Vec<_>, Vec<_>) = rows.into_iter().unzip();
+        (Csr::from_rows(g), d)
+    });
+
+    // One solve per luminaire at 100 %.
+    let system = CsrSystem {
+        f: ff.f.view(),
+        rho: &patches.rho,
+    };
+    let solved: Vec<Result<(Vec<f64>, SolveReport), EngineError>> =
+        timed(&mut stats, "solve", || {
+            direct_patch_lx
+                .par_iter()
+                .zip(&luminaires)
+                .map(|(e, l)| {
+                    let mut b = vec![0.0; patches.len()];
+                    solver::gauss_seidel(&system, e, &mut b, settings.solve)
+                        .map(|r| (b, r))
+                        .map_err(|source| EngineError::Solve {
+                            what: format!("luminaire {}", l.id),
+                            source,
+                        })
+                })
+                .collect()
+        });
+    let mut basis_b = Vec::with_capacity(luminaires.len());
+    for r in solved {
+        let (b, report) = r?;
+        stats.iterations.push(report.iterations);
+        basis_b.push(b);
+    }
+    let response_lx: Vec<Vec<f64>> = (0..scene.sensors.len())
+        .map(|s| {
+            (0..luminaires.len())
+                .map(|l| direct_sensor_lx[s][l] + gather_dot(&gather, s, &basis_b[l]))
+                .collect()
+        })
+        .collect();
+
+    if response_lx.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(EngineError::State("a sensor response is not finite".into()));
+    }
+    stats.patches = patches.len();
+    stats.rays_per_patch = rays.len();
+    stats.rays_per_sensor = sensor_rays.len();
+    stats.nnz = ff.f.nnz();
+    Ok(Model {
+        settings: settings.clone(),
+        patches,
+        ff,
+        luminaire_ids: luminaires.iter().map(|l| l.id).collect(),
+        luminaire_flux_lm: luminaires.iter().map(|l| l.flux_lm).collect(),
+        sensor_ids: scene.sensors.iter().map(|s| s.id).collect(),
+        direct_patch_lx,
+        direct_sensor_lx,
+        gather,
+        basis_b,
+        response_lx,
+        sensor_f2: responses.iter().map(AngularResponse::f2).collect(),
+        stats,
+    })
+}
+
+/// The last gate: a non-finite reading is an error, never a published value.
+fn finite(v: Vec<f64>) -> Result<Vec<f64>, EngineError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(EngineError::State(
+            "a computed illuminance is not finite".into(),
+        ))
+    }
+}
+
+fn gather_dot(g: &Csr, s: usize, b: &[f64]) -> f64 {
+    g.row(s).map(|(j, w)| w * b[j as usize]).sum()
+}
+
+fn opening_points_for(l: &Luminaire, k: usize) -> Vec<DVec3> {
+    direct::opening_points(l, k)
+}
+
+/// Direct illuminance averaged over each patch (`patch_direct_points` area samples).
+fn direct_on_patches(
+    l: &Luminaire,
+    points: &[DVec3],
+    patches: &Patches,
+    caster: &RayCaster,
+    settings: &Settings,
+) -> Vec<f64> {
+    let m = settings.patch_direct_points;
+    (0..patches.len())
+        .into_par_iter()
+        .map(|i| {
+            if patches.rho[i] <= 0.0 {
+                return 0.0;
+            }
+            let n = patches.normal[i];
+            // Nothing to do for a patch entirely behind the luminaire or facing away from it.
+            let corners = patches.corners_m[i];
+            let sees = corners.iter().any(|c| (l.position_m - *c).dot(n) > 0.0);
+            if !sees {
+                return 0.0;
+            }
+            let (shift, _) = formfactor::patch_jitter(i, settings.seed ^ 0xD1EC7);
+            let mut sum = 0.0;
+            let mut uncovered = 0usize;
+            for k in 0..m {
+                let x = formfactor::patch_point(patches, i, k, shift);
+                // a point under a cover sees the cover's back face straight up its normal
+                if matches!(caster.closest(caster.offset(x, n), n), Hit::Back { .. }) {
+                    continue;
+                }
+                uncovered += 1;
+                sum += direct::illuminance_lx(l, points, x, n, Receiver::Surface, caster);
+            }
+            if uncovered == 0 {
+                0.0
+            } else {
+                sum / uncovered as f64
+            }
+        })
+        .collect()
+}
+
+/// The luminaire's opening patches (black patches within its opening, facing along its aim),
+/// and their total area.
+fn opening_patches(l: &Luminaire, patches: &Patches) -> (Vec<u32>, f64) {
+    let reach = 0.5 * (l.opening_m[0].hypot(l.opening_m[1])) + 0.01;
+    let mut ids = Vec::new();
+    let mut area = 0.0;
+    for i in 0..patches.len() {
+        if patches.rho[i] > 0.0 {
+            continue;
+        }
+        let c = patches.centroid_m(i);
+        if (c - l.position_m).length() <= reach && patches.normal[i].dot(l.aim) > 0.9 {
+            ids.push(i as u32);
+            area += patches.area_m2[i];
+        }
+    }
+    (ids, area)
+}
+
+/// The paper's direct light: rays from the opening, weighted by the LDC as the paper does
+/// (`w = I(γ, C)`, normalised over the set; `w = 1`, a Lambertian patch, without LDC); each hit
+/// patch receives its share of the flux.
+fn paper_direct_on_patches(
+    l: &Luminaire,
+    patches: &Patches,
+    caster: &RayCaster,
+    rays: &RaySet,
+    settings: &Settings,
+) -> Vec<f64> {
+    let mut flux_to = vec![0.0; patches.len()];
+    let (ids, _) = opening_patches(l, patches);
+    let emitters = ids.len().max(1);
+    let mut weights = Vec::with_capacity(rays.len() * emitters);
+    let mut targets = Vec::with_capacity(rays.len() * emitters);
+    for e in 0..emitters {
+        let (shift, azimuth) = formfactor::patch_jitter(e, settings.seed ^ u64::from(l.id));
+        let fr_e = frame(l.aim, azimuth);
+        for (k, d) in rays.dirs.iter().enumerate() {
+            let origin = match ids.get(e) {
+                Some(&p) => formfactor::patch_point(patches, p as usize, k, shift),
+                None => {
+                    let (u, v) = (
+                        (k as f64 * 0.618_034).fract() - 0.5,
+                        (k as f64 * 0.754_878).fract() - 0.5,
+                    );
+                    l.position_m + l.c0 * (u * l.opening_m[0]) + l.c90 * (v * l.opening_m[1])
+                }
+            };
+            let dir = to_world(&fr_e, *d);
+            let w = if settings.ldc {
+                l.intensity_toward_cd(dir)
+            } else {
+                1.0
+            };
+            weights.push(w);
+            targets.push(caster.closest(caster.offset(origin, l.aim), dir));
+        }
+    }
+    let total: f64 = weights.iter().sum();
+    if total <= 0.0 {
+        return flux_to;
+    }
+    for (w, hit) in weights.iter().zip(&targets) {
+        if let Hit::Front { patch, .. } = hit {
+            flux_to[*patch as usize] += l.flux_lm * w / total;
+        }
+    }
+    flux_to
+        .iter()
+        .zip(&patches.area_m2)
+        .zip(&patches.rho)
+        .map(|((f, a), rho)| if *rho > 0.0 && *a > 0.0 { f / a } else { 0.0 })
+        .collect()
+}
+
+/// A sensor's gather row: rays from the sensor; weight per ray `s(θ)/cos θ / N` (exact) or, in
+/// the paper's formulation, `s(θ) / Σ s`.
+fn gather_row(
+    position: DVec3,
+    normal: DVec3,
+    response: &AngularResponse,
+    caster: &RayCaster,
+    rays: &RaySet,
+    settings: &Settings,
+) -> Vec<(u32, f64)> {
+    let origin = caster.offset(position, normal);
+    let fr = frame(normal, 0.0);
+    let n = rays.len() as f64;
+    let mut weights: Vec<(u32, f64)> = Vec::with_capacity(rays.len());
+    let mut norm = 0.0;
+    for d in &rays.dirs {
+        let cos = d.z.max(1e-12);
+        let s = response.response(cos.acos());
+        let w = match settings.direct {
+            DirectModel::Exact => s / cos / n,
+            DirectModel::Paper => s,
+        };
+        norm += w;
+        if let Hit::Front { patch, .. } = caster.closest(origin, to_world(&fr, *d)) {
+            weights.push((patch, w));
+        }
+    }
+    if settings.direct == DirectModel::Paper && norm > 0.0 {
+        for w in &mut weights {
+            w.1 /= norm;
+        }
+    }
+    weights.sort_unstable_by_key(|w| w.0);
+    let mut row: Vec<(u32, f64)> = Vec::new();
+    for (j, w) in weights {
+        match row.last_mut() {
+            Some((c, v)) if *c == j => *v += w,
+            _ => row.push((j, w)),
+        }
+    }
+    row
+}
+
+impl Model {
+    /// Number of luminaires.
+    pub fn luminaires(&self) -> usize {
+        self.luminaire_ids.len()
+    }
+
+    /// Number of sensors.
+    pub fn sensors(&self) -> usize {
+        self.sensor_ids.len()
+    }
+
+    fn check_levels(&self, levels: &[f64]) -> Result<(), EngineError> {
+        if levels.len() != self.luminaires() {
+            return Err(EngineError::State(format!(
+                "{} levels for {} luminaires",
+                levels.len(),
+                self.luminaires()
+            )));
+        }
+        if let Some(x) = levels
+            .iter()
+            .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
+        {
+            return Err(EngineError::State(format!("level {x} is outside [0, 1]")));
+        }
+        Ok(())
+    }
+
+    /// Sensor readings (lx) for a dimming state by superposition; `levels[l]` in [0, 1] in
+    /// luminaire order.
+    pub fn sensor_lux(&self, levels: &[f64]) -> Result<Vec<f64>, EngineError> {
+        self.check_levels(levels)?;
+        let lux: Vec<f64> = self
+            .response_lx
+            .iter()
+            .map(|row| row.iter().zip(levels).map(|(r, x)| r * x).sum())
+            .collect();
+        finite(lux)
+    }
+
+    /// The same readings from a full re-solve of the radiosity system for the state.
+    pub fn solve_state(&self, levels: &[f64]) -> Result<(Vec<f64>, SolveReport), EngineError> {
+        self.check_levels(levels)?;
+        let n = self.patches.len();
+        let mut e = vec![0.0; n];
+        for (l, x) in levels.iter().enumerate() {
+            for (ei, d) in e.iter_mut().zip(&self.direct_patch_lx[l]) {
+                *ei += x * d;
+            }
+        }
+        let system = CsrSystem {
+            f: self.ff.f.view(),
+            rho: &self.patches.rho,
+        };
+        let mut b = vec![0.0; n];
+        let report =
+            solver::gauss_seidel(&system, &e, &mut b, self.settings.solve).map_err(|source| {
+                EngineError::Solve {
+                    what: "dimming state".into(),
+                    source,
+                }
+            })?;
+        let lux = (0..self.sensors())
+            .map(|s| {
+                let direct: f64 = self.direct_sensor_lx[s]
+                    .iter()
+                    .zip(levels)
+                    .map(|(d, x)| d * x)
+                    .sum();
+                direct + gather_dot(&self.gather, s, &b)
+            })
+            .collect();
+        Ok((finite(lux)?, report))
+    }
+
+    /// Incident illuminance on each patch (lx) for a dimming state: `E_dir + F B`.
+    pub fn patch_lux(&self, levels: &[f64]) -> Result<Vec<f64>, EngineError> {
+        self.check_levels(levels)?;
+        let n = self.patches.len();
+        let mut e = vec![0.0; n];
+        let mut b = vec![0.0; n];
+        for (l, x) in levels.iter().enumerate() {
+            for i in 0..n {
+                e[i] += x * self.direct_patch_lx[l][i];
+                b[i] += x * self.basis_b[l][i];
+            }
+        }
+        Ok((0..n)
+            .map(|i| {
+                e[i] + self
+                    .ff
+                    .f
+                    .row(i)
+                    .map(|(j, f)| f * b[j as usize])
+                    .sum::<f64>()
+            })
+            .collect())
+    }
+}

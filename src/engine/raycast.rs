@@ -1,0 +1,236 @@
+//! Ray casting against the patches through an obvhs CWBVH. This is the only module that sees
+//! BVH primitive indices: it reorders the triangles once into BVH order and maps every hit back
+//! to a patch id here, so the rest of the engine speaks patches.
+//!
+//! Precision: the BVH and the intersection run in f32; every self-hit offset and shadow-ray
+//! margin is relative to the scene's size ([`RayCaster::eps_m`] = 1e-5 × the bounding-box
+//! diagonal), so a scene in millimetres (converted to metres) or a 100 m hall behaves the same.
+//! Hits on a triangle's back face are reported as such (the caller decides what they mean).
+
+use std::time::Duration;
+
+use glam::{DVec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+
+use super::patches::Patches;
+
+/// What a ray met first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Hit {
+    /// The front face of a patch at distance `t_m`.
+    Front {
+        /// Patch id.
+        patch: u32,
+        /// Distance, m.
+        t_m: f64,
+    },
+    /// The back face of a patch.
+    Back {
+        /// Patch id.
+        patch: u32,
+        /// Distance, m.
+        t_m: f64,
+    },
+    /// Nothing: the ray left the scene.
+    Miss,
+}
+
+/// A BVH over the patches.
+pub struct RayCaster {
+    bvh: CwBvh,
+    /// Triangles in BVH primitive order.
+    tris: Vec<Triangle>,
+    /// Unnormalised normals in BVH primitive order (for front/back).
+    normals: Vec<Vec3A>,
+    /// BVH primitive → patch id: the one mapping.
+    patch_of: Vec<u32>,
+    /// Self-hit offset and shadow-ray margin, m.
+    pub eps_m: f64,
+}
+
+/// Möller–Trumbore with a small barycentric tolerance: a ray through the edge shared by two
+/// triangles hits at least one of them (obvhs' own test treats −0.0 as outside, so a ray exactly
+/// along a quad's diagonal could slip through both halves). Two-sided; returns the distance or
+/// infinity.
+#[inline(always)]
+fn intersect(t: &Triangle, ray: &Ray) -> f32 {
+    const EDGE_TOLERANCE: f32 = 1e-6;
+    let e1 = t.v1 - t.v0;
+    let e2 = t.v2 - t.v0;
+    let p = ray.direction.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return f32::INFINITY;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - t.v0;
+    let u = s.dot(p) * inv;
+    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
+        return f32::INFINITY;
+    }
+    let q = s.cross(e1);
+    let v = ray.direction.dot(q) * inv;
+    if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
+        return f32::INFINITY;
+    }
+    let dist = e2.dot(q) * inv;
+    if dist >= ray.tmin && dist <= ray.tmax {
+        dist
+    } else {
+        f32::INFINITY
+    }
+}
+
+fn v3(p: DVec3) -> Vec3A {
+    Vec3A::new(p.x as f32, p.y as f32, p.z as f32)
+}
+
+impl RayCaster {
+    /// Builds the BVH over all patches.
+    pub fn new(patches: &Patches) -> Self {
+        let input: Vec<Triangle> = patches
+            .corners_m
+            .iter()
+            .map(|t| Triangle {
+                v0: v3(t[0]),
+                v1: v3(t[1]),
+                v2: v3(t[2]),
+            })
+            .collect();
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for t in &patches.corners_m {
+            for p in t {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        let diag = (hi - lo).length();
+        let eps_m = if diag.is_finite() && diag > 0.0 {
+            1e-5 * diag
+        } else {
+            1e-6
+        };
+        let mut build_time = Duration::ZERO;
+        let bvh = build_cwbvh_from_tris(&input, BvhBuildParams::fast_build(), &mut build_time);
+        let patch_of = bvh.primitive_indices.clone();
+        let tris: Vec<Triangle> = patch_of.iter().map(|&i| input[i as usize]).collect();
+        let normals = tris
+            .iter()
+            .map(|t| (t.v1 - t.v0).cross(t.v2 - t.v0))
+            .collect();
+        Self {
+            bvh,
+            tris,
+            normals,
+            patch_of,
+            eps_m,
+        }
+    }
+
+    /// A ray origin just in front of a surface point (along its unit normal).
+    pub fn offset(&self, p: DVec3, normal: DVec3) -> DVec3 {
+        p + normal * self.eps_m
+    }
+
+    /// The first surface along a unit direction from `origin`.
+    pub fn closest(&self, origin: DVec3, dir: DVec3) -> Hit {
+        debug_assert!(
+            (dir.length() - 1.0).abs() < 1e-6,
+            "ray directions are unit vectors"
+        );
+        let ray = Ray::new(v3(origin), v3(dir), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        if !self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| intersect(&self.tris[id], r))
+        {
+            return Hit::Miss;
+        }
+        let prim = hit.primitive_id as usize;
+        let patch = self.patch_of[prim];
+        let t_m = f64::from(hit.t);
+        if self.normals[prim].dot(ray.direction) < 0.0 {
+            Hit::Front { patch, t_m }
+        } else {
+            Hit::Back { patch, t_m }
+        }
+    }
+
+    /// True when nothing lies on the segment from `from` to `to` (both ends excluded by the
+    /// relative margin: `from` should already be offset from its surface, and `to` may lie on
+    /// an emitting surface such as a luminaire opening).
+    pub fn unoccluded(&self, from: DVec3, to: DVec3) -> bool {
+        let v = to - from;
+        let d = v.length();
+        if !(d > self.eps_m) {
+            return true;
+        }
+        let ray = Ray::new(v3(from), v3(v / d), 0.0, (d - self.eps_m) as f32);
+        self.bvh
+            .ray_traverse_miss(ray, |r, id| intersect(&self.tris[id], r))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_squares() -> Patches {
+        // floor (z = 0, facing up) and ceiling (z = 1, facing down), 1 × 1 m each
+        let p = DVec3::new;
+        let mut patches = Patches::default();
+        let quads = [
+            [p(0., 0., 0.), p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.)],
+            [p(0., 1., 1.), p(1., 1., 1.), p(1., 0., 1.), p(0., 0., 1.)],
+        ];
+        for q in quads {
+            for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+                patches.corners_m.push(t);
+                patches.normal.push(cross.normalize());
+                patches.area_m2.push(0.5 * cross.length());
+                patches.rho.push(0.5);
+                patches.group.push(0);
+                patches.source_triangle.push(0);
+            }
+        }
+        patches
+    }
+
+    #[test]
+    fn hits_map_back_to_patches_with_faces() {
+        let patches = two_squares();
+        let rc = RayCaster::new(&patches);
+        match rc.closest(DVec3::new(0.7, 0.2, 0.001), DVec3::Z) {
+            Hit::Front { patch, t_m } => {
+                assert!(patch == 2 || patch == 3);
+                assert!((t_m - 0.999).abs() < 1e-5);
+                let c = patches.centroid_m(patch as usize);
+                assert!((c.z - 1.0).abs() < 1e-12);
+            }
+            other => panic!("{other:?}"),
+        }
+        // exactly through the diagonal shared by the two triangles of a quad: no leak
+        assert!(matches!(
+            rc.closest(DVec3::new(0.5, 0.5, 2.0), DVec3::NEG_Z),
+            Hit::Back { .. }
+        ));
+        for k in 1..100 {
+            let x = f64::from(k) / 100.0;
+            let on_diagonal = DVec3::new(x, 1.0 - x, 0.5);
+            assert!(
+                rc.closest(on_diagonal, DVec3::Z) != Hit::Miss,
+                "leak at {x}"
+            );
+        }
+        assert_eq!(rc.closest(DVec3::new(5.0, 5.0, 0.5), DVec3::Z), Hit::Miss);
+        assert!(!rc.unoccluded(DVec3::new(0.5, 0.5, 0.5), DVec3::new(0.5, 0.5, 1.5)));
+        // a segment ending on a surface is not blocked by that surface
+        assert!(rc.unoccluded(DVec3::new(0.5, 0.5, 0.5), DVec3::new(0.5, 0.5, 1.0)));
+    }
+}
