@@ -163,6 +163,7 @@ pub fn demo_office() -> Scene {
             c90: DVec3::Y,
             flux_lm: LUMINAIRE_FLUX_LM,
             opening_m: [0.6, 0.6],
+            opening_circular: false,
             photometry: photometry.clone(),
             photometry_path: PathBuf::from("builtin:demo-downlight"),
             file_flux_lm: LUMINAIRE_FLUX_LM,

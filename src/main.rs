@@ -86,23 +86,29 @@ struct SimulateArgs {
 #[derive(clap::Args)]
 struct EngineArgs {
     /// Rays per patch (Isocell: 1000 becomes 1083).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = Settings::default().rays)]
     rays: usize,
     /// Rays per sensor.
-    #[arg(long, default_value_t = 10000)]
+    #[arg(long, default_value_t = Settings::default().sensor_rays)]
     sensor_rays: usize,
     /// Largest patch edge, m.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = Settings::default().patches.patch_size_m)]
     patch_size: f64,
-    /// Largest patch edge over distance to the nearest sensor (0: uniform patches).
-    #[arg(long, default_value_t = 0.5)]
+    /// Largest projected angle a patch may subtend at a sensor that sees it (0: uniform patches).
+    #[arg(long, default_value_t = Settings::default().patches.detail_ratio)]
     detail: f64,
+    /// Smallest patch edge the sensor refinement goes to, m.
+    #[arg(long, default_value_t = Settings::default().patches.min_patch_m)]
+    min_patch: f64,
     /// Ray set.
     #[arg(long, value_enum, default_value_t = RaySetArg::Isocell)]
     ray_set: RaySetArg,
     /// Points over each luminaire opening for direct light on patches (sensors: 16 times as many).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = Settings::default().opening_samples)]
     opening_samples: usize,
+    /// Points per patch at which direct light is averaged.
+    #[arg(long, default_value_t = Settings::default().patch_direct_points)]
+    patch_direct_points: usize,
     /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's.
     #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
     direct: DirectArg,
@@ -116,10 +122,13 @@ struct EngineArgs {
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     rectify: OnOff,
     /// Rectification stops when every row sum is this close to its closure target.
-    #[arg(long, default_value_t = 1e-9)]
+    #[arg(long, default_value_t = Settings::default().rectify_tolerance)]
     rectify_tolerance: f64,
+    /// Solver stop: relative residual.
+    #[arg(long, default_value_t = Settings::default().solve.tolerance)]
+    tolerance: f64,
     /// Seed of every pseudo-random choice.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = Settings::default().seed)]
     seed: u64,
 }
 
@@ -162,7 +171,7 @@ impl EngineArgs {
             patches: PatchSettings {
                 patch_size_m: self.patch_size,
                 detail_ratio: self.detail,
-                min_patch_m: (self.patch_size / 8.0).min(d.patches.min_patch_m),
+                min_patch_m: self.min_patch,
             },
             rays: self.rays,
             sensor_rays: self.sensor_rays,
@@ -171,6 +180,7 @@ impl EngineArgs {
                 RaySetArg::Mc => RaySetKind::MonteCarlo { seed: self.seed },
             },
             opening_samples: self.opening_samples,
+            patch_direct_points: self.patch_direct_points,
             direct: match self.direct {
                 DirectArg::Exact => DirectModel::Exact,
                 DirectArg::Paper => DirectModel::Paper,
@@ -179,8 +189,11 @@ impl EngineArgs {
             lsc: self.lsc == OnOff::On,
             rectify: self.rectify == OnOff::On,
             rectify_tolerance: self.rectify_tolerance,
+            solve: luxnode::solver::SolveOptions {
+                tolerance: self.tolerance,
+                ..d.solve
+            },
             seed: self.seed,
-            ..d
         }
     }
 }

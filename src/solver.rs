@@ -136,7 +136,7 @@ impl Default for SolveOptions {
     fn default() -> Self {
         Self {
             tolerance: 1e-10,
-            max_iterations: 10_000,
+            max_iterations: 100_000,
         }
     }
 }
@@ -242,7 +242,7 @@ fn gauss_seidel_inner<S: RadiositySystem>(
         b.iter_mut().for_each(|x| *x = 0.0);
     }
     let n = sys.len();
-    let mut best = f64::INFINITY;
+    let mut previous = f64::INFINITY;
     let mut stalled = 0u32;
     for it in 1..=options.max_iterations {
         let mut max_change: f64 = 0.0;
@@ -270,20 +270,20 @@ fn gauss_seidel_inner<S: RadiositySystem>(
                 });
             }
         }
-        // A contraction shrinks the change every few sweeps; a change that stops falling for
-        // long means rounding noise above the tolerance, or no contraction at all.
-        if rel_change < 0.5 * best {
-            best = rel_change;
+        // A contraction shrinks the change every sweep (slowly when ρ is near 1); a change that
+        // stops falling means rounding noise above the tolerance, or no contraction at all.
+        if rel_change < previous * (1.0 - 1e-9) {
             stalled = 0;
         } else {
             stalled += 1;
-            if stalled > 200 {
+            if stalled > 50 {
                 return Err(SolveError::NotConverged {
                     iterations: it,
                     residual: residual(sys, e, b),
                 });
             }
         }
+        previous = rel_change;
     }
     Err(SolveError::NotConverged {
         iterations: options.max_iterations,

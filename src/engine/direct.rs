@@ -20,8 +20,8 @@ use super::raycast::RayCaster;
 use crate::scene::Luminaire;
 use crate::sensor::AngularResponse;
 
-/// `m` points spread evenly over a luminaire's opening (R2 sequence, centred); one point for a
-/// point source.
+/// `m` points spread evenly over a luminaire's opening (R2 sequence, centred; area-uniform on
+/// a disc for a circular opening); one point for a point source.
 pub fn opening_points(l: &Luminaire, m: usize) -> Vec<DVec3> {
     let [w, len] = l.opening_m;
     if w <= 0.0 && len <= 0.0 {
@@ -31,9 +31,15 @@ pub fn opening_points(l: &Luminaire, m: usize) -> Vec<DVec3> {
     const A2: f64 = 0.569_840_290_998_053_3;
     (0..m.max(1))
         .map(|k| {
-            let u = (0.5 + A1 * k as f64).fract() - 0.5;
-            let v = (0.5 + A2 * k as f64).fract() - 0.5;
-            l.position_m + l.c0 * (u * w) + l.c90 * (v * len)
+            let u = (0.5 + A1 * k as f64).fract();
+            let v = (0.5 + A2 * k as f64).fract();
+            if l.opening_circular {
+                let r = 0.5 * w * u.sqrt();
+                let phi = std::f64::consts::TAU * v;
+                l.position_m + l.c0 * (r * phi.cos()) + l.c90 * (r * phi.sin())
+            } else {
+                l.position_m + l.c0 * ((u - 0.5) * w) + l.c90 * ((v - 0.5) * len)
+            }
         })
         .collect()
 }

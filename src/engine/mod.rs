@@ -333,13 +333,17 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
             .par_iter()
             .zip(responses.par_iter())
             .map(|(s, resp)| {
+                let weighting = match settings.direct {
+                    DirectModel::Exact => GatherWeighting::Consistent,
+                    DirectModel::Paper => GatherWeighting::Paper,
+                };
                 let row = gather_row(
                     s.position_m,
                     s.normal,
                     resp,
                     &caster,
                     &sensor_rays,
-                    settings,
+                    weighting,
                 );
                 let direct: Vec<f64> = match settings.direct {
                     DirectModel::Exact => luminaires
@@ -434,6 +438,42 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
         sensor_f2: responses.iter().map(AngularResponse::f2).collect(),
         stats,
     })
+}
+
+/// Largest system [`dense_solve`] accepts (an n × n f64 matrix: 128 MiB at 4096).
+pub const DENSE_SOLVE_MAX_PATCHES: usize = 4096;
+
+/// Solves `B = ρ (E^dir + F B)` directly, `(I − diag(ρ) F) B = ρ E^dir`, by LU decomposition
+/// (nalgebra): the cross-check for the iterative solver on small systems.
+pub fn dense_solve(f: &Csr, rho: &[f64], e_direct_lx: &[f64]) -> Result<Vec<f64>, EngineError> {
+    let n = rho.len();
+    if n > DENSE_SOLVE_MAX_PATCHES {
+        return Err(EngineError::Settings(format!(
+            "dense solve is for at most {DENSE_SOLVE_MAX_PATCHES} patches, not {n}"
+        )));
+    }
+    let system = CsrSystem { f: f.view(), rho };
+    f.view().validate(n).map_err(|source| EngineError::Solve {
+        what: "dense solve".into(),
+        source,
+    })?;
+    solver::check_inputs(&system, e_direct_lx).map_err(|source| EngineError::Solve {
+        what: "dense solve".into(),
+        source,
+    })?;
+    let mut a = nalgebra::DMatrix::<f64>::identity(n, n);
+    for (i, r) in rho.iter().enumerate() {
+        for (j, v) in f.row(i) {
+            a[(i, j as usize)] -= r * v;
+        }
+    }
+    let rhs = nalgebra::DVector::from_iterator(n, rho.iter().zip(e_direct_lx).map(|(r, e)| r * e));
+    let b = a.lu().solve(&rhs).ok_or(EngineError::Solve {
+        what: "dense solve".into(),
+        source: solver::SolveError::Diverged,
+    })?;
+    let out: Vec<f64> = b.iter().copied().collect();
+    finite(out)
 }
 
 /// The last gate: a non-finite reading is an error, never a published value.
@@ -573,15 +613,23 @@ fn paper_direct_on_patches(
         .collect()
 }
 
-/// A sensor's gather row: rays from the sensor; weight per ray `s(θ)/cos θ / N` (exact) or, in
-/// the paper's formulation, `s(θ) / Σ s`.
-fn gather_row(
+/// How a sensor weighs the rays it gathers with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GatherWeighting {
+    /// `s(θ) / cos θ / N` over cosine-distributed rays: the reading `∫ L s dω` (physics.md §3.5).
+    Consistent,
+    /// The paper's: `s(θ) / Σ_k s(θ_k)` (an effective response ∝ s cos θ, normalised).
+    Paper,
+}
+
+/// A sensor's gather row over patches: `E = Σ_j w_j B_j` for patch exitances B.
+pub fn gather_row(
     position: DVec3,
     normal: DVec3,
     response: &AngularResponse,
     caster: &RayCaster,
     rays: &RaySet,
-    settings: &Settings,
+    weighting: GatherWeighting,
 ) -> Vec<(u32, f64)> {
     let origin = caster.offset(position, normal);
     let fr = frame(normal, 0.0);
@@ -591,16 +639,16 @@ fn gather_row(
     for d in &rays.dirs {
         let cos = d.z.max(1e-12);
         let s = response.response(cos.acos());
-        let w = match settings.direct {
-            DirectModel::Exact => s / cos / n,
-            DirectModel::Paper => s,
+        let w = match weighting {
+            GatherWeighting::Consistent => s / cos / n,
+            GatherWeighting::Paper => s,
         };
         norm += w;
         if let Hit::Front { patch, .. } = caster.closest(origin, to_world(&fr, *d)) {
             weights.push((patch, w));
         }
     }
-    if settings.direct == DirectModel::Paper && norm > 0.0 {
+    if weighting == GatherWeighting::Paper && norm > 0.0 {
         for w in &mut weights {
             w.1 /= norm;
         }

@@ -30,7 +30,7 @@ pub struct PatchSettings {
 impl Default for PatchSettings {
     fn default() -> Self {
         Self {
-            patch_size_m: 0.5,
+            patch_size_m: 1.0,
             detail_ratio: 0.5,
             min_patch_m: 0.0625,
         }

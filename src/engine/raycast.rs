@@ -2,10 +2,15 @@
 //! BVH primitive indices: it reorders the triangles once into BVH order and maps every hit back
 //! to a patch id here, so the rest of the engine speaks patches.
 //!
-//! Precision: the BVH and the intersection run in f32; every self-hit offset and shadow-ray
-//! margin is relative to the scene's size ([`RayCaster::eps_m`] = 1e-5 × the bounding-box
-//! diagonal), so a scene in millimetres (converted to metres) or a 100 m hall behaves the same.
-//! Hits on a triangle's back face are reported as such (the caller decides what they mean).
+//! Precision: the BVH and the intersection run in f32, in the caster's own frame: centred on
+//! the scene and scaled so its bounding-box diagonal is 10⁴ units. That keeps f32 resolution
+//! uniform whatever the scene's size or position, and it neutralises obvhs' CWBVH node test,
+//! which clamps the entry distance to an absolute 1e-4 units (in metres, a surface closer than
+//! 0.1 mm along a ray, such as the wall next to a ray starting in a room's corner, would be
+//! culled and the ray would leak out of a closed room). Every self-hit offset and shadow-ray
+//! margin is relative to the scene's size ([`RayCaster::eps_m`] = 1e-5 × the diagonal), so a
+//! scene in millimetres (converted to metres) or a 100 m hall behaves the same. Hits on a
+//! triangle's back face are reported as such (the caller decides what they mean).
 
 use std::time::Duration;
 
@@ -50,7 +55,14 @@ pub struct RayCaster {
     patch_of: Vec<u32>,
     /// Self-hit offset and shadow-ray margin, m.
     pub eps_m: f64,
+    /// World point at the caster frame's origin, m.
+    centre_m: DVec3,
+    /// Caster units per metre.
+    scale: f64,
 }
+
+/// The scene's bounding-box diagonal in caster units.
+const FRAME_DIAGONAL: f64 = 1e4;
 
 /// Möller–Trumbore with a small barycentric tolerance: a ray through the edge shared by two
 /// triangles hits at least one of them (obvhs' own test treats −0.0 as outside, so a ray exactly
@@ -90,17 +102,15 @@ fn v3(p: DVec3) -> Vec3A {
 }
 
 impl RayCaster {
+    /// A world point in the caster frame.
+    fn to_frame(&self, p: DVec3) -> Vec3A {
+        v3((p - self.centre_m) * self.scale)
+    }
+}
+
+impl RayCaster {
     /// Builds the BVH over all patches.
     pub fn new(patches: &Patches) -> Self {
-        let input: Vec<Triangle> = patches
-            .corners_m
-            .iter()
-            .map(|t| Triangle {
-                v0: v3(t[0]),
-                v1: v3(t[1]),
-                v2: v3(t[2]),
-            })
-            .collect();
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for t in &patches.corners_m {
@@ -110,11 +120,21 @@ impl RayCaster {
             }
         }
         let diag = (hi - lo).length();
-        let eps_m = if diag.is_finite() && diag > 0.0 {
-            1e-5 * diag
+        let (eps_m, centre_m, scale) = if diag.is_finite() && diag > 0.0 {
+            (1e-5 * diag, (lo + hi) * 0.5, FRAME_DIAGONAL / diag)
         } else {
-            1e-6
+            (1e-6, DVec3::ZERO, 1.0)
         };
+        let to_frame = |p: DVec3| v3((p - centre_m) * scale);
+        let input: Vec<Triangle> = patches
+            .corners_m
+            .iter()
+            .map(|t| Triangle {
+                v0: to_frame(t[0]),
+                v1: to_frame(t[1]),
+                v2: to_frame(t[2]),
+            })
+            .collect();
         let mut build_time = Duration::ZERO;
         let bvh = build_cwbvh_from_tris(&input, BvhBuildParams::fast_build(), &mut build_time);
         let patch_of = bvh.primitive_indices.clone();
@@ -129,6 +149,8 @@ impl RayCaster {
             normals,
             patch_of,
             eps_m,
+            centre_m,
+            scale,
         }
     }
 
@@ -143,7 +165,7 @@ impl RayCaster {
             (dir.length() - 1.0).abs() < 1e-6,
             "ray directions are unit vectors"
         );
-        let ray = Ray::new(v3(origin), v3(dir), 0.0, f32::INFINITY);
+        let ray = Ray::new(self.to_frame(origin), v3(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
         if !self
             .bvh
@@ -153,7 +175,7 @@ impl RayCaster {
         }
         let prim = hit.primitive_id as usize;
         let patch = self.patch_of[prim];
-        let t_m = f64::from(hit.t);
+        let t_m = f64::from(hit.t) / self.scale;
         if self.normals[prim].dot(ray.direction) < 0.0 {
             Hit::Front { patch, t_m }
         } else {
@@ -170,7 +192,8 @@ impl RayCaster {
         if !(d > self.eps_m) {
             return true;
         }
-        let ray = Ray::new(v3(from), v3(v / d), 0.0, (d - self.eps_m) as f32);
+        let tmax = ((d - self.eps_m) * self.scale) as f32;
+        let ray = Ray::new(self.to_frame(from), v3(v / d), 0.0, tmax);
         self.bvh
             .ray_traverse_miss(ray, |r, id| intersect(&self.tris[id], r))
     }

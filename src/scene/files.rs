@@ -57,6 +57,8 @@ struct LuminaireJson {
     photometry_ies: Option<String>,
     flux_lm: Option<f64>,
     luminous_opening_m: Option<[f64; 2]>,
+    /// "rectangle" (default) or "circle" (diameter = the first size).
+    luminous_opening_shape: Option<String>,
     #[serde(rename = "cct_K")]
     #[allow(dead_code)]
     cct_k: Option<f64>,
@@ -366,12 +368,25 @@ fn load_luminaires(
                 continue;
             }
         };
+        let circular = match l.luminous_opening_shape.as_deref() {
+            None => opening_m.is_none() && dist.meta.opening.is_some_and(|o| o.circular),
+            Some("rectangle") => false,
+            Some("circle") => true,
+            Some(other) => {
+                c.fail(
+                    at("luminous_opening_shape"),
+                    format!("{other:?} is not \"rectangle\" or \"circle\""),
+                );
+                continue;
+            }
+        };
         let opening_m = opening_m
             .or_else(|| {
                 dist.meta
                     .opening
                     .map(|o| [o.length_m, if o.circular { o.length_m } else { o.width_m }])
             })
+            .map(|o| if circular { [o[0], o[0]] } else { o })
             .unwrap_or([0.0, 0.0]);
         out.push(Luminaire {
             id: l.id,
@@ -382,6 +397,7 @@ fn load_luminaires(
             c90,
             flux_lm,
             opening_m,
+            opening_circular: circular,
             photometry: Arc::new(scaled),
             photometry_path,
             file_flux_lm,

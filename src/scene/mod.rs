@@ -143,8 +143,11 @@ pub struct Luminaire {
     pub c90: DVec3,
     /// Luminaire flux at 100 %, lm.
     pub flux_lm: f64,
-    /// Luminous opening (along C0, along C90), m; (0, 0) for a point source.
+    /// Luminous opening (along C0, along C90), m; (0, 0) for a point source; for a circular
+    /// opening both are the diameter.
     pub opening_m: [f64; 2],
+    /// True when the opening is a disc (of diameter `opening_m[0]`).
+    pub opening_circular: bool,
     /// Intensity distribution in cd, scaled to `flux_lm`, installed tilt applied.
     pub photometry: Arc<IntensityDistribution>,
     /// The photometric file it came from.

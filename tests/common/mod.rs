@@ -1,0 +1,108 @@
+//! Independent references for the tests: configuration factors of the Howell catalogue in
+//! closed form (physics.md §2), and small scenes built in code.
+#![allow(dead_code)]
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use glam::DVec3;
+use luxnode::photometry::IntensityDistribution;
+use luxnode::scene::{Luminaire, Mesh, ObjReport, Scene, Sensor};
+use luxnode::sensor::AngularResponse;
+
+/// B-3: differential element to a parallel a × b rectangle at distance c, the element on the
+/// normal through one corner.
+pub fn b3(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let sx = (1.0 + x * x).sqrt();
+    let sy = (1.0 + y * y).sqrt();
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * PI)
+}
+
+/// C-11: identical, parallel, directly opposed a × b rectangles at distance c.
+pub fn c11(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (x2, y2) = (x * x, y * y);
+    2.0 / (PI * x * y)
+        * (((1.0 + x2) * (1.0 + y2) / (1.0 + x2 + y2)).sqrt().ln()
+            + x * (1.0 + y2).sqrt() * (x / (1.0 + y2).sqrt()).atan()
+            + y * (1.0 + x2).sqrt() * (y / (1.0 + x2).sqrt()).atan()
+            - x * x.atan()
+            - y * y.atan())
+}
+
+/// C-14: rectangle of width w to a perpendicular rectangle of height h sharing an edge of
+/// length l.
+pub fn c14(w: f64, h: f64, l: f64) -> f64 {
+    let (w, h) = (w / l, h / l);
+    let (w2, h2) = (w * w, h * h);
+    let s = (w2 + h2).sqrt();
+    let log_arg = (1.0 + w2) * (1.0 + h2) / (1.0 + w2 + h2)
+        * (w2 * (1.0 + w2 + h2) / ((1.0 + w2) * (w2 + h2))).powf(w2)
+        * (h2 * (1.0 + w2 + h2) / ((1.0 + h2) * (w2 + h2))).powf(h2);
+    (w * (1.0 / w).atan() + h * (1.0 / h).atan() - s * (1.0 / s).atan() + 0.25 * log_arg.ln())
+        / (PI * w)
+}
+
+/// C-41: coaxial parallel discs of radii r1 → r2 at distance a.
+pub fn c41(r1: f64, r2: f64, a: f64) -> f64 {
+    let (r1, r2) = (r1 / a, r2 / a);
+    let x = 1.0 + (1.0 + r2 * r2) / (r1 * r1);
+    0.5 * (x - (x * x - 4.0 * (r2 / r1).powi(2)).sqrt())
+}
+
+/// A scene from a mesh, luminaires and sensors (no desks, no camera).
+pub fn scene(mesh: Mesh, luminaires: Vec<Luminaire>, sensors: Vec<Sensor>) -> Scene {
+    Scene {
+        name: "test".into(),
+        mesh,
+        luminaires,
+        sensors,
+        desks: None,
+        camera: None,
+        obj_report: ObjReport::default(),
+        warnings: Vec::new(),
+    }
+}
+
+/// A downward-aimed luminaire with a rotationally symmetric distribution `i_cd(γ)`.
+pub fn luminaire(
+    id: u32,
+    position: DVec3,
+    opening_m: [f64; 2],
+    circular: bool,
+    i_cd: impl Fn(f64) -> f64,
+) -> Luminaire {
+    let d = IntensityDistribution::from_gamma_fn(0.25, "test", i_cd);
+    let flux = d.flux_lm();
+    Luminaire {
+        id,
+        name: format!("luminaire_{id}"),
+        position_m: position,
+        aim: DVec3::NEG_Z,
+        c0: DVec3::X,
+        c90: DVec3::Y,
+        flux_lm: flux,
+        opening_m,
+        opening_circular: circular,
+        photometry: Arc::new(d),
+        photometry_path: "test".into(),
+        file_flux_lm: flux,
+    }
+}
+
+/// An upward-facing ideal cosine sensor.
+pub fn sensor(id: u32, position: DVec3) -> Sensor {
+    Sensor {
+        id,
+        position_m: position,
+        normal: DVec3::Z,
+        note: String::new(),
+        response: AngularResponse::Cosine,
+    }
+}
+
+/// Relative difference.
+pub fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
