@@ -97,9 +97,12 @@ struct EngineArgs {
     /// Largest projected angle a patch may subtend at a sensor that sees it (0: uniform patches).
     #[arg(long, default_value_t = Settings::default().patches.detail_ratio)]
     detail: f64,
-    /// Smallest patch edge the sensor refinement goes to, m.
+    /// Smallest patch edge the refinement goes to, m.
     #[arg(long, default_value_t = Settings::default().patches.min_patch_m)]
     min_patch: f64,
+    /// Largest patch edge over its distance to a luminaire lighting it (0: off).
+    #[arg(long, default_value_t = Settings::default().patches.light_ratio)]
+    light_detail: f64,
     /// Ray set.
     #[arg(long, value_enum, default_value_t = RaySetArg::Isocell)]
     ray_set: RaySetArg,
@@ -172,6 +175,7 @@ impl EngineArgs {
                 patch_size_m: self.patch_size,
                 detail_ratio: self.detail,
                 min_patch_m: self.min_patch,
+                light_ratio: self.light_detail,
             },
             rays: self.rays,
             sensor_rays: self.sensor_rays,

@@ -185,12 +185,11 @@ pub fn check_inputs<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64]) -> Result<
     if e_direct_lx.len() != sys.len() {
         return Err(SolveError::Malformed);
     }
-    for i in 0..sys.len() {
+    for (i, &e) in e_direct_lx.iter().enumerate() {
         let rho = sys.rho(i);
         if !(rho.is_finite() && (0.0..1.0).contains(&rho)) {
             return Err(SolveError::BadReflectance { patch: i, rho });
         }
-        let e = e_direct_lx[i];
         if !(e.is_finite() && e >= 0.0) {
             return Err(SolveError::NonFiniteInput);
         }

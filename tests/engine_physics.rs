@@ -41,6 +41,7 @@ fn uniform(size_m: f64) -> PatchSettings {
         patch_size_m: size_m,
         detail_ratio: 0.0,
         min_patch_m: size_m,
+        light_ratio: 0.0,
     }
 }
 

@@ -79,7 +79,7 @@ pub fn illuminance_lx(
     for &q in points {
         let v = q - x;
         let d2 = v.length_squared();
-        if !(d2 > 0.0) {
+        if d2.is_nan() || d2 <= 0.0 {
             continue;
         }
         let d = d2.sqrt();

@@ -1,6 +1,7 @@
 //! Patch-to-patch form factors by ray casting (Malley's method with an Isocell set).
 //!
-//! From each reflecting patch i, `N` rays leave with cosine-distributed directions (the ray set,
+//! From each patch i (black ones too: they reflect nothing, but their incident illuminance is
+//! still asked for), `N` rays leave with cosine-distributed directions (the ray set,
 //! turned by a per-patch azimuth to decorrelate patches) from origins spread evenly over the
 //! patch (an R2 low-discrepancy sequence mapped to the triangle), so the estimate is the
 //! area-to-area factor, not a centroid's: `F_ij = (rays from i reaching the front of j) / N`.
@@ -105,7 +106,7 @@ pub struct FormFactors {
     pub escaped: Vec<f64>,
     /// Visible fraction of each patch's area (rays that did not start under a cover).
     pub visible: Vec<f64>,
-    /// Whether rays were cast from the patch (black patches are skipped: they never reflect).
+    /// Whether rays were cast from the patch (every patch with an area).
     pub cast: Vec<bool>,
     /// Rays per patch.
     pub rays_per_patch: usize,
@@ -135,49 +136,48 @@ pub(crate) fn patch_point(patches: &Patches, i: usize, k: usize, shift: (f64, f6
     patches.point_m(i, u, v)
 }
 
-/// Casts the rays of every reflecting patch and builds the sparse rows.
+/// One patch's casting result: its row, escaped fraction, visible fraction, whether cast.
+type CastRow = (Vec<(u32, f64)>, f64, f64, bool);
+
+/// Casts the rays of every patch and builds the sparse rows.
 pub fn compute(patches: &Patches, caster: &RayCaster, rays: &RaySet, seed: u64) -> FormFactors {
     let n = patches.len();
     let nr = rays.len();
     let inv = 1.0 / nr as f64;
-    let rows: Vec<(Vec<(u32, f64)>, f64, f64, bool)> = (0..n)
+    let rows: Vec<CastRow> = (0..n)
         .into_par_iter()
-        .map_init(
-            || Vec::<u32>::new(),
-            |hits, i| {
-                if patches.rho[i] <= 0.0 || patches.area_m2[i] <= 0.0 {
-                    return (Vec::new(), 0.0, 1.0, false);
+        .map_init(Vec::<u32>::new, |hits, i| {
+            if patches.area_m2[i] <= 0.0 {
+                return (Vec::new(), 0.0, 1.0, false);
+            }
+            let (shift, azimuth) = patch_jitter(i, seed);
+            let fr = frame(patches.normal[i], azimuth);
+            let mut escaped = 0usize;
+            let mut covered = 0usize;
+            hits.clear();
+            for (k, d) in rays.dirs.iter().enumerate() {
+                let origin = caster.offset(patch_point(patches, i, k, shift), patches.normal[i]);
+                match caster.closest(origin, to_world(&fr, *d)) {
+                    Hit::Front { patch, .. } if patch as usize != i => hits.push(patch),
+                    Hit::Front { .. } | Hit::Back { .. } => covered += 1,
+                    Hit::Miss => escaped += 1,
                 }
-                let (shift, azimuth) = patch_jitter(i, seed);
-                let fr = frame(patches.normal[i], azimuth);
-                let mut escaped = 0usize;
-                let mut covered = 0usize;
-                hits.clear();
-                for (k, d) in rays.dirs.iter().enumerate() {
-                    let origin =
-                        caster.offset(patch_point(patches, i, k, shift), patches.normal[i]);
-                    match caster.closest(origin, to_world(&fr, *d)) {
-                        Hit::Front { patch, .. } if patch as usize != i => hits.push(patch),
-                        Hit::Front { .. } | Hit::Back { .. } => covered += 1,
-                        Hit::Miss => escaped += 1,
-                    }
+            }
+            let valid = nr - covered;
+            if valid == 0 {
+                return (Vec::new(), 0.0, 0.0, true);
+            }
+            let w = 1.0 / valid as f64;
+            hits.sort_unstable();
+            let mut row: Vec<(u32, f64)> = Vec::new();
+            for &j in hits.iter() {
+                match row.last_mut() {
+                    Some((c, v)) if *c == j => *v += w,
+                    _ => row.push((j, w)),
                 }
-                let valid = nr - covered;
-                if valid == 0 {
-                    return (Vec::new(), 0.0, 0.0, true);
-                }
-                let w = 1.0 / valid as f64;
-                hits.sort_unstable();
-                let mut row: Vec<(u32, f64)> = Vec::new();
-                for &j in hits.iter() {
-                    match row.last_mut() {
-                        Some((c, v)) if *c == j => *v += w,
-                        _ => row.push((j, w)),
-                    }
-                }
-                (row, escaped as f64 * w, valid as f64 * inv, true)
-            },
-        )
+            }
+            (row, escaped as f64 * w, valid as f64 * inv, true)
+        })
         .collect();
     let mut escaped = Vec::with_capacity(n);
     let mut visible = Vec::with_capacity(n);
@@ -367,8 +367,8 @@ pub fn rectify(
 fn reciprocity_error(f: &Csr, partner: &[u32], area_m2: &[f64]) -> f64 {
     let mut worst: f64 = 0.0;
     for i in 0..f.rows() {
-        for k in f.row_ptr[i] as usize..f.row_ptr[i + 1] as usize {
-            let p = partner[k];
+        let range = f.row_ptr[i] as usize..f.row_ptr[i + 1] as usize;
+        for (k, &p) in range.clone().zip(&partner[range]) {
             if p == u32::MAX {
                 continue;
             }

@@ -276,8 +276,32 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
             normal: s.normal,
         })
         .collect();
+    let light_ratio = settings.patches.light_ratio;
+    let mut near_light = |t: &[DVec3; 3]| -> bool {
+        if light_ratio <= 0.0 {
+            return false;
+        }
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+        let len = (0..3)
+            .map(|k| (t[(k + 1) % 3] - t[k]).length())
+            .fold(0.0, f64::max);
+        let radius = t.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+        luminaires.iter().any(|l| {
+            let to_lum = l.position_m - c;
+            let d = (to_lum.length() - radius).max(1e-9);
+            if len <= light_ratio * d {
+                return false;
+            }
+            // lit by it: some corner in front of the surface and receiving intensity
+            t.iter().chain([&c]).any(|p| {
+                let v = l.position_m - *p;
+                v.dot(n) > 0.0 && l.intensity_toward_cd(-v.normalize_or_zero()) > 0.0
+            })
+        })
+    };
     let patches = timed(&mut stats, "patches", || {
-        patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut |_| false)
+        patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut near_light)
     });
     if patches.is_empty() {
         return Err(EngineError::Empty("no patches".into()));
@@ -328,7 +352,7 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
     // Sensor rows.
     let sensor_rays = RaySet::new(settings.ray_set, settings.sensor_rays);
     let (gather, direct_sensor_lx) = timed(&mut stats, "sensors", || {
-        let rows: Vec<(Vec<(u32, f64)>, Vec<f64>)> = scene
+        let rows: Vec<SensorRows> = scene
             .sensors
             .par_iter()
             .zip(responses.par_iter())
@@ -507,9 +531,6 @@ fn direct_on_patches(
     (0..patches.len())
         .into_par_iter()
         .map(|i| {
-            if patches.rho[i] <= 0.0 {
-                return 0.0;
-            }
             let n = patches.normal[i];
             // Nothing to do for a patch entirely behind the luminaire or facing away from it.
             let corners = patches.corners_m[i];
@@ -612,6 +633,9 @@ fn paper_direct_on_patches(
         .map(|((f, a), rho)| if *rho > 0.0 && *a > 0.0 { f / a } else { 0.0 })
         .collect()
 }
+
+/// A sensor's gather row and its direct reading per luminaire.
+type SensorRows = (Vec<(u32, f64)>, Vec<f64>);
 
 /// How a sensor weighs the rays it gathers with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

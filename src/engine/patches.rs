@@ -8,7 +8,11 @@
 //! and `f = √(cos θ_s cos θ_p)` how squarely sensor and triangle face each other (0 when the
 //! sensor cannot see it: the desk top a sensor lies on needs no refinement). A patch seen from a
 //! sensor then subtends at most about `detail_ratio` radians of projected angle, while surfaces
-//! far from every sensor, or out of its view, stay coarse. An extra predicate (the engine's light-gradient test) can split further. Black
+//! far from every sensor, or out of its view, stay coarse. The engine adds a second criterion
+//! through `split_more`: where direct light changes fast (a surface close to a luminaire that
+//! shines on it), patches are at most `light_ratio` times their distance to it. Black surfaces
+//! (ρ = 0, e.g. luminaire openings) reflect nothing a sensor could gather, so only the base
+//! size and the light criterion apply to them. An extra predicate (the engine's light-gradient test) can split further. Black
 //! surfaces (ρ = 0, e.g. luminaire openings) never reflect, so they stay one patch each.
 
 use glam::DVec3;
@@ -25,6 +29,9 @@ pub struct PatchSettings {
     pub detail_ratio: f64,
     /// Smallest patch edge the refinement goes to, m.
     pub min_patch_m: f64,
+    /// Largest patch edge over its distance to a luminaire that lights it (where direct light
+    /// changes fast); 0 turns this refinement off.
+    pub light_ratio: f64,
 }
 
 impl Default for PatchSettings {
@@ -33,6 +40,7 @@ impl Default for PatchSettings {
             patch_size_m: 1.0,
             detail_ratio: 0.5,
             min_patch_m: 0.0625,
+            light_ratio: 1.0,
         }
     }
 }
@@ -158,16 +166,20 @@ pub fn subdivide(
     let mut out = Patches::default();
     let mut stack: Vec<[DVec3; 3]> = Vec::new();
     for (ti, t) in mesh.triangles.iter().enumerate() {
-        let rho = mesh.materials[t.material as usize].rho.get();
-        let corners = mesh.corners_m(t);
-        if rho <= 0.0 {
-            out.push(corners, rho, t.group, ti as u32);
+        // no area, no light: a degenerate triangle has no normal to cast rays along
+        if mesh.is_degenerate(t) {
             continue;
         }
+        let rho = mesh.materials[t.material as usize].rho.get();
+        let corners = mesh.corners_m(t);
         stack.push(corners);
         while let Some(tri) = stack.pop() {
             let (k, len) = longest_edge(&tri);
-            let split = len > target(&tri) || (len > min && split_more(&tri));
+            // a black patch sends nothing to a sensor: only its own illuminance needs resolving
+            let view_target = if rho > 0.0 { target(&tri) } else { size };
+            let split = len > view_target || (len > min && split_more(&tri));
+            // never split below the resolution of the coordinates (slivers of slivers)
+            let split = split && len > 1e-9 * (1.0 + tri[0].abs().max_element());
             if !split {
                 out.push(tri, rho, t.group, ti as u32);
                 continue;
@@ -224,6 +236,7 @@ mod tests {
             patch_size_m: 0.5,
             detail_ratio: 0.0,
             min_patch_m: 0.1,
+            light_ratio: 0.0,
         };
         let p = subdivide(&m, &s, &[], &mut |_| false);
         let area: f64 = p.area_m2.iter().sum();
@@ -241,6 +254,7 @@ mod tests {
             patch_size_m: 1.0,
             detail_ratio: 0.5,
             min_patch_m: 0.1,
+            light_ratio: 0.0,
         };
         let sensor = DVec3::new(1.0, 1.0, 0.5);
         let view = Viewpoint {
@@ -279,16 +293,27 @@ mod tests {
     }
 
     #[test]
-    fn black_surfaces_stay_whole() {
+    fn black_surfaces_ignore_sensors() {
         let m = square(4.0, 0.0);
-        let s = PatchSettings::default();
-        assert_eq!(subdivide(&m, &s, &[], &mut |_| true).len(), 2);
+        let s = PatchSettings {
+            patch_size_m: 8.0,
+            detail_ratio: 0.5,
+            min_patch_m: 0.1,
+            light_ratio: 0.0,
+        };
+        let view = Viewpoint {
+            position_m: DVec3::new(1.0, 1.0, 0.5),
+            normal: DVec3::NEG_Z,
+        };
+        assert_eq!(subdivide(&m, &s, &[view], &mut |_| false).len(), 2);
+        assert!(subdivide(&m, &s, &[view], &mut |_| true).len() > 2);
     }
 
     #[test]
     fn area_sampling_stays_inside() {
         let m = square(1.0, 0.5);
         let p = subdivide(&m, &PatchSettings::default(), &[], &mut |_| false);
+        assert!(!p.is_empty());
         for i in 0..p.len() {
             let [a, b, c] = p.corners_m[i];
             for (u, v) in [(0.0, 0.0), (0.999, 0.999), (0.5, 0.5), (0.25, 0.9)] {

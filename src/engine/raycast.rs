@@ -189,7 +189,7 @@ impl RayCaster {
     pub fn unoccluded(&self, from: DVec3, to: DVec3) -> bool {
         let v = to - from;
         let d = v.length();
-        if !(d > self.eps_m) {
+        if d.is_nan() || d <= self.eps_m {
             return true;
         }
         let tmax = ((d - self.eps_m) * self.scale) as f32;
