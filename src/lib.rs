@@ -15,8 +15,10 @@
 //! |---|---|---|
 //! | [`units`] | no_std | physical quantities with their unit in the name |
 //! | [`layout`] | no_std | the `memory.x` regions (the `FORMFACTORS` flash region's size) |
+//! | [`dali`] | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear) |
 //! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
 //! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
+//! | `render` | std | pictures: the top-view illuminance map |
 //! | `photometry` | std | EULUMDAT / IES LM-63 parsing into one [`photometry::IntensityDistribution`] |
 //! | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation |
 //! | `sensor` | std | the desk sensor model: light sensitivity curve (LSC), cosine error f2 |
@@ -55,12 +57,15 @@ pub mod layout {
     );
 }
 
+pub mod dali;
 pub mod solver;
 
 #[cfg(feature = "std")]
 pub mod engine;
 #[cfg(feature = "std")]
 pub mod evaluate;
+#[cfg(feature = "std")]
+pub mod render;
 #[cfg(feature = "std")]
 pub mod rng;
 #[cfg(feature = "std")]

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use luxnode::board::{Board, SceneSource};
+use luxnode::dali::{ArcLevel, DimmingCurve};
 use luxnode::engine::{DirectModel, PatchSettings, RaySetKind, Settings};
 use luxnode::evaluate::{Computed, compare};
 use luxnode::photometry::IntensityDistribution;
@@ -81,6 +82,15 @@ struct SimulateArgs {
     /// Compare with this truth file (default: the scene's truth.csv when present).
     #[arg(long)]
     truth: Option<PathBuf>,
+    /// Write a top view of the room in false-colour lux (PNG) for one scenario.
+    #[arg(long, value_name = "FILE.png")]
+    map: Option<PathBuf>,
+    /// The scenario the map shows (default: the first).
+    #[arg(long, requires = "map")]
+    map_scenario: Option<String>,
+    /// Map cell size, m.
+    #[arg(long, default_value_t = 0.1, requires = "map")]
+    map_cell: f64,
 }
 
 #[derive(clap::Args)]
@@ -432,11 +442,60 @@ fn run_board(path: &Path) -> Result<ExitCode> {
     );
     let scene = match &board.scene {
         SceneSource::DemoOffice => luxnode::demo::demo_office(),
-        SceneSource::Directory(dir) => Scene::load(dir, &LoadOptions::default())
-            .map_err(|e| anyhow::anyhow!("{e}"))
+        SceneSource::Directory(dir) => load_scene(dir, &LoadOptions::default())
             .with_context(|| format!("board {} scene", board.name))?,
     };
     print!("{}", scene.summary());
+    let settings = Settings::default();
+    let model = luxnode::engine::commission(&scene, &settings)?;
+    let st = &model.stats;
+    println!(
+        "commissioned: {} patches, {} rays per patch, {} form factors in {} ms",
+        st.patches,
+        st.rays_per_patch,
+        st.nnz,
+        st.total().as_millis()
+    );
+    // The simulated controller steps through dimming states (DALI arc levels on the
+    // logarithmic curve: 254 = 100 %, 229 = 50.5 %, 170 = 10.1 %, 0 = off).
+    let n = model.luminaires();
+    let dali = |level: u8| -> f64 {
+        ArcLevel(level)
+            .fraction(DimmingCurve::Logarithmic)
+            .unwrap_or(0.0)
+    };
+    let half = n / 2;
+    let states: Vec<(String, Vec<f64>)> = vec![
+        ("all 254".into(), vec![dali(254); n]),
+        ("all 229".into(), vec![dali(229); n]),
+        ("all 170".into(), vec![dali(170); n]),
+        (
+            format!("1-{half} on"),
+            (0..n).map(|i| if i < half { 1.0 } else { 0.0 }).collect(),
+        ),
+        (
+            format!("{}-{n} on", half + 1),
+            (0..n).map(|i| if i >= half { 1.0 } else { 0.0 }).collect(),
+        ),
+        ("all off".into(), vec![0.0; n]),
+    ];
+    print!("{:<8} {:<28}", "sensor", "where");
+    for (name, _) in &states {
+        print!(" {name:>10}");
+    }
+    println!();
+    let columns: Vec<Vec<f64>> = states
+        .iter()
+        .map(|(_, x)| model.sensor_lux(x))
+        .collect::<Result<_, _>>()?;
+    for (k, s) in scene.sensors.iter().enumerate() {
+        let note: String = s.note.chars().take(28).collect();
+        print!("{:<8} {:<28}", s.id, note);
+        for col in &columns {
+            print!(" {:>7.0} lx", col[k]);
+        }
+        println!();
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -543,6 +602,45 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
                 })).collect::<Vec<_>>(),
             });
             println!("{}", serde_json::to_string_pretty(&v)?);
+        }
+    }
+    if let Some(path) = &args.map {
+        let sc = match &args.map_scenario {
+            Some(id) => scenarios
+                .iter()
+                .find(|s| &s.id == id)
+                .with_context(|| format!("--map-scenario {id} is not among the scenarios"))?,
+            None => &scenarios[0],
+        };
+        if !(args.map_cell.is_finite() && args.map_cell >= 0.01) {
+            bail!("--map-cell must be at least 0.01 m");
+        }
+        let levels: Vec<f64> = model
+            .luminaire_ids
+            .iter()
+            .map(|id| if sc.on.contains(id) { 1.0 } else { 0.0 })
+            .collect();
+        let opts = luxnode::render::map::MapOptions {
+            cell_m: args.map_cell,
+            title: format!("{} - SCENARIO {} - ILLUMINANCE", scene.name, sc.id),
+            ..Default::default()
+        };
+        let t0 = std::time::Instant::now();
+        let view = luxnode::render::map::compute(&scene, &model, &levels, &opts);
+        luxnode::render::map::draw(&scene, &view, &opts)
+            .save_png(path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!(
+            "map: {} ({} x {} cells of {} m, scenario {}, {} ms)",
+            path.display(),
+            view.cells[0],
+            view.cells[1],
+            opts.cell_m,
+            sc.id,
+            t0.elapsed().as_millis()
+        );
+        for (id, lux) in &view.desk_mean_lx {
+            eprintln!("  desk {id}: mean {lux:.0} lx");
         }
     }
     let truth_path = args

@@ -132,10 +132,146 @@ fn scene_check_fails_on_a_broken_scene() {
 }
 
 #[test]
-fn main_job_on_the_sim_board_summarises_the_demo_office() {
+fn main_job_on_the_sim_board_prints_the_demo_office_desk_lux() {
     let o = luxnode(&["run", "--board", "boards/sim/board.toml"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = stdout(&o);
     assert!(text.contains("board sim"), "{text}");
     assert!(text.contains("luminaires: 6"), "{text}");
+    // one row per sensor with a lux value per state; full output exceeds half output (DALI 229)
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| l.ends_with(" lx"))
+        .map(|l| {
+            l.split(" lx")
+                .filter_map(|part| part.split_whitespace().last()?.parse().ok())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 7, "six desks and the walkway: {text}");
+    for r in rows {
+        assert!(r[0] > 300.0 && r[0] < 1500.0, "{r:?}");
+        let ratio = r[1] / r[0];
+        assert!(
+            (ratio - 0.5053093).abs() < 1e-2,
+            "DALI 229 is 50.5 %: {r:?}"
+        );
+        assert_eq!(*r.last().unwrap(), 0.0);
+    }
+}
+
+fn office_a() -> String {
+    shared("scenes/office_a").to_str().unwrap().to_owned()
+}
+
+#[test]
+fn simulate_states_file_prints_the_truth_shape() {
+    let states = shared("scenes/office_a/truth.csv");
+    let o = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--states",
+        states.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = stdout(&o);
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("scenario_id,sensor_id,lux"));
+    let rows: Vec<&str> = lines.collect();
+    // truth.csv repeats each scenario for every sensor: each counts once
+    assert_eq!(rows.len(), 31 * 8);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("against") && err.contains("truth.csv"),
+        "{err}"
+    );
+}
+
+#[test]
+fn simulate_subsets_and_json() {
+    let o = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--on",
+        "1,3,8",
+        "--format",
+        "json",
+        "--rays",
+        "300",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let sc = &v["scenarios"][0];
+    assert_eq!(sc["luminaires_on"], serde_json::json!([1, 3, 8]));
+    assert_eq!(sc["sensors"].as_array().unwrap().len(), 8);
+    assert!(sc["sensors"][1]["lux"].as_f64().unwrap() > 100.0);
+}
+
+#[test]
+fn simulate_rejects_bad_states() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("states.csv");
+    std::fs::write(&bad, "scenario_id,luminaires_on\n1,1;99\n").unwrap();
+    let o = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--states",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("luminaire 99"));
+    std::fs::write(&bad, "scenario_id,luminaires_on\n1,1;x\n").unwrap();
+    let o = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--states",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("states.csv:2"));
+    let o = luxnode(&["simulate", "--scene", &office_a(), "--rays", "0"]);
+    assert!(!o.status.success());
+}
+
+#[test]
+fn simulate_map_writes_a_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("map.png");
+    let o = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--all-on",
+        "--map",
+        png.to_str().unwrap(),
+        "--map-cell",
+        "0.25",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+    let err = String::from_utf8_lossy(&o.stderr);
+    // each desk's mean is printed, and desks under all luminaires are in the 1000s of lux
+    let means: Vec<f64> = err
+        .lines()
+        .filter_map(|l| {
+            l.trim()
+                .strip_prefix("desk ")?
+                .split("mean ")
+                .nth(1)?
+                .split(' ')
+                .next()?
+                .parse()
+                .ok()
+        })
+        .collect();
+    assert_eq!(means.len(), 5, "{err}");
+    assert!(
+        means.iter().all(|m| *m > 1000.0 && *m < 2000.0),
+        "{means:?}"
+    );
 }

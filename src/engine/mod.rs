@@ -23,6 +23,7 @@
 mod direct;
 pub mod formfactor;
 pub mod patches;
+pub mod points;
 pub mod raycast;
 pub mod rayset;
 
@@ -357,9 +358,11 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
             .par_iter()
             .zip(responses.par_iter())
             .map(|(s, resp)| {
-                let weighting = match settings.direct {
-                    DirectModel::Exact => GatherWeighting::Consistent,
-                    DirectModel::Paper => GatherWeighting::Paper,
+                // The paper weighs sensor rays by s (normalised); without an LSC its sensor is a
+                // plain hit count, which is consistent for a cosine receiver.
+                let weighting = match (settings.direct, settings.lsc) {
+                    (DirectModel::Paper, true) => GatherWeighting::Paper,
+                    _ => GatherWeighting::Consistent,
                 };
                 let row = gather_row(
                     s.position_m,
