@@ -72,6 +72,8 @@ pub mod rng;
 pub mod sensor;
 
 #[cfg(feature = "std")]
+pub mod bench;
+#[cfg(feature = "std")]
 pub mod board;
 #[cfg(feature = "std")]
 pub mod demo;

@@ -50,6 +50,11 @@ enum Command {
     },
     /// Compute desk illuminance for lighting scenarios.
     Simulate(Box<SimulateArgs>),
+    /// Benchmarks that print tables (and plots) for docs/.
+    Bench {
+        #[command(subcommand)]
+        command: BenchCommand,
+    },
     /// Run the node on a board.
     Run {
         /// The board file, e.g. boards/sim/board.toml.
@@ -213,6 +218,46 @@ impl EngineArgs {
 }
 
 #[derive(Subcommand)]
+enum BenchCommand {
+    /// Commissioning time per stage, per-state time, accuracy against the scene's truth.
+    Engine {
+        /// The scene directory (with states.csv and truth.csv for accuracy).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Commissioning runs (the median is printed).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Also run this Radiance harness (bench/radiance/office_a.py) and compare.
+        #[arg(long)]
+        radiance: Option<PathBuf>,
+        /// Arguments for the Radiance harness (its settings), one string.
+        #[arg(long, default_value = "", allow_hyphen_values = true)]
+        radiance_args: String,
+    },
+    /// Rays per patch x patch size: time and error against the truth; table and plot.
+    Tradeoffs {
+        /// The scene directory.
+        #[arg(long)]
+        scene: PathBuf,
+        /// Rays per patch to try.
+        #[arg(long, value_delimiter = ',', default_values_t = [100, 300, 1000, 3000, 10000])]
+        rays: Vec<usize>,
+        /// Base patch sizes to try, m.
+        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 0.5, 0.25, 0.125])]
+        patch_sizes: Vec<f64>,
+        /// Write the plot (PNG).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
+    Ablation {
+        /// The scene directory.
+        #[arg(long)]
+        scene: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
 enum SceneCommand {
     /// Validate a scene directory and print what it contains; non-zero exit on errors.
     Check {
@@ -288,6 +333,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             command: SceneCommand::Check { dir, load },
         } => scene_check(&dir, &load.options()),
         Command::Simulate(args) => simulate(&args),
+        Command::Bench { command } => bench(command),
         Command::Run { board } => run_board(&board),
     }
 }
@@ -661,6 +707,199 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
             );
             for (s, e) in &a.per_sensor {
                 eprintln!("  sensor {s}: {:.2} %", 100.0 * e);
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The scene, its scenarios and its truth (states.csv, truth.csv in the scene directory).
+fn scene_with_truth(dir: &Path) -> Result<(Scene, Vec<Scenario>, Vec<luxnode::scene::TruthRow>)> {
+    let scene = load_scene(dir, &LoadOptions::default())?;
+    let scenarios = read_states(&dir.join("states.csv"))?;
+    let truth = read_truth(&dir.join("truth.csv"))?;
+    Ok((scene, scenarios, truth))
+}
+
+fn bench(command: BenchCommand) -> Result<ExitCode> {
+    use luxnode::bench;
+    match command {
+        BenchCommand::Engine {
+            scene,
+            runs,
+            radiance,
+            radiance_args,
+        } => {
+            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
+            let settings = Settings::default();
+            let threads = rayon::current_num_threads();
+            println!(
+                "# luxnode engine benchmark: {} ({threads} threads)",
+                sc.name
+            );
+            let (total, stages, model) = bench::time_commissioning(&sc, &settings, runs)?;
+            println!();
+            println!(
+                "commissioning at default settings, median of {runs} runs: {:.3} s",
+                total.as_secs_f64()
+            );
+            println!("| stage | time (ms) |");
+            println!("|---|---:|");
+            for (name, d) in &stages {
+                println!("| {name} | {:.1} |", d.as_secs_f64() * 1e3);
+            }
+            let st = &model.stats;
+            println!(
+                "\n{} patches, {} rays per patch, {} rays per sensor, {} non-zero form factors",
+                st.patches, st.rays_per_patch, st.rays_per_sensor, st.nnz
+            );
+            let per_state = bench::time_state(&model, 2_000_000)?;
+            println!(
+                "one dimming state ({} sensors x {} luminaires, superposition): {:.1} ns",
+                model.sensors(),
+                model.luminaires(),
+                per_state.as_secs_f64() * 1e9
+            );
+            let t0 = std::time::Instant::now();
+            let (_, report) = model.solve_state(&vec![1.0; model.luminaires()])?;
+            println!(
+                "full re-solve of one state: {:.1} ms ({} Gauss-Seidel sweeps)",
+                t0.elapsed().as_secs_f64() * 1e3,
+                report.iterations
+            );
+            let acc = bench::accuracy(&model, &scenarios, &truth)?
+                .context("no truth values match the scenarios")?;
+            println!(
+                "accuracy against {}: error {:.2} %, worst sensor {:.2} % ({} values)",
+                scene.join("truth.csv").display(),
+                100.0 * acc.error,
+                100.0 * acc.worst_sensor,
+                acc.pairs
+            );
+            if let Some(script) = radiance {
+                let mut cmd = std::process::Command::new("python3");
+                cmd.arg(&script).arg("--scene").arg(&scene);
+                let json = std::env::temp_dir()
+                    .join(format!("luxnode-radiance-{}.json", std::process::id()));
+                cmd.arg("--json").arg(&json);
+                cmd.args(radiance_args.split_whitespace());
+                println!("\nRadiance: {cmd:?}");
+                let status = cmd
+                    .status()
+                    .with_context(|| format!("running {}", script.display()))?;
+                if !status.success() {
+                    bail!("the Radiance harness failed ({status})");
+                }
+                let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json)?)?;
+                let _ = std::fs::remove_file(&json);
+                let r_time = v["wall_time_s"]
+                    .as_f64()
+                    .context("wall_time_s in the Radiance result")?;
+                let r_err = v["error"]
+                    .as_f64()
+                    .context("error in the Radiance result")?;
+                let r_worst = v["worst_sensor_error"].as_f64().unwrap_or(f64::NAN);
+                let ours = total.as_secs_f64() + per_state.as_secs_f64() * scenarios.len() as f64;
+                println!(
+                    "\n| tool | settings | time for the {} x {} table (s) | error | worst sensor |",
+                    scenarios.len(),
+                    model.sensors()
+                );
+                println!("|---|---|---:|---:|---:|");
+                println!(
+                    "| luxnode | defaults | {ours:.3} | {:.2} % | {:.2} % |",
+                    100.0 * acc.error,
+                    100.0 * acc.worst_sensor
+                );
+                println!(
+                    "| Radiance | {} | {r_time:.1} | {:.2} % | {:.2} % |",
+                    v["settings"].as_str().unwrap_or(radiance_args.as_str()),
+                    100.0 * r_err,
+                    100.0 * r_worst
+                );
+                println!(
+                    "\nluxnode is {:.0} x faster; error ratio (Radiance / luxnode) {:.2}",
+                    r_time / ours,
+                    r_err / acc.error
+                );
+            }
+        }
+        BenchCommand::Tradeoffs {
+            scene,
+            rays,
+            patch_sizes,
+            plot,
+        } => {
+            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
+            println!(
+                "# rays per patch x patch size on {} ({} threads)",
+                sc.name,
+                rayon::current_num_threads()
+            );
+            println!(
+                "| patch size (m) | rays | patches | form factors | commissioning (s) | error | worst sensor |"
+            );
+            println!("|---:|---:|---:|---:|---:|---:|---:|");
+            let points =
+                bench::tradeoff_sweep(&sc, &scenarios, &truth, &rays, &patch_sizes, &mut |p| {
+                    println!(
+                        "| {} | {} | {} | {} | {:.3} | {:.2} % | {:.2} % |",
+                        p.patch_size_m,
+                        p.rays,
+                        p.patches,
+                        p.nnz,
+                        p.time.as_secs_f64(),
+                        100.0 * p.accuracy.error,
+                        100.0 * p.accuracy.worst_sensor
+                    );
+                })?;
+            if let Some(path) = plot {
+                let series = patch_sizes
+                    .iter()
+                    .map(|size| luxnode::render::plot::Series {
+                        name: format!("PATCH {size} M"),
+                        points: points
+                            .iter()
+                            .filter(|p| p.patch_size_m == *size)
+                            .map(|p| (p.time.as_secs_f64(), 100.0 * p.accuracy.error))
+                            .collect(),
+                    })
+                    .collect();
+                let p = luxnode::render::plot::Plot {
+                    title: format!("{}: COMMISSIONING TIME VS ERROR (RAYS 100..10000)", sc.name),
+                    x_label: "COMMISSIONING TIME (S, LOG)".into(),
+                    y_label: "ERROR VS RADIANCE (%)".into(),
+                    log_x: true,
+                    log_y: false,
+                    series,
+                };
+                p.draw(900, 560)
+                    .save_png(&path)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                println!("\nplot: {}", path.display());
+            }
+        }
+        BenchCommand::Ablation { scene } => {
+            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
+            println!(
+                "# ablation on {} (31 scenarios x 8 sensors against the Radiance truth)",
+                sc.name
+            );
+            println!("| direct light | LDC | LSC | mean abs error (lx) | error | worst sensor |");
+            println!("|---|---|---|---:|---:|---:|");
+            for r in bench::ablation(&sc, &scenarios, &truth)? {
+                println!(
+                    "| {} | {} | {} | {:.1} | {:.2} % | {:.2} % |",
+                    match r.direct {
+                        DirectModel::Paper => "paper (emitting patches, w = I)",
+                        DirectModel::Exact => "exact (photometry, shadow rays)",
+                    },
+                    if r.ldc { "yes" } else { "no" },
+                    if r.lsc { "yes" } else { "no" },
+                    r.accuracy.mean_abs_lx,
+                    100.0 * r.accuracy.error,
+                    100.0 * r.accuracy.worst_sensor
+                );
             }
         }
     }

@@ -30,6 +30,8 @@ RUNGS = [
     ("superpose", "-ab 8 -ad 512 -lw 1e-4"),
     ("superpose", "-ab 8 -ad 1024 -lw 1e-4"),
     ("superpose", "-ab 8 -ad 2048 -lw 1e-4"),
+    ("superpose", "-ab 8 -ad 512 -lw 1e-4 -ds 0.02"),
+    ("superpose", "-ab 8 -ad 1024 -lw 1e-4 -ds 0.02"),
     ("superpose", "-ab 8 -ad 2048 -lw 1e-4 -ds 0.02"),
     ("superpose", "-ab 8 -ad 1024 -lw 1e-4 --seeds 2"),
     ("superpose", "-ab 8 -ad 512 -lw 1e-4 --seeds 4"),
@@ -38,7 +40,7 @@ RUNGS = [
     ("superpose", "-ab 12 -ad 4096 -lw 5e-5"),
     ("superpose", "-ab 12 -ad 4096 -lw 5e-5 --seeds 2"),
     ("each", "-ab 8 -ad 1024 -lw 1e-4"),
-    ("each", "-ab 8 -ad 2048 -lw 1e-4"),
+    ("each", "-ab 8 -ad 1024 -lw 1e-4 -ds 0.02"),
 ]
 
 
@@ -76,7 +78,7 @@ def main() -> int:
             "loadavg_max": max(max(x["loadavg_before"][0], x["loadavg_after"][0]) for x in reps),
         })
 
-    lines = ["| # | mode | settings (besides -aa 0 -ds 0.05 -dj 1 -dt 0) | wall s | cpu s | error % (min-max) | worst sensor % | bias % |",
+    lines = ["| # | mode | settings (others: -aa 0 -as 0 -ds 0.05 -dj 1 -dt 0 -dc 1 -lr -10) | wall s | cpu s | error % (min-max) | worst sensor % | bias % |",
              "|---|---|---|---|---|---|---|---|"]
     for x in rows:
         lines.append(

@@ -731,6 +731,27 @@ impl Model {
         finite(lux)
     }
 
+    /// [`Model::sensor_lux`] into a caller's buffer, without allocating (the run-time path).
+    pub fn sensor_lux_into(&self, levels: &[f64], out: &mut [f64]) -> Result<(), EngineError> {
+        self.check_levels(levels)?;
+        if out.len() != self.sensors() {
+            return Err(EngineError::State("output buffer length".into()));
+        }
+        for (o, row) in out.iter_mut().zip(&self.response_lx) {
+            let mut acc = 0.0;
+            for (r, x) in row.iter().zip(levels) {
+                acc += r * x;
+            }
+            if !acc.is_finite() {
+                return Err(EngineError::State(
+                    "a computed illuminance is not finite".into(),
+                ));
+            }
+            *o = acc;
+        }
+        Ok(())
+    }
+
     /// The same readings from a full re-solve of the radiosity system for the state.
     pub fn solve_state(&self, levels: &[f64]) -> Result<(Vec<f64>, SolveReport), EngineError> {
         self.check_levels(levels)?;

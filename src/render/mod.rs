@@ -4,6 +4,7 @@
 
 mod font;
 pub mod map;
+pub mod plot;
 
 use std::path::Path;
 

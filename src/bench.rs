@@ -1,0 +1,201 @@
+//! Benchmarks that print tables (and draw plots): commissioning time, per-state time, accuracy
+//! against a truth table, the speed/accuracy trade of the engine's knobs, and the paper's
+//! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
+
+use std::time::{Duration, Instant};
+
+use crate::engine::{self, DirectModel, EngineError, Model, PatchSettings, Settings};
+use crate::evaluate::{Accuracy, Computed, compare};
+use crate::scene::{Scenario, Scene, TruthRow};
+
+/// Computes every scenario's sensor readings by superposition.
+pub fn scenario_readings(
+    model: &Model,
+    scenarios: &[Scenario],
+) -> Result<Vec<Computed>, EngineError> {
+    let mut out = Vec::with_capacity(scenarios.len() * model.sensors());
+    for s in scenarios {
+        let levels: Vec<f64> = model
+            .luminaire_ids
+            .iter()
+            .map(|id| if s.on.contains(id) { 1.0 } else { 0.0 })
+            .collect();
+        for (sensor, lux) in model.sensor_ids.iter().zip(model.sensor_lux(&levels)?) {
+            out.push(Computed {
+                scenario: s.id.clone(),
+                sensor: *sensor,
+                lux,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Accuracy of a model over scenarios against a truth table.
+pub fn accuracy(
+    model: &Model,
+    scenarios: &[Scenario],
+    truth: &[TruthRow],
+) -> Result<Option<Accuracy>, EngineError> {
+    Ok(compare(&scenario_readings(model, scenarios)?, truth))
+}
+
+/// The median of some durations.
+pub fn median(mut d: Vec<Duration>) -> Duration {
+    d.sort();
+    d.get(d.len() / 2).copied().unwrap_or_default()
+}
+
+/// Commissioning timed `runs` times: median total and per-stage medians, and the last model.
+pub fn time_commissioning(
+    scene: &Scene,
+    settings: &Settings,
+    runs: usize,
+) -> Result<(Duration, Vec<(&'static str, Duration)>, Model), EngineError> {
+    let mut totals = Vec::new();
+    let mut stages: Vec<(&'static str, Vec<Duration>)> = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let t0 = Instant::now();
+        let m = engine::commission(scene, settings)?;
+        totals.push(t0.elapsed());
+        for (name, d) in &m.stats.timings {
+            match stages.iter_mut().find(|(n, _)| n == name) {
+                Some((_, v)) => v.push(*d),
+                None => stages.push((name, vec![*d])),
+            }
+        }
+        last = Some(m);
+    }
+    let stages = stages.into_iter().map(|(n, v)| (n, median(v))).collect();
+    match last {
+        Some(m) => Ok((median(totals), stages, m)),
+        None => Err(EngineError::Empty("no run".into())),
+    }
+}
+
+/// Time of one dimming-state evaluation (all sensors, by superposition), averaged over
+/// `iterations` states with varying levels.
+pub fn time_state(model: &Model, iterations: usize) -> Result<Duration, EngineError> {
+    let n = model.luminaires();
+    let mut out = vec![0.0; model.sensors()];
+    let states: Vec<Vec<f64>> = (0..64)
+        .map(|k| {
+            (0..n)
+                .map(|l| ((k * 7 + l * 3) % 11) as f64 / 10.0)
+                .collect()
+        })
+        .collect();
+    let mut sink = 0.0;
+    let t0 = Instant::now();
+    for i in 0..iterations {
+        model.sensor_lux_into(std::hint::black_box(&states[i % states.len()]), &mut out)?;
+        sink += out[0];
+    }
+    let dt = t0.elapsed();
+    std::hint::black_box(sink);
+    Ok(dt / iterations.max(1) as u32)
+}
+
+/// One point of the trade-off study.
+#[derive(Debug, Clone)]
+pub struct TradePoint {
+    /// Rays per patch asked for.
+    pub rays: usize,
+    /// Base patch size, m.
+    pub patch_size_m: f64,
+    /// Patches made.
+    pub patches: usize,
+    /// Non-zero form factors.
+    pub nnz: usize,
+    /// Commissioning wall time.
+    pub time: Duration,
+    /// Accuracy against the truth.
+    pub accuracy: Accuracy,
+}
+
+/// Commissions the scene for each (rays, patch size) and scores it.
+pub fn tradeoff_sweep(
+    scene: &Scene,
+    scenarios: &[Scenario],
+    truth: &[TruthRow],
+    rays: &[usize],
+    patch_sizes_m: &[f64],
+    progress: &mut dyn FnMut(&TradePoint),
+) -> Result<Vec<TradePoint>, EngineError> {
+    let mut out = Vec::new();
+    for &size in patch_sizes_m {
+        for &r in rays {
+            let settings = Settings {
+                rays: r,
+                patches: PatchSettings {
+                    patch_size_m: size,
+                    min_patch_m: (size / 16.0).min(0.0625),
+                    ..PatchSettings::default()
+                },
+                ..Settings::default()
+            };
+            let t0 = Instant::now();
+            let model = engine::commission(scene, &settings)?;
+            let time = t0.elapsed();
+            let Some(accuracy) = accuracy(&model, scenarios, truth)? else {
+                return Err(EngineError::Empty(
+                    "no truth values match the scenarios".into(),
+                ));
+            };
+            let p = TradePoint {
+                rays: model.stats.rays_per_patch,
+                patch_size_m: size,
+                patches: model.stats.patches,
+                nnz: model.stats.nnz,
+                time,
+                accuracy,
+            };
+            progress(&p);
+            out.push(p);
+        }
+    }
+    Ok(out)
+}
+
+/// One row of the ablation.
+#[derive(Debug, Clone)]
+pub struct AblationRow {
+    /// Direct light formulation.
+    pub direct: DirectModel,
+    /// LDC modelled.
+    pub ldc: bool,
+    /// LSC modelled.
+    pub lsc: bool,
+    /// Accuracy against the truth.
+    pub accuracy: Accuracy,
+}
+
+/// The paper's ablation: {paper, exact} × LDC {off, on} × LSC {off, on}.
+pub fn ablation(
+    scene: &Scene,
+    scenarios: &[Scenario],
+    truth: &[TruthRow],
+) -> Result<Vec<AblationRow>, EngineError> {
+    let mut rows = Vec::new();
+    for direct in [DirectModel::Paper, DirectModel::Exact] {
+        for (ldc, lsc) in [(false, false), (true, false), (false, true), (true, true)] {
+            let settings = Settings {
+                direct,
+                ldc,
+                lsc,
+                ..Settings::default()
+            };
+            let model = engine::commission(scene, &settings)?;
+            if let Some(accuracy) = accuracy(&model, scenarios, truth)? {
+                rows.push(AblationRow {
+                    direct,
+                    ldc,
+                    lsc,
+                    accuracy,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
