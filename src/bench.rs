@@ -46,12 +46,15 @@ pub fn median(mut d: Vec<Duration>) -> Duration {
     d.get(d.len() / 2).copied().unwrap_or_default()
 }
 
+/// Commissioning timings: median total and per-stage medians.
+pub type CommissionTimes = (Duration, Vec<(&'static str, Duration)>);
+
 /// Commissioning timed `runs` times: median total and per-stage medians, and the last model.
 pub fn time_commissioning(
     scene: &Scene,
     settings: &Settings,
     runs: usize,
-) -> Result<(Duration, Vec<(&'static str, Duration)>, Model), EngineError> {
+) -> Result<(CommissionTimes, Model), EngineError> {
     let mut totals = Vec::new();
     let mut stages: Vec<(&'static str, Vec<Duration>)> = Vec::new();
     let mut last = None;
@@ -69,7 +72,7 @@ pub fn time_commissioning(
     }
     let stages = stages.into_iter().map(|(n, v)| (n, median(v))).collect();
     match last {
-        Some(m) => Ok((median(totals), stages, m)),
+        Some(m) => Ok(((median(totals), stages), m)),
         None => Err(EngineError::Empty("no run".into())),
     }
 }

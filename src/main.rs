@@ -737,7 +737,7 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
                 "# luxnode engine benchmark: {} ({threads} threads)",
                 sc.name
             );
-            let (total, stages, model) = bench::time_commissioning(&sc, &settings, runs)?;
+            let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
             println!();
             println!(
                 "commissioning at default settings, median of {runs} runs: {:.3} s",
