@@ -606,11 +606,16 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
         )),
         st.iterations
     );
-    for (id, f2) in model.sensor_ids.iter().zip(&model.sensor_f2) {
-        if *f2 > 0.0 {
-            eprintln!("sensor {id}: cosine error f2 = {:.1} %", 100.0 * f2);
-        }
-    }
+    eprintln!(
+        "sensor cosine error f2: {}",
+        model
+            .sensor_ids
+            .iter()
+            .zip(&model.sensor_f2)
+            .map(|(id, f2)| format!("{id}: {:.1} %", 100.0 * f2))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     let mut computed = Vec::new();
     for sc in &scenarios {
         let levels: Vec<f64> = model
@@ -639,6 +644,9 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
                 "scene": scene.name,
                 "patches": st.patches,
                 "rays_per_patch": st.rays_per_patch,
+                "sensor_f2": model.sensor_ids.iter().zip(&model.sensor_f2)
+                    .map(|(id, f2)| serde_json::json!({"sensor_id": id, "f2": f2}))
+                    .collect::<Vec<_>>(),
                 "scenarios": scenarios.iter().map(|sc| serde_json::json!({
                     "scenario_id": sc.id,
                     "luminaires_on": sc.on,
