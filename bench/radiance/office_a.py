@@ -150,7 +150,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     g = ap.add_argument_group("Radiance settings (rtrace options)")
     g.add_argument("-ab", type=int, default=8, help="ambient bounces (default %(default)s; truth 12)")
     g.add_argument("-ad", type=int, default=1024, help="ambient divisions (default %(default)s; truth 4096)")
-    g.add_argument("-as", dest="as_", type=int, default=0, help="ambient super-samples (default %(default)s)")
+    g.add_argument("-as", dest="as_", metavar="AS", type=int, default=0, help="ambient super-samples (default %(default)s)")
     g.add_argument("-aa", type=float, default=0.0, help="ambient accuracy, 0 = no irradiance cache (default %(default)s, as truth)")
     g.add_argument("-lw", type=float, default=1e-4, help="limit weight (default %(default)s; truth 5e-5)")
     g.add_argument("-lr", type=int, default=-10, help="limit reflection (default %(default)s, Radiance's default)")
@@ -197,7 +197,7 @@ def main(argv=None) -> int:
     jobs.sort(key=lambda j: -j[2])
 
     work_ctx = tempfile.TemporaryDirectory(prefix="radbench_") if a.keep is None else None
-    work = Path(work_ctx.name) if work_ctx else a.keep
+    work = Path(work_ctx.name) if work_ctx else a.keep.resolve()
     work.mkdir(parents=True, exist_ok=True)
 
     version = subprocess.run([RTRACE, "-version"], capture_output=True, text=True).stdout.strip()
