@@ -106,6 +106,9 @@ struct EngineArgs {
     /// Rays per sensor.
     #[arg(long, default_value_t = Settings::default().sensor_rays)]
     sensor_rays: usize,
+    /// Final-gather rays per sensor (exact first bounce; 0: off).
+    #[arg(long, default_value_t = Settings::default().final_gather_rays)]
+    final_gather_rays: usize,
     /// Largest patch edge, m.
     #[arg(long, default_value_t = Settings::default().patches.patch_size_m)]
     patch_size: f64,
@@ -194,6 +197,7 @@ impl EngineArgs {
             },
             rays: self.rays,
             sensor_rays: self.sensor_rays,
+            final_gather_rays: self.final_gather_rays,
             ray_set: match self.ray_set {
                 RaySetArg::Isocell => RaySetKind::Isocell,
                 RaySetArg::Mc => RaySetKind::MonteCarlo { seed: self.seed },

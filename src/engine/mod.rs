@@ -62,6 +62,9 @@ pub struct Settings {
     pub rays: usize,
     /// Rays per sensor.
     pub sensor_rays: usize,
+    /// Final gather from each sensor: rays whose hit points get exact direct light, so the first
+    /// bounce seen by a sensor does not depend on the patch size (0 turns it off).
+    pub final_gather_rays: usize,
     /// Isocell or Monte Carlo.
     pub ray_set: RaySetKind,
     /// Points over each luminaire's opening for direct light on patches; sensors use 16 times
@@ -91,6 +94,7 @@ impl Default for Settings {
             patches: PatchSettings::default(),
             rays: 1000,
             sensor_rays: 10_000,
+            final_gather_rays: 1000,
             ray_set: RaySetKind::Isocell,
             opening_samples: 16,
             patch_direct_points: 8,
@@ -176,6 +180,12 @@ pub struct Model {
     pub direct_patch_lx: Vec<Vec<f64>>,
     /// Direct reading per luminaire at 100 % at each sensor, lx: `[sensor][luminaire]`.
     pub direct_sensor_lx: Vec<Vec<f64>>,
+    /// First bounce per luminaire at 100 % seen by each sensor, from the final gather, lx:
+    /// `[sensor][luminaire]` (zeros without final gather).
+    pub first_bounce_sensor_lx: Vec<Vec<f64>>,
+    /// True when the gather rows apply to the exitance *beyond* the first bounce
+    /// (`B − ρ E^dir`), the first bounce coming from [`Model::first_bounce_sensor_lx`].
+    pub final_gather: bool,
     /// Sensor gather rows over patches (weights `s/cos / N`).
     pub gather: Csr,
     /// Exitance per luminaire at 100 %, lm/m²: `[luminaire][patch]`.
@@ -225,6 +235,9 @@ fn check_settings(s: &Settings) -> Result<(), EngineError> {
     }
     if s.sensor_rays == 0 || s.sensor_rays > 10_000_000 {
         return bad("rays per sensor must be 1..=10000000");
+    }
+    if s.final_gather_rays > 1_000_000 {
+        return bad("final gather rays must be 0..=1000000");
     }
     if s.opening_samples == 0 || s.opening_samples > 4096 {
         return bad("opening samples must be 1..=4096");
@@ -435,10 +448,64 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
         stats.iterations.push(report.iterations);
         basis_b.push(b);
     }
+    let final_gather = settings.final_gather_rays > 0 && settings.direct == DirectModel::Exact;
+    let first_bounce_sensor_lx: Vec<Vec<f64>> = if final_gather {
+        timed(&mut stats, "final gather", || {
+            let set = RaySet::new(settings.ray_set, settings.final_gather_rays);
+            let near: Vec<Vec<DVec3>> = luminaires
+                .iter()
+                .map(|l| opening_points_for(l, k))
+                .collect();
+            let far: Vec<Vec<DVec3>> = luminaires
+                .iter()
+                .map(|l| opening_points_for(l, 4))
+                .collect();
+            scene
+                .sensors
+                .par_iter()
+                .zip(responses.par_iter())
+                .map(|(s, resp)| {
+                    first_bounce(
+                        s.position_m,
+                        s.normal,
+                        resp,
+                        &caster,
+                        &set,
+                        &patches,
+                        &luminaires,
+                        &near,
+                        &far,
+                    )
+                })
+                .collect()
+        })
+    } else {
+        vec![vec![0.0; luminaires.len()]; scene.sensors.len()]
+    };
+    // Exitance a sensor gathers from the patches: all of it, or beyond the first bounce.
+    let beyond_first: Vec<Vec<f64>> = basis_b
+        .iter()
+        .zip(&direct_patch_lx)
+        .map(|(b, e)| {
+            if final_gather {
+                b.iter()
+                    .zip(e)
+                    .zip(&patches.rho)
+                    .map(|((b, e), r)| b - r * e)
+                    .collect()
+            } else {
+                b.clone()
+            }
+        })
+        .collect();
     let response_lx: Vec<Vec<f64>> = (0..scene.sensors.len())
         .map(|s| {
             (0..luminaires.len())
-                .map(|l| direct_sensor_lx[s][l] + gather_dot(&gather, s, &basis_b[l]))
+                .map(|l| {
+                    direct_sensor_lx[s][l]
+                        + first_bounce_sensor_lx[s][l]
+                        + gather_dot(&gather, s, &beyond_first[l])
+                })
                 .collect()
         })
         .collect();
@@ -459,6 +526,8 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
         sensor_ids: scene.sensors.iter().map(|s| s.id).collect(),
         direct_patch_lx,
         direct_sensor_lx,
+        first_bounce_sensor_lx,
+        final_gather,
         gather,
         basis_b,
         response_lx,
@@ -640,6 +709,57 @@ fn paper_direct_on_patches(
 /// A sensor's gather row and its direct reading per luminaire.
 type SensorRows = (Vec<(u32, f64)>, Vec<f64>);
 
+/// The first bounce a sensor sees, per luminaire at 100 %: a gather whose every hit point gets
+/// exact direct light (`Σ_k w_k ρ(y_k) E^dir_l(y_k)`, `w_k = s/cos / N`). Hit points near a
+/// luminaire use its `near` opening points, others the `far` ones.
+#[allow(clippy::too_many_arguments)]
+fn first_bounce(
+    position: DVec3,
+    normal: DVec3,
+    response: &AngularResponse,
+    caster: &RayCaster,
+    rays: &RaySet,
+    patches: &Patches,
+    luminaires: &[Luminaire],
+    near: &[Vec<DVec3>],
+    far: &[Vec<DVec3>],
+) -> Vec<f64> {
+    let origin = caster.offset(position, normal);
+    // a different azimuth from the gather set's, so the two estimates do not share a pattern
+    let fr = frame(normal, 1.0);
+    let n = rays.len() as f64;
+    let mut out = vec![0.0; luminaires.len()];
+    for d in &rays.dirs {
+        let cos = d.z.max(1e-12);
+        let w = response.response(cos.acos()) / cos / n;
+        if w <= 0.0 {
+            continue;
+        }
+        let dir = to_world(&fr, *d);
+        let Hit::Front { patch, t_m } = caster.closest(origin, dir) else {
+            continue;
+        };
+        let j = patch as usize;
+        let rho = patches.rho[j];
+        if rho <= 0.0 {
+            continue;
+        }
+        let y = origin + dir * t_m;
+        for (k, l) in luminaires.iter().enumerate() {
+            let size = l.opening_m[0].hypot(l.opening_m[1]);
+            let pts = if (l.position_m - y).length() < 4.0 * size {
+                &near[k]
+            } else {
+                &far[k]
+            };
+            out[k] += w
+                * rho
+                * direct::illuminance_lx(l, pts, y, patches.normal[j], Receiver::Surface, caster);
+        }
+    }
+    out
+}
+
 /// How a sensor weighs the rays it gathers with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GatherWeighting {
@@ -774,14 +894,20 @@ impl Model {
                     source,
                 }
             })?;
+        if self.final_gather {
+            for ((bi, ei), r) in b.iter_mut().zip(&e).zip(&self.patches.rho) {
+                *bi -= r * ei;
+            }
+        }
         let lux = (0..self.sensors())
             .map(|s| {
-                let direct: f64 = self.direct_sensor_lx[s]
+                let own: f64 = self.direct_sensor_lx[s]
                     .iter()
+                    .zip(&self.first_bounce_sensor_lx[s])
                     .zip(levels)
-                    .map(|(d, x)| d * x)
+                    .map(|((d, f), x)| (d + f) * x)
                     .sum();
-                direct + gather_dot(&self.gather, s, &b)
+                own + gather_dot(&self.gather, s, &b)
             })
             .collect();
         Ok((finite(lux)?, report))
