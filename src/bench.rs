@@ -174,7 +174,8 @@ pub struct AblationRow {
     pub accuracy: Accuracy,
 }
 
-/// The paper's ablation: {paper, exact} × LDC {off, on} × LSC {off, on}.
+/// The paper's ablation: {paper, exact} × LDC {off, on} × LSC {off, on}, every row with the
+/// paper's 1000 rays per patch.
 pub fn ablation(
     scene: &Scene,
     scenarios: &[Scenario],
@@ -187,6 +188,7 @@ pub fn ablation(
                 direct,
                 ldc,
                 lsc,
+                rays: 1000,
                 ..Settings::default()
             };
             let model = engine::commission(scene, &settings)?;

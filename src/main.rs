@@ -100,7 +100,7 @@ struct SimulateArgs {
 
 #[derive(clap::Args)]
 struct EngineArgs {
-    /// Rays per patch (Isocell: 1000 becomes 1083).
+    /// Rays per patch (Isocell rounds up: 1000 becomes 1083).
     #[arg(long, default_value_t = Settings::default().rays)]
     rays: usize,
     /// Rays per sensor.
@@ -252,6 +252,21 @@ enum BenchCommand {
         /// Write the plot (PNG).
         #[arg(long)]
         plot: Option<PathBuf>,
+    },
+    /// Draw the trade-off plot from a table printed by `bench tradeoffs`.
+    PlotTradeoffs {
+        /// The markdown table (the output of `bench tradeoffs`).
+        #[arg(long)]
+        table: PathBuf,
+        /// The PNG to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Plot title.
+        #[arg(
+            long,
+            default_value = "OFFICE_A: COMMISSIONING TIME VS ERROR (RAYS 100..10000)"
+        )]
+        title: String,
     },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
@@ -891,6 +906,30 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
                 println!("\nplot: {}", path.display());
             }
         }
+        BenchCommand::PlotTradeoffs { table, out, title } => {
+            let text = std::fs::read_to_string(&table)
+                .with_context(|| format!("reading {}", table.display()))?;
+            // rows: | patch size | rays | patches | form factors | seconds | error % | worst % |
+            let mut rows = Vec::new();
+            for line in text.lines().filter(|l| l.starts_with('|')) {
+                let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+                let num = |i: usize| {
+                    cells
+                        .get(i)
+                        .and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok())
+                };
+                if let (Some(size), Some(secs), Some(err)) = (num(0), num(4), num(5)) {
+                    rows.push((size, secs, err));
+                }
+            }
+            if rows.is_empty() {
+                bail!("{} has no table rows of `bench tradeoffs`", table.display());
+            }
+            tradeoff_plot(&rows, &title)
+                .save_png(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!("plot: {} ({} points)", out.display(), rows.len());
+        }
         BenchCommand::Ablation { scene } => {
             let (sc, scenarios, truth) = scene_with_truth(&scene)?;
             println!(
@@ -916,4 +955,34 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Error against commissioning time, one series per patch size: rows of (size, seconds, error %).
+fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::render::Canvas {
+    let mut sizes: Vec<f64> = Vec::new();
+    for r in rows {
+        if !sizes.contains(&r.0) {
+            sizes.push(r.0);
+        }
+    }
+    let series = sizes
+        .iter()
+        .map(|size| luxnode::render::plot::Series {
+            name: format!("PATCH {size} M"),
+            points: rows
+                .iter()
+                .filter(|r| r.0 == *size)
+                .map(|r| (r.1, r.2))
+                .collect(),
+        })
+        .collect();
+    luxnode::render::plot::Plot {
+        title: title.to_owned(),
+        x_label: "COMMISSIONING TIME (S, LOG)".into(),
+        y_label: "ERROR VS RADIANCE (%)".into(),
+        log_x: true,
+        log_y: false,
+        series,
+    }
+    .draw(900, 560)
 }

@@ -44,6 +44,9 @@ use direct::Receiver;
 use raycast::{Hit, RayCaster};
 use rayset::{frame, to_world};
 
+/// Fewest points over a luminaire's opening for a sensor's direct light.
+pub const SENSOR_OPENING_POINTS: usize = 256;
+
 /// How direct light reaches patches and sensors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectModel {
@@ -58,7 +61,9 @@ pub enum DirectModel {
 pub struct Settings {
     /// Patch subdivision.
     pub patches: PatchSettings,
-    /// Rays per patch (Isocell rounds up: 1000 → 1083).
+    /// Rays per patch (Isocell rounds up: 1000 → 1083). 300 by default: with the final gather
+    /// the patches carry only the second and later bounces, and office_a's error is flat from
+    /// 100 to 10 000 rays (docs/tradeoffs.md).
     pub rays: usize,
     /// Rays per sensor.
     pub sensor_rays: usize,
@@ -67,8 +72,10 @@ pub struct Settings {
     pub final_gather_rays: usize,
     /// Isocell or Monte Carlo.
     pub ray_set: RaySetKind,
-    /// Points over each luminaire's opening for direct light on patches; sensors use 16 times
-    /// as many (they are few, and a partial shadow right next to one decides its reading).
+    /// Points over each luminaire's opening for direct light on patches (and at final-gather hit
+    /// points near a luminaire). Sensors use 16 times as many, at least
+    /// [`SENSOR_OPENING_POINTS`]: they are few, and a partial shadow right next to one (a monitor
+    /// edge) decides its reading.
     pub opening_samples: usize,
     /// Points per patch at which direct light is averaged.
     pub patch_direct_points: usize,
@@ -92,12 +99,12 @@ impl Default for Settings {
     fn default() -> Self {
         Self {
             patches: PatchSettings::default(),
-            rays: 1000,
+            rays: 300,
             sensor_rays: 10_000,
             final_gather_rays: 1000,
             ray_set: RaySetKind::Isocell,
-            opening_samples: 16,
-            patch_direct_points: 8,
+            opening_samples: 8,
+            patch_direct_points: 4,
             direct: DirectModel::Exact,
             ldc: true,
             lsc: true,
@@ -391,7 +398,7 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
                         .map(|l| {
                             direct::illuminance_lx(
                                 l,
-                                &opening_points_for(l, 16 * k),
+                                &opening_points_for(l, (16 * k).max(SENSOR_OPENING_POINTS)),
                                 s.position_m,
                                 s.normal,
                                 Receiver::Sensor(resp),

@@ -91,7 +91,7 @@ impl Plot {
     /// Draws the plot on a `width × height` canvas.
     pub fn draw(&self, width: u32, height: u32) -> Canvas {
         let mut c = Canvas::new(width, height, WHITE);
-        let (left, right, top, bottom) = (70i64, 190i64, 40i64, 50i64);
+        let (left, right, top, bottom) = (70i64, 190i64, 60i64, 50i64);
         let pw = i64::from(width) - left - right;
         let ph = i64::from(height) - top - bottom;
         let pts: Vec<(f64, f64)> = self
@@ -180,7 +180,7 @@ impl Plot {
             1,
             BLACK,
         );
-        c.text(&self.y_label, 8, top - 14, 1, BLACK);
+        c.text(&self.y_label, 8, top - 16, 1, BLACK);
         for (k, s) in self.series.iter().enumerate() {
             let col = PALETTE[k % PALETTE.len()];
             let visible: Vec<(i64, i64)> = s
