@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs every test of luxnode. Installs what the tests need when it is missing, so it works on a
-# fresh machine with only the Rust toolchain. This is the README's test command; .ci/run calls it.
+# Runs every test of luxnode. Installs what the tests need when it is missing (rustup targets,
+# QEMU, the aarch64 cross compiler), so it works on a fresh machine with only the Rust toolchain.
+# This is the README's test command; .ci/run calls it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -8,6 +9,12 @@ if ! cargo nextest --version >/dev/null 2>&1; then
   echo "== cargo-nextest missing: installing it"
   cargo install cargo-nextest --locked
 fi
+
+echo "== Cortex-M4 firmware under QEMU (mps2-an386): run-time core equals the host's"
+scripts/firmware-check.sh
+
+echo "== aarch64 cross build, tests under qemu-aarch64"
+scripts/cross-aarch64.sh
 
 echo "== tests (release build: the physics tests cast millions of rays)"
 cargo nextest run --release --no-fail-fast "$@"

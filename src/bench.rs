@@ -204,3 +204,41 @@ pub fn ablation(
     }
     Ok(rows)
 }
+
+/// Run-time core timings over an image: one dimming state by superposition (averaged over
+/// `iterations`), and full re-solves (median of `resolves`), with the sweeps of the last.
+pub fn time_runtime(
+    image: &crate::store::Image<'_>,
+    iterations: usize,
+    resolves: usize,
+) -> Result<(Duration, Duration, u32), crate::runtime::RuntimeError> {
+    let rt = crate::runtime::Runtime::new(image);
+    let l = image.luminaires();
+    let mut out = vec![0.0; image.sensors()];
+    let states: Vec<Vec<f64>> = (0..64)
+        .map(|k| {
+            (0..l)
+                .map(|j| ((k * 7 + j * 3) % 11) as f64 / 10.0)
+                .collect()
+        })
+        .collect();
+    let mut sink = 0.0;
+    let t0 = Instant::now();
+    for i in 0..iterations {
+        rt.sensor_lux(std::hint::black_box(&states[i % states.len()]), &mut out)?;
+        sink += out.first().copied().unwrap_or(0.0);
+    }
+    let per_state = t0.elapsed() / iterations.max(1) as u32;
+    std::hint::black_box(sink);
+    let n = image.patches();
+    let (mut e, mut b) = (vec![0.0; n], vec![0.0; n]);
+    let mut times = Vec::new();
+    let mut sweeps = 0;
+    for k in 0..resolves.max(1) {
+        let t = Instant::now();
+        let r = rt.resolve(&states[k % states.len()], &mut e, &mut b, &mut out)?;
+        times.push(t.elapsed());
+        sweeps = r.iterations;
+    }
+    Ok((per_state, median(times), sweeps))
+}

@@ -16,6 +16,8 @@
 //! | [`units`] | no_std | physical quantities with their unit in the name |
 //! | [`layout`] | no_std | the `memory.x` regions (the `FORMFACTORS` flash region's size) |
 //! | [`dali`] | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear) |
+//! | [`store`] | no_std | the flash image (header + postcard payload), A/B slots on a flash device |
+//! | [`runtime`] | no_std | desk lux for any dimming state from an image borrowed in place |
 //! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
 //! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
 //! | `render` | std | pictures: the top-view illuminance map |
@@ -58,7 +60,9 @@ pub mod layout {
 }
 
 pub mod dali;
+pub mod runtime;
 pub mod solver;
+pub mod store;
 
 #[cfg(feature = "std")]
 pub mod engine;

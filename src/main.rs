@@ -12,6 +12,7 @@ use luxnode::engine::{DirectModel, PatchSettings, RaySetKind, Settings};
 use luxnode::evaluate::{Computed, compare};
 use luxnode::photometry::IntensityDistribution;
 use luxnode::scene::{LoadOptions, Scenario, Scene, read_states, read_truth};
+use luxnode::store::{Image, Precision};
 
 #[derive(Parser)]
 #[command(
@@ -50,6 +51,11 @@ enum Command {
     },
     /// Compute desk illuminance for lighting scenarios.
     Simulate(Box<SimulateArgs>),
+    /// The flash image: build one from a scene, inspect one.
+    Image {
+        #[command(subcommand)]
+        command: ImageCommand,
+    },
     /// Benchmarks that print tables (and plots) for docs/.
     Bench {
         #[command(subcommand)]
@@ -66,8 +72,11 @@ enum Command {
 #[derive(clap::Args)]
 struct SimulateArgs {
     /// The scene directory (CAD input).
+    #[arg(long, required_unless_present = "image", conflicts_with = "image")]
+    scene: Option<PathBuf>,
+    /// Answer from a flash image alone (no scene needed).
     #[arg(long)]
-    scene: PathBuf,
+    image: Option<PathBuf>,
     #[command(flatten)]
     load: SceneArgs,
     /// All luminaires on (the default when no state is given).
@@ -222,6 +231,79 @@ impl EngineArgs {
 }
 
 #[derive(Subcommand)]
+enum ImageCommand {
+    /// Commission a scene (CAD input) and write its flash image.
+    Build {
+        /// The scene directory; `demo-office` for the built-in demo office.
+        #[arg(long)]
+        scene: PathBuf,
+        #[command(flatten)]
+        load: SceneArgs,
+        /// The image file to write.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        engine: EngineArgs,
+        #[command(flatten)]
+        store: StoreArgs,
+    },
+    /// Print an image's header, sections and FORMFACTORS usage; verify its checksums.
+    Info {
+        /// The image file.
+        file: PathBuf,
+    },
+    /// Evaluate DALI states with the run-time core (what the firmware prints):
+    /// `state,sensor_id,lux_superposition,lux_resolve`.
+    Eval {
+        /// The image file.
+        file: PathBuf,
+        /// A state: one DALI arc level per luminaire (0 off, 1..254, 255 no change), comma
+        /// separated; repeat for several states (MASK keeps the previous state's level).
+        #[arg(long = "arc", value_delimiter = ',', num_args = 1.., action = clap::ArgAction::Append, required_unless_present = "demo_states")]
+        arc: Vec<String>,
+        /// The firmware's demo states instead.
+        #[arg(long, conflicts_with = "arc")]
+        demo_states: bool,
+    },
+}
+
+#[derive(clap::Args)]
+struct StoreArgs {
+    /// Storage precision of the form factors and direct terms.
+    #[arg(long, value_enum, default_value_t = PrecisionArg::U16)]
+    precision: PrecisionArg,
+    /// Drop form factors below this (each row keeps its sum); 0 keeps all.
+    #[arg(long, default_value_t = 0.0)]
+    prune: f64,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum PrecisionArg {
+    /// 8-byte floats.
+    F64,
+    /// 4-byte floats.
+    F32,
+    /// 2-byte floats.
+    F16,
+    /// 16-bit fractions of a per-row scale.
+    U16,
+    /// 8-bit fractions of a per-row scale.
+    U8,
+}
+
+impl PrecisionArg {
+    fn precision(self) -> Precision {
+        match self {
+            PrecisionArg::F64 => Precision::F64,
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F16 => Precision::F16,
+            PrecisionArg::U16 => Precision::U16,
+            PrecisionArg::U8 => Precision::U8,
+        }
+    }
+}
+
+#[derive(Subcommand)]
 enum BenchCommand {
     /// Commissioning time per stage, per-state time, accuracy against the scene's truth.
     Engine {
@@ -252,6 +334,12 @@ enum BenchCommand {
         /// Write the plot (PNG).
         #[arg(long)]
         plot: Option<PathBuf>,
+    },
+    /// The run-time core over an image: one dimming state, and a full re-solve.
+    Runtime {
+        /// The image file.
+        #[arg(long)]
+        image: PathBuf,
     },
     /// Draw the trade-off plot from a table printed by `bench tradeoffs`.
     PlotTradeoffs {
@@ -353,6 +441,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => scene_check(&dir, &load.options()),
         Command::Simulate(args) => simulate(&args),
         Command::Bench { command } => bench(command),
+        Command::Image { command } => image(command),
         Command::Run { board } => run_board(&board),
     }
 }
@@ -572,33 +661,18 @@ fn load_scene(dir: &Path, options: &LoadOptions) -> Result<Scene> {
 }
 
 fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
-    let scene = load_scene(&args.scene, &args.load.options())?;
+    if let Some(path) = &args.image {
+        return simulate_image(args, path);
+    }
+    let Some(scene_dir) = &args.scene else {
+        bail!("give --scene DIR or --image FILE");
+    };
+    let scene = load_scene(scene_dir, &args.load.options())?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    let scenarios: Vec<Scenario> = if let Some(path) = &args.states {
-        read_states(path)?
-    } else if let Some(on) = &args.on {
-        vec![Scenario {
-            id: format!(
-                "on:{}",
-                on.iter().map(u32::to_string).collect::<Vec<_>>().join(";")
-            ),
-            on: on.clone(),
-        }]
-    } else {
-        vec![Scenario {
-            id: "all_on".into(),
-            on: scene.luminaires.iter().map(|l| l.id).collect(),
-        }]
-    };
-    for s in &scenarios {
-        for id in &s.on {
-            if scene.luminaire(*id).is_none() {
-                bail!("scenario {}: luminaire {id} is not in the scene", s.id);
-            }
-        }
-    }
+    let ids: Vec<u32> = scene.luminaires.iter().map(|l| l.id).collect();
+    let scenarios = scenarios_from(args, &ids)?;
     let settings = args.engine.settings();
     let model = luxnode::engine::commission(&scene, &settings)?;
     let st = &model.stats;
@@ -651,32 +725,14 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
             });
         }
     }
-    match args.format {
-        OutputFormat::Csv => {
-            println!("scenario_id,sensor_id,lux");
-            for c in &computed {
-                println!("{},{},{:.3}", c.scenario, c.sensor, c.lux);
-            }
-        }
-        OutputFormat::Json => {
-            let v = serde_json::json!({
-                "scene": scene.name,
-                "patches": st.patches,
-                "rays_per_patch": st.rays_per_patch,
-                "sensor_f2": model.sensor_ids.iter().zip(&model.sensor_f2)
-                    .map(|(id, f2)| serde_json::json!({"sensor_id": id, "f2": f2}))
-                    .collect::<Vec<_>>(),
-                "scenarios": scenarios.iter().map(|sc| serde_json::json!({
-                    "scenario_id": sc.id,
-                    "luminaires_on": sc.on,
-                    "sensors": computed.iter().filter(|c| c.scenario == sc.id)
-                        .map(|c| serde_json::json!({"sensor_id": c.sensor, "lux": c.lux}))
-                        .collect::<Vec<_>>(),
-                })).collect::<Vec<_>>(),
-            });
-            println!("{}", serde_json::to_string_pretty(&v)?);
-        }
-    }
+    let extra = serde_json::json!({
+        "patches": st.patches,
+        "rays_per_patch": st.rays_per_patch,
+        "sensor_f2": model.sensor_ids.iter().zip(&model.sensor_f2)
+            .map(|(id, f2)| serde_json::json!({"sensor_id": id, "f2": f2}))
+            .collect::<Vec<_>>(),
+    });
+    print_computed(args.format, &scene.name, &scenarios, &computed, extra)?;
     if let Some(path) = &args.map {
         let sc = match &args.map_scenario {
             Some(id) => scenarios
@@ -716,13 +772,20 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
             eprintln!("  desk {id}: mean {lux:.0} lx");
         }
     }
-    let truth_path = args
-        .truth
-        .clone()
-        .or_else(|| Some(args.scene.join("truth.csv")).filter(|p| p.exists()));
+    report_truth(
+        args.truth
+            .clone()
+            .or_else(|| Some(scene_dir.join("truth.csv")).filter(|p| p.exists())),
+        &computed,
+    )?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Prints the error against a truth file to stderr.
+fn report_truth(truth_path: Option<PathBuf>, computed: &[Computed]) -> Result<()> {
     if let Some(path) = truth_path {
         let truth = read_truth(&path)?;
-        if let Some(a) = compare(&computed, &truth) {
+        if let Some(a) = compare(computed, &truth) {
             eprintln!(
                 "against {}: error {:.2} % (mean |error| {:.1} lx over {} values, bias {:+.2} %), worst sensor {:.2} %",
                 path.display(),
@@ -734,6 +797,263 @@ fn simulate(args: &SimulateArgs) -> Result<ExitCode> {
             );
             for (s, e) in &a.per_sensor {
                 eprintln!("  sensor {s}: {:.2} %", 100.0 * e);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Scenarios from the arguments, for luminaire ids `ids`.
+fn scenarios_from(args: &SimulateArgs, ids: &[u32]) -> Result<Vec<Scenario>> {
+    let scenarios = if let Some(path) = &args.states {
+        read_states(path)?
+    } else if let Some(on) = &args.on {
+        vec![Scenario {
+            id: format!(
+                "on:{}",
+                on.iter().map(u32::to_string).collect::<Vec<_>>().join(";")
+            ),
+            on: on.clone(),
+        }]
+    } else {
+        vec![Scenario {
+            id: "all_on".into(),
+            on: ids.to_vec(),
+        }]
+    };
+    for s in &scenarios {
+        for id in &s.on {
+            if !ids.contains(id) {
+                bail!("scenario {}: luminaire {id} is not in the scene", s.id);
+            }
+        }
+    }
+    Ok(scenarios)
+}
+
+fn print_computed(
+    format: OutputFormat,
+    name: &str,
+    scenarios: &[Scenario],
+    computed: &[Computed],
+    extra: serde_json::Value,
+) -> Result<()> {
+    match format {
+        OutputFormat::Csv => {
+            println!("scenario_id,sensor_id,lux");
+            for c in computed {
+                println!("{},{},{:.3}", c.scenario, c.sensor, c.lux);
+            }
+        }
+        OutputFormat::Json => {
+            let mut v = serde_json::json!({
+                "scene": name,
+                "scenarios": scenarios.iter().map(|sc| serde_json::json!({
+                    "scenario_id": sc.id,
+                    "luminaires_on": sc.on,
+                    "sensors": computed.iter().filter(|c| c.scenario == sc.id)
+                        .map(|c| serde_json::json!({"sensor_id": c.sensor, "lux": c.lux}))
+                        .collect::<Vec<_>>(),
+                })).collect::<Vec<_>>(),
+            });
+            if let (Some(v), serde_json::Value::Object(extra)) = (v.as_object_mut(), extra) {
+                v.extend(extra);
+            }
+            println!("{}", serde_json::to_string_pretty(&v)?);
+        }
+    }
+    Ok(())
+}
+
+fn read_image_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("reading {}", path.display()))
+}
+
+fn simulate_image(args: &SimulateArgs, path: &Path) -> Result<ExitCode> {
+    if args.map.is_some() {
+        bail!("--map needs the scene's geometry: use --scene");
+    }
+    let bytes = read_image_file(path)?;
+    let image = Image::parse(&bytes).with_context(|| format!("image {}", path.display()))?;
+    let runtime = luxnode::runtime::Runtime::new(&image);
+    let ids: Vec<u32> = (0..image.luminaires())
+        .map(|j| image.luminaire_id(j))
+        .collect();
+    let scenarios = scenarios_from(args, &ids)?;
+    let mut computed = Vec::new();
+    let mut out = vec![0.0; image.sensors()];
+    for sc in &scenarios {
+        let levels: Vec<f64> = ids
+            .iter()
+            .map(|id| if sc.on.contains(id) { 1.0 } else { 0.0 })
+            .collect();
+        runtime.sensor_lux(&levels, &mut out)?;
+        for (k, lux) in out.iter().enumerate() {
+            computed.push(Computed {
+                scenario: sc.id.clone(),
+                sensor: image.sensor_id(k),
+                lux: *lux,
+            });
+        }
+    }
+    eprintln!(
+        "image {}: {}, generation {}, {} patches, {} luminaires, {} sensors",
+        path.display(),
+        image.payload.scene_name,
+        image.header.generation,
+        image.patches(),
+        image.luminaires(),
+        image.sensors()
+    );
+    let extra = serde_json::json!({
+        "image_generation": image.header.generation,
+        "patches": image.patches(),
+    });
+    print_computed(
+        args.format,
+        image.payload.scene_name,
+        &scenarios,
+        &computed,
+        extra,
+    )?;
+    report_truth(args.truth.clone(), &computed)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+fn image(command: ImageCommand) -> Result<ExitCode> {
+    use luxnode::store::build::{ImageOptions, build_image, sections, too_large_message};
+    match command {
+        ImageCommand::Build {
+            scene,
+            load,
+            out,
+            engine,
+            store,
+        } => {
+            let sc = if scene.as_os_str() == "demo-office" {
+                luxnode::demo::demo_office()
+            } else {
+                load_scene(&scene, &load.options())?
+            };
+            let t0 = std::time::Instant::now();
+            let model = luxnode::engine::commission(&sc, &engine.settings())?;
+            let options = ImageOptions {
+                precision: store.precision.precision(),
+                prune_below: store.prune,
+                scene_name: sc.name.clone(),
+            };
+            let bytes = build_image(&model, &options)?;
+            let image = Image::parse(&bytes)?;
+            let region = luxnode::layout::FORMFACTORS_LEN_BYTES as usize;
+            if bytes.len() > region {
+                bail!("{}", too_large_message(&image, region));
+            }
+            std::fs::write(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+            println!(
+                "{}: {} bytes ({:.1} % of the {} KiB FORMFACTORS region), {} patches, {} form factors ({}), built in {} ms",
+                out.display(),
+                bytes.len(),
+                100.0 * bytes.len() as f64 / region as f64,
+                region / 1024,
+                image.patches(),
+                image.payload.ff.nnz(),
+                image.payload.ff.values.precision().name(),
+                t0.elapsed().as_millis()
+            );
+        }
+        ImageCommand::Eval {
+            file,
+            arc,
+            demo_states,
+        } => {
+            let bytes = read_image_file(&file)?;
+            let image =
+                Image::parse(&bytes).with_context(|| format!("image {}", file.display()))?;
+            let l = image.luminaires();
+            if demo_states {
+                let states: Vec<Vec<ArcLevel>> = (0..luxnode::runtime::DEMO_STATES)
+                    .map(|k| {
+                        (0..l)
+                            .map(|j| luxnode::runtime::demo_arc_level(k, j))
+                            .collect()
+                    })
+                    .collect();
+                print!("{}", luxnode::runtime::eval_report(&image, &states)?);
+                return Ok(ExitCode::SUCCESS);
+            }
+            let levels_all: Vec<u8> = arc
+                .iter()
+                .map(|a| {
+                    a.trim()
+                        .parse::<u8>()
+                        .with_context(|| format!("arc level {a:?} is not 0..255"))
+                })
+                .collect::<Result<_>>()?;
+            if levels_all.len() % l != 0 || levels_all.is_empty() {
+                bail!(
+                    "give {l} arc levels per state (one per luminaire); got {}",
+                    levels_all.len()
+                );
+            }
+            let states: Vec<Vec<ArcLevel>> = levels_all
+                .chunks(l)
+                .map(|c| c.iter().map(|&a| ArcLevel(a)).collect())
+                .collect();
+            print!("{}", luxnode::runtime::eval_report(&image, &states)?);
+        }
+        ImageCommand::Info { file } => {
+            let bytes = read_image_file(&file)?;
+            let header = luxnode::store::Header::parse(&bytes)
+                .with_context(|| format!("{}: header", file.display()))?;
+            println!("file:             {}", file.display());
+            println!("format version:   {}", header.format_version);
+            println!("generation:       {}", header.generation);
+            println!(
+                "payload:          {} bytes, CRC-32 {:#010x}",
+                header.payload_len, header.payload_crc32
+            );
+            let image =
+                Image::parse(&bytes).with_context(|| format!("{}: image", file.display()))?;
+            let p = &image.payload;
+            println!("checksums:        header and payload OK");
+            println!("scene:            {}", p.scene_name);
+            println!(
+                "model:            {} patches, {} luminaires, {} sensors, {} form factors ({}, {}-byte columns), final gather {}",
+                image.patches(),
+                image.luminaires(),
+                image.sensors(),
+                p.ff.nnz(),
+                p.ff.values.precision().name(),
+                p.ff.col_width,
+                if p.final_gather { "on" } else { "off" }
+            );
+            let st = &p.settings;
+            println!(
+                "settings:         {} rays/patch, {} rays/sensor, {} final-gather rays, patch {} mm, {} opening points, rectified {}, pruned below {}",
+                st.rays,
+                st.sensor_rays,
+                st.final_gather_rays,
+                st.patch_size_mm,
+                st.opening_samples,
+                st.rectified,
+                st.prune_below
+            );
+            println!("sections:");
+            println!("{}", sections(&image));
+            let region = luxnode::layout::FORMFACTORS_LEN_BYTES as usize;
+            println!(
+                "FORMFACTORS:      {} of {} bytes ({:.1} %){}",
+                image.len(),
+                region,
+                100.0 * image.len() as f64 / region as f64,
+                if image.len() > region {
+                    " - DOES NOT FIT"
+                } else {
+                    ""
+                }
+            );
+            if image.len() > region {
+                println!("{}", too_large_message(&image, region));
             }
         }
     }
@@ -905,6 +1225,38 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
                     .with_context(|| format!("writing {}", path.display()))?;
                 println!("\nplot: {}", path.display());
             }
+        }
+        BenchCommand::Runtime { image } => {
+            let bytes = read_image_file(&image)?;
+            let t0 = std::time::Instant::now();
+            let img = Image::parse(&bytes)?;
+            let parse = t0.elapsed();
+            let (per_state, resolve, sweeps) = bench::time_runtime(&img, 2_000_000, 11)?;
+            println!(
+                "# run-time core over {} ({}, {} bytes)",
+                image.display(),
+                img.payload.scene_name,
+                img.len()
+            );
+            println!("| measure | value | target |");
+            println!("|---|---:|---:|");
+            println!(
+                "| parse and check the image (CRCs, every array) | {:.2} ms | |",
+                parse.as_secs_f64() * 1e3
+            );
+            println!(
+                "| one dimming state, {} sensors x {} luminaires (superposition) | {:.1} ns | <= 1 us |",
+                img.sensors(),
+                img.luminaires(),
+                per_state.as_secs_f64() * 1e9
+            );
+            println!(
+                "| full re-solve over the stored form factors ({} patches, {} entries, {}) | {:.2} ms ({sweeps} sweeps) | <= 20 ms |",
+                img.patches(),
+                img.payload.ff.nnz(),
+                img.payload.ff.values.precision().name(),
+                resolve.as_secs_f64() * 1e3
+            );
         }
         BenchCommand::PlotTradeoffs { table, out, title } => {
             let text = std::fs::read_to_string(&table)

@@ -9,9 +9,21 @@ fn shared(rel: &str) -> PathBuf {
         .join(rel)
 }
 
+/// Runs the binary, through `LUXNODE_TEST_RUNNER` when set (cross-compiled tests run the
+/// target's binary under an emulator, e.g. `qemu-aarch64 -L /usr/aarch64-linux-gnu`).
 fn luxnode(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_luxnode"))
-        .args(args)
+    let bin = env!("CARGO_BIN_EXE_luxnode");
+    let runner = std::env::var("LUXNODE_TEST_RUNNER").unwrap_or_default();
+    let mut words = runner.split_whitespace();
+    let mut cmd = match words.next() {
+        Some(emulator) => {
+            let mut c = Command::new(emulator);
+            c.args(words).arg(bin);
+            c
+        }
+        None => Command::new(bin),
+    };
+    cmd.args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("run luxnode")
@@ -274,4 +286,124 @@ fn simulate_map_writes_a_png() {
         means.iter().all(|m| *m > 1000.0 && *m < 2000.0),
         "{means:?}"
     );
+}
+
+#[test]
+fn image_build_info_and_simulate_from_the_image_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("office_a.img");
+    let o = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        &office_a(),
+        "--out",
+        img.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = luxnode(&["image", "info", img.to_str().unwrap()]);
+    assert!(o.status.success());
+    let info = stdout(&o);
+    for key in [
+        "format version:   1",
+        "checksums:        header and payload OK",
+        "FORMFACTORS:",
+        "form factors",
+    ] {
+        assert!(info.contains(key), "{key} in\n{info}");
+    }
+    // answers from the image equal the scene's at the same settings (values to 1e-3 lx)
+    let states = shared("scenes/office_a/states.csv");
+    let from_image = luxnode(&[
+        "simulate",
+        "--image",
+        img.to_str().unwrap(),
+        "--states",
+        states.to_str().unwrap(),
+    ]);
+    let from_scene = luxnode(&[
+        "simulate",
+        "--scene",
+        &office_a(),
+        "--states",
+        states.to_str().unwrap(),
+    ]);
+    assert!(
+        from_image.status.success(),
+        "{}",
+        String::from_utf8_lossy(&from_image.stderr)
+    );
+    let parse = |o: &Output| -> Vec<f64> {
+        stdout(o)
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (parse(&from_image), parse(&from_scene));
+    assert_eq!(a.len(), 248);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() <= 2e-5 * y.max(1.0) + 1e-3, "{x} vs {y}");
+    }
+}
+
+#[test]
+fn damaged_images_are_refused_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("demo.img");
+    let o = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        "demo-office",
+        "--out",
+        img.to_str().unwrap(),
+        "--patch-size",
+        "2",
+        "--rays",
+        "100",
+        "--precision",
+        "u8",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut bytes = std::fs::read(&img).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x10;
+    std::fs::write(&img, &bytes).unwrap();
+    for args in [
+        vec!["image", "info", img.to_str().unwrap()],
+        vec!["simulate", "--image", img.to_str().unwrap()],
+    ] {
+        let o = luxnode(&args);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("payload CRC mismatch"), "{err}");
+    }
+    std::fs::write(&img, &bytes[..100]).unwrap();
+    let o = luxnode(&["image", "info", img.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("truncated"));
+}
+
+#[test]
+fn an_image_too_large_for_formfactors_names_the_knobs() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("big.img");
+    let o = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        &office_a(),
+        "--out",
+        img.to_str().unwrap(),
+        "--precision",
+        "f64",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("over the") && err.contains("FORMFACTORS") && err.contains("--precision f16"),
+        "{err}"
+    );
+    assert!(!img.exists());
 }

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Cross-builds luxnode for aarch64-unknown-linux-gnu (the ceiling node's SoC class) and runs its
+# tests under qemu-aarch64: every unit test, photometry, scenes, the closed-form physics, the
+# store (images, slots, corruption, bit flips, stuck pages, file flash), and office_a's accuracy
+# at default settings. Emulation is 40-50 times slower, so the tests that commission office_a
+# many times, the exhaustive power-cut sweeps, the extremes suite and the CLI tests run natively
+# only (scripts/test.sh); they exercise the same code.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+rustup target list --installed | grep -q '^aarch64-unknown-linux-gnu$' || rustup target add aarch64-unknown-linux-gnu
+if ! command -v aarch64-linux-gnu-gcc >/dev/null || ! command -v qemu-aarch64 >/dev/null; then
+  apt-get install -y -q gcc-aarch64-linux-gnu qemu-user >/dev/null || { apt-get update -q >/dev/null && apt-get install -y -q gcc-aarch64-linux-gnu qemu-user >/dev/null; }
+fi
+
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_LINKER=aarch64-linux-gnu-gcc
+export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER="qemu-aarch64 -L /usr/aarch64-linux-gnu"
+export LUXNODE_TEST_RUNNER="$CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER"
+cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
+  -E 'not (test(power_cut) | test(open_box) | binary(extremes) | binary(cli)
+          | (binary(office_a) & not test(default_settings))
+          | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

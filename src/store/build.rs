@@ -1,0 +1,427 @@
+//! Building an image from a commissioned [`Model`] (std): prune and quantise the form factors
+//! and direct terms to the chosen precision, then compute the response matrix *from the
+//! stored arrays* (by solving the image's own system, with the run-time code), so that
+//! superposition and a run-time re-solve agree whatever the precision.
+
+use std::fmt;
+
+use super::values::{Bytes, Precision, Sparse, Values};
+use super::{FORMAT_VERSION, HEADER_LEN, Header, Image, PayloadV1, SettingsRecord, crc32};
+use crate::engine::{Csr, Model};
+use crate::solver;
+
+/// How to store a model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageOptions {
+    /// Precision of the form factors and of the direct illuminance on patches.
+    pub precision: Precision,
+    /// Form factors below this are dropped (each row rescaled to keep its sum); 0 keeps all.
+    pub prune_below: f64,
+    /// The scene's name, for inspection.
+    pub scene_name: String,
+}
+
+impl Default for ImageOptions {
+    fn default() -> Self {
+        Self {
+            precision: Precision::U16,
+            prune_below: 0.0,
+            scene_name: String::new(),
+        }
+    }
+}
+
+/// Why no image was built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// Too many patches, sensors or luminaires for the format.
+    #[error("too large for the image format: {0}")]
+    Limits(String),
+    /// The prune threshold is not a number >= 0.
+    #[error("prune threshold {0} must be a number >= 0")]
+    Prune(f64),
+    /// Solving the stored system failed.
+    #[error("solving the stored system for luminaire {luminaire}: {source}")]
+    Solve {
+        /// Luminaire id.
+        luminaire: u32,
+        /// Why.
+        source: solver::SolveError,
+    },
+    /// The built image does not parse (a bug).
+    #[error("the built image does not parse: {0}")]
+    Parse(super::ImageError),
+    /// Serialisation failed.
+    #[error("serialising the payload: {0}")]
+    Serialise(String),
+}
+
+/// Sizes of the parts of an image, bytes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Sections {
+    /// (name, bytes) in payload order.
+    pub parts: Vec<(&'static str, usize)>,
+    /// Whole image, bytes.
+    pub total: usize,
+}
+
+impl fmt::Display for Sections {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (name, bytes) in &self.parts {
+            writeln!(
+                f,
+                "  {name:<34} {bytes:>10} B  {:>5.1} %",
+                100.0 * *bytes as f64 / self.total.max(1) as f64
+            )?;
+        }
+        write!(f, "  {:<34} {:>10} B", "total", self.total)
+    }
+}
+
+/// The parts of a parsed image.
+pub fn sections(image: &Image<'_>) -> Sections {
+    let p = &image.payload;
+    let sparse = |s: &Sparse<'_>| {
+        s.row_ptr.0.len() + s.col.0.len() + s.values.data.0.len() + s.values.scales.0.len()
+    };
+    let parts = vec![
+        ("header", HEADER_LEN),
+        ("form factors (row starts, columns, values)", sparse(&p.ff)),
+        (
+            "direct illuminance on patches",
+            p.direct_patch_lx.data.0.len() + p.direct_patch_lx.scales.0.len(),
+        ),
+        ("patch reflectances", p.rho.data.0.len()),
+        ("sensor gather rows", sparse(&p.gather)),
+        (
+            "sensor direct, first bounce, response",
+            p.direct_sensor_lx.0.len() + p.first_bounce_sensor_lx.0.len() + p.response_lx.0.len(),
+        ),
+        (
+            "ids, flux, settings, names, framing",
+            image.len()
+                - HEADER_LEN
+                - sparse(&p.ff)
+                - p.direct_patch_lx.data.0.len()
+                - p.direct_patch_lx.scales.0.len()
+                - p.rho.data.0.len()
+                - sparse(&p.gather)
+                - p.direct_sensor_lx.0.len()
+                - p.first_bounce_sensor_lx.0.len()
+                - p.response_lx.0.len(),
+        ),
+    ];
+    Sections {
+        parts,
+        total: image.len(),
+    }
+}
+
+/// Encoded real values: (scales, data).
+fn encode(values: &[f64], row_bounds: &[usize], precision: Precision) -> (Vec<u8>, Vec<u8>) {
+    let mut scales = Vec::new();
+    let mut data = Vec::with_capacity(values.len() * precision.width());
+    match precision {
+        Precision::F64 => values
+            .iter()
+            .for_each(|v| data.extend_from_slice(&v.to_le_bytes())),
+        Precision::F32 => values
+            .iter()
+            .for_each(|v| data.extend_from_slice(&(*v as f32).to_le_bytes())),
+        Precision::F16 => values
+            .iter()
+            .for_each(|v| data.extend_from_slice(&half::f16::from_f64(*v).to_bits().to_le_bytes())),
+        Precision::U16 | Precision::U8 => {
+            let levels = if precision == Precision::U16 {
+                65535.0
+            } else {
+                255.0
+            };
+            for w in row_bounds.windows(2) {
+                let row = &values[w[0]..w[1]];
+                let max = row.iter().copied().fold(0.0f64, f64::max) as f32;
+                scales.extend_from_slice(&max.to_le_bytes());
+                let scale = f64::from(max);
+                for v in row {
+                    let q = if scale > 0.0 {
+                        (v / scale * levels).round().clamp(0.0, levels)
+                    } else {
+                        0.0
+                    };
+                    if precision == Precision::U16 {
+                        data.extend_from_slice(&(q as u16).to_le_bytes());
+                    } else {
+                        data.push(q as u8);
+                    }
+                }
+            }
+        }
+    }
+    (scales, data)
+}
+
+/// Sparse rows as stored: row starts, columns, and value bytes.
+struct SparseBuf {
+    rows: u32,
+    row_ptr: Vec<u8>,
+    col_width: u8,
+    col: Vec<u8>,
+    scales: Vec<u8>,
+    data: Vec<u8>,
+    precision: Precision,
+}
+
+impl SparseBuf {
+    fn new(m: &Csr, cols: usize, precision: Precision, prune_below: f64) -> Self {
+        let mut row_ptr = Vec::with_capacity(4 * (m.rows() + 1));
+        let mut kept_cols: Vec<u32> = Vec::with_capacity(m.nnz());
+        let mut kept_vals: Vec<f64> = Vec::with_capacity(m.nnz());
+        let mut bounds = vec![0usize];
+        row_ptr.extend_from_slice(&0u32.to_le_bytes());
+        for i in 0..m.rows() {
+            let sum: f64 = m.row(i).map(|(_, v)| v).sum();
+            let start = kept_vals.len();
+            for (c, v) in m.row(i) {
+                if v > 0.0 && v >= prune_below {
+                    kept_cols.push(c);
+                    kept_vals.push(v);
+                }
+            }
+            // keep each row's sum (its energy) when entries were dropped
+            let kept: f64 = kept_vals[start..].iter().sum();
+            if kept > 0.0 && (kept - sum).abs() > 0.0 {
+                let s = sum / kept;
+                kept_vals[start..].iter_mut().for_each(|v| *v *= s);
+            }
+            bounds.push(kept_vals.len());
+            row_ptr.extend_from_slice(&(kept_vals.len() as u32).to_le_bytes());
+        }
+        let col_width: u8 = if cols <= 1 << 16 { 2 } else { 4 };
+        let mut col = Vec::with_capacity(kept_cols.len() * usize::from(col_width));
+        for c in kept_cols {
+            if col_width == 2 {
+                col.extend_from_slice(&(c as u16).to_le_bytes());
+            } else {
+                col.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        let (scales, data) = encode(&kept_vals, &bounds, precision);
+        Self {
+            rows: m.rows() as u32,
+            row_ptr,
+            col_width,
+            col,
+            scales,
+            data,
+            precision,
+        }
+    }
+
+    fn view(&self) -> Sparse<'_> {
+        Sparse {
+            rows: self.rows,
+            row_ptr: Bytes(&self.row_ptr),
+            col_width: self.col_width,
+            col: Bytes(&self.col),
+            values: Values {
+                precision: self.precision as u8,
+                scales: Bytes(&self.scales),
+                data: Bytes(&self.data),
+            },
+        }
+    }
+}
+
+fn f64_bytes(rows: &[Vec<f64>]) -> Vec<u8> {
+    rows.iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+fn u32_bytes(v: &[u32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn serialise(header_precision: u8, payload: &PayloadV1<'_>) -> Result<Vec<u8>, BuildError> {
+    let body = postcard::to_stdvec(payload).map_err(|e| BuildError::Serialise(e.to_string()))?;
+    let header = Header {
+        format_version: FORMAT_VERSION,
+        generation: 0,
+        payload_len: u32::try_from(body.len())
+            .map_err(|_| BuildError::Limits("payload over 4 GiB".into()))?,
+        payload_crc32: crc32(&body),
+        precision: header_precision,
+    };
+    let mut out = header.emit().to_vec();
+    out.extend_from_slice(&body);
+    Ok(out)
+}
+
+/// Builds the image of a model.
+pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, BuildError> {
+    if !(options.prune_below.is_finite() && options.prune_below >= 0.0) {
+        return Err(BuildError::Prune(options.prune_below));
+    }
+    let n = model.patches.len();
+    let (l, s) = (model.luminaires(), model.sensors());
+    if n > u32::MAX as usize / 2 || l > usize::from(u16::MAX) || s > usize::from(u16::MAX) {
+        return Err(BuildError::Limits(format!(
+            "{n} patches, {l} luminaires, {s} sensors"
+        )));
+    }
+    let st = &model.settings;
+    let settings = SettingsRecord {
+        rays: st.rays as u32,
+        sensor_rays: st.sensor_rays as u32,
+        final_gather_rays: if model.final_gather {
+            st.final_gather_rays as u32
+        } else {
+            0
+        },
+        patch_size_mm: (st.patches.patch_size_m * 1000.0).round() as u32,
+        detail_ratio: st.patches.detail_ratio as f32,
+        light_ratio: st.patches.light_ratio as f32,
+        opening_samples: st.opening_samples.min(usize::from(u16::MAX)) as u16,
+        patch_direct_points: st.patch_direct_points.min(usize::from(u16::MAX)) as u16,
+        rectified: st.rectify,
+        direct_exact: st.direct == crate::engine::DirectModel::Exact,
+        ldc: st.ldc,
+        lsc: st.lsc,
+        seed: st.seed,
+        prune_below: options.prune_below as f32,
+    };
+    let ff = SparseBuf::new(&model.ff.f, n, options.precision, options.prune_below);
+    let gather = SparseBuf::new(&model.gather, n, Precision::F32, 0.0);
+    let rho: Vec<u8> = model
+        .patches
+        .rho
+        .iter()
+        .flat_map(|r| (*r as f32).to_le_bytes())
+        .collect();
+    let direct_flat: Vec<f64> = model.direct_patch_lx.iter().flatten().copied().collect();
+    let bounds: Vec<usize> = (0..=l).map(|j| j * n).collect();
+    let (d_scales, d_data) = encode(&direct_flat, &bounds, options.precision);
+    let luminaire_ids = u32_bytes(&model.luminaire_ids);
+    let sensor_ids = u32_bytes(&model.sensor_ids);
+    let flux: Vec<u8> = model
+        .luminaire_flux_lm
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let direct_sensor = f64_bytes(&model.direct_sensor_lx);
+    let first_bounce = f64_bytes(&model.first_bounce_sensor_lx);
+    let zero_response = vec![0u8; 8 * s * l];
+    let mut payload = PayloadV1 {
+        scene_name: &options.scene_name,
+        settings,
+        n_patches: n as u32,
+        n_luminaires: l as u16,
+        n_sensors: s as u16,
+        luminaire_ids: Bytes(&luminaire_ids),
+        luminaire_flux_lm: Bytes(&flux),
+        sensor_ids: Bytes(&sensor_ids),
+        rho: Values {
+            precision: Precision::F32 as u8,
+            scales: Bytes(&[]),
+            data: Bytes(&rho),
+        },
+        ff: ff.view(),
+        direct_patch_lx: Values {
+            precision: options.precision as u8,
+            scales: Bytes(&d_scales),
+            data: Bytes(&d_data),
+        },
+        direct_sensor_lx: Bytes(&direct_sensor),
+        first_bounce_sensor_lx: Bytes(&first_bounce),
+        final_gather: model.final_gather,
+        gather: gather.view(),
+        response_lx: Bytes(&zero_response),
+        solve_tolerance: st.solve.tolerance,
+        solve_max_iterations: st.solve.max_iterations,
+    };
+    // The response of the *stored* system: one solve per luminaire on the image itself.
+    let provisional = serialise(options.precision as u8, &payload)?;
+    let image = Image::parse(&provisional).map_err(BuildError::Parse)?;
+    let runtime = crate::runtime::Runtime::new(&image);
+    let mut response = vec![vec![0.0; l]; s];
+    let (mut e, mut b, mut out) = (vec![0.0; n], vec![0.0; n], vec![0.0; s]);
+    let mut levels = vec![0.0; l];
+    for j in 0..l {
+        levels.iter_mut().for_each(|x| *x = 0.0);
+        levels[j] = 1.0;
+        runtime
+            .resolve(&levels, &mut e, &mut b, &mut out)
+            .map_err(|err| match err {
+                crate::runtime::RuntimeError::Solve(source) => BuildError::Solve {
+                    luminaire: model.luminaire_ids[j],
+                    source,
+                },
+                other => BuildError::Serialise(other.to_string()),
+            })?;
+        for (k, v) in out.iter().enumerate() {
+            response[k][j] = *v;
+        }
+    }
+    let response_bytes = f64_bytes(&response);
+    payload.response_lx = Bytes(&response_bytes);
+    let bytes = serialise(options.precision as u8, &payload)?;
+    Image::parse(&bytes).map_err(BuildError::Parse)?;
+    Ok(bytes)
+}
+
+/// How an image compares with the `FORMFACTORS` region, and what would help if it does not fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fit {
+    /// Image length, bytes.
+    pub image_bytes: usize,
+    /// Region length, bytes.
+    pub region_bytes: usize,
+}
+
+impl Fit {
+    /// True when the image fits.
+    pub fn fits(&self) -> bool {
+        self.image_bytes <= self.region_bytes
+    }
+
+    /// Region use, percent.
+    pub fn usage_pct(&self) -> f64 {
+        100.0 * self.image_bytes as f64 / self.region_bytes.max(1) as f64
+    }
+}
+
+/// The message for an image that does not fit, naming the knobs that shrink it, with their
+/// estimated savings for this image.
+pub fn too_large_message(image: &Image<'_>, region_bytes: usize) -> String {
+    let mib = |b: f64| b / (1024.0 * 1024.0);
+    let total = image.len() as f64;
+    let over = total - region_bytes as f64;
+    let p = &image.payload;
+    let nnz = p.ff.nnz() as f64;
+    let width = p.ff.values.precision().width() as f64;
+    let mut hints = Vec::new();
+    for (name, w) in [("f16", 2.0), ("u8", 1.0)] {
+        if w < width {
+            hints.push(format!(
+                "--precision {name} saves about {:.2} MiB",
+                mib(nnz * (width - w))
+            ));
+        }
+    }
+    hints.push("--prune 1e-5 drops the smallest form factors (their row sums are kept)".into());
+    hints.push("a larger --patch-size or a smaller --detail has fewer patches (entries fall about with the square)".into());
+    hints.push("fewer --rays has fewer non-zero form factors per patch".into());
+    format!(
+        "the image is {:.2} MiB, {:.2} MiB ({:.0} %) over the {:.2} MiB FORMFACTORS region of memory.x; \
+         its form factors take {:.2} MiB ({} entries of {} bytes plus columns). What helps: {}",
+        mib(total),
+        mib(over),
+        100.0 * over / region_bytes as f64,
+        mib(region_bytes as f64),
+        mib(nnz * (width + f64::from(p.ff.col_width))),
+        nnz,
+        width,
+        hints.join("; ")
+    )
+}

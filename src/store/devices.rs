@@ -1,0 +1,296 @@
+//! Flash devices for Linux and for tests: in memory, a file (the Linux backend: a partition
+//! image on eMMC/ext4 or UBIFS, every sync an `fdatasync`), and a fault-injecting wrapper (power
+//! cut after N bytes, bit flips, stuck pages) in the manner of smoltcp's `FaultInjector`.
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use super::slots::FlashDevice;
+
+/// Errors of the std devices.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    /// An access beyond the device.
+    #[error("access at {offset}+{len} beyond the device's {capacity} bytes")]
+    OutOfRange {
+        /// Offset.
+        offset: usize,
+        /// Length.
+        len: usize,
+        /// Capacity.
+        capacity: usize,
+    },
+    /// The simulated power was cut.
+    #[error("power cut")]
+    PowerCut,
+    /// File I/O.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+fn range(offset: usize, len: usize, capacity: usize) -> Result<(), DeviceError> {
+    if offset.checked_add(len).is_some_and(|e| e <= capacity) {
+        Ok(())
+    } else {
+        Err(DeviceError::OutOfRange {
+            offset,
+            len,
+            capacity,
+        })
+    }
+}
+
+/// Flash in memory.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MemFlash {
+    /// The contents.
+    pub data: Vec<u8>,
+}
+
+impl MemFlash {
+    /// An erased device of `capacity` bytes.
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            data: vec![0xFF; capacity],
+        }
+    }
+
+    /// Flips one stored bit (a failing cell).
+    pub fn flip_bit(&mut self, offset: usize, bit: u8) {
+        if let Some(b) = self.data.get_mut(offset) {
+            *b ^= 1 << (bit % 8);
+        }
+    }
+}
+
+impl FlashDevice for MemFlash {
+    type Error = DeviceError;
+    fn capacity(&self) -> usize {
+        self.data.len()
+    }
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
+        range(offset, buf.len(), self.data.len())?;
+        buf.copy_from_slice(&self.data[offset..offset + buf.len()]);
+        Ok(())
+    }
+    fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
+        range(offset, len, self.data.len())?;
+        self.data[offset..offset + len].fill(0xFF);
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
+        range(offset, data.len(), self.data.len())?;
+        self.data[offset..offset + data.len()].copy_from_slice(data);
+        Ok(())
+    }
+    fn sync(&mut self) -> Result<(), DeviceError> {
+        Ok(())
+    }
+}
+
+/// A file standing in for a flash partition (fixed size; created erased if missing). Every
+/// `sync` is an `fdatasync`, so a write that returned is on the medium.
+#[derive(Debug)]
+pub struct FileFlash {
+    file: File,
+    path: PathBuf,
+    capacity: usize,
+}
+
+impl FileFlash {
+    /// Opens (or creates, erased) a flash file of `capacity` bytes.
+    pub fn open(path: &Path, capacity: usize) -> Result<Self, DeviceError> {
+        let io = |source| DeviceError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let existed = path.exists();
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io)?;
+        let len = file.metadata().map_err(io)?.len() as usize;
+        if !existed || len < capacity {
+            file.seek(SeekFrom::Start(len as u64)).map_err(io)?;
+            let pad = vec![0xFF; capacity - len];
+            file.write_all(&pad).map_err(io)?;
+            file.sync_all().map_err(io)?;
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                // make the new file's directory entry durable too
+                File::open(dir).and_then(|d| d.sync_all()).map_err(io)?;
+            }
+        }
+        Ok(Self {
+            file,
+            path: path.to_path_buf(),
+            capacity,
+        })
+    }
+
+    fn io(&self, source: std::io::Error) -> DeviceError {
+        DeviceError::Io {
+            path: self.path.clone(),
+            source,
+        }
+    }
+}
+
+impl FlashDevice for FileFlash {
+    type Error = DeviceError;
+    fn capacity(&self) -> usize {
+        self.capacity
+    }
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
+        range(offset, buf.len(), self.capacity)?;
+        self.file
+            .seek(SeekFrom::Start(offset as u64))
+            .map_err(|e| self.io(e))?;
+        self.file.read_exact(buf).map_err(|e| self.io(e))
+    }
+    fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
+        range(offset, len, self.capacity)?;
+        self.file
+            .seek(SeekFrom::Start(offset as u64))
+            .map_err(|e| self.io(e))?;
+        let chunk = vec![0xFF; len.min(1 << 16)];
+        let mut left = len;
+        while left > 0 {
+            let n = left.min(chunk.len());
+            self.file.write_all(&chunk[..n]).map_err(|e| self.io(e))?;
+            left -= n;
+        }
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
+        range(offset, data.len(), self.capacity)?;
+        self.file
+            .seek(SeekFrom::Start(offset as u64))
+            .map_err(|e| self.io(e))?;
+        self.file.write_all(data).map_err(|e| self.io(e))
+    }
+    fn sync(&mut self) -> Result<(), DeviceError> {
+        self.file.sync_data().map_err(|e| self.io(e))
+    }
+}
+
+/// Faults to inject.
+#[derive(Debug, Clone, Default)]
+pub struct Faults {
+    /// Power fails after this many bytes have been erased or written: the operation in progress
+    /// stops there and every later operation fails.
+    pub cut_after_bytes: Option<usize>,
+    /// Writes to these pages do not take (the cells are stuck).
+    pub stuck_pages: Vec<usize>,
+    /// Page size for `stuck_pages`, bytes.
+    pub page_size: usize,
+}
+
+/// A device that misbehaves as told.
+#[derive(Debug)]
+pub struct FaultyFlash<D> {
+    inner: D,
+    faults: Faults,
+    touched: usize,
+    dead: bool,
+}
+
+impl<D: FlashDevice<Error = DeviceError>> FaultyFlash<D> {
+    /// Wraps a device.
+    pub fn new(inner: D, faults: Faults) -> Self {
+        Self {
+            inner,
+            faults,
+            touched: 0,
+            dead: false,
+        }
+    }
+
+    /// The device as the power cut left it ("reboot").
+    pub fn into_inner(self) -> D {
+        self.inner
+    }
+
+    /// True once the power was cut.
+    pub fn power_cut(&self) -> bool {
+        self.dead
+    }
+
+    /// Bytes the next operation may touch before the cut (all of `len` when no cut is due).
+    fn budget(&mut self, len: usize) -> usize {
+        match self.faults.cut_after_bytes {
+            Some(limit) => limit.saturating_sub(self.touched).min(len),
+            None => len,
+        }
+    }
+
+    fn stuck(&self, offset: usize) -> bool {
+        self.faults.page_size > 0
+            && self
+                .faults
+                .stuck_pages
+                .contains(&(offset / self.faults.page_size))
+    }
+}
+
+impl<D: FlashDevice<Error = DeviceError>> FlashDevice for FaultyFlash<D> {
+    type Error = DeviceError;
+    fn capacity(&self) -> usize {
+        self.inner.capacity()
+    }
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
+        if self.dead {
+            return Err(DeviceError::PowerCut);
+        }
+        self.inner.read(offset, buf)
+    }
+    fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
+        if self.dead {
+            return Err(DeviceError::PowerCut);
+        }
+        let n = self.budget(len);
+        self.inner.erase(offset, n)?;
+        self.touched += n;
+        if n < len {
+            self.dead = true;
+            return Err(DeviceError::PowerCut);
+        }
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
+        if self.dead {
+            return Err(DeviceError::PowerCut);
+        }
+        let n = self.budget(data.len());
+        // byte by byte only where pages are stuck; otherwise one write
+        if self.faults.stuck_pages.is_empty() {
+            self.inner.write(offset, &data[..n])?;
+        } else {
+            for (k, b) in data[..n].iter().enumerate() {
+                if !self.stuck(offset + k) {
+                    self.inner.write(offset + k, std::slice::from_ref(b))?;
+                }
+            }
+        }
+        self.touched += n;
+        if n < data.len() {
+            self.dead = true;
+            return Err(DeviceError::PowerCut);
+        }
+        Ok(())
+    }
+    fn sync(&mut self) -> Result<(), DeviceError> {
+        if self.dead {
+            return Err(DeviceError::PowerCut);
+        }
+        self.inner.sync()
+    }
+}

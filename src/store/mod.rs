@@ -1,0 +1,376 @@
+//! The flash image: the commissioned model as the run time needs it, written once at
+//! commissioning and read in place for years. `no_std`, no allocation: [`Image::parse`] borrows
+//! the bytes (flash mapped in memory on a microcontroller, a buffer on Linux) and never copies
+//! the big arrays.
+//!
+//! ```text
+//! | header, 40 bytes (header.rs) | payload: postcard, format version 1 |
+//! ```
+//!
+//! The payload ([`PayloadV1`]) holds the sparse form factors, patch reflectances, direct
+//! illuminance per luminaire on patches and at sensors, the sensors' first bounce and gather
+//! rows, the response matrix, the ids, and a record of the commissioning settings. Big arrays are
+//! little-endian byte slices decoded per element ([`values`]). The form factors and direct
+//! terms take the storage precision chosen at build time ([`Precision`]).
+//!
+//! Parsing checks, in order: header length, magic, header CRC, format version (another
+//! version is an error, never a misread), payload length, payload CRC, postcard decoding, then
+//! every array's length, index and value range. After [`Image::parse`] succeeds no accessor can
+//! panic and no value is non-finite.
+
+mod crc32;
+mod header;
+pub mod slots;
+pub mod values;
+
+#[cfg(feature = "std")]
+pub mod build;
+#[cfg(feature = "std")]
+pub mod devices;
+
+use serde::{Deserialize, Serialize};
+
+pub use crc32::{Crc32, crc32};
+pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
+pub use values::{Bytes, Precision, Sparse, Values};
+
+use crate::solver::RadiositySystem;
+
+/// Why an image was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ImageError {
+    /// Fewer bytes than the header or the payload needs.
+    #[error("image truncated: {needed} bytes needed, {available} available")]
+    Truncated {
+        /// Bytes needed.
+        needed: usize,
+        /// Bytes present.
+        available: usize,
+    },
+    /// All 0xFF: an erased slot.
+    #[error("erased (no image)")]
+    Erased,
+    /// Not an image.
+    #[error("not a luxnode image (bad magic)")]
+    BadMagic,
+    /// The header checksum fails.
+    #[error("header CRC mismatch (stored {stored:#010x}, computed {actual:#010x})")]
+    HeaderCrc {
+        /// Stored.
+        stored: u32,
+        /// Computed.
+        actual: u32,
+    },
+    /// Another format version.
+    #[error("image format version {found}, this build reads version {supported}")]
+    UnsupportedVersion {
+        /// In the image.
+        found: u16,
+        /// Supported.
+        supported: u16,
+    },
+    /// The payload checksum fails.
+    #[error("payload CRC mismatch (stored {stored:#010x}, computed {actual:#010x})")]
+    PayloadCrc {
+        /// Stored.
+        stored: u32,
+        /// Computed.
+        actual: u32,
+    },
+    /// The payload does not decode.
+    #[error("payload does not decode")]
+    Decode,
+    /// Decoded, but the arrays do not fit together.
+    #[error("inconsistent image: {0}")]
+    Inconsistent(&'static str),
+}
+
+/// The commissioning settings, recorded for inspection.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct SettingsRecord {
+    /// Rays per patch.
+    pub rays: u32,
+    /// Rays per sensor.
+    pub sensor_rays: u32,
+    /// Final-gather rays per sensor (0: none).
+    pub final_gather_rays: u32,
+    /// Base patch size, mm.
+    pub patch_size_mm: u32,
+    /// Sensor detail ratio.
+    pub detail_ratio: f32,
+    /// Light-gradient ratio.
+    pub light_ratio: f32,
+    /// Opening points for patches.
+    pub opening_samples: u16,
+    /// Direct points per patch.
+    pub patch_direct_points: u16,
+    /// Rectified form factors.
+    pub rectified: bool,
+    /// Exact direct light (false: the paper's formulation).
+    pub direct_exact: bool,
+    /// LDC modelled.
+    pub ldc: bool,
+    /// LSC modelled.
+    pub lsc: bool,
+    /// Seed.
+    pub seed: u64,
+    /// Form factors below this were pruned (0: none).
+    pub prune_below: f32,
+}
+
+/// Format version 1 of the payload.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PayloadV1<'a> {
+    /// The scene's name.
+    #[serde(borrow)]
+    pub scene_name: &'a str,
+    /// Commissioning settings.
+    pub settings: SettingsRecord,
+    /// Patches.
+    pub n_patches: u32,
+    /// Luminaires.
+    pub n_luminaires: u16,
+    /// Sensors.
+    pub n_sensors: u16,
+    /// Luminaire ids, u32 LE, in luminaires.json order.
+    #[serde(borrow)]
+    pub luminaire_ids: Bytes<'a>,
+    /// Luminaire flux at 100 %, lm, f64 LE.
+    #[serde(borrow)]
+    pub luminaire_flux_lm: Bytes<'a>,
+    /// Sensor (desk) ids, u32 LE, in sensors.json order.
+    #[serde(borrow)]
+    pub sensor_ids: Bytes<'a>,
+    /// Patch reflectances (f32).
+    #[serde(borrow)]
+    pub rho: Values<'a>,
+    /// Form factors, patch × patch.
+    #[serde(borrow)]
+    pub ff: Sparse<'a>,
+    /// Direct illuminance on patches at 100 %, lx, row = luminaire.
+    #[serde(borrow)]
+    pub direct_patch_lx: Values<'a>,
+    /// Direct reading at sensors at 100 %, lx, f64 LE `[sensor][luminaire]`.
+    #[serde(borrow)]
+    pub direct_sensor_lx: Bytes<'a>,
+    /// First bounce at sensors (final gather) at 100 %, lx, f64 LE `[sensor][luminaire]`.
+    #[serde(borrow)]
+    pub first_bounce_sensor_lx: Bytes<'a>,
+    /// Gather rows apply to the exitance beyond the first bounce (final gather) or all of it.
+    pub final_gather: bool,
+    /// Sensor gather rows, sensor × patch.
+    #[serde(borrow)]
+    pub gather: Sparse<'a>,
+    /// Reading per luminaire at 100 %, lx, f64 LE `[sensor][luminaire]`, computed from the
+    /// stored arrays (so superposition and a re-solve of this image agree).
+    #[serde(borrow)]
+    pub response_lx: Bytes<'a>,
+    /// Solver tolerance for re-solves.
+    pub solve_tolerance: f64,
+    /// Solver sweep limit.
+    pub solve_max_iterations: u32,
+}
+
+/// A parsed, fully checked image borrowing its bytes.
+#[derive(Debug, Clone, Copy)]
+pub struct Image<'a> {
+    /// The header.
+    pub header: Header,
+    /// The payload.
+    pub payload: PayloadV1<'a>,
+}
+
+fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ImageError::Inconsistent(what))
+    }
+}
+
+fn check_values(
+    v: &Values<'_>,
+    rows: usize,
+    len: usize,
+    what: &'static str,
+) -> Result<(), ImageError> {
+    let p = Precision::from_code(v.precision).ok_or(ImageError::Inconsistent(what))?;
+    check(v.data.count(p.width()) == Some(len), what)?;
+    if p.scaled() {
+        check(v.scales.count(4) == Some(rows), what)?;
+        for r in 0..rows {
+            let s = v.scales.f32_at(r);
+            check(s.is_finite() && s >= 0.0, what)?;
+        }
+    } else {
+        check(v.scales.0.is_empty(), what)?;
+        for i in 0..len {
+            let x = v.get(i, 0);
+            check(x.is_finite() && x >= 0.0, what)?;
+        }
+    }
+    Ok(())
+}
+
+fn check_sparse(
+    s: &Sparse<'_>,
+    rows: usize,
+    cols: usize,
+    what: &'static str,
+) -> Result<(), ImageError> {
+    check(s.rows as usize == rows, what)?;
+    check(s.row_ptr.count(4) == Some(rows + 1), what)?;
+    check(s.col_width == 2 || s.col_width == 4, what)?;
+    check(s.row_ptr.u32_at(0) == 0, what)?;
+    for i in 0..rows {
+        check(s.row_ptr.u32_at(i) <= s.row_ptr.u32_at(i + 1), what)?;
+    }
+    let nnz = s.row_ptr.u32_at(rows) as usize;
+    check(s.col.count(usize::from(s.col_width)) == Some(nnz), what)?;
+    for k in 0..nnz {
+        check(s.col_at(k) < cols, what)?;
+    }
+    check_values(&s.values, rows, nnz, what)
+}
+
+fn check_f64s(b: &Bytes<'_>, len: usize, what: &'static str) -> Result<(), ImageError> {
+    check(b.count(8) == Some(len), what)?;
+    for i in 0..len {
+        check(b.f64_at(i).is_finite(), what)?;
+    }
+    Ok(())
+}
+
+impl<'a> Image<'a> {
+    /// Parses and checks an image (header, CRCs, version, every array).
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, ImageError> {
+        let header = Header::parse(bytes)?;
+        let len = header.payload_len as usize;
+        let end = HEADER_LEN
+            .checked_add(len)
+            .ok_or(ImageError::Inconsistent("payload length"))?;
+        if bytes.len() < end {
+            return Err(ImageError::Truncated {
+                needed: end,
+                available: bytes.len(),
+            });
+        }
+        let payload_bytes = &bytes[HEADER_LEN..end];
+        let actual = crc32(payload_bytes);
+        if actual != header.payload_crc32 {
+            return Err(ImageError::PayloadCrc {
+                stored: header.payload_crc32,
+                actual,
+            });
+        }
+        let payload: PayloadV1<'a> =
+            postcard::from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
+        let image = Self { header, payload };
+        image.validate()?;
+        Ok(image)
+    }
+
+    fn validate(&self) -> Result<(), ImageError> {
+        let p = &self.payload;
+        let (n, l, s) = (
+            p.n_patches as usize,
+            usize::from(p.n_luminaires),
+            usize::from(p.n_sensors),
+        );
+        check(n > 0, "no patches")?;
+        check(p.luminaire_ids.count(4) == Some(l), "luminaire ids")?;
+        check(p.sensor_ids.count(4) == Some(s), "sensor ids")?;
+        check_f64s(&p.luminaire_flux_lm, l, "luminaire flux")?;
+        check(
+            p.rho.precision == Precision::F32 as u8,
+            "reflectance precision",
+        )?;
+        check_values(&p.rho, 0, n, "reflectances")?;
+        for i in 0..n {
+            check(p.rho.get(i, 0) < 1.0, "a reflectance is 1 or more")?;
+        }
+        check_sparse(&p.ff, n, n, "form factors")?;
+        check_values(
+            &p.direct_patch_lx,
+            l,
+            l * n,
+            "direct illuminance on patches",
+        )?;
+        check_f64s(&p.direct_sensor_lx, s * l, "direct illuminance at sensors")?;
+        check_f64s(&p.first_bounce_sensor_lx, s * l, "first bounce at sensors")?;
+        check_f64s(&p.response_lx, s * l, "response matrix")?;
+        check_sparse(&p.gather, s, n, "gather rows")?;
+        check(
+            p.solve_tolerance.is_finite() && p.solve_tolerance > 0.0 && p.solve_max_iterations > 0,
+            "solver settings",
+        )?;
+        check(
+            self.header.precision == p.ff.values.precision,
+            "header precision differs from the payload's",
+        )?;
+        Ok(())
+    }
+
+    /// Total length in bytes (header + payload).
+    pub fn len(&self) -> usize {
+        HEADER_LEN + self.header.payload_len as usize
+    }
+
+    /// Never empty once parsed (a header is always there).
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Patches.
+    pub fn patches(&self) -> usize {
+        self.payload.n_patches as usize
+    }
+
+    /// Luminaires.
+    pub fn luminaires(&self) -> usize {
+        usize::from(self.payload.n_luminaires)
+    }
+
+    /// Sensors.
+    pub fn sensors(&self) -> usize {
+        usize::from(self.payload.n_sensors)
+    }
+
+    /// Luminaire id `j`.
+    pub fn luminaire_id(&self, j: usize) -> u32 {
+        self.payload.luminaire_ids.u32_at(j)
+    }
+
+    /// Sensor id `k`.
+    pub fn sensor_id(&self, k: usize) -> u32 {
+        self.payload.sensor_ids.u32_at(k)
+    }
+
+    /// Response of sensor `s` to luminaire `l` at 100 %, lx.
+    pub fn response_lx(&self, s: usize, l: usize) -> f64 {
+        self.payload.response_lx.f64_at(s * self.luminaires() + l)
+    }
+
+    /// The radiosity system of this image, for the solver.
+    pub fn system(&self) -> ImageSystem<'_, 'a> {
+        ImageSystem { image: self }
+    }
+}
+
+/// The stored form factors and reflectances as a [`RadiositySystem`].
+#[derive(Debug, Clone, Copy)]
+pub struct ImageSystem<'i, 'a> {
+    image: &'i Image<'a>,
+}
+
+impl RadiositySystem for ImageSystem<'_, '_> {
+    fn len(&self) -> usize {
+        self.image.patches()
+    }
+    fn rho(&self, i: usize) -> f64 {
+        self.image.payload.rho.get(i, 0)
+    }
+    fn gather(&self, i: usize, x: &[f64]) -> f64 {
+        self.image.payload.ff.row_dot(i, x)
+    }
+}
