@@ -409,6 +409,29 @@ fn stuck_pages_fail_the_write_and_keep_the_old_image() {
 }
 
 #[test]
+fn transient_read_flips_are_caught_at_boot() {
+    let a = small_image(1.0);
+    let b = small_image(2.0);
+    let mut slots = Slots::new(MemFlash::new(2 * (a.len() + 256)));
+    slots.write_image(&a).unwrap();
+    slots.write_image(&b).unwrap();
+    let base = slots.into_inner();
+    let slot_b = base.capacity() / 2;
+    for at in [slot_b + 3, slot_b + HEADER_LEN + 1, slot_b + b.len() - 1] {
+        let faulty = FaultyFlash::new(base.clone(), Faults { read_bit_flips: vec![(at, 5)], ..Faults::default() });
+        let status = Slots::new(faulty).boot();
+        assert_eq!((status.chosen, status.generation()), (Some(Slot::A), Some(1)), "flip at {at}");
+    }
+}
+
+#[test]
+fn file_flash_on_a_device_node_is_never_padded() {
+    // /dev/zero is a character device of no size: opening it as flash is refused, not written
+    let e = FileFlash::open(Path::new("/dev/zero"), 4096).unwrap_err();
+    assert!(e.to_string().contains("beyond"), "{e}");
+}
+
+#[test]
 fn file_flash_survives_reopening() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("formfactors.bin");

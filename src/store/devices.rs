@@ -94,8 +94,11 @@ impl FlashDevice for MemFlash {
     }
 }
 
-/// A file standing in for a flash partition (fixed size; created erased if missing). Every
-/// `sync` is an `fdatasync`, so a write that returned is on the medium.
+/// A flash partition as a file: a regular file (created erased if missing, on eMMC/ext4 or
+/// UBIFS) or a device node such as `/dev/mtdblock3` (an MTD partition through the kernel's
+/// mtdblock layer, which erases and rewrites its blocks itself). Every `sync` is an
+/// `fdatasync`, so a write that returned is on the medium. A device node is never padded or
+/// resized: it must hold at least `capacity` bytes.
 #[derive(Debug)]
 pub struct FileFlash {
     file: File,
@@ -114,11 +117,28 @@ impl FileFlash {
         let mut file = OpenOptions::new()
             .read(true)
             .write(true)
-            .create(true)
+            .create(!existed)
             .truncate(false)
             .open(path)
             .map_err(io)?;
-        let len = file.metadata().map_err(io)?.len() as usize;
+        let meta = file.metadata().map_err(io)?;
+        if !meta.file_type().is_file() {
+            // a block or character device: its size is where a seek to the end lands
+            let size = file.seek(SeekFrom::End(0)).map_err(io)? as usize;
+            if size < capacity {
+                return Err(DeviceError::OutOfRange {
+                    offset: 0,
+                    len: capacity,
+                    capacity: size,
+                });
+            }
+            return Ok(Self {
+                file,
+                path: path.to_path_buf(),
+                capacity,
+            });
+        }
+        let len = meta.len() as usize;
         if !existed || len < capacity {
             file.seek(SeekFrom::Start(len as u64)).map_err(io)?;
             let pad = vec![0xFF; capacity - len];
@@ -192,6 +212,8 @@ pub struct Faults {
     pub stuck_pages: Vec<usize>,
     /// Page size for `stuck_pages`, bytes.
     pub page_size: usize,
+    /// Transient bit flips on reads: (offset, bit) flipped in what a read returns.
+    pub read_bit_flips: Vec<(usize, u8)>,
 }
 
 /// A device that misbehaves as told.
@@ -250,7 +272,13 @@ impl<D: FlashDevice<Error = DeviceError>> FlashDevice for FaultyFlash<D> {
         if self.dead {
             return Err(DeviceError::PowerCut);
         }
-        self.inner.read(offset, buf)
+        self.inner.read(offset, buf)?;
+        for &(at, bit) in &self.faults.read_bit_flips {
+            if (offset..offset + buf.len()).contains(&at) {
+                buf[at - offset] ^= 1 << (bit % 8);
+            }
+        }
+        Ok(())
     }
     fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
         if self.dead {
