@@ -18,6 +18,7 @@
 //! | [`dali`] | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear) |
 //! | [`store`] | no_std | the flash image (header + postcard payload), A/B slots on a flash device |
 //! | [`runtime`] | no_std | desk lux for any dimming state from an image borrowed in place |
+//! | [`modbus`] | no_std core | Modbus wire format and register map (no_std); TCP/RTU servers, gateway link (std) |
 //! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
 //! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
 //! | `render` | std | pictures: the top-view illuminance map |
@@ -60,6 +61,7 @@ pub mod layout {
 }
 
 pub mod dali;
+pub mod modbus;
 pub mod runtime;
 pub mod solver;
 pub mod store;

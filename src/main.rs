@@ -941,6 +941,7 @@ fn image(command: ImageCommand) -> Result<ExitCode> {
                 precision: store.precision.precision(),
                 prune_below: store.prune,
                 scene_name: sc.name.clone(),
+                sensor_flags: Vec::new(),
             };
             let bytes = build_image(&model, &options)?;
             let image = Image::parse(&bytes)?;

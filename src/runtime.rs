@@ -46,6 +46,40 @@ pub struct Runtime<'i, 'a> {
     image: &'i Image<'a>,
 }
 
+/// Superposition: `out[s] = Σ_l response(s · L + l) · levels[l]` with L = `levels.len()`,
+/// after checking every level is in [0, 1]; a non-finite result is an error and nothing is
+/// written then.
+pub fn superpose(
+    response: impl Fn(usize) -> f64,
+    levels: &[f64],
+    out: &mut [f64],
+) -> Result<(), RuntimeError> {
+    for (index, &level) in levels.iter().enumerate() {
+        if !(level.is_finite() && (0.0..=1.0).contains(&level)) {
+            return Err(RuntimeError::Level { index, level });
+        }
+    }
+    let l = levels.len();
+    for s in 0..out.len() {
+        let acc: f64 = levels
+            .iter()
+            .enumerate()
+            .map(|(j, x)| response(s * l + j) * x)
+            .sum();
+        if !acc.is_finite() {
+            return Err(RuntimeError::NonFinite);
+        }
+    }
+    for (s, o) in out.iter_mut().enumerate() {
+        *o = levels
+            .iter()
+            .enumerate()
+            .map(|(j, x)| response(s * l + j) * x)
+            .sum();
+    }
+    Ok(())
+}
+
 fn expect_len(expected: usize, found: usize) -> Result<(), RuntimeError> {
     if expected == found {
         Ok(())
@@ -77,21 +111,10 @@ impl<'i, 'a> Runtime<'i, 'a> {
 
     /// Sensor readings (lx) for `levels` (one per luminaire, in [0, 1]) by superposition.
     pub fn sensor_lux(&self, levels: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
-        self.check_levels(levels)?;
+        expect_len(self.image.luminaires(), levels.len())?;
         expect_len(self.image.sensors(), out.len())?;
-        let l = self.image.luminaires();
         let r = &self.image.payload.response_lx;
-        for (s, o) in out.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for (j, x) in levels.iter().enumerate() {
-                acc += r.f64_at(s * l + j) * x;
-            }
-            if !acc.is_finite() {
-                return Err(RuntimeError::NonFinite);
-            }
-            *o = acc;
-        }
-        Ok(())
+        superpose(|i| r.f64_at(i), levels, out)
     }
 
     /// Sensor readings (lx) from a full re-solve; `e` and `b` are scratch of one f64 per patch.

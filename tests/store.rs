@@ -418,9 +418,19 @@ fn transient_read_flips_are_caught_at_boot() {
     let base = slots.into_inner();
     let slot_b = base.capacity() / 2;
     for at in [slot_b + 3, slot_b + HEADER_LEN + 1, slot_b + b.len() - 1] {
-        let faulty = FaultyFlash::new(base.clone(), Faults { read_bit_flips: vec![(at, 5)], ..Faults::default() });
+        let faulty = FaultyFlash::new(
+            base.clone(),
+            Faults {
+                read_bit_flips: vec![(at, 5)],
+                ..Faults::default()
+            },
+        );
         let status = Slots::new(faulty).boot();
-        assert_eq!((status.chosen, status.generation()), (Some(Slot::A), Some(1)), "flip at {at}");
+        assert_eq!(
+            (status.chosen, status.generation()),
+            (Some(Slot::A), Some(1)),
+            "flip at {at}"
+        );
     }
 }
 

@@ -19,6 +19,8 @@ pub struct ImageOptions {
     pub prune_below: f64,
     /// The scene's name, for inspection.
     pub scene_name: String,
+    /// Per-sensor flags ([`super::sensor_flags`]); empty means none set.
+    pub sensor_flags: Vec<u8>,
 }
 
 impl Default for ImageOptions {
@@ -27,6 +29,7 @@ impl Default for ImageOptions {
             precision: Precision::U16,
             prune_below: 0.0,
             scene_name: String::new(),
+            sensor_flags: Vec::new(),
         }
     }
 }
@@ -304,6 +307,9 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
     let (d_scales, d_data) = encode(&direct_flat, &bounds, options.precision);
     let luminaire_ids = u32_bytes(&model.luminaire_ids);
     let sensor_ids = u32_bytes(&model.sensor_ids);
+    let sensor_flags: Vec<u8> = (0..s)
+        .map(|k| options.sensor_flags.get(k).copied().unwrap_or(0))
+        .collect();
     let flux: Vec<u8> = model
         .luminaire_flux_lm
         .iter()
@@ -321,6 +327,7 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
         luminaire_ids: Bytes(&luminaire_ids),
         luminaire_flux_lm: Bytes(&flux),
         sensor_ids: Bytes(&sensor_ids),
+        sensor_flags: Bytes(&sensor_flags),
         rho: Values {
             precision: Precision::F32 as u8,
             scales: Bytes(&[]),

@@ -141,6 +141,9 @@ pub struct PayloadV1<'a> {
     /// Sensor (desk) ids, u32 LE, in sensors.json order.
     #[serde(borrow)]
     pub sensor_ids: Bytes<'a>,
+    /// Per sensor, one byte of [`sensor_flags`] (out of the camera's view, estimated).
+    #[serde(borrow)]
+    pub sensor_flags: Bytes<'a>,
     /// Patch reflectances (f32).
     #[serde(borrow)]
     pub rho: Values<'a>,
@@ -169,6 +172,15 @@ pub struct PayloadV1<'a> {
     pub solve_tolerance: f64,
     /// Solver sweep limit.
     pub solve_max_iterations: u32,
+}
+
+/// Bits of [`PayloadV1::sensor_flags`].
+pub mod sensor_flags {
+    /// The sensor lies outside the camera's view at commissioning (its surroundings were
+    /// modelled, not seen).
+    pub const OUT_OF_VIEW: u8 = 1;
+    /// Its reading rests on estimated (defaulted) reflectances or geometry.
+    pub const ESTIMATED: u8 = 2;
 }
 
 /// A parsed, fully checked image borrowing its bytes.
@@ -280,6 +292,7 @@ impl<'a> Image<'a> {
         check(n > 0, "no patches")?;
         check(p.luminaire_ids.count(4) == Some(l), "luminaire ids")?;
         check(p.sensor_ids.count(4) == Some(s), "sensor ids")?;
+        check(p.sensor_flags.count(1) == Some(s), "sensor flags")?;
         check_f64s(&p.luminaire_flux_lm, l, "luminaire flux")?;
         check(
             p.rho.precision == Precision::F32 as u8,
@@ -344,6 +357,11 @@ impl<'a> Image<'a> {
     /// Sensor id `k`.
     pub fn sensor_id(&self, k: usize) -> u32 {
         self.payload.sensor_ids.u32_at(k)
+    }
+
+    /// Flags of sensor `k` ([`sensor_flags`]).
+    pub fn sensor_flags(&self, k: usize) -> u8 {
+        self.payload.sensor_flags.0[k]
     }
 
     /// Response of sensor `s` to luminaire `l` at 100 %, lx.
