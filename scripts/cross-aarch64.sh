@@ -4,7 +4,8 @@
 # store (images, slots, corruption, bit flips, stuck pages, file flash), and office_a's accuracy
 # at default settings. Emulation is 40-50 times slower, so the tests that commission office_a
 # many times, the exhaustive power-cut sweeps, the extremes suite and the CLI tests run natively
-# only (scripts/test.sh); they exercise the same code.
+# only (scripts/test.sh); they exercise the same code. The Modbus tests that start servers as
+# processes and drive them with mbpoll/pymodbus run natively too; the fuzzer runs on both.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,5 +19,6 @@ export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER="qemu-aarch64 -L /usr/aarch
 export LUXNODE_TEST_RUNNER="$CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER"
 cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
   -E 'not (test(power_cut) | test(open_box) | binary(extremes) | binary(cli)
+          | (binary(modbus) & not test(fuzzed))
           | (binary(office_a) & not test(default_settings))
           | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

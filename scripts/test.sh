@@ -10,6 +10,9 @@ if ! cargo nextest --version >/dev/null 2>&1; then
   cargo install cargo-nextest --locked
 fi
 
+echo "== client programs for the Modbus tests (mbpoll, socat, pymodbus)"
+scripts/install-test-tools.sh
+
 echo "== Cortex-M4 firmware under QEMU (mps2-an386): run-time core equals the host's"
 scripts/firmware-check.sh
 

@@ -43,6 +43,23 @@ impl ArcLevel {
             }),
         }
     }
+
+    /// The arc level whose output on `curve` is nearest to `fraction` (in [0, 1]; outside or
+    /// not finite: `None`). 0 is off; any light at all is at least level 1.
+    pub fn nearest(fraction: f64, curve: DimmingCurve) -> Option<Self> {
+        if !(fraction.is_finite() && (0.0..=1.0).contains(&fraction)) {
+            return None;
+        }
+        if fraction == 0.0 {
+            return Some(Self::OFF);
+        }
+        let n = match curve {
+            // inverse of X(n): n = 1 + (253/3) (log10(100 x) + 1)
+            DimmingCurve::Logarithmic => 1.0 + 253.0 / 3.0 * (libm::log10(100.0 * fraction) + 1.0),
+            DimmingCurve::Linear => 254.0 * fraction,
+        };
+        Some(Self(libm::round(n).clamp(1.0, 254.0) as u8))
+    }
 }
 
 #[cfg(test)]
@@ -67,6 +84,23 @@ mod tests {
         }
         assert_eq!(ArcLevel::OFF.fraction(DimmingCurve::Logarithmic), Some(0.0));
         assert_eq!(ArcLevel::MASK.fraction(DimmingCurve::Logarithmic), None);
+    }
+
+    #[test]
+    fn nearest_inverts_both_curves() {
+        for curve in [DimmingCurve::Logarithmic, DimmingCurve::Linear] {
+            for n in 0..=254u8 {
+                let x = ArcLevel(n).fraction(curve).unwrap();
+                assert_eq!(
+                    ArcLevel::nearest(x, curve),
+                    Some(ArcLevel(n)),
+                    "{curve:?} {n}"
+                );
+            }
+            assert_eq!(ArcLevel::nearest(1e-9, curve), Some(ArcLevel(1)));
+            assert_eq!(ArcLevel::nearest(1.5, curve), None);
+            assert_eq!(ArcLevel::nearest(f64::NAN, curve), None);
+        }
     }
 
     #[test]

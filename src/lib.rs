@@ -87,3 +87,5 @@ pub mod demo;
 pub mod photometry;
 #[cfg(feature = "std")]
 pub mod scene;
+#[cfg(feature = "std")]
+pub mod serve;

@@ -14,6 +14,8 @@ use luxnode::photometry::IntensityDistribution;
 use luxnode::scene::{LoadOptions, Scenario, Scene, read_states, read_truth};
 use luxnode::store::{Image, Precision};
 
+mod cli;
+
 #[derive(Parser)]
 #[command(
     name = "luxnode",
@@ -55,6 +57,13 @@ enum Command {
     Image {
         #[command(subcommand)]
         command: ImageCommand,
+    },
+    /// Serve a commissioned image over Modbus TCP (and RTU), optionally following a DALI gateway.
+    Serve(Box<cli::modbus::ServeArgs>),
+    /// The Modbus register map.
+    Modbus {
+        #[command(subcommand)]
+        command: cli::modbus::ModbusCommand,
     },
     /// Benchmarks that print tables (and plots) for docs/.
     Bench {
@@ -418,6 +427,13 @@ impl SceneArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
@@ -443,6 +459,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench { command } => bench(command),
         Command::Image { command } => image(command),
         Command::Run { board } => run_board(&board),
+        Command::Serve(args) => cli::modbus::serve(&args).map(|()| ExitCode::SUCCESS),
+        Command::Modbus { command } => cli::modbus::modbus(&command).map(|()| ExitCode::SUCCESS),
     }
 }
 

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# The real client programs the Modbus tests run: mbpoll and socat (Debian), pymodbus (PyPI).
+# Installs only what is missing; scripts/test.sh calls it.
+set -euo pipefail
+
+missing=()
+command -v mbpoll >/dev/null 2>&1 || missing+=(mbpoll)
+command -v socat >/dev/null 2>&1 || missing+=(socat)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "== installing ${missing[*]} (apt)"
+  apt-get install -y -q "${missing[@]}" >/dev/null \
+    || { apt-get update -q >/dev/null && apt-get install -y -q "${missing[@]}" >/dev/null; }
+fi
+
+PY="${LUXNODE_PYTHON:-python3}"
+if ! "$PY" -c 'import pymodbus, serial' >/dev/null 2>&1; then
+  echo "== installing pymodbus (pip)"
+  "$PY" -m pip install -q --disable-pip-version-check 'pymodbus[serial]==3.16.1'
+fi

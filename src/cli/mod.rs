@@ -1,0 +1,4 @@
+//! Command-line pieces of the `luxnode` binary, one file per command family (the library
+//! holds the logic).
+
+pub mod modbus;

@@ -1,0 +1,471 @@
+//! The DALI gateway link: a Modbus TCP client (tokio-modbus) that polls a gateway's arc levels
+//! into the node and, optionally, writes the desk lux back.
+//!
+//! Gateways differ in layout, so the layout is configuration (`[gateway]` in the board file,
+//! or a TOML file for `luxnode serve --gateway`):
+//!
+//! ```toml
+//! address = "127.0.0.1:1503"   # host:port
+//! unit_id = 1
+//! poll_interval_ms = 500
+//! timeout_ms = 300             # per request
+//! retries = 2                  # extra attempts before the link counts as lost
+//! [levels]                     # luminaire j's level is at base + stride * j
+//! function = "holding"         # or "input"
+//! base = 0
+//! stride = 1
+//! encoding = "dali"            # 0..=254 arc level (255 = no change), or "percent" (0..=100)
+//! [lux]                        # optional: desk k's lux written as u16 at base + stride * k
+//! base = 200
+//! stride = 1
+//! scale = 1.0                  # register = round(lux × scale), saturating at 65534
+//! ```
+//!
+//! A value outside its encoding's range leaves that luminaire's level unchanged (counted).
+//! When a poll fails `retries + 1` times in a row the link is lost: the node keeps serving the
+//! last good values, flagged stale; the next successful poll clears the flag.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use serde::Deserialize;
+use tokio::sync::watch;
+use tokio_modbus::client::{Context, Reader, Writer};
+use tokio_modbus::prelude::Slave;
+
+use super::node::{SharedNode, lock};
+use super::pdu::{MAX_READ, MAX_WRITE};
+use super::regmap::U16_LUX_MAX;
+
+/// Where the levels are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum RegisterKind {
+    /// Holding registers (function 0x03).
+    #[default]
+    Holding,
+    /// Input registers (function 0x04).
+    Input,
+}
+
+/// How a level is encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Encoding {
+    /// DALI arc level 0..=254, 255 = no change.
+    #[default]
+    Dali,
+    /// Percent of full output, 0..=100.
+    Percent,
+}
+
+fn one() -> u16 {
+    1
+}
+
+/// The levels' layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LevelsLayout {
+    /// Register kind.
+    #[serde(default)]
+    pub function: RegisterKind,
+    /// Address of luminaire 0.
+    pub base: u16,
+    /// Registers between luminaires.
+    #[serde(default = "one")]
+    pub stride: u16,
+    /// Encoding.
+    #[serde(default)]
+    pub encoding: Encoding,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+/// Where desk lux is written back (holding registers).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LuxLayout {
+    /// Address of desk 0.
+    pub base: u16,
+    /// Registers between desks.
+    #[serde(default = "one")]
+    pub stride: u16,
+    /// Register value per lux.
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+}
+
+fn default_unit() -> u8 {
+    1
+}
+fn default_poll() -> u64 {
+    500
+}
+fn default_timeout() -> u64 {
+    300
+}
+fn default_retries() -> u32 {
+    2
+}
+
+/// A gateway link configuration.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GatewayConfig {
+    /// host:port.
+    pub address: String,
+    /// Unit id of the gateway.
+    #[serde(default = "default_unit")]
+    pub unit_id: u8,
+    /// Poll period, ms.
+    #[serde(default = "default_poll")]
+    pub poll_interval_ms: u64,
+    /// Per-request timeout, ms.
+    #[serde(default = "default_timeout")]
+    pub timeout_ms: u64,
+    /// Extra attempts before the link counts as lost.
+    #[serde(default = "default_retries")]
+    pub retries: u32,
+    /// Levels layout.
+    pub levels: LevelsLayout,
+    /// Lux write-back, if any.
+    #[serde(default)]
+    pub lux: Option<LuxLayout>,
+}
+
+impl GatewayConfig {
+    /// Parses and checks a TOML description.
+    pub fn from_toml(text: &str) -> anyhow::Result<Self> {
+        let c: GatewayConfig =
+            toml::from_str(text).map_err(|e| anyhow::anyhow!("gateway config: {e}"))?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// Checks ranges.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        self.socket_addr()?;
+        anyhow::ensure!(
+            self.levels.stride >= 1,
+            "gateway config: levels.stride must be >= 1"
+        );
+        anyhow::ensure!(
+            (10..=3_600_000).contains(&self.poll_interval_ms),
+            "gateway config: poll_interval_ms {} outside 10..=3600000",
+            self.poll_interval_ms
+        );
+        anyhow::ensure!(
+            (10..=60_000).contains(&self.timeout_ms),
+            "gateway config: timeout_ms {} outside 10..=60000",
+            self.timeout_ms
+        );
+        anyhow::ensure!(
+            self.retries <= 10,
+            "gateway config: retries {} > 10",
+            self.retries
+        );
+        if let Some(l) = &self.lux {
+            anyhow::ensure!(l.stride >= 1, "gateway config: lux.stride must be >= 1");
+            anyhow::ensure!(
+                l.scale.is_finite() && l.scale > 0.0,
+                "gateway config: lux.scale must be > 0"
+            );
+        }
+        Ok(())
+    }
+
+    /// The gateway's socket address.
+    pub fn socket_addr(&self) -> anyhow::Result<SocketAddr> {
+        use std::net::ToSocketAddrs;
+        self.address
+            .to_socket_addrs()
+            .map_err(|e| anyhow::anyhow!("gateway address {:?}: {e}", self.address))?
+            .next()
+            .ok_or_else(|| {
+                anyhow::anyhow!("gateway address {:?} resolves to nothing", self.address)
+            })
+    }
+
+    /// Register addresses of `count` luminaires' levels; an error if they pass 65535.
+    pub fn level_addresses(&self, count: usize) -> anyhow::Result<Vec<u16>> {
+        addresses(self.levels.base, self.levels.stride, count, "levels")
+    }
+}
+
+fn addresses(base: u16, stride: u16, count: usize, what: &str) -> anyhow::Result<Vec<u16>> {
+    (0..count)
+        .map(|j| {
+            u16::try_from(usize::from(base) + usize::from(stride) * j)
+                .map_err(|_| anyhow::anyhow!("gateway {what}: register of item {j} is past 65535"))
+        })
+        .collect()
+}
+
+/// Decodes one level register: `Some(fraction)`, `None` for "no change" or an invalid value
+/// (the second element says it was invalid).
+pub fn decode_level(
+    encoding: Encoding,
+    value: u16,
+    curve: crate::dali::DimmingCurve,
+) -> (Option<f64>, bool) {
+    match encoding {
+        Encoding::Dali => match value {
+            255 => (None, false),
+            0..=254 => (crate::dali::ArcLevel(value as u8).fraction(curve), false),
+            _ => (None, true),
+        },
+        Encoding::Percent => {
+            if value <= 100 {
+                (Some(f64::from(value) / 100.0), false)
+            } else {
+                (None, true)
+            }
+        }
+    }
+}
+
+/// Counters.
+#[derive(Debug, Default)]
+pub struct GatewayCounters {
+    /// Successful polls.
+    pub polls_ok: AtomicU64,
+    /// Failed attempts.
+    pub failures: AtomicU64,
+    /// Times the link was declared lost.
+    pub lost: AtomicU64,
+    /// Register values outside the encoding's range.
+    pub invalid_values: AtomicU64,
+    /// Lux write-backs done.
+    pub lux_writes: AtomicU64,
+}
+
+/// Reads the registers at `addrs` (contiguous runs in as few requests as possible).
+async fn read_registers(
+    ctx: &mut Context,
+    kind: RegisterKind,
+    addrs: &[u16],
+    timeout: Duration,
+) -> anyhow::Result<Vec<u16>> {
+    let mut out = Vec::with_capacity(addrs.len());
+    let (Some(&first), Some(&last)) = (addrs.first(), addrs.last()) else {
+        return Ok(out);
+    };
+    // read the span in chunks of at most 125 registers and pick
+    let mut span = Vec::with_capacity(usize::from(last - first) + 1);
+    let mut a = first;
+    loop {
+        let n = (usize::from(last - a) + 1).min(MAX_READ) as u16;
+        let fut = async {
+            match kind {
+                RegisterKind::Holding => ctx.read_holding_registers(a, n).await,
+                RegisterKind::Input => ctx.read_input_registers(a, n).await,
+            }
+        };
+        let words = tokio::time::timeout(timeout, fut)
+            .await
+            .map_err(|_| anyhow::anyhow!("timeout reading registers {a}..{}", a + n))??
+            .map_err(|e| anyhow::anyhow!("gateway exception {e:?} reading {a}..{}", a + n))?;
+        anyhow::ensure!(
+            words.len() == usize::from(n),
+            "gateway answered {} registers for {n}",
+            words.len()
+        );
+        span.extend(words);
+        match a.checked_add(n) {
+            Some(next) if next <= last => a = next,
+            _ => break,
+        }
+    }
+    for &x in addrs {
+        out.push(span[usize::from(x - first)]);
+    }
+    Ok(out)
+}
+
+async fn write_lux(
+    ctx: &mut Context,
+    layout: &LuxLayout,
+    lux: &[f64],
+    timeout: Duration,
+) -> anyhow::Result<()> {
+    let values: Vec<u16> = lux
+        .iter()
+        .map(|&x| {
+            let v = x * layout.scale;
+            if !v.is_finite() {
+                crate::modbus::regmap::NOT_AVAILABLE_U16
+            } else {
+                v.round().clamp(0.0, f64::from(U16_LUX_MAX)) as u16
+            }
+        })
+        .collect();
+    let addrs = addresses(layout.base, layout.stride, values.len(), "lux")?;
+    if layout.stride == 1 {
+        for (chunk, a) in values.chunks(MAX_WRITE).zip(addrs.chunks(MAX_WRITE)) {
+            let fut = ctx.write_multiple_registers(a[0], chunk);
+            tokio::time::timeout(timeout, fut)
+                .await
+                .map_err(|_| anyhow::anyhow!("timeout writing lux"))??
+                .map_err(|e| anyhow::anyhow!("gateway exception {e:?} writing lux"))?;
+        }
+    } else {
+        for (&v, &a) in values.iter().zip(&addrs) {
+            let fut = ctx.write_single_register(a, v);
+            tokio::time::timeout(timeout, fut)
+                .await
+                .map_err(|_| anyhow::anyhow!("timeout writing lux"))??
+                .map_err(|e| anyhow::anyhow!("gateway exception {e:?} writing lux"))?;
+        }
+    }
+    Ok(())
+}
+
+/// One poll: connect if needed, read the levels, apply them, write the lux back.
+async fn poll_once(
+    ctx: &mut Option<Context>,
+    config: &GatewayConfig,
+    addr: SocketAddr,
+    node: &SharedNode,
+    counters: &GatewayCounters,
+) -> anyhow::Result<()> {
+    let timeout = Duration::from_millis(config.timeout_ms);
+    if ctx.is_none() {
+        let c = tokio::time::timeout(
+            timeout,
+            tokio_modbus::client::tcp::connect_slave(addr, Slave(config.unit_id)),
+        )
+        .await
+        .map_err(|_| anyhow::anyhow!("timeout connecting to {addr}"))??;
+        *ctx = Some(c);
+    }
+    let Some(c) = ctx.as_mut() else {
+        anyhow::bail!("no connection");
+    };
+    let (count, curve) = {
+        let n = lock(node);
+        (n.levels().len(), n.map().curve)
+    };
+    let addrs = config.level_addresses(count)?;
+    let words = read_registers(c, config.levels.function, &addrs, timeout).await?;
+    let mut levels = Vec::with_capacity(count);
+    for &w in &words {
+        let (x, invalid) = decode_level(config.levels.encoding, w, curve);
+        if invalid {
+            counters.invalid_values.fetch_add(1, Ordering::Relaxed);
+        }
+        levels.push(x);
+    }
+    let lux: Vec<f64> = {
+        let mut n = lock(node);
+        n.set_levels(&levels)?;
+        n.set_gateway_link(true);
+        n.desks().iter().map(|d| d.1).collect()
+    };
+    counters.polls_ok.fetch_add(1, Ordering::Relaxed);
+    if let Some(layout) = &config.lux {
+        write_lux(c, layout, &lux, timeout).await?;
+        counters.lux_writes.fetch_add(1, Ordering::Relaxed);
+    }
+    Ok(())
+}
+
+/// Runs the link until `shutdown` turns true.
+pub async fn run(
+    config: GatewayConfig,
+    node: SharedNode,
+    counters: Arc<GatewayCounters>,
+    mut shutdown: watch::Receiver<bool>,
+) -> anyhow::Result<()> {
+    config.validate()?;
+    let addr = config.socket_addr()?;
+    let mut ctx: Option<Context> = None;
+    let mut interval = tokio::time::interval(Duration::from_millis(config.poll_interval_ms));
+    interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut up = false;
+    loop {
+        tokio::select! {
+            _ = interval.tick() => {}
+            _ = shutdown.changed() => return Ok(()),
+        }
+        let mut attempt = 0;
+        loop {
+            match poll_once(&mut ctx, &config, addr, &node, &counters).await {
+                Ok(()) => {
+                    if !up {
+                        tracing::info!("dali gateway {addr}: link up");
+                    }
+                    up = true;
+                    break;
+                }
+                Err(e) => {
+                    counters.failures.fetch_add(1, Ordering::Relaxed);
+                    ctx = None; // reconnect: the stream may be out of step after a timeout
+                    attempt += 1;
+                    if attempt > config.retries {
+                        if up {
+                            tracing::warn!(
+                                "dali gateway {addr}: link lost ({e}); serving the last values as stale"
+                            );
+                            counters.lost.fetch_add(1, Ordering::Relaxed);
+                        } else {
+                            tracing::debug!("dali gateway {addr}: {e}");
+                        }
+                        up = false;
+                        lock(&node).set_gateway_link(false);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dali::DimmingCurve;
+
+    #[test]
+    fn config_parses_and_is_checked() {
+        let c = GatewayConfig::from_toml(
+            "address = \"127.0.0.1:1503\"\n[levels]\nbase = 10\nstride = 4\nencoding = \"percent\"\n[lux]\nbase = 200\n",
+        )
+        .unwrap();
+        assert_eq!(c.level_addresses(3).unwrap(), vec![10, 14, 18]);
+        assert_eq!(c.levels.encoding, Encoding::Percent);
+        assert_eq!(c.lux.unwrap().stride, 1);
+        assert_eq!((c.unit_id, c.retries), (1, 2));
+        for bad in [
+            "address = \"nohost\"\n[levels]\nbase = 0\n",
+            "address = \"127.0.0.1:1\"\n[levels]\nbase = 0\nstride = 0\n",
+            "address = \"127.0.0.1:1\"\n[levels]\nbase = 0\nencoding = \"dim\"\n",
+            "address = \"127.0.0.1:1\"\ntimeout_ms = 0\n[levels]\nbase = 0\n",
+            "address = \"127.0.0.1:1\"\n[levels]\nbase = 0\nbsae = 1\n",
+        ] {
+            assert!(GatewayConfig::from_toml(bad).is_err(), "{bad}");
+        }
+        let c = GatewayConfig::from_toml(
+            "address = \"127.0.0.1:1\"\n[levels]\nbase = 65000\nstride = 100\n",
+        )
+        .unwrap();
+        assert!(c.level_addresses(8).is_err());
+    }
+
+    #[test]
+    fn levels_decode_per_encoding() {
+        let log = DimmingCurve::Logarithmic;
+        assert_eq!(decode_level(Encoding::Dali, 254, log), (Some(1.0), false));
+        assert_eq!(decode_level(Encoding::Dali, 0, log), (Some(0.0), false));
+        assert_eq!(decode_level(Encoding::Dali, 255, log), (None, false));
+        assert_eq!(decode_level(Encoding::Dali, 256, log), (None, true));
+        assert_eq!(decode_level(Encoding::Percent, 50, log), (Some(0.5), false));
+        assert_eq!(decode_level(Encoding::Percent, 101, log), (None, true));
+        let (x, _) = decode_level(Encoding::Dali, 1, log);
+        assert!((x.unwrap() - 0.001).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,184 @@
+//! Serving a commissioned image over Modbus: the TCP server, optionally the RTU server and the
+//! DALI gateway link, all on one [`Node`]. `luxnode serve` runs this; the daemon reuses it.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::Context as _;
+use tokio::sync::watch;
+
+use crate::modbus::gateway::{self, GatewayConfig, GatewayCounters};
+use crate::modbus::node::{Node, NodeModel, NodeOptions, SharedNode};
+use crate::modbus::regmap::Identity;
+use crate::modbus::rtu::{self, RtuCounters, RtuOptions};
+use crate::modbus::tcp::{self, TcpCounters, TcpOptions};
+use crate::store::Image;
+
+/// The sim board's Modbus TCP address (port 1502: no root needed, unlike 502).
+pub const DEFAULT_BIND: &str = "127.0.0.1:1502";
+
+/// What to serve and how.
+#[derive(Debug, Clone)]
+pub struct ServeOptions {
+    /// The image file.
+    pub image: PathBuf,
+    /// TCP address.
+    pub bind: SocketAddr,
+    /// TCP limits.
+    pub tcp: TcpOptions,
+    /// RTU: serial device and line settings.
+    pub rtu: Option<(String, RtuOptions)>,
+    /// DALI gateway link.
+    pub gateway: Option<GatewayConfig>,
+    /// Model name for device identification.
+    pub model_name: String,
+    /// Initial arc level of every luminaire (default: off, or whatever the gateway says).
+    pub initial_arc: Option<u8>,
+    /// Stop after this long (tests, benchmarks); `None`: until Ctrl-C / SIGTERM.
+    pub run_for: Option<Duration>,
+}
+
+/// Builds the node for an image file.
+pub fn load_node(path: &std::path::Path, options: NodeOptions) -> anyhow::Result<Node> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let image = Image::parse(&bytes).with_context(|| format!("image {}", path.display()))?;
+    let model = NodeModel::from_image(&image, image.header.generation);
+    Ok(Node::new(model, options)?)
+}
+
+fn identity(model_name: &str, image: &std::path::Path) -> Identity {
+    let mut id = Identity::default();
+    for c in model_name.chars() {
+        if id.model.push(c).is_err() {
+            break;
+        }
+    }
+    let app = image
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    for c in app.chars() {
+        if id.application.push(c).is_err() {
+            break;
+        }
+    }
+    id
+}
+
+/// Serves until Ctrl-C, SIGTERM or `run_for`. Prints `modbus tcp listening on ADDR` (the bound
+/// address: with port 0 the kernel picks one) on stdout once the socket is open.
+pub fn serve(options: ServeOptions) -> anyhow::Result<()> {
+    let node = load_node(
+        &options.image,
+        NodeOptions {
+            identity: identity(&options.model_name, &options.image),
+            gateway_configured: options.gateway.is_some(),
+            initial_arc: options.initial_arc,
+        },
+    )?;
+    let node: SharedNode = Arc::new(Mutex::new(node));
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("tokio runtime")?;
+    rt.block_on(serve_node(node, options))
+}
+
+/// Serves an existing node (the daemon builds its own).
+pub async fn serve_node(node: SharedNode, options: ServeOptions) -> anyhow::Result<()> {
+    let (stop_tx, stop_rx) = watch::channel(false);
+    let listener = tcp::bind(options.bind).await?;
+    let local = listener.local_addr()?;
+    {
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "modbus tcp listening on {local}");
+        let _ = out.flush();
+    }
+    let tcp_counters = Arc::new(TcpCounters::default());
+    let tcp_task = tokio::spawn(tcp::serve(
+        listener,
+        node.clone(),
+        options.tcp.clone(),
+        tcp_counters.clone(),
+        stop_rx.clone(),
+    ));
+
+    let rtu_stop = Arc::new(AtomicBool::new(false));
+    let rtu_thread = match &options.rtu {
+        Some((device, line)) => {
+            let port = rtu::open_port(device, line)?;
+            println!(
+                "modbus rtu on {device}: unit {}, {} baud, parity {:?}, t3.5 {:?}",
+                line.unit_id,
+                line.baud,
+                line.parity,
+                line.t35()
+            );
+            Some(rtu::spawn(
+                port,
+                node.clone(),
+                line.unit_id,
+                Arc::new(RtuCounters::default()),
+                rtu_stop.clone(),
+            ))
+        }
+        None => None,
+    };
+
+    let gateway_task = options.gateway.clone().map(|config| {
+        println!("dali gateway link: polling {}", config.address);
+        tokio::spawn(gateway::run(
+            config,
+            node.clone(),
+            Arc::new(GatewayCounters::default()),
+            stop_rx.clone(),
+        ))
+    });
+
+    wait_for_stop(options.run_for).await;
+    let _ = stop_tx.send(true);
+    rtu_stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = tcp_task.await;
+    if let Some(t) = gateway_task {
+        let _ = t.await;
+    }
+    if let Some(t) = rtu_thread {
+        let _ = tokio::task::spawn_blocking(move || t.join()).await;
+    }
+    Ok(())
+}
+
+async fn wait_for_stop(run_for: Option<Duration>) {
+    let timer = async {
+        match run_for {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(unix)]
+    {
+        let term = async {
+            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(mut s) => {
+                    s.recv().await;
+                }
+                Err(_) => std::future::pending::<()>().await,
+            }
+        };
+        tokio::select! {
+            _ = timer => {}
+            _ = tokio::signal::ctrl_c() => {}
+            _ = term => {}
+        }
+    }
+    #[cfg(not(unix))]
+    tokio::select! {
+        _ = timer => {}
+        _ = tokio::signal::ctrl_c() => {}
+    }
+}
