@@ -23,6 +23,74 @@ pub struct Board {
     pub description: String,
     /// The room model the node works on.
     pub scene: SceneSource,
+    /// Modbus: TCP server, RTU line, DALI gateway.
+    pub modbus: ModbusBoard,
+}
+
+/// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[gateway]`).
+#[derive(Debug, Clone)]
+pub struct ModbusBoard {
+    /// TCP address.
+    pub bind: std::net::SocketAddr,
+    /// TCP connection cap.
+    pub max_connections: usize,
+    /// TCP idle timeout.
+    pub idle_timeout: std::time::Duration,
+    /// RTU: device and line settings.
+    pub rtu: Option<(String, crate::modbus::rtu::RtuOptions)>,
+    /// DALI gateway link.
+    pub gateway: Option<crate::modbus::gateway::GatewayConfig>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModbusToml {
+    #[serde(default = "default_bind")]
+    bind: String,
+    #[serde(default = "default_max_connections")]
+    max_connections: usize,
+    #[serde(default = "default_idle_timeout_s")]
+    idle_timeout_s: f64,
+    #[serde(default)]
+    rtu: Option<RtuToml>,
+}
+
+impl Default for ModbusToml {
+    fn default() -> Self {
+        Self {
+            bind: default_bind(),
+            max_connections: default_max_connections(),
+            idle_timeout_s: default_idle_timeout_s(),
+            rtu: None,
+        }
+    }
+}
+
+fn default_bind() -> String {
+    crate::serve::DEFAULT_BIND.into()
+}
+fn default_max_connections() -> usize {
+    16
+}
+fn default_idle_timeout_s() -> f64 {
+    60.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RtuToml {
+    device: String,
+    #[serde(default = "default_baud")]
+    baud: u32,
+    #[serde(default)]
+    parity: crate::modbus::rtu::Parity,
+    #[serde(default)]
+    stop_bits: Option<u8>,
+    unit_id: u8,
+}
+
+fn default_baud() -> u32 {
+    19200
 }
 
 #[derive(Deserialize)]
@@ -32,6 +100,10 @@ struct BoardToml {
     #[serde(default)]
     description: String,
     scene: SceneToml,
+    #[serde(default)]
+    modbus: ModbusToml,
+    #[serde(default)]
+    gateway: Option<crate::modbus::gateway::GatewayConfig>,
 }
 
 #[derive(Deserialize)]
@@ -89,10 +161,64 @@ impl Board {
             }
             dir => SceneSource::Directory(path.parent().unwrap_or(Path::new(".")).join(dir)),
         };
+        let bad = |message: String| BoardError::Format {
+            path: path.to_path_buf(),
+            message,
+        };
+        let m = &t.modbus;
+        let bind = m.bind.parse().map_err(|e| {
+            bad(format!(
+                "modbus.bind {:?}: {e} (expected ADDR:PORT)",
+                m.bind
+            ))
+        })?;
+        if m.max_connections == 0 || m.max_connections > 1024 {
+            return Err(bad(format!(
+                "modbus.max_connections {} is outside 1..=1024",
+                m.max_connections
+            )));
+        }
+        if !(m.idle_timeout_s.is_finite() && m.idle_timeout_s > 0.0 && m.idle_timeout_s < 1e6) {
+            return Err(bad(format!(
+                "modbus.idle_timeout_s {} must be a positive number of seconds",
+                m.idle_timeout_s
+            )));
+        }
+        let rtu = match &m.rtu {
+            None => None,
+            Some(r) => {
+                let options = crate::modbus::rtu::RtuOptions {
+                    unit_id: r.unit_id,
+                    baud: r.baud,
+                    parity: r.parity,
+                    stop_bits: r.stop_bits.unwrap_or(
+                        if r.parity == crate::modbus::rtu::Parity::None {
+                            2
+                        } else {
+                            1
+                        },
+                    ),
+                };
+                options
+                    .validate()
+                    .map_err(|e| bad(format!("modbus.rtu: {e}")))?;
+                Some((r.device.clone(), options))
+            }
+        };
+        if let Some(g) = &t.gateway {
+            g.validate().map_err(|e| bad(format!("gateway: {e}")))?;
+        }
         Ok(Board {
             name: t.name,
             description: t.description,
             scene,
+            modbus: ModbusBoard {
+                bind,
+                max_connections: m.max_connections,
+                idle_timeout: std::time::Duration::from_secs_f64(m.idle_timeout_s),
+                rtu,
+                gateway: t.gateway,
+            },
         })
     }
 }
@@ -106,6 +232,43 @@ mod tests {
         let b = Board::load(Path::new("boards/sim/board.toml")).unwrap();
         assert_eq!(b.name, "sim");
         assert_eq!(b.scene, SceneSource::DemoOffice);
+        assert_eq!(b.modbus.bind.to_string(), "127.0.0.1:1502");
+        assert!(b.modbus.rtu.is_none());
+    }
+
+    #[test]
+    fn modbus_settings_are_checked() {
+        let base = "name = \"x\"\n[scene]\nsource = \"demo-office\"\n";
+        let ok = format!(
+            "{base}[modbus]\nbind = \"0.0.0.0:502\"\n[modbus.rtu]\ndevice = \"/dev/ttyAMA0\"\nunit_id = 7\nparity = \"none\"\n[gateway]\naddress = \"10.0.0.9:502\"\n[gateway.levels]\nbase = 0\n"
+        );
+        let b = Board::parse(&ok, Path::new("b.toml")).unwrap();
+        let (dev, line) = b.modbus.rtu.unwrap();
+        assert_eq!(
+            (dev.as_str(), line.unit_id, line.stop_bits),
+            ("/dev/ttyAMA0", 7, 2)
+        );
+        assert!(b.modbus.gateway.is_some());
+        for (bad, says) in [
+            ("[modbus]\nbind = \"localhost\"\n", "modbus.bind"),
+            ("[modbus]\nmax_connections = 0\n", "max_connections"),
+            ("[modbus]\nidle_timeout_s = -1\n", "idle_timeout_s"),
+            (
+                "[modbus.rtu]\ndevice = \"/dev/x\"\nunit_id = 0\n",
+                "unit id",
+            ),
+            (
+                "[modbus.rtu]\ndevice = \"/dev/x\"\nunit_id = 1\nbaud = 7\n",
+                "baud",
+            ),
+            (
+                "[gateway]\naddress = \"nowhere\"\n[gateway.levels]\nbase = 0\n",
+                "gateway",
+            ),
+        ] {
+            let e = Board::parse(&format!("{base}{bad}"), Path::new("b.toml")).unwrap_err();
+            assert!(e.to_string().contains(says), "{bad}: {e}");
+        }
     }
 
     #[test]

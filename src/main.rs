@@ -365,6 +365,30 @@ enum BenchCommand {
         )]
         title: String,
     },
+    /// Many Modbus TCP clients polling the desk lux at once: throughput, latency, memory.
+    ModbusLoad {
+        /// The image to serve.
+        #[arg(long)]
+        image: PathBuf,
+        /// Clients.
+        #[arg(long, default_value_t = 100)]
+        clients: usize,
+        /// Duration, s.
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// Each client's poll interval, ms (0: back to back).
+        #[arg(long, default_value_t = 0)]
+        interval_ms: u64,
+    },
+    /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
+    Fuzz {
+        /// Frames.
+        #[arg(long, default_value_t = 10_000_000)]
+        frames: u64,
+        /// Seed.
+        #[arg(long, default_value_t = 0x6C75_786E)]
+        seed: u64,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -1300,6 +1324,17 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
                 .save_png(&out)
                 .with_context(|| format!("writing {}", out.display()))?;
             println!("plot: {} ({} points)", out.display(), rows.len());
+        }
+        BenchCommand::ModbusLoad {
+            image,
+            clients,
+            seconds,
+            interval_ms,
+        } => {
+            cli::modbus::bench_load(&image, clients, seconds, interval_ms)?;
+        }
+        BenchCommand::Fuzz { frames, seed } => {
+            cli::modbus::bench_fuzz(frames, seed)?;
         }
         BenchCommand::Ablation { scene } => {
             let (sc, scenarios, truth) = scene_with_truth(&scene)?;
