@@ -30,7 +30,7 @@ impl Default for MeshOptions {
     fn default() -> Self {
         Self {
             cell_m: 0.05,
-            patch_size_m: 0.5,
+            patch_size_m: 1.0,
             cut_rel: 0.05,
             taubin_passes: 5,
         }
