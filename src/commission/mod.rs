@@ -250,6 +250,29 @@ pub fn to_mesh(reco: &RecoMesh, tri_rho: &[f64]) -> Mesh {
     }
 }
 
+/// Runs the engine; if the solve diverges on the reconstructed (possibly open, noisy) mesh,
+/// retries without form-factor rectification and says so.
+fn run_engine(
+    scene: &Scene,
+    settings: &Settings,
+    warnings: &mut Vec<String>,
+) -> Result<Model, CommissionError> {
+    match engine::commission(scene, settings) {
+        Err(EngineError::Solve { what, source }) if settings.rectify => {
+            warnings.push(format!(
+                "radiosity solve for {what} failed ({source}) with rectified form factors; \
+                 retried without rectification"
+            ));
+            let s = Settings {
+                rectify: false,
+                ..settings.clone()
+            };
+            Ok(engine::commission(scene, &s)?)
+        }
+        other => Ok(other?),
+    }
+}
+
 fn pass_settings(final_settings: &Settings) -> Settings {
     Settings {
         sensor_rays: 2000,
@@ -397,6 +420,8 @@ pub fn commission(
     };
 
     let mut tri_rho = start_rho.clone();
+    // luxmeter mode: the cheap pass model's reading, corrected by the final model's
+    let mut luxmeter_fix: Option<(usize, f64)> = None;
     let scale = match o.gain {
         Gain::Camera => cam.luminance_cd_m2_per_unit,
         Gain::Luxmeter { .. } => None,
@@ -404,7 +429,8 @@ pub fn commission(
     if o.estimate_reflectances {
         let st = Stage::start("pass model", o.progress);
         let pass = pass_settings(&o.engine);
-        let pass_model = engine::commission(&make_scene(&start_rho), &pass)?;
+        let pass_model = run_engine(&make_scene(&start_rho), &pass, &mut report.warnings)?;
+        let pass = pass_model.settings.clone();
         st.done(&mut report);
 
         let st = Stage::start("reflectances", o.progress);
@@ -468,29 +494,38 @@ pub fn commission(
                         .collect();
                     reflectance::sensor_reading_lx(&pass_model, s, levels, &patch_rho, &pass)
                 };
-                // bisection on log(gain)
-                let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
-                let mut best = run(1.0);
-                for _ in 0..40 {
-                    let mid = 0.5 * (lo + hi);
-                    let e = run(mid.exp());
-                    if reading(&e) < *lux_lx {
-                        lo = mid;
-                    } else {
-                        hi = mid;
+                // bisection on log(gain), twice: the second time against the target
+                // corrected by the final model's reading at the first gain
+                let bisect = |target: f64| {
+                    let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
+                    let mut best = run(1.0);
+                    for _ in 0..40 {
+                        let mid = 0.5 * (lo + hi);
+                        let e = run(mid.exp());
+                        if reading(&e) < target {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                        best = e;
+                        if hi - lo < 1e-3 {
+                            break;
+                        }
                     }
-                    best = e;
-                    if hi - lo < 1e-3 {
-                        break;
-                    }
-                }
-                let r = reading(&best);
-                if (r - lux_lx).abs() > 0.05 * lux_lx {
-                    report.warnings.push(format!(
-                        "luxmeter gain: the model reads {r:.0} lx at sensor {sensor_id}, not {lux_lx:.0} lx \
-                         (reflectances at their limits?)"
-                    ));
-                }
+                    best
+                };
+                let first = bisect(*lux_lx);
+                let pass_reading = reading(&first);
+                let scene = make_scene(&first.tri_rho);
+                let full = run_engine(&scene, &o.engine, &mut report.warnings)?;
+                let full_reading = full.sensor_lux(levels)?[s];
+                let target = if full_reading > 0.0 {
+                    lux_lx * pass_reading / full_reading
+                } else {
+                    *lux_lx
+                };
+                let best = bisect(target);
+                luxmeter_fix = Some((s, *lux_lx));
                 best
             }
         };
@@ -507,8 +542,23 @@ pub fn commission(
 
     let st = Stage::start("engine", o.progress);
     let scene = make_scene(&tri_rho);
-    let model = engine::commission(&scene, &o.engine)?;
+    let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
     report.patches = model.patches.len();
+    if let (
+        Some((s, lux)),
+        Gain::Luxmeter {
+            levels, sensor_id, ..
+        },
+    ) = (luxmeter_fix, &o.gain)
+    {
+        let r = model.sensor_lux(levels)?[s];
+        if (r - lux).abs() > 0.05 * lux {
+            report.warnings.push(format!(
+                "luxmeter gain: the model reads {r:.0} lx at sensor {sensor_id}, not {lux:.0} lx \
+                 (reflectances at their limits?)"
+            ));
+        }
+    }
     st.done(&mut report);
 
     let flags = sensor_flags_for(&scene, &depth, &reco, &model);
