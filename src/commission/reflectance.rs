@@ -122,7 +122,8 @@ pub fn sample(
     let pixels: Vec<(u32, u32)> = (0..cam.height / s)
         .flat_map(|v| (0..cam.width / s).map(move |u| (u * s + s / 2, v * s + s / 2)))
         .collect();
-    let rows: Vec<Option<(u32, u32, u32, u32, Vec<f64>, Vec<f64>)>> = pixels
+    type Row = (u32, u32, u32, u32, Vec<f64>, Vec<f64>);
+    let rows: Vec<Option<Row>> = pixels
         .par_iter()
         .map(|&(u, v)| {
             let dir = cam.ray_world(f64::from(u), f64::from(v));
@@ -235,6 +236,7 @@ pub fn estimate(
                 continue;
             }
             buf.clear();
+            #[allow(clippy::needless_range_loop)]
             for l in 0..n_lum {
                 let val = samples.value[k].get(l).copied().unwrap_or(f64::NAN);
                 if val.is_finite() && e[l] >= o.min_rel_irradiance * best && e[l] > 0.0 {
@@ -253,6 +255,7 @@ pub fn estimate(
         out.pixels_used = used;
         // per part medians for seen triangles without pixels
         let mut by_part: std::collections::HashMap<Part, Vec<f64>> = Default::default();
+        #[allow(clippy::needless_range_loop)]
         for t in 0..n_tri {
             if !per_tri[t].is_empty() {
                 by_part.entry(reco.part[t]).or_default().extend(&per_tri[t]);
