@@ -65,6 +65,9 @@ enum Command {
         #[command(subcommand)]
         command: cli::modbus::ModbusCommand,
     },
+    /// Commission from a capture set (ToF depth + luminance frames, no CAD model) and write
+    /// the flash image.
+    Commission(Box<CommissionArgs>),
     /// Benchmarks that print tables (and plots) for docs/.
     Bench {
         #[command(subcommand)]
@@ -114,6 +117,69 @@ struct SimulateArgs {
     /// Map cell size, m.
     #[arg(long, default_value_t = 0.1, requires = "map")]
     map_cell: f64,
+}
+
+#[derive(clap::Args)]
+struct CommissionArgs {
+    /// The capture set directory (camera.json, depth_NNN.png, luminance_L<k>.png).
+    #[arg(long)]
+    capture: PathBuf,
+    /// luminaires.json (installed positions and photometry).
+    #[arg(long)]
+    luminaires: PathBuf,
+    /// sensors.json (the desk points to answer for).
+    #[arg(long)]
+    sensors: PathBuf,
+    /// desks.json, for the report's desk outlines and desk lux.
+    #[arg(long)]
+    desks: Option<PathBuf>,
+    /// The flash image to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write the mesh as PLY (grey = reflectance).
+    #[arg(long, value_name = "FILE.ply")]
+    export_mesh: Option<PathBuf>,
+    /// Also draw the camera view with a false-colour lux overlay, desk outlines and desk lux.
+    #[arg(long, value_name = "FILE.png")]
+    report: Option<PathBuf>,
+    /// Close the room (inferred floor, walls, ceiling).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    closure: OnOff,
+    /// Reflectance of the inferred walls.
+    #[arg(long, default_value_t = luxnode::commission::ClosureOptions::default().wall_rho)]
+    wall_rho: f64,
+    /// Reflectance of the inferred ceiling.
+    #[arg(long, default_value_t = luxnode::commission::ClosureOptions::default().ceiling_rho)]
+    ceiling_rho: f64,
+    /// Room box x0,y0,x1,y1 in m (default: inferred).
+    #[arg(long, value_delimiter = ',', num_args = 4)]
+    room: Option<Vec<f64>>,
+    /// Ceiling height, m (default: just above the highest luminaire opening).
+    #[arg(long)]
+    ceiling_height: Option<f64>,
+    /// Target patch size of the reconstructed mesh (largest rectangle side), m.
+    #[arg(long, default_value_t = luxnode::commission::MeshOptions::default().patch_size_m)]
+    mesh_patch_size: f64,
+    /// Camera gain from one luxmeter reading instead of camera.json: SENSOR_ID:LUX with all
+    /// luminaires on.
+    #[arg(long, value_name = "ID:LUX")]
+    luxmeter: Option<String>,
+    /// Estimate reflectances (off: every seen surface gets --start-rho).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    reflectances: OnOff,
+    /// Reflectance of seen surfaces before (or without) estimation.
+    #[arg(long, default_value_t = 0.5)]
+    start_rho: f64,
+    /// Print the error against a truth.csv (with --states).
+    #[arg(long, requires = "states")]
+    truth: Option<PathBuf>,
+    /// states.csv for --truth.
+    #[arg(long)]
+    states: Option<PathBuf>,
+    #[command(flatten)]
+    engine: EngineArgs,
+    #[command(flatten)]
+    store: StoreArgs,
 }
 
 #[derive(clap::Args)]
@@ -485,6 +551,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Run { board } => run_board(&board),
         Command::Serve(args) => cli::modbus::serve(&args).map(|()| ExitCode::SUCCESS),
         Command::Modbus { command } => cli::modbus::modbus(&command).map(|()| ExitCode::SUCCESS),
+        Command::Commission(args) => commission_cmd::run(&args),
     }
 }
 
@@ -1391,4 +1458,240 @@ fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::render::Canv
         series,
     }
     .draw(900, 560)
+}
+
+mod commission_cmd {
+    //! `luxnode commission`.
+    use super::*;
+    use luxnode::commission::{self, Capture, CommissionOptions, Gain};
+    use luxnode::scene::{load_desks_file, load_luminaires_file, load_sensors_file};
+    use luxnode::store::build::{ImageOptions, build_image, too_large_message};
+
+    fn peak_memory_mib() -> Option<f64> {
+        let s = std::fs::read_to_string("/proc/self/status").ok()?;
+        let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+        let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kb / 1024.0)
+    }
+
+    pub(super) fn run(a: &CommissionArgs) -> Result<ExitCode> {
+        let t0 = std::time::Instant::now();
+        let load = LoadOptions::default();
+        let (lums, w1) = load_luminaires_file(&a.luminaires, &load)?;
+        let (sensors, w2) = load_sensors_file(&a.sensors, &load)?;
+        let desks = match &a.desks {
+            Some(p) => Some(load_desks_file(p, &load)?),
+            None => None,
+        };
+        for w in w1.iter().chain(&w2) {
+            eprintln!("warning: {w}");
+        }
+        let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
+        let cap = Capture::load(&a.capture, &ids)?;
+        let gain = match &a.luxmeter {
+            None => Gain::Camera,
+            Some(s) => {
+                let (id, lux) = s
+                    .split_once(':')
+                    .context("--luxmeter wants SENSOR_ID:LUX")?;
+                Gain::Luxmeter {
+                    sensor_id: id.trim().parse().context("--luxmeter sensor id")?,
+                    lux_lx: lux.trim().parse().context("--luxmeter lux")?,
+                    levels: vec![1.0; lums.len()],
+                }
+            }
+        };
+        let mut o = CommissionOptions {
+            gain,
+            engine: a.engine.settings(),
+            progress: true,
+            start_rho: a.start_rho,
+            estimate_reflectances: a.reflectances == OnOff::On,
+            ..CommissionOptions::default()
+        };
+        o.closure.enabled = a.closure == OnOff::On;
+        o.closure.wall_rho = a.wall_rho;
+        o.closure.ceiling_rho = a.ceiling_rho;
+        o.closure.ceiling_z_m = a.ceiling_height;
+        o.closure.room_xy_m = a.room.as_ref().map(|r| [r[0], r[1], r[2], r[3]]);
+        o.mesh.patch_size_m = a.mesh_patch_size;
+        for (name, v) in [
+            ("--wall-rho", a.wall_rho),
+            ("--ceiling-rho", a.ceiling_rho),
+            ("--start-rho", a.start_rho),
+        ] {
+            if !(0.0..1.0).contains(&v) {
+                bail!("{name} {v} must be a reflectance in [0, 1)");
+            }
+        }
+        if !(a.mesh_patch_size.is_finite() && a.mesh_patch_size >= 0.05) {
+            bail!("--mesh-patch-size must be at least 0.05 m");
+        }
+        let c = commission::commission(&cap, lums, sensors, desks, &o)?;
+        let r = &c.report;
+        for w in &r.warnings {
+            eprintln!("warning: {w}");
+        }
+        println!(
+            "depth: {} frames, {} of {} pixels kept ({} dropouts, {} flying pixels or outliers)",
+            r.depth.frames,
+            r.depth.valid,
+            r.depth.pixels,
+            r.depth.dropouts,
+            r.depth.flying_or_outliers
+        );
+        println!("planes: {}", r.planes.len());
+        for (k, p) in r.planes.iter().enumerate() {
+            println!(
+                "  plane_{k}: normal ({:.2}, {:.2}, {:.2}), centre ({:.2}, {:.2}, {:.2}) m, {:.2} m², {} triangles, rms {:.1} mm",
+                p.normal.x,
+                p.normal.y,
+                p.normal.z,
+                p.origin_m.x,
+                p.origin_m.y,
+                p.origin_m.z,
+                p.area_m2,
+                p.triangles,
+                p.rms_m * 1e3
+            );
+        }
+        println!(
+            "mesh: {} triangles, seen {:.1} m², inferred {:.1} m²; {} patches in the final model",
+            r.triangles, r.seen_area_m2, r.inferred_area_m2, r.patches
+        );
+        if let Some(room) = &r.room {
+            println!(
+                "room box: x {:.2}..{:.2} m, y {:.2}..{:.2} m, floor {:.3} m, ceiling {:.3} m",
+                room.xy_m[0],
+                room.xy_m[2],
+                room.xy_m[1],
+                room.xy_m[3],
+                room.floor_z_m,
+                room.ceiling_z_m
+            );
+        }
+        println!(
+            "reflectances: gain {:.5} cd/m² per unit, {} pixels, floor {}, {} clamped",
+            r.reflectance.gain_cd_m2_per_unit,
+            r.reflectance.pixels_used,
+            r.reflectance
+                .floor_rho
+                .map_or("-".into(), |v| format!("{v:.3}")),
+            r.reflectance.clamped
+        );
+        let flags = c.sensor_flags.clone();
+        let options = ImageOptions {
+            precision: a.store.precision.precision(),
+            prune_below: a.store.prune,
+            scene_name: c.scene.name.clone(),
+            sensor_flags: flags.clone(),
+        };
+        let bytes = build_image(&c.model, &options)?;
+        let image = Image::parse(&bytes)?;
+        let region = luxnode::layout::FORMFACTORS_LEN_BYTES as usize;
+        if bytes.len() > region {
+            bail!("{}", too_large_message(&image, region));
+        }
+        std::fs::write(&a.out, &bytes).with_context(|| format!("writing {}", a.out.display()))?;
+        println!(
+            "{}: {} bytes, {} patches",
+            a.out.display(),
+            bytes.len(),
+            image.patches()
+        );
+        for (s, f) in c.model.sensor_ids.iter().zip(&flags) {
+            if *f != 0 {
+                println!(
+                    "sensor {s}:{}{}",
+                    if f & luxnode::store::sensor_flags::OUT_OF_VIEW != 0 {
+                        " out of view"
+                    } else {
+                        ""
+                    },
+                    if f & luxnode::store::sensor_flags::ESTIMATED != 0 {
+                        " estimated"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        if let Some(p) = &a.export_mesh {
+            commission::output::write_ply(&c, p)
+                .with_context(|| format!("writing {}", p.display()))?;
+        }
+        if let Some(p) = &a.report {
+            commission::output::report_png(&c, p)
+                .map_err(anyhow::Error::msg)
+                .with_context(|| format!("writing {}", p.display()))?;
+        }
+        if let (Some(t), Some(s)) = (&a.truth, &a.states) {
+            let states = read_states(s)?;
+            let truth = read_truth(t)?;
+            let mut computed = Vec::new();
+            for st in &states {
+                let levels: Vec<f64> = c
+                    .model
+                    .luminaire_ids
+                    .iter()
+                    .map(|id| if st.on.contains(id) { 1.0 } else { 0.0 })
+                    .collect();
+                let lux = c.model.sensor_lux(&levels)?;
+                for (sensor, lux) in c.model.sensor_ids.iter().zip(lux) {
+                    computed.push(Computed {
+                        scenario: st.id.clone(),
+                        sensor: *sensor,
+                        lux,
+                    });
+                }
+            }
+            println!("sensor,flags,mean_abs_error_lx,mean_truth_lx,error_pct");
+            let (mut ea, mut ta, mut ei, mut ti) = (0.0, 0.0, 0.0, 0.0);
+            for (k, id) in c.model.sensor_ids.iter().enumerate() {
+                let (mut e, mut tt, mut n) = (0.0, 0.0, 0.0);
+                for cmp in computed.iter().filter(|x| x.sensor == *id) {
+                    if let Some(row) = truth
+                        .iter()
+                        .find(|r| r.scenario == cmp.scenario && r.sensor == *id)
+                    {
+                        e += (cmp.lux - row.lux).abs();
+                        tt += row.lux;
+                        n += 1.0;
+                    }
+                }
+                if n > 0.0 {
+                    println!(
+                        "{id},{},{:.1},{:.1},{:.2}",
+                        flags[k],
+                        e / n,
+                        tt / n,
+                        100.0 * e / tt
+                    );
+                    ea += e;
+                    ta += tt;
+                    if flags[k] & luxnode::store::sensor_flags::OUT_OF_VIEW == 0 {
+                        ei += e;
+                        ti += tt;
+                    }
+                }
+            }
+            println!(
+                "error, all sensors: {:.2} %; in view: {:.2} %",
+                100.0 * ea / ta.max(1e-9),
+                100.0 * ei / ti.max(1e-9)
+            );
+        }
+        println!("stage,ms");
+        for (stage, d) in &r.timings {
+            println!("{stage},{:.0}", d.as_secs_f64() * 1e3);
+        }
+        println!(
+            "total (with loading and the image),{:.0}",
+            t0.elapsed().as_secs_f64() * 1e3
+        );
+        if let Some(m) = peak_memory_mib() {
+            println!("peak memory: {m:.0} MiB");
+        }
+        Ok(ExitCode::SUCCESS)
+    }
 }

@@ -209,12 +209,13 @@ fn derive_c0(aim: DVec3, rotation_rad: f64) -> DVec3 {
 }
 
 fn load_luminaires(
-    dir: &Path,
+    path: &Path,
     options: &LoadOptions,
     errors: &mut Vec<SceneError>,
     warnings: &mut Vec<String>,
 ) -> Vec<Luminaire> {
-    let path = dir.join("luminaires.json");
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let path = path.to_path_buf();
     let list: Vec<LuminaireJson> = match parse_json(&path) {
         Ok(l) => l,
         Err(e) => {
@@ -428,12 +429,12 @@ fn shape_deviation(a: &IntensityDistribution, b: &IntensityDistribution) -> f64 
 }
 
 fn load_sensors(
-    dir: &Path,
+    path: &Path,
     options: &LoadOptions,
     errors: &mut Vec<SceneError>,
     warnings: &mut Vec<String>,
 ) -> Vec<Sensor> {
-    let path = dir.join("sensors.json");
+    let path = path.to_path_buf();
     let list: Vec<SensorJson> = match parse_json(&path) {
         Ok(l) => l,
         Err(e) => {
@@ -629,6 +630,67 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
     })
 }
 
+/// Reads and validates one `luminaires.json` file (photometric files relative to its
+/// directory): the luminaires and the warnings.
+pub fn load_luminaires_file(
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<(Vec<Luminaire>, Vec<String>), SceneErrors> {
+    let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+    let l = load_luminaires(path, options, &mut errors, &mut warnings);
+    if errors.is_empty() {
+        Ok((l, warnings))
+    } else {
+        Err(SceneErrors {
+            dir: path.to_path_buf(),
+            errors,
+        })
+    }
+}
+
+/// Reads and validates one `sensors.json` file: the sensors and the warnings.
+pub fn load_sensors_file(
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<(Vec<Sensor>, Vec<String>), SceneErrors> {
+    let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+    let s = load_sensors(path, options, &mut errors, &mut warnings);
+    if errors.is_empty() {
+        Ok((s, warnings))
+    } else {
+        Err(SceneErrors {
+            dir: path.to_path_buf(),
+            errors,
+        })
+    }
+}
+
+/// Reads and validates one `desks.json` file without a mesh to check the groups against.
+pub fn load_desks_file(path: &Path, options: &LoadOptions) -> Result<Desks, SceneErrors> {
+    let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+    if path.file_name() != Some(std::ffi::OsStr::new("desks.json")) || !path.is_file() {
+        errors.push(SceneError::Invalid {
+            path: path.to_path_buf(),
+            what: "file".into(),
+            message: "expected an existing file named desks.json".into(),
+        });
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let d = load_desks(dir, options, &[], &mut errors, &mut warnings);
+    match d {
+        Some(d) if errors.is_empty() => Ok(d),
+        _ => Err(SceneErrors {
+            dir: path.to_path_buf(),
+            errors,
+        }),
+    }
+}
+
+/// Reads and validates a `camera.json` (a scene's or a capture set's).
+pub fn load_camera_file(path: &Path) -> Result<Camera, SceneError> {
+    load_camera(path, 1.0)
+}
+
 pub(super) fn load_dir(dir: &Path, options: &LoadOptions) -> Result<Scene, SceneErrors> {
     let mut errors = Vec::new();
     let mut warnings = Vec::new();
@@ -646,8 +708,18 @@ pub(super) fn load_dir(dir: &Path, options: &LoadOptions) -> Result<Scene, Scene
             None
         }
     };
-    let luminaires = load_luminaires(dir, options, &mut errors, &mut warnings);
-    let sensors = load_sensors(dir, options, &mut errors, &mut warnings);
+    let luminaires = load_luminaires(
+        &dir.join("luminaires.json"),
+        options,
+        &mut errors,
+        &mut warnings,
+    );
+    let sensors = load_sensors(
+        &dir.join("sensors.json"),
+        options,
+        &mut errors,
+        &mut warnings,
+    );
     let groups = obj
         .as_ref()
         .map(|(m, _)| m.groups.clone())

@@ -24,7 +24,10 @@ use std::sync::Arc;
 use glam::{DMat3, DVec3};
 
 pub use builder::MeshBuilder;
-pub use files::{LoadOptions, PhotometryPreference};
+pub use files::{
+    LoadOptions, PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
+    load_sensors_file,
+};
 pub use obj::ObjReport;
 pub use states::{Scenario, TruthRow, read_states, read_truth};
 pub use summary::SceneSummary;

@@ -1,0 +1,151 @@
+//! A capture set on disk (format in `../shared/scenes/README.md`): `camera.json`,
+//! `depth_NNN.png` (16-bit, mm along the optical axis, 0 = no return) and
+//! `luminance_L<k>.png` (16-bit linear, one luminaire on). `groundtruth/` is never read here.
+//!
+//! Loading checks what would otherwise panic or silently mislead later stages: missing frames,
+//! frames of another size than `camera.json` says, 8-bit or colour frames, depth frames with no
+//! returns. Problems that only lose data (saturated pixels, a dark luminaire frame) are counted
+//! warnings.
+
+use std::path::{Path, PathBuf};
+
+use super::CommissionError;
+use crate::scene::{Camera, load_camera_file};
+
+/// Saturated value of a 16-bit frame.
+pub const SATURATED: u16 = u16::MAX;
+
+/// A 16-bit single-channel frame, row-major.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Values, row-major (`v * width + u`).
+    pub data: Vec<u16>,
+}
+
+/// Everything a capture set holds that commissioning may use.
+#[derive(Debug, Clone)]
+pub struct Capture {
+    /// The directory.
+    pub dir: PathBuf,
+    /// The camera (intrinsics, pose, luminance scale if given).
+    pub camera: Camera,
+    /// Depth frames, mm.
+    pub depth_mm: Vec<Frame>,
+    /// Luminance frames with one luminaire on: (luminaire id, frame).
+    pub luminance: Vec<(u32, Frame)>,
+    /// Non-fatal findings.
+    pub warnings: Vec<String>,
+}
+
+fn read_frame16(path: &Path) -> Result<Frame, CommissionError> {
+    let bad = |message: String| CommissionError::Capture {
+        path: path.to_path_buf(),
+        message,
+    };
+    let reader = image::ImageReader::open(path).map_err(|e| bad(format!("cannot open: {e}")))?;
+    let img = reader
+        .with_guessed_format()
+        .map_err(|e| bad(format!("cannot read: {e}")))?
+        .decode()
+        .map_err(|e| bad(format!("not a readable image: {e}")))?;
+    match img {
+        image::DynamicImage::ImageLuma16(buf) => Ok(Frame {
+            width: buf.width(),
+            height: buf.height(),
+            data: buf.into_raw(),
+        }),
+        other => Err(bad(format!(
+            "must be a 16-bit greyscale PNG, found {:?}",
+            other.color()
+        ))),
+    }
+}
+
+fn check_size(path: &Path, f: &Frame, camera: &Camera) -> Result<(), CommissionError> {
+    if f.width != camera.width || f.height != camera.height {
+        return Err(CommissionError::Capture {
+            path: path.to_path_buf(),
+            message: format!(
+                "frame is {}x{} pixels, camera.json says {}x{}",
+                f.width, f.height, camera.width, camera.height
+            ),
+        });
+    }
+    Ok(())
+}
+
+impl Capture {
+    /// Loads a capture set for the given luminaire ids (one `luminance_L<id>.png` each).
+    pub fn load(dir: &Path, luminaire_ids: &[u32]) -> Result<Capture, CommissionError> {
+        let camera =
+            load_camera_file(&dir.join("camera.json")).map_err(|e| CommissionError::Capture {
+                path: dir.join("camera.json"),
+                message: e.to_string(),
+            })?;
+        let mut warnings = Vec::new();
+        let mut depth_mm = Vec::new();
+        for k in 0..1000 {
+            let path = dir.join(format!("depth_{k:03}.png"));
+            if !path.exists() {
+                break;
+            }
+            let f = read_frame16(&path)?;
+            check_size(&path, &f, &camera)?;
+            let returns = f.data.iter().filter(|&&d| d > 0).count();
+            if returns == 0 {
+                warnings.push(format!(
+                    "{}: no depth returns, frame ignored",
+                    path.display()
+                ));
+                continue;
+            }
+            depth_mm.push(f);
+        }
+        if depth_mm.is_empty() {
+            return Err(CommissionError::Capture {
+                path: dir.to_path_buf(),
+                message: "no usable depth frame (depth_000.png, depth_001.png, ...)".into(),
+            });
+        }
+        let mut luminance = Vec::new();
+        for &id in luminaire_ids {
+            let path = dir.join(format!("luminance_L{id}.png"));
+            if !path.exists() {
+                return Err(CommissionError::Capture {
+                    path,
+                    message: format!("missing: the frame with only luminaire {id} on"),
+                });
+            }
+            let f = read_frame16(&path)?;
+            check_size(&path, &f, &camera)?;
+            let n = f.data.len().max(1) as f64;
+            let saturated = f.data.iter().filter(|&&v| v == SATURATED).count();
+            if saturated as f64 > 0.2 * n {
+                warnings.push(format!(
+                    "{}: {:.1} % of the pixels saturated (ignored)",
+                    path.display(),
+                    100.0 * saturated as f64 / n
+                ));
+            }
+            let lit = f.data.iter().filter(|&&v| v > 0 && v < SATURATED).count();
+            if (lit as f64) < 0.01 * n {
+                warnings.push(format!(
+                    "{}: dark frame (luminaire {id} off or broken?): not used for reflectances",
+                    path.display()
+                ));
+            }
+            luminance.push((id, f));
+        }
+        Ok(Capture {
+            dir: dir.to_path_buf(),
+            camera,
+            depth_mm,
+            luminance,
+            warnings,
+        })
+    }
+}

@@ -1,0 +1,169 @@
+//! Closing the room: the camera sees the floor, desk tops and little else; walls and ceiling
+//! reflect a large part of the light that reaches a desk. The room box is inferred:
+//!
+//! * floor: the lowest large horizontal plane;
+//! * ceiling: the highest luminaire opening plus [`ClosureOptions::ceiling_above_openings_m`]
+//!   (recessed luminaires), unless a ceiling height is given;
+//! * walls: the union of what was seen, the sensors (installed inside the room) and the
+//!   luminaire layout extended by half its spacing on each side (luminaires in a regular grid
+//!   stand half a spacing from the walls), unless a room box is given.
+//!
+//! Walls and ceiling get default reflectances (knobs); the luminaire openings are black quads
+//! just below the ceiling.
+
+use glam::DVec3;
+
+use super::mesh::{MeshOptions, Part, RecoMesh, rect_cover};
+use crate::scene::{Luminaire, Sensor};
+
+/// Closure knobs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosureOptions {
+    /// Close the room at all.
+    pub enabled: bool,
+    /// Reflectance given to the walls.
+    pub wall_rho: f64,
+    /// Reflectance given to the ceiling.
+    pub ceiling_rho: f64,
+    /// Room box in the world (x0, y0, x1, y1), m; None: inferred.
+    pub room_xy_m: Option<[f64; 4]>,
+    /// Ceiling height, m; None: from the luminaires.
+    pub ceiling_z_m: Option<f64>,
+    /// Ceiling above the highest opening, m.
+    pub ceiling_above_openings_m: f64,
+}
+
+impl Default for ClosureOptions {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            wall_rho: 0.5,
+            ceiling_rho: 0.7,
+            room_xy_m: None,
+            ceiling_z_m: None,
+            ceiling_above_openings_m: 0.01,
+        }
+    }
+}
+
+/// The inferred room box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoomBox {
+    /// x0, y0, x1, y1, m.
+    pub xy_m: [f64; 4],
+    /// Floor height, m.
+    pub floor_z_m: f64,
+    /// Ceiling height, m.
+    pub ceiling_z_m: f64,
+}
+
+/// Half the smallest spacing of distinct coordinates (None with fewer than two).
+fn half_spacing(mut v: Vec<f64>) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    v.dedup_by(|a, b| (*a - *b).abs() < 0.05);
+    v.windows(2)
+        .map(|w| w[1] - w[0])
+        .min_by(f64::total_cmp)
+        .map(|s| 0.5 * s)
+}
+
+/// Infers the room box.
+pub fn room_box(
+    seen_m: &[DVec3],
+    floor_z_m: f64,
+    luminaires: &[Luminaire],
+    sensors: &[Sensor],
+    o: &ClosureOptions,
+) -> RoomBox {
+    let ceiling_z_m = o.ceiling_z_m.unwrap_or_else(|| {
+        luminaires
+            .iter()
+            .map(|l| l.position_m.z)
+            .fold(f64::NEG_INFINITY, f64::max)
+            + o.ceiling_above_openings_m
+    });
+    let ceiling_z_m = if ceiling_z_m.is_finite() && ceiling_z_m > floor_z_m + 0.5 {
+        ceiling_z_m
+    } else {
+        floor_z_m + 2.8
+    };
+    let xy_m = o.room_xy_m.unwrap_or_else(|| {
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut add = |x: f64, y: f64| {
+            b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+        };
+        for p in seen_m {
+            add(p.x, p.y);
+        }
+        for s in sensors {
+            add(s.position_m.x, s.position_m.y);
+        }
+        let xs: Vec<f64> = luminaires.iter().map(|l| l.position_m.x).collect();
+        let ys: Vec<f64> = luminaires.iter().map(|l| l.position_m.y).collect();
+        let (hx, hy) = (half_spacing(xs.clone()), half_spacing(ys.clone()));
+        for l in luminaires {
+            let (dx, dy) = (hx.or(hy).unwrap_or(0.0), hy.or(hx).unwrap_or(0.0));
+            add(l.position_m.x - dx, l.position_m.y - dy);
+            add(l.position_m.x + dx, l.position_m.y + dy);
+        }
+        b
+    });
+    RoomBox {
+        xy_m,
+        floor_z_m,
+        ceiling_z_m,
+    }
+}
+
+/// Adds walls, ceiling and black luminaire openings.
+pub fn close(out: &mut RecoMesh, room: &RoomBox, luminaires: &[Luminaire], o: &MeshOptions) {
+    let [x0, y0, x1, y1] = room.xy_m;
+    let (z0, z1) = (room.floor_z_m, room.ceiling_z_m);
+    let s = o.patch_size_m.max(0.05);
+    // a rectangle (origin, edge a, edge b) in tiles of at most s, front = a × b
+    let mut tile = |org: DVec3, a: DVec3, b: DVec3, part: Part| {
+        let (na, nb) = (
+            ((a.length() / s).ceil() as usize).max(1),
+            ((b.length() / s).ceil() as usize).max(1),
+        );
+        let occ = vec![true; na * nb];
+        let (da, db) = (a / na as f64, b / nb as f64);
+        for (x, y, w, h) in rect_cover(&occ, na, nb, 1) {
+            let c = |i: usize, j: usize| org + da * i as f64 + db * j as f64;
+            out.push_quad([c(x, y), c(x + w, y), c(x + w, y + h), c(x, y + h)], part);
+        }
+    };
+    let (dx, dy, dz) = (
+        DVec3::X * (x1 - x0),
+        DVec3::Y * (y1 - y0),
+        DVec3::Z * (z1 - z0),
+    );
+    // fronts face into the room
+    tile(DVec3::new(x0, y0, z0), dy, dz, Part::Wall); // x = x0, normal +x
+    tile(DVec3::new(x1, y0, z0), dz, dy, Part::Wall); // x = x1, normal -x
+    tile(DVec3::new(x0, y0, z0), dz, dx, Part::Wall); // y = y0, normal +y
+    tile(DVec3::new(x0, y1, z0), dx, dz, Part::Wall); // y = y1, normal -y
+    tile(DVec3::new(x0, y0, z1), dy, dx, Part::Ceiling); // normal -z
+    for l in luminaires {
+        let [w, len] = l.opening_m;
+        if w <= 0.0 || len <= 0.0 {
+            continue;
+        }
+        let c = l
+            .position_m
+            .min(DVec3::new(f64::INFINITY, f64::INFINITY, z1 - 1e-3));
+        let (a, b) = (l.c0 * (0.5 * w), l.c90 * (0.5 * len));
+        let mut q = [c - a - b, c + a - b, c + a + b, c - a + b];
+        // face along the aim (down)
+        let n = (q[1] - q[0]).cross(q[2] - q[0]);
+        if n.dot(l.aim) < 0.0 {
+            q.reverse();
+        }
+        out.push_quad(q, Part::Opening(l.id));
+    }
+}

@@ -1,0 +1,627 @@
+//! Commissioning from the ceiling cameras: a capture set (ToF depth + linear luminance frames,
+//! one luminaire on at a time) to a [`Scene`] the engine can commission, with no CAD model.
+//! RGBD2lux §3.1, made to model only what the light needs.
+//!
+//! ```text
+//! depth frames ─► temporal median, flying pixels, outliers (depth) ─► point grid (grid)
+//!   ─► dominant planes (planes) ─► rectangles + cut, smoothed grid mesh (mesh)
+//!   ─► room box: inferred floor, walls, ceiling, black openings (closure)
+//!   ─► pass model (engine, cheap) ─► ρ = π L / E per pixel, median, per triangle (reflectance)
+//!   ─► final model (engine, full settings) ─► flash image (store)
+//! ```
+//!
+//! Stages are timed ([`Report::timings`]); with [`CommissionOptions::progress`] each shows a
+//! spinner and its time. Bad input is an error ([`CommissionError`]) or a counted warning,
+//! never a panic. The capture's `groundtruth/` is never read.
+
+pub mod capture;
+pub mod closure;
+pub mod depth;
+pub mod grid;
+pub mod mesh;
+pub mod output;
+pub mod planes;
+pub mod reflectance;
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+
+use crate::engine::raycast::RayCaster;
+use crate::engine::{self, EngineError, Model, Settings};
+use crate::scene::{Desks, Luminaire, Material, Mesh, ObjReport, Scene, Sensor, Triangle};
+use crate::store::sensor_flags;
+use crate::units::Reflectance;
+pub use capture::Capture;
+pub use closure::{ClosureOptions, RoomBox};
+pub use depth::{DepthMap, DepthOptions};
+pub use mesh::{MeshOptions, Part, RecoMesh};
+pub use planes::{Plane, PlaneOptions};
+pub use reflectance::{Estimate, ReflectanceOptions};
+
+/// Why commissioning failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CommissionError {
+    /// A capture file is missing or unusable.
+    #[error("{}: {message}", path.display())]
+    Capture {
+        /// The file or directory.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The input as a whole is unusable.
+    #[error("{0}")]
+    Input(String),
+    /// The engine failed on the reconstructed scene.
+    #[error("engine: {0}")]
+    Engine(#[from] EngineError),
+}
+
+/// Where the camera gain (cd/m² per unit of a luminance frame) comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Gain {
+    /// `camera.json`'s `luminance_cd_m2_per_unit`.
+    Camera,
+    /// One luxmeter reading at commissioning: at sensor `sensor_id`, `lux_lx` with the
+    /// luminaires at `levels` (luminaire order).
+    Luxmeter {
+        /// Sensor id.
+        sensor_id: u32,
+        /// Reading, lx.
+        lux_lx: f64,
+        /// Dimming state during the reading.
+        levels: Vec<f64>,
+    },
+}
+
+/// Every commissioning knob.
+#[derive(Debug, Clone)]
+pub struct CommissionOptions {
+    /// Depth cleaning.
+    pub depth: DepthOptions,
+    /// Pixels per grid node.
+    pub grid_stride_px: u32,
+    /// Plane detection.
+    pub planes: PlaneOptions,
+    /// Meshing.
+    pub mesh: MeshOptions,
+    /// Room closure.
+    pub closure: ClosureOptions,
+    /// Reflectance estimation.
+    pub reflectance: ReflectanceOptions,
+    /// Reflectance of seen surfaces before estimation, and if estimation is off.
+    pub start_rho: f64,
+    /// Estimate reflectances (off: `start_rho` everywhere seen; for ablations).
+    pub estimate_reflectances: bool,
+    /// Camera gain source.
+    pub gain: Gain,
+    /// The final engine run.
+    pub engine: Settings,
+    /// Spinners on stderr.
+    pub progress: bool,
+}
+
+impl Default for CommissionOptions {
+    fn default() -> Self {
+        Self {
+            depth: DepthOptions::default(),
+            grid_stride_px: 2,
+            planes: PlaneOptions::default(),
+            mesh: MeshOptions::default(),
+            closure: ClosureOptions::default(),
+            reflectance: ReflectanceOptions::default(),
+            start_rho: 0.5,
+            estimate_reflectances: true,
+            gain: Gain::Camera,
+            engine: Settings::default(),
+            progress: false,
+        }
+    }
+}
+
+/// A plane, for people.
+#[derive(Debug, Clone, Copy)]
+pub struct PlaneSummary {
+    /// Unit normal.
+    pub normal: DVec3,
+    /// Centroid, m.
+    pub origin_m: DVec3,
+    /// Meshed area, m².
+    pub area_m2: f64,
+    /// Triangles.
+    pub triangles: usize,
+    /// RMS distance of its points, m.
+    pub rms_m: f64,
+}
+
+/// What commissioning found and did.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    /// (stage, wall time).
+    pub timings: Vec<(&'static str, Duration)>,
+    /// Depth cleaning counts.
+    pub depth: depth::DepthStats,
+    /// Planes found.
+    pub planes: Vec<PlaneSummary>,
+    /// Triangles in the mesh.
+    pub triangles: usize,
+    /// Seen surface area modelled, m².
+    pub seen_area_m2: f64,
+    /// Inferred (closure) area, m².
+    pub inferred_area_m2: f64,
+    /// The room box, when closed.
+    pub room: Option<RoomBox>,
+    /// Reflectance estimate outcome.
+    pub reflectance: Estimate,
+    /// Patches of the final model.
+    pub patches: usize,
+    /// Warnings (also those of the capture).
+    pub warnings: Vec<String>,
+}
+
+impl Report {
+    /// Total time.
+    pub fn total(&self) -> Duration {
+        self.timings.iter().map(|t| t.1).sum()
+    }
+}
+
+/// The result: the reconstructed scene, its model and what was done.
+#[derive(Debug, Clone)]
+pub struct Commissioned {
+    /// The reconstructed scene (mesh with estimated reflectances, luminaires, sensors).
+    pub scene: Scene,
+    /// The final model.
+    pub model: Model,
+    /// The mesh with a part per triangle (same triangle order as `scene.mesh`).
+    pub reco: RecoMesh,
+    /// The cleaned depth map.
+    pub depth: DepthMap,
+    /// Per-sensor flags for the image ([`sensor_flags`]).
+    pub sensor_flags: Vec<u8>,
+    /// What was found and done.
+    pub report: Report,
+}
+
+struct Stage {
+    bar: Option<indicatif::ProgressBar>,
+    t0: Instant,
+    name: &'static str,
+}
+
+impl Stage {
+    fn start(name: &'static str, progress: bool) -> Stage {
+        let bar = progress.then(|| {
+            let b = indicatif::ProgressBar::new_spinner();
+            b.set_message(name);
+            b.enable_steady_tick(Duration::from_millis(100));
+            b
+        });
+        Stage {
+            bar,
+            t0: Instant::now(),
+            name,
+        }
+    }
+
+    fn done(self, report: &mut Report) {
+        let dt = self.t0.elapsed();
+        if let Some(b) = self.bar {
+            b.finish_with_message(format!("{}: {:.0} ms", self.name, dt.as_secs_f64() * 1e3));
+        }
+        report.timings.push((self.name, dt));
+    }
+}
+
+/// Builds the engine's mesh: one material per triangle with its reflectance.
+pub fn to_mesh(reco: &RecoMesh, tri_rho: &[f64]) -> Mesh {
+    let mut groups: Vec<String> = Vec::new();
+    let mut group_of = std::collections::HashMap::new();
+    let mut triangles = Vec::with_capacity(reco.tris.len());
+    let mut materials = Vec::with_capacity(reco.tris.len());
+    for (t, v) in reco.tris.iter().enumerate() {
+        let part = reco.part[t];
+        let g = *group_of.entry(part).or_insert_with(|| {
+            groups.push(part.label());
+            groups.len() as u32 - 1
+        });
+        let rho = if matches!(part, Part::Opening(_)) {
+            0.0
+        } else {
+            tri_rho[t]
+        };
+        materials.push(Material {
+            name: format!("t{t}"),
+            rho: Reflectance::new(rho.clamp(0.0, 0.999)).unwrap_or(Reflectance::ZERO),
+        });
+        triangles.push(Triangle {
+            v: *v,
+            group: g,
+            material: t as u32,
+        });
+    }
+    Mesh {
+        positions_m: reco.positions_m.clone(),
+        triangles,
+        groups,
+        materials,
+    }
+}
+
+/// Runs the engine; if the solve diverges on the reconstructed (possibly open, noisy) mesh,
+/// retries without form-factor rectification and says so.
+fn run_engine(
+    scene: &Scene,
+    settings: &Settings,
+    warnings: &mut Vec<String>,
+) -> Result<Model, CommissionError> {
+    match engine::commission(scene, settings) {
+        Err(EngineError::Solve { what, source }) if settings.rectify => {
+            warnings.push(format!(
+                "radiosity solve for {what} failed ({source}) with rectified form factors; \
+                 retried without rectification"
+            ));
+            let s = Settings {
+                rectify: false,
+                ..settings.clone()
+            };
+            Ok(engine::commission(scene, &s)?)
+        }
+        other => Ok(other?),
+    }
+}
+
+fn pass_settings(final_settings: &Settings) -> Settings {
+    Settings {
+        sensor_rays: 2000,
+        final_gather_rays: 0,
+        ..final_settings.clone()
+    }
+}
+
+/// Commissions from a capture set.
+pub fn commission(
+    capture: &Capture,
+    luminaires: Vec<Luminaire>,
+    sensors: Vec<Sensor>,
+    desks: Option<Desks>,
+    o: &CommissionOptions,
+) -> Result<Commissioned, CommissionError> {
+    let mut report = Report {
+        warnings: capture.warnings.clone(),
+        ..Report::default()
+    };
+    if luminaires.is_empty() {
+        return Err(CommissionError::Input("no luminaires".into()));
+    }
+    if capture.luminance.len() != luminaires.len()
+        || capture
+            .luminance
+            .iter()
+            .zip(&luminaires)
+            .any(|((id, _), l)| *id != l.id)
+    {
+        return Err(CommissionError::Input(
+            "the capture's luminance frames do not match the luminaires".into(),
+        ));
+    }
+    let cam = capture.camera.clone();
+
+    let st = Stage::start("depth", o.progress);
+    let depth = depth::fuse(&capture.depth_mm, &o.depth)?;
+    report.depth = depth.stats;
+    st.done(&mut report);
+
+    let st = Stage::start("planes", o.progress);
+    let grid = grid::PointGrid::new(&depth, &cam, o.grid_stride_px, o.depth.edge_rel);
+    let found = planes::detect(&grid, cam.position_m, cam.fx, cam.fy, &o.planes);
+    st.done(&mut report);
+
+    let st = Stage::start("mesh", o.progress);
+    // the floor: the lowest large horizontal plane
+    let floor_idx = found
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_horizontal() && p.nodes.len() >= 100)
+        .min_by(|a, b| a.1.origin_m.z.total_cmp(&b.1.origin_m.z))
+        .map(|(k, _)| k);
+    let seen_pts: Vec<DVec3> = grid.points_m.iter().flatten().copied().collect();
+    let floor_z = match floor_idx {
+        Some(k) => found[k].origin_m.z,
+        None => {
+            report
+                .warnings
+                .push("no floor plane found: the floor is put at the lowest point seen".into());
+            seen_pts.iter().map(|p| p.z).fold(f64::INFINITY, f64::min)
+        }
+    };
+    let room = o
+        .closure
+        .enabled
+        .then(|| closure::room_box(&seen_pts, floor_z, &luminaires, &sensors, &o.closure));
+    let mut reco = RecoMesh::default();
+    let mut on_plane = vec![false; grid.points_m.len()];
+    for (k, p) in found.iter().enumerate() {
+        let before = reco.tris.len();
+        let is_floor = Some(k) == floor_idx;
+        mesh::mesh_plane(
+            &mut reco,
+            &grid,
+            p,
+            k as u32,
+            &o.mesh,
+            room.filter(|_| is_floor).map(|r| r.xy_m),
+            is_floor.then_some(Part::FloorFill),
+        );
+        for &i in &p.nodes {
+            on_plane[i] = true;
+        }
+        let tris = before..reco.tris.len();
+        let area = tris
+            .clone()
+            .filter(|&t| reco.part[t] == Part::Plane(k as u32))
+            .map(|t| reco.area_m2(t))
+            .sum();
+        report.planes.push(PlaneSummary {
+            normal: p.normal,
+            origin_m: p.origin_m,
+            area_m2: area,
+            triangles: tris.len(),
+            rms_m: p.rms_m,
+        });
+    }
+    mesh::mesh_rest(&mut reco, &grid, &on_plane, cam.position_m, &o.mesh);
+    st.done(&mut report);
+
+    let st = Stage::start("closure", o.progress);
+    if let Some(r) = &room {
+        closure::close(&mut reco, r, &luminaires, &o.mesh);
+    }
+    report.room = room;
+    report.triangles = reco.tris.len();
+    (report.seen_area_m2, report.inferred_area_m2) = reco.areas_m2();
+    if reco.tris.is_empty() {
+        return Err(CommissionError::Input(
+            "nothing to model: the mesh is empty".into(),
+        ));
+    }
+    st.done(&mut report);
+
+    let start_rho: Vec<f64> = reco
+        .part
+        .iter()
+        .map(|p| match p {
+            Part::Wall => o.closure.wall_rho,
+            Part::Ceiling => o.closure.ceiling_rho,
+            Part::Opening(_) => 0.0,
+            _ => o.start_rho,
+        })
+        .collect();
+    let make_scene = |rho: &[f64]| Scene {
+        name: capture
+            .dir
+            .canonicalize()
+            .ok()
+            .and_then(|p| {
+                p.parent()
+                    .and_then(|q| q.file_name())
+                    .map(|n| n.to_string_lossy().into_owned())
+            })
+            .unwrap_or_else(|| "capture".into()),
+        mesh: to_mesh(&reco, rho),
+        luminaires: luminaires.clone(),
+        sensors: sensors.clone(),
+        desks: desks.clone(),
+        camera: Some(cam.clone()),
+        obj_report: ObjReport::default(),
+        warnings: Vec::new(),
+    };
+
+    let mut tri_rho = start_rho.clone();
+    // luxmeter mode: the cheap pass model's reading, corrected by the final model's
+    let mut luxmeter_fix: Option<(usize, f64)> = None;
+    let scale = match o.gain {
+        Gain::Camera => cam.luminance_cd_m2_per_unit,
+        Gain::Luxmeter { .. } => None,
+    };
+    if o.estimate_reflectances {
+        let st = Stage::start("pass model", o.progress);
+        let pass = pass_settings(&o.engine);
+        let pass_model = run_engine(&make_scene(&start_rho), &pass, &mut report.warnings)?;
+        let pass = pass_model.settings.clone();
+        st.done(&mut report);
+
+        let st = Stage::start("reflectances", o.progress);
+        let caster = RayCaster::new(&pass_model.patches);
+        let samples = reflectance::sample(
+            capture,
+            &luminaires,
+            &pass_model,
+            &caster,
+            &reco,
+            &o.reflectance,
+        );
+        let floor_part = floor_idx.map(|k| Part::Plane(k as u32));
+        let run = |gain: f64| {
+            reflectance::estimate(
+                &samples,
+                &pass_model,
+                &reco,
+                &start_rho,
+                floor_part,
+                gain,
+                &pass,
+                &o.reflectance,
+            )
+        };
+        let est = match (&o.gain, scale) {
+            (Gain::Camera, Some(g)) => run(g),
+            (Gain::Camera, None) => {
+                return Err(CommissionError::Input(
+                    "camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading".into(),
+                ));
+            }
+            (
+                Gain::Luxmeter {
+                    sensor_id,
+                    lux_lx,
+                    levels,
+                },
+                _,
+            ) => {
+                let s = sensors
+                    .iter()
+                    .position(|s| s.id == *sensor_id)
+                    .ok_or_else(|| {
+                        CommissionError::Input(format!(
+                            "luxmeter sensor {sensor_id} is not in the sensors"
+                        ))
+                    })?;
+                if levels.len() != luminaires.len() || !(lux_lx.is_finite() && *lux_lx > 0.0) {
+                    return Err(CommissionError::Input(
+                        "luxmeter reading: need a reading > 0 lx and one level per luminaire"
+                            .into(),
+                    ));
+                }
+                let reading = |e: &Estimate| {
+                    let patch_rho: Vec<f64> = pass_model
+                        .patches
+                        .source_triangle
+                        .iter()
+                        .map(|&t| e.tri_rho[t as usize])
+                        .collect();
+                    reflectance::sensor_reading_lx(&pass_model, s, levels, &patch_rho, &pass)
+                };
+                // bisection on log(gain), twice: the second time against the target
+                // corrected by the final model's reading at the first gain
+                let bisect = |target: f64| {
+                    let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
+                    let mut best = run(1.0);
+                    for _ in 0..40 {
+                        let mid = 0.5 * (lo + hi);
+                        let e = run(mid.exp());
+                        if reading(&e) < target {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                        best = e;
+                        if hi - lo < 1e-3 {
+                            break;
+                        }
+                    }
+                    best
+                };
+                let first = bisect(*lux_lx);
+                let pass_reading = reading(&first);
+                let scene = make_scene(&first.tri_rho);
+                let full = run_engine(&scene, &o.engine, &mut report.warnings)?;
+                let full_reading = full.sensor_lux(levels)?[s];
+                let target = if full_reading > 0.0 {
+                    lux_lx * pass_reading / full_reading
+                } else {
+                    *lux_lx
+                };
+                let best = bisect(target);
+                luxmeter_fix = Some((s, *lux_lx));
+                best
+            }
+        };
+        if est.clamped > 0 {
+            report.warnings.push(format!(
+                "{} triangles had reflectances outside [{}, {}] and were clamped",
+                est.clamped, o.reflectance.rho_min, o.reflectance.rho_max
+            ));
+        }
+        tri_rho = est.tri_rho.clone();
+        report.reflectance = est;
+        st.done(&mut report);
+    }
+
+    let st = Stage::start("engine", o.progress);
+    let scene = make_scene(&tri_rho);
+    let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
+    report.patches = model.patches.len();
+    if let (
+        Some((s, lux)),
+        Gain::Luxmeter {
+            levels, sensor_id, ..
+        },
+    ) = (luxmeter_fix, &o.gain)
+    {
+        let r = model.sensor_lux(levels)?[s];
+        if (r - lux).abs() > 0.05 * lux {
+            report.warnings.push(format!(
+                "luxmeter gain: the model reads {r:.0} lx at sensor {sensor_id}, not {lux:.0} lx \
+                 (reflectances at their limits?)"
+            ));
+        }
+    }
+    st.done(&mut report);
+
+    let flags = sensor_flags_for(&scene, &depth, &reco, &model);
+    Ok(Commissioned {
+        scene,
+        model,
+        reco,
+        depth,
+        sensor_flags: flags,
+        report,
+    })
+}
+
+/// Flags per sensor: out of view when the camera does not see its position (outside the
+/// image, or something nearer along the ray); estimated when the surface under it was inferred.
+pub fn sensor_flags_for(
+    scene: &Scene,
+    depth: &DepthMap,
+    reco: &RecoMesh,
+    model: &Model,
+) -> Vec<u8> {
+    let Some(cam) = &scene.camera else {
+        return vec![0; scene.sensors.len()];
+    };
+    let caster = RayCaster::new(&model.patches);
+    scene
+        .sensors
+        .iter()
+        .map(|s| {
+            let mut f = 0;
+            let p_cam = cam.world_from_camera.transpose() * (s.position_m - cam.position_m);
+            let visible = p_cam.z > 0.0 && {
+                let u = cam.fx * p_cam.x / p_cam.z + cam.cx;
+                let v = cam.fy * p_cam.y / p_cam.z + cam.cy;
+                let (ur, vr) = (u.round(), v.round());
+                ur >= 0.0
+                    && vr >= 0.0
+                    && ur < f64::from(cam.width)
+                    && vr < f64::from(cam.height)
+                    && depth
+                        .at(ur as u32, vr as u32)
+                        .is_none_or(|z| z >= p_cam.z - 0.05)
+            };
+            if !visible {
+                f |= sensor_flags::OUT_OF_VIEW;
+            }
+            let under = engine::points::surface_below(
+                &caster,
+                s.position_m.x,
+                s.position_m.y,
+                s.position_m.z + 0.02,
+            );
+            let inferred = match under {
+                Some((_, patch)) => {
+                    let t = model.patches.source_triangle[patch as usize] as usize;
+                    !reco.part.get(t).is_some_and(|p| p.seen())
+                }
+                None => true,
+            };
+            if inferred {
+                f |= sensor_flags::ESTIMATED;
+            }
+            f
+        })
+        .collect()
+}

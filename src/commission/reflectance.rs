@@ -1,0 +1,328 @@
+//! Reflectances from the one-luminaire-on luminance frames.
+//!
+//! A Lambertian surface of reflectance ρ under irradiance E has luminance `L = ρ E / π`, so
+//! `ρ = π L / E` per pixel and per frame. E comes from the engine on the reconstructed mesh:
+//! the exact direct light at the pixel's surface point (photometry over the opening, shadow
+//! rays) plus the interreflected light on its patch, `Σ_j F_ij B_j`, from a radiosity solve with
+//! the current reflectances. The first estimate uses direct light alone (it reads high, as L
+//! also holds the interreflections); [`ReflectanceOptions::iterations`] re-estimates with the
+//! interreflections of the previous estimate.
+//!
+//! Frames combine by the median over those where the pixel is well lit (at least
+//! [`ReflectanceOptions::min_rel_irradiance`] of its best frame; not saturated, not black), which
+//! rejects shadows the coarse mesh misplaces. Pixels combine per mesh triangle by the median.
+//! Values outside `[rho_min, rho_max]` are clamped and counted.
+//!
+//! Camera gain (cd/m² per unit): from `camera.json`, or from one luxmeter reading at
+//! commissioning: the gain is then the one for which the model reads what the luxmeter read
+//! (the reading rises with the gain through the reflectances; found by bisection on its log).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::capture::{Capture, SATURATED};
+use super::mesh::{Part, RecoMesh};
+use crate::engine::direct::{self, Receiver};
+use crate::engine::raycast::{Hit, RayCaster};
+use crate::engine::{Model, Settings};
+use crate::scene::Luminaire;
+use crate::solver::{self, CsrSystem};
+
+/// Reflectance knobs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReflectanceOptions {
+    /// Use every n-th pixel in u and v.
+    pub stride_px: u32,
+    /// A frame counts for a pixel when its irradiance is at least this fraction of the pixel's
+    /// best frame.
+    pub min_rel_irradiance: f64,
+    /// Re-estimates with interreflections.
+    pub iterations: usize,
+    /// Lowest accepted reflectance.
+    pub rho_min: f64,
+    /// Highest accepted reflectance.
+    pub rho_max: f64,
+    /// Points over a luminaire's opening for each pixel's direct light.
+    pub opening_points: usize,
+}
+
+impl Default for ReflectanceOptions {
+    fn default() -> Self {
+        Self {
+            stride_px: 2,
+            min_rel_irradiance: 0.25,
+            iterations: 2,
+            rho_min: 0.02,
+            rho_max: 0.95,
+            opening_points: 16,
+        }
+    }
+}
+
+/// Pixels that see a reconstructed surface, with what the estimate needs.
+#[derive(Debug, Clone, Default)]
+pub struct Samples {
+    /// Pixel (u, v).
+    pub pixel: Vec<(u32, u32)>,
+    /// Engine patch hit.
+    pub patch: Vec<u32>,
+    /// Mesh triangle.
+    pub tri: Vec<u32>,
+    /// Luminance frame value per luminaire (NaN: saturated or black), units.
+    pub value: Vec<Vec<f64>>,
+    /// Exact direct irradiance per luminaire at 100 %, lx.
+    pub e_dir_lx: Vec<Vec<f64>>,
+}
+
+/// Outcome of an estimate.
+#[derive(Debug, Clone, Default)]
+pub struct Estimate {
+    /// Reflectance per mesh triangle (seen triangles; others keep their input).
+    pub tri_rho: Vec<f64>,
+    /// Seen triangles that got no pixel (took their part's median).
+    pub tris_without_pixels: usize,
+    /// Triangles clamped to the accepted range.
+    pub clamped: usize,
+    /// Pixels that gave a value.
+    pub pixels_used: usize,
+    /// Camera gain used, cd/m² per unit.
+    pub gain_cd_m2_per_unit: f64,
+    /// Median reflectance of the floor plane's pixels (for the inferred floor).
+    pub floor_rho: Option<f64>,
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len();
+    Some(if m % 2 == 1 {
+        v[m / 2]
+    } else {
+        0.5 * (v[m / 2 - 1] + v[m / 2])
+    })
+}
+
+/// Collects the pixel samples on the pass model's patches.
+pub fn sample(
+    capture: &Capture,
+    luminaires: &[Luminaire],
+    model: &Model,
+    caster: &RayCaster,
+    reco: &RecoMesh,
+    o: &ReflectanceOptions,
+) -> Samples {
+    let cam = &capture.camera;
+    let s = o.stride_px.max(1);
+    let openings: Vec<Vec<DVec3>> = luminaires
+        .iter()
+        .map(|l| direct::opening_points(l, o.opening_points.max(1)))
+        .collect();
+    let pixels: Vec<(u32, u32)> = (0..cam.height / s)
+        .flat_map(|v| (0..cam.width / s).map(move |u| (u * s + s / 2, v * s + s / 2)))
+        .collect();
+    type Row = (u32, u32, u32, u32, Vec<f64>, Vec<f64>);
+    let rows: Vec<Option<Row>> = pixels
+        .par_iter()
+        .map(|&(u, v)| {
+            let dir = cam.ray_world(f64::from(u), f64::from(v));
+            let Hit::Front { patch, t_m } = caster.closest(cam.position_m, dir) else {
+                return None;
+            };
+            let tri = model.patches.source_triangle[patch as usize];
+            if !reco.part.get(tri as usize).is_some_and(|p| p.seen()) {
+                return None;
+            }
+            let x = cam.position_m + dir * t_m;
+            let n = model.patches.normal[patch as usize];
+            let i = (v * cam.width + u) as usize;
+            let value: Vec<f64> = capture
+                .luminance
+                .iter()
+                .map(|(_, f)| {
+                    let d = f.data[i];
+                    if d == 0 || d == SATURATED {
+                        f64::NAN
+                    } else {
+                        f64::from(d)
+                    }
+                })
+                .collect();
+            let e: Vec<f64> = luminaires
+                .iter()
+                .zip(&openings)
+                .map(|(l, pts)| direct::illuminance_lx(l, pts, x, n, Receiver::Surface, caster))
+                .collect();
+            Some((u, v, patch, tri, value, e))
+        })
+        .collect();
+    let mut out = Samples::default();
+    for (u, v, patch, tri, value, e) in rows.into_iter().flatten() {
+        out.pixel.push((u, v));
+        out.patch.push(patch);
+        out.tri.push(tri);
+        out.value.push(value);
+        out.e_dir_lx.push(e);
+    }
+    out
+}
+
+/// Interreflected irradiance per luminaire on each patch, lx: `Σ_j F_ij B_j` with
+/// `B = ρ (E_dir + F B)`.
+pub fn indirect_lx(model: &Model, patch_rho: &[f64], settings: &Settings) -> Vec<Vec<f64>> {
+    let sys = CsrSystem {
+        f: model.ff.f.view(),
+        rho: patch_rho,
+    };
+    model
+        .direct_patch_lx
+        .par_iter()
+        .map(|e| {
+            let mut b = vec![0.0; patch_rho.len()];
+            // a failed solve leaves what it reached; the estimate stays finite
+            let _ = solver::gauss_seidel(&sys, e, &mut b, settings.solve);
+            (0..patch_rho.len())
+                .map(|i| model.ff.f.row(i).map(|(j, f)| f * b[j as usize]).sum())
+                .collect()
+        })
+        .collect()
+}
+
+/// Per-triangle reflectances for a gain, iterating with interreflections. `tri_rho` holds the
+/// starting values (unseen triangles keep theirs, except the inferred floor, which takes the
+/// seen floor's). `floor_plane`: the part of the floor plane.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate(
+    samples: &Samples,
+    model: &Model,
+    reco: &RecoMesh,
+    tri_rho_start: &[f64],
+    floor_plane: Option<Part>,
+    gain: f64,
+    settings: &Settings,
+    o: &ReflectanceOptions,
+) -> Estimate {
+    let n_tri = reco.tris.len();
+    let mut tri_rho = tri_rho_start.to_vec();
+    let mut out = Estimate {
+        gain_cd_m2_per_unit: gain,
+        ..Estimate::default()
+    };
+    let n_lum = model.direct_patch_lx.len();
+    for it in 0..=o.iterations {
+        let e_ind: Vec<Vec<f64>> = if it == 0 {
+            vec![vec![0.0; model.patches.len()]; n_lum]
+        } else {
+            let patch_rho: Vec<f64> = model
+                .patches
+                .source_triangle
+                .iter()
+                .map(|&t| tri_rho[t as usize])
+                .collect();
+            indirect_lx(model, &patch_rho, settings)
+        };
+        let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
+        let mut floor_px = Vec::new();
+        let mut used = 0;
+        let mut buf = Vec::with_capacity(n_lum);
+        for k in 0..samples.pixel.len() {
+            let p = samples.patch[k] as usize;
+            let e: Vec<f64> = (0..n_lum)
+                .map(|l| samples.e_dir_lx[k][l] + e_ind[l][p])
+                .collect();
+            let best = e.iter().copied().fold(0.0, f64::max);
+            if best <= 1e-6 {
+                continue;
+            }
+            buf.clear();
+            #[allow(clippy::needless_range_loop)]
+            for l in 0..n_lum {
+                let val = samples.value[k].get(l).copied().unwrap_or(f64::NAN);
+                if val.is_finite() && e[l] >= o.min_rel_irradiance * best && e[l] > 0.0 {
+                    buf.push(std::f64::consts::PI * gain * val / e[l]);
+                }
+            }
+            if let Some(r) = median(&mut buf) {
+                used += 1;
+                let t = samples.tri[k] as usize;
+                per_tri[t].push(r);
+                if floor_plane == Some(reco.part[t]) {
+                    floor_px.push(r);
+                }
+            }
+        }
+        out.pixels_used = used;
+        // per part medians for seen triangles without pixels
+        let mut by_part: std::collections::HashMap<Part, Vec<f64>> = Default::default();
+        #[allow(clippy::needless_range_loop)]
+        for t in 0..n_tri {
+            if !per_tri[t].is_empty() {
+                by_part.entry(reco.part[t]).or_default().extend(&per_tri[t]);
+            }
+        }
+        let mut all: Vec<f64> = by_part.values().flatten().copied().collect();
+        let global = median(&mut all).unwrap_or(0.5);
+        let part_median: std::collections::HashMap<Part, f64> = by_part
+            .into_iter()
+            .map(|(k, mut v)| (k, median(&mut v).unwrap_or(global)))
+            .collect();
+        out.floor_rho = median(&mut floor_px);
+        out.clamped = 0;
+        out.tris_without_pixels = 0;
+        for t in 0..n_tri {
+            let part = reco.part[t];
+            let raw = if part.seen() {
+                match median(&mut per_tri[t]) {
+                    Some(r) => r,
+                    None => {
+                        out.tris_without_pixels += 1;
+                        part_median.get(&part).copied().unwrap_or(global)
+                    }
+                }
+            } else if part == Part::FloorFill {
+                out.floor_rho.unwrap_or(global)
+            } else {
+                tri_rho_start[t]
+            };
+            let r = if part.seen() || part == Part::FloorFill {
+                let c = raw.clamp(o.rho_min, o.rho_max);
+                if c != raw || !raw.is_finite() {
+                    out.clamped += 1;
+                }
+                if c.is_finite() { c } else { o.rho_min }
+            } else {
+                raw
+            };
+            tri_rho[t] = r;
+        }
+    }
+    out.tri_rho = tri_rho;
+    out
+}
+
+/// The pass model's reading at sensor `s` for a dimming state, with these patch exitances
+/// (no final gather in the pass model: the gather row applies to all of B).
+pub fn sensor_reading_lx(
+    model: &Model,
+    s: usize,
+    levels: &[f64],
+    patch_rho: &[f64],
+    settings: &Settings,
+) -> f64 {
+    let sys = CsrSystem {
+        f: model.ff.f.view(),
+        rho: patch_rho,
+    };
+    let mut total = 0.0;
+    for (l, &x) in levels.iter().enumerate() {
+        if x == 0.0 {
+            continue;
+        }
+        let mut b = vec![0.0; patch_rho.len()];
+        let _ = solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve);
+        let g: f64 = model.gather.row(s).map(|(j, w)| w * b[j as usize]).sum();
+        total += x * (model.direct_sensor_lx[s][l] + g);
+    }
+    total
+}

@@ -1,0 +1,420 @@
+//! Commissioning from a capture set, against independent references: the Radiance truth of
+//! office_a (desk lux), its ground-truth albedo image (reflectances; read here only, never by
+//! commissioning), synthetic depth with a known plane, and bad input.
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DVec3};
+use luxnode::commission::capture::Frame;
+use luxnode::commission::{
+    self, Capture, CommissionError, CommissionOptions, Commissioned, Gain, depth, grid, planes,
+};
+use luxnode::engine::raycast::{Hit, RayCaster};
+use luxnode::scene::Camera;
+use luxnode::scene::{
+    LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
+};
+use luxnode::store::sensor_flags;
+
+fn scene_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+}
+
+fn run(capture: &str, o: &CommissionOptions) -> Commissioned {
+    let d = scene_dir();
+    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
+        .expect("luminaires");
+    let (sensors, _) =
+        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
+    let desks = load_desks_file(&d.join("desks.json"), &LoadOptions::default()).ok();
+    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
+    let cap = Capture::load(&d.join(capture), &ids).expect("capture");
+    commission::commission(&cap, lums, sensors, desks, o).expect("commissions")
+}
+
+/// In-view sensors from the capture's sensor_pixels.csv (test-side ground truth).
+fn in_view(capture: &str) -> Vec<u32> {
+    let text = std::fs::read_to_string(
+        scene_dir()
+            .join(capture)
+            .join("groundtruth/sensor_pixels.csv"),
+    )
+    .expect("sensor_pixels.csv");
+    text.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f.last() == Some(&"1"))
+                .then(|| f[0].parse().ok())
+                .flatten()
+        })
+        .collect()
+}
+
+/// (mean abs error / mean truth, worst sensor's own error, per-sensor errors) over in-view
+/// sensors and all scenarios.
+fn errors(c: &Commissioned, sensors: &[u32]) -> (f64, f64, Vec<(u32, f64)>) {
+    let d = scene_dir();
+    let states = read_states(&d.join("states.csv")).expect("states");
+    let truth = read_truth(&d.join("truth.csv")).expect("truth");
+    let m = &c.model;
+    let mut per: Vec<(u32, f64, f64)> = sensors.iter().map(|&s| (s, 0.0, 0.0)).collect();
+    for st in &states {
+        let levels: Vec<f64> = m
+            .luminaire_ids
+            .iter()
+            .map(|id| if st.on.contains(id) { 1.0 } else { 0.0 })
+            .collect();
+        let lux = m.sensor_lux(&levels).expect("lux");
+        for (k, id) in m.sensor_ids.iter().enumerate() {
+            let Some(e) = per.iter_mut().find(|e| e.0 == *id) else {
+                continue;
+            };
+            let t = truth
+                .iter()
+                .find(|r| r.scenario == st.id && r.sensor == *id)
+                .expect("truth row")
+                .lux;
+            e.1 += (lux[k] - t).abs();
+            e.2 += t;
+        }
+    }
+    let abs: f64 = per.iter().map(|e| e.1).sum();
+    let tot: f64 = per.iter().map(|e| e.2).sum();
+    let each: Vec<(u32, f64)> = per.iter().map(|e| (e.0, e.1 / e.2)).collect();
+    let worst = each.iter().map(|e| e.1).fold(0.0, f64::max);
+    (abs / tot, worst, each)
+}
+
+fn labels(capture: &str) -> (Vec<u16>, Vec<(u16, String)>) {
+    let gt = scene_dir().join(capture).join("groundtruth");
+    let img = image::open(gt.join("labels.png")).expect("labels.png");
+    let names: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(gt.join("labels.json")).expect("json"))
+            .expect("labels.json");
+    let names = names
+        .as_object()
+        .expect("object")
+        .iter()
+        .map(|(k, v)| (k.parse().expect("id"), v.as_str().unwrap_or("").to_owned()))
+        .collect();
+    let data = match img {
+        image::DynamicImage::ImageLuma16(b) => b.into_raw(),
+        other => other.to_luma16().into_raw(),
+    };
+    (data, names)
+}
+
+/// Median |ρ estimated − ρ true| over pixels of floor, desks and walls (albedo.png: ρ × 10000).
+fn reflectance_error(c: &Commissioned, capture: &str) -> (f64, usize) {
+    let gt = scene_dir().join(capture).join("groundtruth");
+    let albedo = image::open(gt.join("albedo.png"))
+        .expect("albedo.png")
+        .to_luma16();
+    let (lab, names) = labels(capture);
+    let wanted: Vec<u16> = names
+        .iter()
+        .filter(|(_, n)| n == "floor" || n.starts_with("desk_") || n.starts_with("wall_"))
+        .map(|(k, _)| *k)
+        .collect();
+    let cam = c.scene.camera.as_ref().expect("camera");
+    let caster = RayCaster::new(&c.model.patches);
+    let mut errs = Vec::new();
+    for v in (0..cam.height).step_by(2) {
+        for u in (0..cam.width).step_by(2) {
+            let i = (v * cam.width + u) as usize;
+            if !wanted.contains(&lab[i]) {
+                continue;
+            }
+            let Hit::Front { patch, .. } =
+                caster.closest(cam.position_m, cam.ray_world(f64::from(u), f64::from(v)))
+            else {
+                continue;
+            };
+            let est = c.model.patches.rho[patch as usize];
+            let truth = f64::from(albedo.get_pixel(u, v)[0]) / 10000.0;
+            errs.push((est - truth).abs());
+        }
+    }
+    errs.sort_by(f64::total_cmp);
+    (errs[errs.len() / 2], errs.len())
+}
+
+#[test]
+fn office_a_noisy_capture_meets_the_accuracy_bounds() {
+    let c = run("capture", &CommissionOptions::default());
+    let view = in_view("capture");
+    assert_eq!(view, vec![2, 3, 4, 5, 6, 7]);
+    let (e, worst, each) = errors(&c, &view);
+    eprintln!("noisy capture, in view: {e:.4} worst {worst:.4} {each:?}");
+    // measured 3.9 % and 7.5 %; the issue's bounds are 6 % and 12 %
+    assert!(e <= 0.05, "in-view error {e}");
+    assert!(worst <= 0.10, "worst in-view sensor {worst}");
+    // flags agree with the test-side visibility
+    for (id, f) in c.model.sensor_ids.iter().zip(&c.sensor_flags) {
+        assert_eq!(
+            view.contains(id),
+            f & sensor_flags::OUT_OF_VIEW == 0,
+            "sensor {id}"
+        );
+    }
+    // reflectances against the albedo image (test side only)
+    let (med, n) = reflectance_error(&c, "capture");
+    eprintln!("reflectance median abs error {med:.4} over {n} pixels");
+    assert!(n > 5000);
+    assert!(med <= 0.03, "median |Δρ| {med}");
+    // what was found: a floor and desk tops
+    let r = &c.report;
+    assert!(
+        r.planes
+            .iter()
+            .any(|p| p.normal.z > 0.99 && p.origin_m.z.abs() < 0.02 && p.area_m2 > 10.0)
+    );
+    assert!(
+        r.planes
+            .iter()
+            .filter(|p| p.normal.z > 0.99 && (p.origin_m.z - 0.75).abs() < 0.02)
+            .count()
+            >= 3
+    );
+    let room = r.room.expect("closed");
+    assert!((room.ceiling_z_m - 3.0).abs() < 0.02 && (room.xy_m[2] - 6.0).abs() < 0.1);
+}
+
+#[test]
+fn closure_of_the_unseen_room_measurably_helps() {
+    let mut o = CommissionOptions::default();
+    o.closure.enabled = false;
+    let c = run("capture", &o);
+    let view = in_view("capture");
+    let (e_open, _, each) = errors(&c, &view);
+    eprintln!("no closure, in view: {e_open:.4} {each:?}");
+    // with closure: 3.9 % (office_a_noisy_capture_meets_the_accuracy_bounds)
+    assert!(
+        e_open > 0.10,
+        "without closure the error should be large, is {e_open}"
+    );
+    // and the open model reads low (light escapes)
+    let levels = vec![1.0; c.model.luminaires()];
+    let lux = c.model.sensor_lux(&levels).expect("lux");
+    let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
+    for (k, id) in c.model.sensor_ids.iter().enumerate() {
+        if view.contains(id) {
+            let t = truth
+                .iter()
+                .find(|r| r.scenario == "9" && r.sensor == *id)
+                .expect("row")
+                .lux;
+            assert!(lux[k] < t, "sensor {id}: {} >= {t}", lux[k]);
+        }
+    }
+}
+
+#[test]
+fn clean_capture_and_a_luxmeter_gain() {
+    let c = run("capture_clean", &CommissionOptions::default());
+    let view = in_view("capture_clean");
+    let (e, worst, each) = errors(&c, &view);
+    eprintln!("clean capture, in view: {e:.4} worst {worst:.4} {each:?}");
+    assert!(e <= 0.05 && worst <= 0.10);
+    // gain from one luxmeter reading (sensor 7, all on) instead of camera.json
+    let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
+    let lux = truth
+        .iter()
+        .find(|r| r.scenario == "9" && r.sensor == 7)
+        .expect("row")
+        .lux;
+    let o = CommissionOptions {
+        gain: Gain::Luxmeter {
+            sensor_id: 7,
+            lux_lx: lux,
+            levels: vec![1.0; 8],
+        },
+        ..CommissionOptions::default()
+    };
+    let c = run("capture_clean", &o);
+    let g = c.report.reflectance.gain_cd_m2_per_unit;
+    let (e, worst, _) = errors(&c, &view);
+    eprintln!("luxmeter gain {g:.5} (camera.json 0.02), in view {e:.4} worst {worst:.4}");
+    // the model reproduces the reading it was calibrated on
+    let levels = vec![1.0; c.model.luminaires()];
+    let k = c
+        .model
+        .sensor_ids
+        .iter()
+        .position(|&s| s == 7)
+        .expect("sensor 7");
+    let read = c.model.sensor_lux(&levels).expect("lux")[k];
+    assert!(
+        (read / lux - 1.0).abs() < 0.01,
+        "reads {read}, luxmeter {lux}"
+    );
+    // a desk reading depends weakly on the reflectances (indirect light is about a quarter of
+    // it), so a small model bias moves the gain a lot: measured 0.029 against camera.json's 0.02
+    assert!(g > 0.01 && g < 0.04, "gain {g}");
+    assert!(e <= 0.06 && worst <= 0.12);
+}
+
+fn down_camera(w: u32, h: u32) -> Camera {
+    Camera {
+        position_m: DVec3::new(0.0, 0.0, 3.0),
+        world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
+        fx: 100.0,
+        fy: 100.0,
+        cx: f64::from(w) / 2.0 - 0.5,
+        cy: f64::from(h) / 2.0 - 0.5,
+        width: w,
+        height: h,
+        luminance_cd_m2_per_unit: Some(0.01),
+    }
+}
+
+/// Depth (mm along the axis) of a floor at z = 0 with a box top 1 m × 0.8 m at z = 0.9 m
+/// centred at (0.3, -0.2), seen from 3 m; ±`noise_mm` of deterministic noise.
+fn synthetic_depth(cam: &Camera, noise_mm: f64, seed: u64) -> Frame {
+    let mut rng = luxnode::rng::SplitMix64::new(seed);
+    let mut data = Vec::new();
+    for v in 0..cam.height {
+        for u in 0..cam.width {
+            let d = cam.ray_world(f64::from(u), f64::from(v));
+            let t_floor = 3.0 / -d.z;
+            let t_box = 2.1 / -d.z;
+            let p = cam.position_m + d * t_box;
+            let on_box = (p.x - 0.3).abs() <= 0.5 && (p.y + 0.2).abs() <= 0.4;
+            let t = if on_box { t_box } else { t_floor };
+            let z_cam = t * -d.z; // along the optical axis (down)
+            let mm = z_cam * 1000.0 + noise_mm * (2.0 * rng.next_f64() - 1.0);
+            data.push(mm.round() as u16);
+        }
+    }
+    Frame {
+        width: cam.width,
+        height: cam.height,
+        data,
+    }
+}
+
+#[test]
+fn planes_of_synthetic_depth_have_the_known_heights_and_areas() {
+    let cam = down_camera(160, 120);
+    let frames: Vec<Frame> = (0..3).map(|s| synthetic_depth(&cam, 20.0, s)).collect();
+    let d = depth::fuse(&frames, &depth::DepthOptions::default()).expect("fuses");
+    let g = grid::PointGrid::new(&d, &cam, 2, 0.03);
+    let found = planes::detect(
+        &g,
+        cam.position_m,
+        cam.fx,
+        cam.fy,
+        &planes::PlaneOptions::default(),
+    );
+    let horizontal: Vec<_> = found.iter().filter(|p| p.normal.z > 0.999).collect();
+    assert_eq!(horizontal.len(), 2, "{found:?}");
+    let top = horizontal
+        .iter()
+        .find(|p| p.origin_m.z > 0.5)
+        .expect("box top");
+    let floor = horizontal
+        .iter()
+        .find(|p| p.origin_m.z < 0.5)
+        .expect("floor");
+    assert!((top.origin_m.z - 0.9).abs() < 0.01, "{}", top.origin_m.z);
+    assert!(floor.origin_m.z.abs() < 0.01, "{}", floor.origin_m.z);
+    assert!((top.origin_m.x - 0.3).abs() < 0.03 && (top.origin_m.y + 0.2).abs() < 0.03);
+    // meshed area of the box top: 0.8 m² (cells quantise the outline)
+    let mut m = commission::RecoMesh::default();
+    commission::mesh::mesh_plane(
+        &mut m,
+        &g,
+        top,
+        0,
+        &commission::MeshOptions::default(),
+        None,
+        None,
+    );
+    let area: f64 = (0..m.tris.len()).map(|t| m.area_m2(t)).sum();
+    assert!((area - 0.8).abs() < 0.08, "area {area}");
+    assert!(
+        m.tris.len() <= 8,
+        "{} triangles for one rectangle",
+        m.tris.len()
+    );
+}
+
+fn write_png16(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> u16) {
+    let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |u, v| {
+        image::Luma([f(u, v)])
+    });
+    img.save(path).expect("png");
+}
+
+fn write_capture(dir: &Path, lum_ids: &[u32]) {
+    let cam = r#"{"position":[0,0,3],"R_world_from_camera":[[0,1,0],[1,0,0],[0,0,-1]],
+        "width":40,"height":30,"fx":20,"fy":20,"cx":19.5,"cy":14.5,"luminance_cd_m2_per_unit":0.02}"#;
+    std::fs::write(dir.join("camera.json"), cam).expect("camera");
+    write_png16(&dir.join("depth_000.png"), 40, 30, |_, _| 3000);
+    for id in lum_ids {
+        write_png16(&dir.join(format!("luminance_L{id}.png")), 40, 30, |_, _| {
+            1000
+        });
+    }
+}
+
+#[test]
+fn bad_capture_input_is_an_error_or_a_counted_warning() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let d = tmp.path();
+    write_capture(d, &[1, 2]);
+    assert!(Capture::load(d, &[1, 2]).is_ok());
+    // a missing luminaire frame
+    let e = Capture::load(d, &[1, 2, 3]).expect_err("missing frame");
+    assert!(
+        matches!(e, CommissionError::Capture { .. }) && e.to_string().contains("luminance_L3"),
+        "{e}"
+    );
+    // a frame of another size
+    write_png16(&d.join("luminance_L2.png"), 20, 30, |_, _| 1000);
+    let e = Capture::load(d, &[1, 2]).expect_err("size");
+    assert!(e.to_string().contains("20x30"), "{e}");
+    // an 8-bit frame
+    image::GrayImage::from_pixel(40, 30, image::Luma([9]))
+        .save(d.join("luminance_L2.png"))
+        .expect("png");
+    let e = Capture::load(d, &[1, 2]).expect_err("8 bit");
+    assert!(e.to_string().contains("16-bit"), "{e}");
+    // a dark frame and a saturated one: counted warnings
+    write_png16(&d.join("luminance_L1.png"), 40, 30, |_, _| 0);
+    write_png16(&d.join("luminance_L2.png"), 40, 30, |_, _| u16::MAX);
+    let c = Capture::load(d, &[1, 2]).expect("loads with warnings");
+    assert_eq!(c.warnings.len(), 3, "{:?}", c.warnings); // dark, saturated, and (saturated = not lit)
+    // all-zero depth: the only frame is ignored, then no usable depth is an error
+    write_png16(&d.join("depth_000.png"), 40, 30, |_, _| 0);
+    let e = Capture::load(d, &[1, 2]).expect_err("no depth");
+    assert!(e.to_string().contains("no usable depth"), "{e}");
+    // no depth frames at all
+    std::fs::remove_file(d.join("depth_000.png")).expect("rm");
+    assert!(Capture::load(d, &[1, 2]).is_err());
+    // not a capture directory
+    assert!(Capture::load(&d.join("nope"), &[1]).is_err());
+    // a corrupt PNG
+    write_capture(d, &[1]);
+    std::fs::write(d.join("depth_000.png"), b"not a png").expect("write");
+    assert!(Capture::load(d, &[1]).is_err());
+}
+
+#[test]
+fn noise_only_depth_is_rejected_not_meshed() {
+    // salt noise: every pixel disagrees with its neighbours, so cleaning leaves nothing
+    let cam = down_camera(64, 48);
+    let mut rng = luxnode::rng::SplitMix64::new(3);
+    let data = (0..64 * 48)
+        .map(|_| 500 + (rng.next_u64() % 5000) as u16)
+        .collect();
+    let f = Frame {
+        width: 64,
+        height: 48,
+        data,
+    };
+    let e = depth::fuse(&[f], &depth::DepthOptions::default()).expect_err("noise");
+    assert!(e.to_string().contains("depth unusable"), "{e}");
+    let _ = cam;
+}
