@@ -6,8 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
-use luxnode::board::{Board, SceneSource};
-use luxnode::dali::{ArcLevel, DimmingCurve};
+use luxnode::dali::ArcLevel;
 use luxnode::engine::{DirectModel, PatchSettings, RaySetKind, Settings};
 use luxnode::evaluate::{Computed, compare};
 use luxnode::photometry::IntensityDistribution;
@@ -74,11 +73,7 @@ enum Command {
         command: BenchCommand,
     },
     /// Run the node on a board.
-    Run {
-        /// The board file, e.g. boards/sim/board.toml.
-        #[arg(long)]
-        board: PathBuf,
-    },
+    Run(Box<cli::run::RunArgs>),
 }
 
 #[derive(clap::Args)]
@@ -548,7 +543,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Simulate(args) => simulate(&args),
         Command::Bench { command } => bench(command),
         Command::Image { command } => image(command),
-        Command::Run { board } => run_board(&board),
+        Command::Run(args) => cli::run::run(&args),
         Command::Serve(args) => cli::modbus::serve(&args).map(|()| ExitCode::SUCCESS),
         Command::Modbus { command } => cli::modbus::modbus(&command).map(|()| ExitCode::SUCCESS),
         Command::Commission(args) => commission_cmd::run(&args),
@@ -693,73 +688,6 @@ fn scene_check(dir: &Path, options: &LoadOptions) -> Result<ExitCode> {
             Ok(ExitCode::FAILURE)
         }
     }
-}
-
-fn run_board(path: &Path) -> Result<ExitCode> {
-    let board = Board::load(path)?;
-    println!(
-        "luxnode {} on board {}: {}",
-        env!("CARGO_PKG_VERSION"),
-        board.name,
-        board.description
-    );
-    let scene = match &board.scene {
-        SceneSource::DemoOffice => luxnode::demo::demo_office(),
-        SceneSource::Directory(dir) => load_scene(dir, &LoadOptions::default())
-            .with_context(|| format!("board {} scene", board.name))?,
-    };
-    print!("{}", scene.summary());
-    let settings = Settings::default();
-    let model = luxnode::engine::commission(&scene, &settings)?;
-    let st = &model.stats;
-    println!(
-        "commissioned: {} patches, {} rays per patch, {} form factors in {} ms",
-        st.patches,
-        st.rays_per_patch,
-        st.nnz,
-        st.total().as_millis()
-    );
-    // The simulated controller steps through dimming states (DALI arc levels on the
-    // logarithmic curve: 254 = 100 %, 229 = 50.5 %, 170 = 10.1 %, 0 = off).
-    let n = model.luminaires();
-    let dali = |level: u8| -> f64 {
-        ArcLevel(level)
-            .fraction(DimmingCurve::Logarithmic)
-            .unwrap_or(0.0)
-    };
-    let half = n / 2;
-    let states: Vec<(String, Vec<f64>)> = vec![
-        ("all 254".into(), vec![dali(254); n]),
-        ("all 229".into(), vec![dali(229); n]),
-        ("all 170".into(), vec![dali(170); n]),
-        (
-            format!("1-{half} on"),
-            (0..n).map(|i| if i < half { 1.0 } else { 0.0 }).collect(),
-        ),
-        (
-            format!("{}-{n} on", half + 1),
-            (0..n).map(|i| if i >= half { 1.0 } else { 0.0 }).collect(),
-        ),
-        ("all off".into(), vec![0.0; n]),
-    ];
-    print!("{:<8} {:<28}", "sensor", "where");
-    for (name, _) in &states {
-        print!(" {name:>10}");
-    }
-    println!();
-    let columns: Vec<Vec<f64>> = states
-        .iter()
-        .map(|(_, x)| model.sensor_lux(x))
-        .collect::<Result<_, _>>()?;
-    for (k, s) in scene.sensors.iter().enumerate() {
-        let note: String = s.note.chars().take(28).collect();
-        print!("{:<8} {:<28}", s.id, note);
-        for col in &columns {
-            print!(" {:>7.0} lx", col[k]);
-        }
-        println!();
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 fn load_scene(dir: &Path, options: &LoadOptions) -> Result<Scene> {

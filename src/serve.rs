@@ -85,13 +85,22 @@ pub fn serve(options: ServeOptions) -> anyhow::Result<()> {
         .enable_all()
         .build()
         .context("tokio runtime")?;
-    rt.block_on(serve_node(node, options))
+    let run_for = options.run_for;
+    rt.block_on(async move {
+        let listener = tcp::bind(options.bind).await?;
+        serve_node(node, listener, options, wait_for_stop(run_for)).await
+    })
 }
 
-/// Serves an existing node (the daemon builds its own).
-pub async fn serve_node(node: SharedNode, options: ServeOptions) -> anyhow::Result<()> {
+/// Serves an existing node on a bound listener until `stop` completes (the daemon builds its
+/// own node and stop condition).
+pub async fn serve_node(
+    node: SharedNode,
+    listener: tokio::net::TcpListener,
+    options: ServeOptions,
+    stop: impl std::future::Future<Output = ()>,
+) -> anyhow::Result<()> {
     let (stop_tx, stop_rx) = watch::channel(false);
-    let listener = tcp::bind(options.bind).await?;
     let local = listener.local_addr()?;
     {
         use std::io::Write as _;
@@ -140,7 +149,7 @@ pub async fn serve_node(node: SharedNode, options: ServeOptions) -> anyhow::Resu
         ))
     });
 
-    wait_for_stop(options.run_for).await;
+    stop.await;
     let _ = stop_tx.send(true);
     rtu_stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let _ = tcp_task.await;
@@ -153,7 +162,8 @@ pub async fn serve_node(node: SharedNode, options: ServeOptions) -> anyhow::Resu
     Ok(())
 }
 
-async fn wait_for_stop(run_for: Option<Duration>) {
+/// Completes after `run_for` (if any), on Ctrl-C, or on SIGTERM.
+pub async fn wait_for_stop(run_for: Option<Duration>) {
     let timer = async {
         match run_for {
             Some(d) => tokio::time::sleep(d).await,

@@ -1,0 +1,106 @@
+//! systemd notifications (`sd_notify`): READY, WATCHDOG, STOPPING, over the datagram socket
+//! named by `$NOTIFY_SOCKET`. Without it (not started by systemd) every call does nothing.
+//! The unit file is `deploy/luxnode.service` (Type=notify, WatchdogSec).
+
+use std::time::Duration;
+
+/// Sends one notification; errors are logged, never fatal.
+pub fn notify(state: &str) {
+    if let Some(path) = std::env::var_os("NOTIFY_SOCKET") {
+        notify_to(&path, state);
+    }
+}
+
+/// Sends `state` to the notification socket `path` (`@name`: abstract namespace).
+pub fn notify_to(path: &std::ffi::OsStr, state: &str) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::net::UnixDatagram;
+        let Ok(sock) = UnixDatagram::unbound() else {
+            return;
+        };
+        let bytes = path.as_encoded_bytes();
+        let sent = if let Some(name) = bytes.strip_prefix(b"@") {
+            // abstract socket namespace (Linux)
+            #[cfg(target_os = "linux")]
+            {
+                use std::os::linux::net::SocketAddrExt;
+                std::os::unix::net::SocketAddr::from_abstract_name(name)
+                    .and_then(|a| sock.send_to_addr(state.as_bytes(), &a))
+            }
+            #[cfg(not(target_os = "linux"))]
+            {
+                let _ = name;
+                Err(std::io::Error::other("abstract sockets need Linux"))
+            }
+        } else {
+            sock.send_to(state.as_bytes(), path)
+        };
+        if let Err(e) = sent {
+            tracing::warn!("sd_notify {state}: {e}");
+        }
+    }
+}
+
+/// The watchdog period systemd asked for (`$WATCHDOG_USEC`), if it is for this process.
+pub fn watchdog_period() -> Option<Duration> {
+    watchdog_period_from(
+        std::env::var("WATCHDOG_USEC").ok().as_deref(),
+        std::env::var("WATCHDOG_PID").ok().as_deref(),
+        std::process::id(),
+    )
+}
+
+/// The watchdog period from the values of `WATCHDOG_USEC` and `WATCHDOG_PID`.
+pub fn watchdog_period_from(usec: Option<&str>, pid: Option<&str>, me: u32) -> Option<Duration> {
+    let usec: u64 = usec?.parse().ok()?;
+    if let Some(pid) = pid
+        && pid.parse::<u32>().ok() != Some(me)
+    {
+        return None;
+    }
+    (usec > 0).then(|| Duration::from_micros(usec))
+}
+
+/// Pets the watchdog at half its period, forever (abort the task to stop).
+pub async fn watchdog_loop() {
+    let Some(period) = watchdog_period() else {
+        return;
+    };
+    let mut tick = tokio::time::interval(period / 2);
+    loop {
+        tick.tick().await;
+        notify("WATCHDOG=1");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    #[test]
+    fn notifications_reach_the_socket() {
+        use std::os::unix::net::UnixDatagram;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("notify");
+        let server = UnixDatagram::bind(&path).unwrap();
+        super::notify_to(path.as_os_str(), "READY=1");
+        let mut buf = [0u8; 64];
+        let n = server.recv(&mut buf).unwrap();
+        assert_eq!(&buf[..n], b"READY=1");
+    }
+
+    #[test]
+    fn watchdog_period_is_for_this_process_only() {
+        use super::watchdog_period_from as w;
+        assert_eq!(w(Some("2000000"), None, 7), Some(Duration::from_secs(2)));
+        assert_eq!(
+            w(Some("2000000"), Some("7"), 7),
+            Some(Duration::from_secs(2))
+        );
+        assert_eq!(w(Some("2000000"), Some("8"), 7), None);
+        assert_eq!(w(Some("0"), None, 7), None);
+        assert_eq!(w(Some("x"), None, 7), None);
+        assert_eq!(w(None, None, 7), None);
+    }
+}
