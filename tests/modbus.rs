@@ -5,11 +5,10 @@
 //! mbpoll, socat and pymodbus are installed by scripts/test.sh (scripts/install-test-tools.sh);
 //! a test that needs one and cannot find it fails with that message, it never passes silently.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use luxnode::modbus::regmap::status;
@@ -19,8 +18,9 @@ use luxnode::store::Image;
 use tokio_modbus::client::{Context, Reader, Writer};
 use tokio_modbus::prelude::{ExceptionCode, Slave};
 
-const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
-const GATEWAY_SIM: &str = env!("CARGO_BIN_EXE_gateway-sim");
+mod common;
+
+use common::procs::{GATEWAY_SIM, LUXNODE, Proc, spawn_listening};
 
 fn office_a() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
@@ -47,46 +47,6 @@ fn office_image() -> PathBuf {
     assert!(st.success());
     std::fs::rename(&tmp, &path).expect("rename image");
     path
-}
-
-/// A child process killed on drop.
-struct Proc {
-    child: Child,
-    addr: SocketAddr,
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Starts `bin args` and waits for its `modbus tcp listening on ADDR` line.
-fn spawn_listening(bin: &str, args: &[String]) -> Proc {
-    let mut child = Command::new(bin)
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap_or_else(|e| panic!("{bin}: {e}"));
-    let stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines() {
-            let Ok(line) = line else { break };
-            if let Some(a) = line.strip_prefix("modbus tcp listening on ") {
-                let _ = tx.send(a.trim().to_string());
-            }
-        }
-    });
-    let addr = rx
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| panic!("{bin} {args:?} did not start listening"));
-    Proc {
-        child,
-        addr: addr.parse().expect("address"),
-    }
 }
 
 fn serve(extra: &[&str]) -> Proc {

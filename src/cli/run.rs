@@ -33,6 +33,10 @@ pub struct RunArgs {
     /// Keep serving after the simulated controller's sequence (sim board).
     #[arg(long)]
     pub forever: bool,
+    /// No simulated controller: the dimming state comes only from Modbus writes or the gateway
+    /// (the HIL rig drives the node itself). Implies serving until a signal.
+    #[arg(long)]
+    pub no_controller: bool,
     /// Passes of the simulated controller through its dimming states.
     #[arg(long, default_value_t = 1)]
     pub cycles: usize,
@@ -106,7 +110,7 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
             initial_arc: None,
             run_for: seconds,
         },
-        controller: (m.gateway.is_none()).then(|| SimController {
+        controller: (m.gateway.is_none() && !args.no_controller).then(|| SimController {
             period: Duration::from_millis(args.step_ms),
             cycles: args.cycles,
             forever: args.forever,

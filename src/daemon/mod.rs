@@ -60,7 +60,11 @@ impl CommissionSource for CadSource {
 
     fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
         let model = crate::engine::commission(&self.scene, &self.settings)?;
-        Ok(crate::store::build::build_image(&model, &self.image)?)
+        let mut options = self.image.clone();
+        if options.scene_name.is_empty() {
+            options.scene_name = self.scene.name.clone();
+        }
+        Ok(crate::store::build::build_image(&model, &options)?)
     }
 }
 
@@ -128,6 +132,16 @@ where
         .map_err(|e| anyhow::anyhow!("reading slot {slot}: {e}"))?;
     buf.truncate(n);
     Ok(Some((buf, generation)))
+}
+
+/// The newest valid image of a flash file (A/B slots), without changing it.
+pub fn read_flash_image(path: &std::path::Path) -> anyhow::Result<Option<(Vec<u8>, u64)>> {
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("{}", path.display()))?
+        .len();
+    let len = usize::try_from(len)?;
+    let dev = FileFlash::open(path, len).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    read_newest(&mut Slots::new(dev))
 }
 
 /// Boots: the newest valid image, or commissions and writes one. `Ok(None)`: the simulated

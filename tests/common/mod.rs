@@ -2,6 +2,8 @@
 //! closed form (physics.md §2), and small scenes built in code.
 #![allow(dead_code)]
 
+pub mod procs;
+
 use std::f64::consts::PI;
 use std::sync::Arc;
 

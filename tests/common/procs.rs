@@ -1,0 +1,92 @@
+//! Processes for the end-to-end tests: luxnode and gateway-sim started as real programs,
+//! killed on drop, their Modbus address read from their `modbus tcp listening on ADDR` line.
+
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::Duration;
+
+pub const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
+pub const GATEWAY_SIM: &str = env!("CARGO_BIN_EXE_gateway-sim");
+
+/// A child process killed on drop, with everything it printed so far.
+pub struct Proc {
+    pub child: Child,
+    pub addr: SocketAddr,
+    pub stdout: Arc<Mutex<Vec<String>>>,
+}
+
+impl Proc {
+    /// Everything printed so far, one string.
+    pub fn output(&self) -> String {
+        self.stdout.lock().map(|v| v.join("\n")).unwrap_or_default()
+    }
+
+    /// Sends SIGTERM and waits (at most 10 s) for the exit status.
+    pub fn terminate(mut self) -> std::process::ExitStatus {
+        let pid = self.child.id().to_string();
+        let _ = Command::new("kill").args(["-TERM", &pid]).status();
+        let t0 = std::time::Instant::now();
+        loop {
+            if let Ok(Some(st)) = self.child.try_wait() {
+                return st;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(10),
+                "no exit 10 s after SIGTERM"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts `bin args` and waits (at most `limit`) for its `modbus tcp listening on ADDR` line.
+pub fn spawn_listening_within(bin: &str, args: &[String], limit: Duration) -> Proc {
+    let mut child = Command::new(bin)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{bin}: {e}"));
+    let stdout = child.stdout.take().expect("stdout");
+    let lines = Arc::new(Mutex::new(Vec::new()));
+    let (tx, rx) = mpsc::channel();
+    let keep = lines.clone();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if let Some(a) = line.strip_prefix("modbus tcp listening on ") {
+                let _ = tx.send(a.trim().to_string());
+            }
+            if let Ok(mut v) = keep.lock() {
+                v.push(line);
+            }
+        }
+    });
+    let addr = match rx.recv_timeout(limit) {
+        Ok(a) => a,
+        Err(_) => {
+            let _ = child.kill();
+            let out = lines.lock().map(|v| v.join("\n")).unwrap_or_default();
+            panic!("{bin} {args:?} did not start listening:\n{out}");
+        }
+    };
+    Proc {
+        child,
+        addr: addr.parse().expect("address"),
+        stdout: lines,
+    }
+}
+
+/// [`spawn_listening_within`] 60 s.
+pub fn spawn_listening(bin: &str, args: &[String]) -> Proc {
+    spawn_listening_within(bin, args, Duration::from_secs(60))
+}
