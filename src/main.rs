@@ -902,24 +902,8 @@ fn print_computed(
     Ok(())
 }
 
-/// An image file, or a flash file with A/B slots (its newest valid image). Anything else is
-/// returned as read, for the caller's parse to report what is wrong with it.
 fn read_image_file(path: &Path) -> Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    // an image file is exactly header + payload; a flash device is longer (two slots)
-    let exact = luxnode::store::Header::parse(&bytes)
-        .is_ok_and(|h| bytes.len() == luxnode::store::HEADER_LEN + h.payload_len as usize);
-    if exact {
-        return Ok(bytes);
-    }
-    if let Ok(Some((image, generation))) = luxnode::daemon::read_flash_image(path) {
-        eprintln!(
-            "{}: flash with A/B slots; using its newest valid image (generation {generation})",
-            path.display()
-        );
-        return Ok(image);
-    }
-    Ok(bytes)
+    luxnode::daemon::read_image_file(path)
 }
 
 fn simulate_image(args: &SimulateArgs, path: &Path) -> Result<ExitCode> {

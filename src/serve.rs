@@ -43,7 +43,7 @@ pub struct ServeOptions {
 
 /// Builds the node for an image file.
 pub fn load_node(path: &std::path::Path, options: NodeOptions) -> anyhow::Result<Node> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let bytes = crate::daemon::read_image_file(path)?;
     let image = Image::parse(&bytes).with_context(|| format!("image {}", path.display()))?;
     let model = NodeModel::from_image(&image, image.header.generation);
     Ok(Node::new(model, options)?)

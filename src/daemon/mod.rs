@@ -144,6 +144,26 @@ pub fn read_flash_image(path: &std::path::Path) -> anyhow::Result<Option<(Vec<u8
     read_newest(&mut Slots::new(dev))
 }
 
+/// An image file, or a flash file with A/B slots (its newest valid image). Anything else is
+/// returned as read, for the caller's parse to report what is wrong with it.
+pub fn read_image_file(path: &std::path::Path) -> anyhow::Result<Vec<u8>> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    // an image file is exactly header + payload; a flash device is longer (two slots)
+    let exact = crate::store::Header::parse(&bytes)
+        .is_ok_and(|h| bytes.len() == crate::store::HEADER_LEN + h.payload_len as usize);
+    if exact {
+        return Ok(bytes);
+    }
+    if let Ok(Some((image, generation))) = read_flash_image(path) {
+        eprintln!(
+            "{}: flash with A/B slots; using its newest valid image (generation {generation})",
+            path.display()
+        );
+        return Ok(image);
+    }
+    Ok(bytes)
+}
+
 /// Boots: the newest valid image, or commissions and writes one. `Ok(None)`: the simulated
 /// power cut hit the write.
 pub fn boot(
