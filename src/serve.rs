@@ -41,6 +41,15 @@ pub struct ServeOptions {
     pub run_for: Option<Duration>,
 }
 
+/// The async runtime of the servers: two workers (the node's SoC class has 2 to 4 cores).
+pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("tokio runtime")
+}
+
 /// Builds the node for an image file.
 pub fn load_node(path: &std::path::Path, options: NodeOptions) -> anyhow::Result<Node> {
     let bytes = crate::daemon::read_image_file(path)?;
@@ -80,11 +89,7 @@ pub fn serve(options: ServeOptions) -> anyhow::Result<()> {
         },
     )?;
     let node: SharedNode = Arc::new(Mutex::new(node));
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("tokio runtime")?;
+    let rt = runtime()?;
     let run_for = options.run_for;
     rt.block_on(async move {
         let listener = tcp::bind(options.bind).await?;

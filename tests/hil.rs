@@ -9,19 +9,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::procs::{GATEWAY_SIM, LUXNODE, Proc, spawn_listening};
+use common::procs::{GATEWAY_SIM, LUXNODE, Proc, floats_abcd, rt, spawn_listening};
 use luxnode::modbus::regmap::status;
 use tokio_modbus::client::{Context, Reader, Writer};
 
 fn sim_board() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("boards/sim/board.toml")
-}
-
-fn rt() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime")
 }
 
 async fn bms(addr: SocketAddr) -> Context {
@@ -61,12 +54,6 @@ fn node_to_exit(board: &Path, flash: &Path, extra: &[&str]) -> (Option<i32>, Str
         out.status.code(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
     )
-}
-
-fn floats(regs: &[u16]) -> Vec<f64> {
-    regs.chunks(2)
-        .map(|w| f64::from(f32::from_bits((u32::from(w[0]) << 16) | u32::from(w[1]))))
-        .collect()
 }
 
 /// The lux `luxnode image eval` computes from the flash's image for these arc levels:
@@ -131,7 +118,7 @@ fn commissioning_from_scratch_dimming_sweep_and_restart() {
             let w: Vec<u16> = arcs.iter().map(|&a| u16::from(a)).collect();
             c.write_multiple_registers(1000, &w).await.unwrap().unwrap();
             let f = c.read_input_registers(100, 14).await.unwrap().unwrap();
-            all.push(floats(&f));
+            all.push(floats_abcd(&f));
         }
         all
     });
@@ -171,7 +158,7 @@ fn commissioning_from_scratch_dimming_sweep_and_restart() {
             let w: Vec<u16> = arcs.iter().map(|&a| u16::from(a)).collect();
             c.write_multiple_registers(1000, &w).await.unwrap().unwrap();
             let f = c.read_input_registers(100, 14).await.unwrap().unwrap();
-            assert_eq!(&floats(&f), want);
+            assert_eq!(&floats_abcd(&f), want);
         }
     });
 }
@@ -277,7 +264,7 @@ fn gateway_lost_and_back() {
     rt().block_on(async {
         let mut c = bms(n.addr).await;
         wait(&mut c, |st, _| st & status::GATEWAY_LINK_UP != 0).await;
-        let f = floats(&c.read_input_registers(100, 14).await.unwrap().unwrap());
+        let f = floats_abcd(&c.read_input_registers(100, 14).await.unwrap().unwrap());
         for (g, (w, _)) in f.iter().zip(&want_on) {
             assert!((g - w).abs() <= 1e-6 * w.max(1.0), "{g} vs {w}");
         }
@@ -308,7 +295,7 @@ fn gateway_lost_and_back() {
     rt().block_on(async {
         let mut c = bms(n.addr).await;
         wait(&mut c, |st, _| st & status::VALUES_STALE == 0).await;
-        let f = floats(&c.read_input_registers(100, 14).await.unwrap().unwrap());
+        let f = floats_abcd(&c.read_input_registers(100, 14).await.unwrap().unwrap());
         for (g, (w, _)) in f.iter().zip(&want_off) {
             assert!((g - w).abs() <= 1e-6 * w.max(1.0), "{g} vs {w}");
         }

@@ -20,7 +20,7 @@ use tokio_modbus::prelude::{ExceptionCode, Slave};
 
 mod common;
 
-use common::procs::{GATEWAY_SIM, LUXNODE, Proc, spawn_listening};
+use common::procs::{GATEWAY_SIM, LUXNODE, Proc, floats_abcd, rt, spawn_listening};
 
 fn office_a() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
@@ -61,13 +61,6 @@ fn serve(extra: &[&str]) -> Proc {
     spawn_listening(LUXNODE, &args)
 }
 
-fn rt() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime")
-}
-
 async fn connect(addr: SocketAddr) -> Context {
     tokio_modbus::client::tcp::connect_slave(addr, Slave(1))
         .await
@@ -86,12 +79,6 @@ fn runtime_lux(arc: &[u8]) -> Vec<f64> {
     let mut out = vec![0.0; image.sensors()];
     rt.sensor_lux(&levels, &mut out).unwrap();
     out
-}
-
-fn floats_abcd(regs: &[u16]) -> Vec<f64> {
-    regs.chunks(2)
-        .map(|w| f64::from(f32::from_bits((u32::from(w[0]) << 16) | u32::from(w[1]))))
-        .collect()
 }
 
 fn assert_f32_equal(got: &[f64], want: &[f64]) {

@@ -264,11 +264,7 @@ pub fn run(config: DaemonConfig, source: &mut dyn CommissionSource) -> anyhow::R
     }
     node.set_store_ok(!other_bad);
     let node: SharedNode = Arc::new(Mutex::new(node));
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("tokio runtime")?;
+    let rt = crate::serve::runtime()?;
     let serve = config.serve.clone();
     let controller = config.controller.clone();
     rt.block_on(async move {

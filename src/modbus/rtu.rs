@@ -141,20 +141,11 @@ pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
     let mut buf = [0u8; 64];
     let mut reply = [0u8; MAX_RTU_FRAME];
     while !stop.load(Ordering::Relaxed) {
-        match port.read(&mut buf) {
+        let silence = match port.read(&mut buf) {
             Ok(0) => {
                 // EOF on a pty whose other side is gone; behave as silence, but do not spin
                 std::thread::sleep(Duration::from_millis(5));
-                end_of_frame(
-                    port,
-                    handler,
-                    unit_id,
-                    counters,
-                    &frame[..len],
-                    overlong,
-                    &mut reply,
-                )?;
-                (len, overlong) = (0, false);
+                true
             }
             Ok(n) => {
                 for &b in &buf[..n] {
@@ -165,21 +156,18 @@ pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
                         overlong = true;
                     }
                 }
+                false
             }
-            Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => {
-                end_of_frame(
-                    port,
-                    handler,
-                    unit_id,
-                    counters,
-                    &frame[..len],
-                    overlong,
-                    &mut reply,
-                )?;
-                (len, overlong) = (0, false);
-            }
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => true,
+            Err(e) if e.kind() == ErrorKind::Interrupted => false,
             Err(e) => return Err(e),
+        };
+        if silence {
+            let frame = &frame[..len];
+            end_of_frame(
+                port, handler, unit_id, counters, frame, overlong, &mut reply,
+            )?;
+            (len, overlong) = (0, false);
         }
     }
     Ok(())

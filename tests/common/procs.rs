@@ -90,3 +90,18 @@ pub fn spawn_listening_within(bin: &str, args: &[String], limit: Duration) -> Pr
 pub fn spawn_listening(bin: &str, args: &[String]) -> Proc {
     spawn_listening_within(bin, args, Duration::from_secs(60))
 }
+
+/// A single-threaded async runtime for a test's Modbus clients.
+pub fn rt() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime")
+}
+
+/// Desk lux as float32 ABCD register pairs.
+pub fn floats_abcd(regs: &[u16]) -> Vec<f64> {
+    regs.chunks(2)
+        .map(|w| f64::from(f32::from_bits((u32::from(w[0]) << 16) | u32::from(w[1]))))
+        .collect()
+}
