@@ -189,51 +189,60 @@ fn check_answer(req: &[u8], resp: &[u8], report: &mut FuzzReport) -> Result<(), 
     Ok(())
 }
 
-/// Runs `frames` mutated frames from `seed`.
-pub fn run(frames: u64, seed: u64) -> Result<FuzzReport, FuzzFailure> {
-    let mut rng = SplitMix64::new(seed);
-    let seeds = seeds();
-    let mut handler = MapHandler(sample_map());
-    let mut report = FuzzReport::default();
-    let counters = RtuCounters::default();
-    let mut out = [0u8; MAX_PDU];
-    let mut rtu = [0u8; MAX_RTU_FRAME + 8];
-    let mut reply = [0u8; MAX_RTU_FRAME];
-    for _ in 0..frames {
+/// The system under test: a register map, reached directly and through the RTU handler.
+pub struct Fuzzer {
+    handler: MapHandler,
+    counters: RtuCounters,
+    /// Outcomes so far.
+    pub report: FuzzReport,
+}
+
+impl Default for Fuzzer {
+    fn default() -> Self {
+        Self {
+            handler: MapHandler(sample_map()),
+            counters: RtuCounters::default(),
+            report: FuzzReport::default(),
+        }
+    }
+}
+
+impl Fuzzer {
+    /// Feeds one PDU (any bytes) to the register map, then as an RTU frame for `unit` (our unit
+    /// is 7) with a correct CRC or a stale one; checks every answer.
+    pub fn feed(&mut self, pdu: &[u8], unit: u8, fix_crc: bool) -> Result<(), FuzzFailure> {
+        let mut out = [0u8; MAX_PDU];
+        let report = &mut self.report;
         report.frames += 1;
-        let seed_pdu = &seeds[(rng.next_u64() % seeds.len() as u64) as usize];
-        let pdu = mutate(&mut rng, seed_pdu);
-        // the register map directly
         let pdu_in = &pdu[..pdu.len().min(MAX_PDU)];
-        match handler.handle_pdu(1, pdu_in, &mut out) {
+        match self.handler.handle_pdu(1, pdu_in, &mut out) {
             None if pdu_in.is_empty() => report.silent += 1,
             None => return Err(fail(pdu_in, "no answer to a non-empty PDU")),
             Some(n) => {
                 if n == 0 || n > MAX_PDU {
                     return Err(fail(pdu_in, format!("answer length {n}")));
                 }
-                check_answer(pdu_in, &out[..n], &mut report)?;
+                check_answer(pdu_in, &out[..n], report)?;
             }
         }
-        // RTU: unit, PDU, CRC fixed up or not
-        let r = rng.next_u64();
-        let unit = [7u8, 7, 7, 0, 8][(r % 5) as usize];
-        let fix_crc = r & 0x100 != 0;
-        let n = if pdu_in.len() <= MAX_PDU && fix_crc {
+        let mut rtu = [0u8; MAX_RTU_FRAME + 8];
+        let n = if fix_crc {
             let mut buf = [0u8; MAX_RTU_FRAME];
             let n = encode_rtu(unit, pdu_in, &mut buf);
             rtu[..n].copy_from_slice(&buf[..n]);
             n
         } else {
-            let n = (pdu.len() + 3).min(rtu.len());
+            let body = &pdu[..pdu.len().min(rtu.len() - 3)];
+            let n = body.len() + 3;
             rtu[0] = unit;
-            rtu[1..n - 2].copy_from_slice(&pdu[..n - 3]);
+            rtu[1..n - 2].copy_from_slice(body);
             let c = crc16(&rtu[..n - 2]) ^ 0x5A5A; // stale
             rtu[n - 2..n].copy_from_slice(&c.to_le_bytes());
             n
         };
         let frame = &rtu[..n];
-        match handle_frame(&mut handler, 7, frame, &counters, &mut reply) {
+        let mut reply = [0u8; MAX_RTU_FRAME];
+        match handle_frame(&mut self.handler, 7, frame, &self.counters, &mut reply) {
             None => report.rtu_silent += 1,
             Some(m) => {
                 report.rtu_answered += 1;
@@ -248,9 +257,24 @@ pub fn run(frames: u64, seed: u64) -> Result<FuzzReport, FuzzFailure> {
                 check_answer(pdu_in, resp, &mut FuzzReport::default())?;
             }
         }
+        Ok(())
     }
-    let _ = counters.answered.load(Ordering::Relaxed);
-    Ok(report)
+}
+
+/// Runs `frames` mutated frames from `seed`.
+pub fn run(frames: u64, seed: u64) -> Result<FuzzReport, FuzzFailure> {
+    let mut rng = SplitMix64::new(seed);
+    let seeds = seeds();
+    let mut fuzzer = Fuzzer::default();
+    for _ in 0..frames {
+        let seed_pdu = &seeds[(rng.next_u64() % seeds.len() as u64) as usize];
+        let pdu = mutate(&mut rng, seed_pdu);
+        let r = rng.next_u64();
+        let unit = [7u8, 7, 7, 0, 8][(r % 5) as usize];
+        fuzzer.feed(&pdu, unit, r & 0x100 != 0)?;
+    }
+    let _ = fuzzer.counters.answered.load(Ordering::Relaxed);
+    Ok(fuzzer.report)
 }
 
 #[cfg(test)]
