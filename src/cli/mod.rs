@@ -2,3 +2,4 @@
 //! holds the logic).
 
 pub mod modbus;
+pub mod tradeoffs;
