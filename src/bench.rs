@@ -2,6 +2,9 @@
 //! against a truth table, the speed/accuracy trade of the engine's knobs, and the paper's
 //! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
 
+pub mod patches;
+pub mod tradeoffs;
+
 use std::time::{Duration, Instant};
 
 use crate::engine::{self, DirectModel, EngineError, Model, PatchSettings, Settings};

@@ -25,6 +25,16 @@ pub struct Board {
     pub scene: SceneSource,
     /// Modbus: TCP server, RTU line, DALI gateway.
     pub modbus: ModbusBoard,
+    /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
+    pub preset: crate::preset::Preset,
+}
+
+/// `[engine]`: which preset commissioning uses.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct EngineToml {
+    #[serde(default)]
+    preset: Option<String>,
 }
 
 /// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[gateway]`).
@@ -104,6 +114,8 @@ struct BoardToml {
     modbus: ModbusToml,
     #[serde(default)]
     gateway: Option<crate::modbus::gateway::GatewayConfig>,
+    #[serde(default)]
+    engine: EngineToml,
 }
 
 #[derive(Deserialize)]
@@ -208,7 +220,14 @@ impl Board {
         if let Some(g) = &t.gateway {
             g.validate().map_err(|e| bad(format!("gateway: {e}")))?;
         }
+        let preset = match &t.engine.preset {
+            None => crate::preset::Preset::default(),
+            Some(name) => name
+                .parse()
+                .map_err(|e| bad(format!("engine.preset: {e}")))?,
+        };
         Ok(Board {
+            preset,
             name: t.name,
             description: t.description,
             scene,
@@ -269,6 +288,30 @@ mod tests {
             let e = Board::parse(&format!("{base}{bad}"), Path::new("b.toml")).unwrap_err();
             assert!(e.to_string().contains(says), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn engine_preset_is_chosen_and_checked() {
+        use crate::preset::Preset;
+        let base = "name = \"x\"\n[scene]\nsource = \"demo-office\"\n";
+        let b = Board::parse(base, Path::new("b.toml")).unwrap();
+        assert_eq!(b.preset, Preset::Balanced);
+        let b = Board::parse(
+            &format!("{base}[engine]\npreset = \"fast\"\n"),
+            Path::new("b.toml"),
+        )
+        .unwrap();
+        assert_eq!(b.preset, Preset::Fast);
+        let e = Board::parse(
+            &format!("{base}[engine]\npreset = \"quick\"\n"),
+            Path::new("b.toml"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("engine.preset"), "{e}");
+        assert!(e.to_string().contains("\"accurate\""), "{e}");
+        let e =
+            Board::parse(&format!("{base}[engine]\nrays = 10\n"), Path::new("b.toml")).unwrap_err();
+        assert!(e.to_string().contains("rays"), "{e}");
     }
 
     #[test]

@@ -91,6 +91,8 @@ pub mod demo;
 #[cfg(feature = "std")]
 pub mod photometry;
 #[cfg(feature = "std")]
+pub mod preset;
+#[cfg(feature = "std")]
 pub mod scene;
 #[cfg(feature = "std")]
 pub mod serve;

@@ -7,9 +7,10 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use luxnode::dali::ArcLevel;
-use luxnode::engine::{DirectModel, PatchSettings, RaySetKind, Settings};
+use luxnode::engine::{DirectModel, RaySetKind, Settings};
 use luxnode::evaluate::{Computed, compare};
 use luxnode::photometry::IntensityDistribution;
+use luxnode::preset::Preset;
 use luxnode::scene::{LoadOptions, Scenario, Scene, read_states, read_truth};
 use luxnode::store::{Image, Precision};
 
@@ -179,57 +180,68 @@ struct CommissionArgs {
 
 #[derive(clap::Args)]
 struct EngineArgs {
-    /// Rays per patch (Isocell rounds up: 1000 becomes 1083).
-    #[arg(long, default_value_t = Settings::default().rays)]
-    rays: usize,
-    /// Rays per sensor.
-    #[arg(long, default_value_t = Settings::default().sensor_rays)]
-    sensor_rays: usize,
-    /// Final-gather rays per sensor (exact first bounce; 0: off).
-    #[arg(long, default_value_t = Settings::default().final_gather_rays)]
-    final_gather_rays: usize,
-    /// Largest patch edge, m.
-    #[arg(long, default_value_t = Settings::default().patches.patch_size_m)]
-    patch_size: f64,
-    /// Largest projected angle a patch may subtend at a sensor that sees it (0: uniform patches).
-    #[arg(long, default_value_t = Settings::default().patches.detail_ratio)]
-    detail: f64,
-    /// Smallest patch edge the refinement goes to, m.
-    #[arg(long, default_value_t = Settings::default().patches.min_patch_m)]
-    min_patch: f64,
-    /// Largest patch edge over its distance to a luminaire lighting it (0: off).
-    #[arg(long, default_value_t = Settings::default().patches.light_ratio)]
-    light_detail: f64,
-    /// Ray set.
-    #[arg(long, value_enum, default_value_t = RaySetArg::Isocell)]
-    ray_set: RaySetArg,
-    /// Points over each luminaire opening for direct light on patches (sensors: 16 times as many).
-    #[arg(long, default_value_t = Settings::default().opening_samples)]
-    opening_samples: usize,
-    /// Points per patch at which direct light is averaged.
-    #[arg(long, default_value_t = Settings::default().patch_direct_points)]
-    patch_direct_points: usize,
-    /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's.
-    #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
-    direct: DirectArg,
-    /// Model the luminaires' LDC (off: Lambertian luminaires of the same flux).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    ldc: OnOff,
-    /// Model the sensors' LSC (off: ideal cosine sensors).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    lsc: OnOff,
-    /// Reciprocity and closure rectification.
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    rectify: OnOff,
-    /// Rectification stops when every row sum is this close to its closure target.
-    #[arg(long, default_value_t = Settings::default().rectify_tolerance)]
-    rectify_tolerance: f64,
-    /// Solver stop: relative residual.
-    #[arg(long, default_value_t = Settings::default().solve.tolerance)]
-    tolerance: f64,
-    /// Seed of every pseudo-random choice.
-    #[arg(long, default_value_t = Settings::default().seed)]
-    seed: u64,
+    /// Preset of every engine and store knob (fast, balanced, accurate; docs/tradeoffs.md); the
+    /// knobs below override it one by one. Balanced is the engine's default.
+    #[arg(long, default_value = "balanced", value_parser = parse_preset)]
+    preset: Preset,
+    /// Rays per patch (Isocell rounds up: 1000 becomes 1083) [balanced: 300].
+    #[arg(long)]
+    rays: Option<usize>,
+    /// Rays per sensor [balanced: 10000].
+    #[arg(long)]
+    sensor_rays: Option<usize>,
+    /// Final-gather rays per sensor (exact first bounce; 0: off) [balanced: 1000].
+    #[arg(long)]
+    final_gather_rays: Option<usize>,
+    /// Largest patch edge, m [balanced: 1].
+    #[arg(long)]
+    patch_size: Option<f64>,
+    /// Largest projected angle a patch may subtend at a sensor that sees it (0: uniform
+    /// patches) [balanced: 0.5].
+    #[arg(long)]
+    detail: Option<f64>,
+    /// Smallest patch edge the refinement goes to, m [balanced: 0.0625].
+    #[arg(long)]
+    min_patch: Option<f64>,
+    /// Largest patch edge over its distance to a luminaire lighting it (0: off) [balanced: 1].
+    #[arg(long)]
+    light_detail: Option<f64>,
+    /// Ray set [balanced: isocell].
+    #[arg(long, value_enum)]
+    ray_set: Option<RaySetArg>,
+    /// Points over each luminaire opening for direct light on patches (sensors: 16 times as
+    /// many) [balanced: 8].
+    #[arg(long)]
+    opening_samples: Option<usize>,
+    /// Points per patch at which direct light is averaged [balanced: 4].
+    #[arg(long)]
+    patch_direct_points: Option<usize>,
+    /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's [exact].
+    #[arg(long, value_enum)]
+    direct: Option<DirectArg>,
+    /// Model the luminaires' LDC (off: Lambertian luminaires of the same flux) [on].
+    #[arg(long, value_enum)]
+    ldc: Option<OnOff>,
+    /// Model the sensors' LSC (off: ideal cosine sensors) [on].
+    #[arg(long, value_enum)]
+    lsc: Option<OnOff>,
+    /// Reciprocity and closure rectification [balanced: on].
+    #[arg(long, value_enum)]
+    rectify: Option<OnOff>,
+    /// Rectification stops when every row sum is this close to its closure target [1e-9].
+    #[arg(long)]
+    rectify_tolerance: Option<f64>,
+    /// Solver stop: relative residual [balanced: 1e-10].
+    #[arg(long)]
+    tolerance: Option<f64>,
+    /// Seed of every pseudo-random choice [1].
+    #[arg(long)]
+    seed: Option<u64>,
+}
+
+fn parse_preset(s: &str) -> Result<Preset, String> {
+    s.parse()
+        .map_err(|e: luxnode::preset::UnknownPreset| e.to_string())
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -265,41 +277,49 @@ enum OnOff {
 }
 
 impl EngineArgs {
+    /// The preset's settings with every knob given on the command line applied.
     fn settings(&self) -> Settings {
-        let d = Settings::default();
-        Settings {
-            patches: PatchSettings {
-                patch_size_m: self.patch_size,
-                detail_ratio: self.detail,
-                min_patch_m: self.min_patch,
-                light_ratio: self.light_detail,
-            },
-            rays: self.rays,
-            sensor_rays: self.sensor_rays,
-            final_gather_rays: self.final_gather_rays,
-            ray_set: match self.ray_set {
+        let mut s = self.preset.engine();
+        let p = &mut s.patches;
+        set(&mut p.patch_size_m, self.patch_size);
+        set(&mut p.detail_ratio, self.detail);
+        set(&mut p.min_patch_m, self.min_patch);
+        set(&mut p.light_ratio, self.light_detail);
+        set(&mut s.rays, self.rays);
+        set(&mut s.sensor_rays, self.sensor_rays);
+        set(&mut s.final_gather_rays, self.final_gather_rays);
+        set(&mut s.seed, self.seed);
+        if let Some(r) = self.ray_set {
+            s.ray_set = match r {
                 RaySetArg::Isocell => RaySetKind::Isocell,
-                RaySetArg::Mc => RaySetKind::MonteCarlo { seed: self.seed },
-            },
-            opening_samples: self.opening_samples,
-            patch_direct_points: self.patch_direct_points,
-            direct: match self.direct {
+                RaySetArg::Mc => RaySetKind::MonteCarlo { seed: s.seed },
+            };
+        }
+        set(&mut s.opening_samples, self.opening_samples);
+        set(&mut s.patch_direct_points, self.patch_direct_points);
+        if let Some(d) = self.direct {
+            s.direct = match d {
                 DirectArg::Exact => DirectModel::Exact,
                 DirectArg::Paper => DirectModel::Paper,
-            },
-            ldc: self.ldc == OnOff::On,
-            lsc: self.lsc == OnOff::On,
-            rectify: self.rectify == OnOff::On,
-            rectify_tolerance: self.rectify_tolerance,
-            solve: luxnode::solver::SolveOptions {
-                tolerance: self.tolerance,
-                ..d.solve
-            },
-            seed: self.seed,
+            };
         }
+        set(&mut s.ldc, self.ldc.map(|x| x == OnOff::On));
+        set(&mut s.lsc, self.lsc.map(|x| x == OnOff::On));
+        set(&mut s.rectify, self.rectify.map(|x| x == OnOff::On));
+        set(&mut s.rectify_tolerance, self.rectify_tolerance);
+        set(&mut s.solve.tolerance, self.tolerance);
+        s
     }
 }
 
+fn set<T>(slot: &mut T, value: Option<T>) {
+    if let Some(v) = value {
+        *slot = v;
+    }
+}
+
+// parsed once per process: the size of a variant does not matter
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum ImageCommand {
     /// Commission a scene (CAD input) and write its flash image.
@@ -339,12 +359,25 @@ enum ImageCommand {
 
 #[derive(clap::Args)]
 struct StoreArgs {
-    /// Storage precision of the form factors and direct terms.
-    #[arg(long, value_enum, default_value_t = PrecisionArg::U16)]
-    precision: PrecisionArg,
-    /// Drop form factors below this (each row keeps its sum); 0 keeps all.
-    #[arg(long, default_value_t = 0.0)]
-    prune: f64,
+    /// Storage precision of the form factors and direct terms [from --preset; balanced: u16].
+    #[arg(long, value_enum)]
+    precision: Option<PrecisionArg>,
+    /// Drop form factors below this (each row keeps its sum); 0 keeps all [0].
+    #[arg(long)]
+    prune: Option<f64>,
+}
+
+impl StoreArgs {
+    /// The preset's store settings with the command line's applied.
+    fn store(&self, preset: Preset) -> luxnode::preset::StoreSettings {
+        let mut s = preset.store();
+        set(
+            &mut s.precision,
+            self.precision.map(PrecisionArg::precision),
+        );
+        set(&mut s.prune_below, self.prune);
+        s
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -390,20 +423,52 @@ enum BenchCommand {
         #[arg(long, default_value = "", allow_hyphen_values = true)]
         radiance_args: String,
     },
-    /// Rays per patch x patch size: time and error against the truth; table and plot.
+    /// Speed against accuracy: the presets, every engine and store knob one at a time, and the
+    /// rays x patch size grid; commissioning time, image size, per-state time, error against
+    /// the truth (mean, worst sensor). Prints a table; writes Pareto plots with --plots.
     Tradeoffs {
-        /// The scene directory.
+        /// The scene directory (states.csv, truth.csv; with --capture: luminaires.json,
+        /// sensors.json, desks.json).
         #[arg(long)]
         scene: PathBuf,
-        /// Rays per patch to try.
-        #[arg(long, value_delimiter = ',', default_values_t = [100, 300, 1000, 3000, 10000])]
+        /// Commission from this capture set instead of the scene's CAD model (each point a full
+        /// `commission` run).
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// Grid: rays per patch (empty: no grid).
+        #[arg(long, value_delimiter = ',', default_values_t = [100, 300, 1000])]
         rays: Vec<usize>,
-        /// Base patch sizes to try, m.
-        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 0.5, 0.25, 0.125])]
+        /// Grid: base patch sizes, m.
+        #[arg(long, value_delimiter = ',', default_values_t = [2.0, 1.0, 0.5, 0.25])]
         patch_sizes: Vec<f64>,
-        /// Write the plot (PNG).
+        /// Skip the grid.
+        #[arg(long)]
+        no_grid: bool,
+        /// Skip the one-at-a-time knob sweep.
+        #[arg(long)]
+        no_knobs: bool,
+        /// Commissioning runs per point (the median is kept).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+        /// Commissioning runs per preset.
+        #[arg(long, default_value_t = 3)]
+        preset_runs: usize,
+        /// Write the Pareto plots (PNG) into this directory.
+        #[arg(long)]
+        plots: Option<PathBuf>,
+        /// Also write the rays x patch-size plot (PNG) of the grid rows.
         #[arg(long)]
         plot: Option<PathBuf>,
+    },
+    /// "Model only what the scene requires": patch counts per preset and surface, pictures of
+    /// the patch layout, and the error of uniform meshes with the same patch counts.
+    Patches {
+        /// The scene directory (with states.csv and truth.csv).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Write the layout pictures (PNG) into this directory.
+        #[arg(long)]
+        out_dir: Option<PathBuf>,
     },
     /// The run-time core over an image: one dimming state, and a full re-solve.
     Runtime {
@@ -974,9 +1039,10 @@ fn image(command: ImageCommand) -> Result<ExitCode> {
             };
             let t0 = std::time::Instant::now();
             let model = luxnode::engine::commission(&sc, &engine.settings())?;
+            let st = store.store(engine.preset);
             let options = ImageOptions {
-                precision: store.precision.precision(),
-                prune_below: store.prune,
+                precision: st.precision,
+                prune_below: st.prune_below,
                 scene_name: sc.name.clone(),
                 sensor_flags: Vec::new(),
             };
@@ -1211,58 +1277,30 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
         }
         BenchCommand::Tradeoffs {
             scene,
+            capture,
             rays,
             patch_sizes,
+            no_grid,
+            no_knobs,
+            runs,
+            preset_runs,
+            plots,
             plot,
         } => {
-            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
-            println!(
-                "# rays per patch x patch size on {} ({} threads)",
-                sc.name,
-                rayon::current_num_threads()
-            );
-            println!(
-                "| patch size (m) | rays | patches | form factors | commissioning (s) | error | worst sensor |"
-            );
-            println!("|---:|---:|---:|---:|---:|---:|---:|");
-            let points =
-                bench::tradeoff_sweep(&sc, &scenarios, &truth, &rays, &patch_sizes, &mut |p| {
-                    println!(
-                        "| {} | {} | {} | {} | {:.3} | {:.2} % | {:.2} % |",
-                        p.patch_size_m,
-                        p.rays,
-                        p.patches,
-                        p.nnz,
-                        p.time.as_secs_f64(),
-                        100.0 * p.accuracy.error,
-                        100.0 * p.accuracy.worst_sensor
-                    );
-                })?;
-            if let Some(path) = plot {
-                let series = patch_sizes
-                    .iter()
-                    .map(|size| luxnode::render::plot::Series {
-                        name: format!("PATCH {size} M"),
-                        points: points
-                            .iter()
-                            .filter(|p| p.patch_size_m == *size)
-                            .map(|p| (p.time.as_secs_f64(), 100.0 * p.accuracy.error))
-                            .collect(),
-                    })
-                    .collect();
-                let p = luxnode::render::plot::Plot {
-                    title: format!("{}: COMMISSIONING TIME VS ERROR (RAYS 100..10000)", sc.name),
-                    x_label: "COMMISSIONING TIME (S, LOG)".into(),
-                    y_label: "ERROR VS RADIANCE (%)".into(),
-                    log_x: true,
-                    log_y: false,
-                    series,
-                };
-                p.draw(900, 560)
-                    .save_png(&path)
-                    .with_context(|| format!("writing {}", path.display()))?;
-                println!("\nplot: {}", path.display());
-            }
+            cli::tradeoffs::tradeoffs(&cli::tradeoffs::Args {
+                scene,
+                capture,
+                rays: if no_grid { Vec::new() } else { rays },
+                patch_sizes,
+                knobs: !no_knobs,
+                runs,
+                preset_runs,
+                plots,
+                plot,
+            })?;
+        }
+        BenchCommand::Patches { scene, out_dir } => {
+            cli::tradeoffs::patches(&scene, out_dir.as_deref())?;
         }
         BenchCommand::Runtime { image } => {
             let bytes = read_image_file(&image)?;
@@ -1508,9 +1546,10 @@ mod commission_cmd {
             r.reflectance.clamped
         );
         let flags = c.sensor_flags.clone();
+        let st = a.store.store(a.engine.preset);
         let options = ImageOptions {
-            precision: a.store.precision.precision(),
-            prune_below: a.store.prune,
+            precision: st.precision,
+            prune_below: st.prune_below,
             scene_name: c.scene.name.clone(),
             sensor_flags: flags.clone(),
         };

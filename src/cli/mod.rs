@@ -3,3 +3,4 @@
 
 pub mod modbus;
 pub mod run;
+pub mod tradeoffs;

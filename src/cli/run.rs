@@ -10,7 +10,6 @@ use luxnode::board::{Board, SceneSource};
 use luxnode::daemon::{
     self, CadSource, DaemonConfig, Exit, FlashConfig, controller::SimController,
 };
-use luxnode::engine::Settings;
 use luxnode::modbus::tcp::TcpOptions;
 use luxnode::serve::ServeOptions;
 use luxnode::store::build::ImageOptions;
@@ -76,8 +75,15 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
     };
     let mut source = CadSource {
         scene,
-        settings: Settings::default(),
-        image: ImageOptions::default(),
+        settings: board.preset.engine(),
+        image: {
+            let st = board.preset.store();
+            ImageOptions {
+                precision: st.precision,
+                prune_below: st.prune_below,
+                ..ImageOptions::default()
+            }
+        },
     };
     let seconds = args
         .seconds

@@ -136,6 +136,14 @@ pub enum EngineError {
     /// A dimming state does not fit the model.
     #[error("dimming state: {0}")]
     State(String),
+    /// A luminaire that has flux lights nothing (inside or behind a surface).
+    #[error("luminaire {id}: {reason}")]
+    Luminaire {
+        /// Its id.
+        id: u32,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 /// Counts and timings of one commissioning.
@@ -427,6 +435,25 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
         let (g, d): (Vec<_>, Vec<_>) = rows.into_iter().unzip();
         (Csr::from_rows(g), d)
     });
+
+    // A luminaire with flux that reaches no patch and no sensor is mounted inside or behind a
+    // surface: an error, not a silent zero.
+    if settings.direct == DirectModel::Exact {
+        for (l, lum) in luminaires.iter().enumerate() {
+            let lights_patch = direct_patch_lx[l].iter().any(|e| *e > 0.0);
+            let lights_sensor = direct_sensor_lx.iter().any(|row| row[l] > 0.0);
+            if lum.flux_lm > 0.0 && !lights_patch && !lights_sensor {
+                let p = lum.position_m;
+                return Err(EngineError::Luminaire {
+                    id: lum.id,
+                    reason: format!(
+                        "it has {:.0} lm but lights no surface and no sensor: its opening at ({:.3}, {:.3}, {:.3}) m is inside or behind a surface, or aimed into one; check its position and aim",
+                        lum.flux_lm, p.x, p.y, p.z
+                    ),
+                });
+            }
+        }
+    }
 
     // One solve per luminaire at 100 %.
     let system = CsrSystem {
