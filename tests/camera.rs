@@ -500,7 +500,7 @@ fn sim_luminance_agrees_with_the_radiance_capture_of_office_a() {
         "office_a world + 2 frames: {:.0} ms",
         t0.elapsed().as_secs_f64() * 1e3
     );
-    assert!(medians.iter().all(|m| m.abs() < 0.05), "{medians:?}");
+    assert!(medians.iter().all(|m| m.abs() < 0.01), "{medians:?}");
 }
 
 #[test]
