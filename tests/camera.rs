@@ -565,3 +565,293 @@ fn replay_serves_the_files_byte_for_byte() {
     assert_eq!(again.depth_mm[0].data, png("depth_000.png"));
     assert_eq!(again.luminance[7].1.data, png("luminance_L8.png"));
 }
+
+mod a010 {
+    use std::collections::VecDeque;
+    use std::io::{ErrorKind, Read, Write};
+    use std::time::Duration;
+
+    use luxnode::camera::a010::{
+        A010, A010Frame, A010Options, FrameError, FrameParser, encode, pixel_to_mm,
+    };
+    use luxnode::camera::{CameraError, DepthCamera};
+
+    fn frame(id: u16, fill: impl Fn(usize) -> u8) -> A010Frame {
+        A010Frame {
+            command: 0,
+            output_mode: 0,
+            sensor_temp: 40,
+            driver_temp: 38,
+            exposure_raw: 500,
+            error_code: 0,
+            rows: 100,
+            cols: 100,
+            frame_id: id,
+            isp_version: 3,
+            pixels: (0..10_000).map(fill).collect(),
+        }
+    }
+
+    #[test]
+    fn layout_checksum_and_units() {
+        let f = frame(0x1234, |i| (i % 251) as u8);
+        let b = encode(&f);
+        assert_eq!(b.len(), 10_022);
+        assert_eq!(&b[..4], &[0x00, 0xFF, 0x20, 0x27]); // 16 + 10000 = 0x2720
+        assert_eq!((b[14], b[15]), (100, 100));
+        assert_eq!((b[16], b[17]), (0x34, 0x12));
+        assert_eq!(b[10_021], 0xDD);
+        let sum = b[..10_020].iter().map(|&x| u32::from(x)).sum::<u32>();
+        assert_eq!(u32::from(b[10_020]), sum & 0xFF);
+        // UNIT=0: (p/5.1)^2 mm; UNIT=k: p*k mm; 0 and 255: no return
+        assert_eq!(pixel_to_mm(51, 0), 100);
+        assert_eq!(pixel_to_mm(200, 10), 2000);
+        assert_eq!((pixel_to_mm(0, 10), pixel_to_mm(255, 10)), (0, 0));
+    }
+
+    #[test]
+    fn parser_resynchronises_over_garbage_truncation_and_bad_checksums() {
+        let good: Vec<Vec<u8>> = (0..4u16)
+            .map(|k| encode(&frame(k, |i| ((i + k as usize) % 250) as u8 + 1)))
+            .collect();
+        let mut stream = Vec::new();
+        stream.extend_from_slice(b"OK\r\nOK\r\n\x00\x00\xff"); // AT replies, a false header
+        stream.extend_from_slice(&good[0]);
+        stream.extend_from_slice(&good[1][..5000]); // truncated: the next frame follows
+        stream.extend_from_slice(&good[2]);
+        let mut bad = good[3].clone();
+        bad[500] ^= 0x40; // flipped bit: checksum
+        stream.extend_from_slice(&bad);
+        stream.extend_from_slice(&[0x00, 0xFF, 0xFF, 0xFF]); // impossible length
+        stream.extend_from_slice(&good[3]);
+        let mut p = FrameParser::new();
+        let mut ids = Vec::new();
+        let mut errors = Vec::new();
+        // bytes arrive in odd-sized chunks
+        for chunk in stream.chunks(777) {
+            p.push(chunk);
+            while let Some(r) = p.next_frame() {
+                match r {
+                    Ok(f) => ids.push(f.frame_id),
+                    Err(e) => errors.push(e),
+                }
+            }
+        }
+        assert_eq!(ids, vec![0, 2, 3], "{errors:?}");
+        assert!(
+            errors
+                .iter()
+                .any(|e| matches!(e, FrameError::Checksum { .. }))
+        );
+        assert!(errors.iter().any(|e| matches!(e, FrameError::BadLength(_))));
+        // the truncated frame swallowed the start of frame 2, whose checksum/tail then failed
+        // at the truncated frame's position, and frame 2 was found again after it
+        assert!(errors.len() >= 3, "{errors:?}");
+        assert_eq!(p.buffered(), 0);
+    }
+
+    #[test]
+    fn random_bytes_never_panic() {
+        let mut rng = luxnode::rng::SplitMix64::new(3);
+        let mut p = FrameParser::new();
+        for _ in 0..200 {
+            let chunk: Vec<u8> = (0..997)
+                .map(|_| {
+                    let r = rng.next_u64();
+                    // plenty of header bytes
+                    if r % 7 == 0 {
+                        0
+                    } else if r % 11 == 0 {
+                        0xFF
+                    } else {
+                        r as u8
+                    }
+                })
+                .collect();
+            p.push(&chunk);
+            while let Some(r) = p.next_frame() {
+                assert!(r.is_err());
+            }
+            assert!(p.buffered() <= 10_022 + 997);
+        }
+    }
+
+    /// A serial port that plays a script: data, silence (read timeouts), end of stream.
+    enum Event {
+        Data(Vec<u8>),
+        Silence,
+        Gone,
+    }
+
+    struct MockPort {
+        script: VecDeque<Event>,
+        written: Vec<u8>,
+    }
+
+    impl Read for MockPort {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            match self.script.pop_front() {
+                Some(Event::Data(mut d)) => {
+                    let n = d.len().min(buf.len());
+                    buf[..n].copy_from_slice(&d[..n]);
+                    if n < d.len() {
+                        self.script.push_front(Event::Data(d.split_off(n)));
+                    }
+                    Ok(n)
+                }
+                Some(Event::Silence) | None => {
+                    std::thread::sleep(Duration::from_millis(5));
+                    Err(ErrorKind::TimedOut.into())
+                }
+                Some(Event::Gone) => Err(ErrorKind::BrokenPipe.into()),
+            }
+        }
+    }
+
+    impl Write for MockPort {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.written.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    fn camera() -> luxnode::scene::Camera {
+        let mut c = luxnode::demo::demo_office().camera.unwrap();
+        c.width = 100;
+        c.height = 100;
+        c.cx = 49.5;
+        c.cy = 49.5;
+        c.fx = 71.4;
+        c.fy = 86.6;
+        c
+    }
+
+    #[test]
+    fn driver_configures_reads_and_reports_faults() {
+        let good = encode(&frame(7, |_| 200));
+        let mut bad = encode(&frame(8, |_| 200));
+        bad[100] ^= 1;
+        let script = VecDeque::from(vec![
+            Event::Data(b"OK\r\n".to_vec()),
+            Event::Data(good[..3000].to_vec()),
+            Event::Silence,
+            Event::Data(good[3000..].to_vec()),
+            Event::Data(bad),
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Gone,
+        ]);
+        let port = MockPort {
+            script,
+            written: Vec::new(),
+        };
+        let o = A010Options {
+            timeout: Duration::from_millis(20),
+            ..A010Options::default()
+        };
+        let mut cam = A010::new(port, camera(), o, "mock-tof").unwrap();
+        let w = String::from_utf8(cam.port().written.clone()).unwrap();
+        assert_eq!(w, "AT+ISP=1\rAT+BINN=1\rAT+UNIT=10\rAT+FPS=10\rAT+DISP=2\r");
+        let f = cam.capture_depth().unwrap();
+        assert_eq!((f.width, f.height), (100, 100));
+        assert!(f.depth_mm.iter().all(|&d| d == 2000));
+        assert!((f.exposure_s - 500e-6).abs() < 1e-12);
+        let e = cam.capture_depth().unwrap_err();
+        assert!(matches!(e, CameraError::Garbage { .. }), "{e}");
+        // the rest of the bad frame is skipped, then silence: a timeout
+        let e = loop {
+            match cam.capture_depth() {
+                Err(CameraError::Garbage { .. }) => continue,
+                other => break other.unwrap_err(),
+            }
+        };
+        assert!(matches!(e, CameraError::Timeout { .. }), "{e}");
+        let e = loop {
+            match cam.capture_depth() {
+                Err(CameraError::Timeout { .. }) => continue,
+                other => break other.unwrap_err(),
+            }
+        };
+        assert!(matches!(e, CameraError::Disconnected { .. }), "{e}");
+        // a bad option is a configuration error
+        let port = MockPort {
+            script: VecDeque::new(),
+            written: Vec::new(),
+        };
+        let o = A010Options {
+            fps: 30,
+            ..A010Options::default()
+        };
+        assert!(matches!(
+            A010::new(port, camera(), o, "x").err(),
+            Some(CameraError::Config(_))
+        ));
+    }
+}
+
+mod v4l2 {
+    use luxnode::camera::v4l2::{PixelFormat, V4l2Options, decode, luma_table, srgb_to_linear};
+    use std::time::Duration;
+
+    #[test]
+    fn srgb_decode_is_the_iec_curve() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-12);
+        // continuous at the knee, and mid grey (code 0.5) is 21.4 % linear
+        let k = 0.04045;
+        assert!((srgb_to_linear(k) - ((k + 0.055) / 1.055f64).powf(2.4)).abs() < 1e-6);
+        assert!((srgb_to_linear(0.5) - 0.21404).abs() < 1e-4);
+        let t = luma_table(false);
+        assert_eq!((t[0], t[255]), (0, u16::MAX));
+        assert!(t.windows(2).all(|w| w[0] < w[1]));
+        let lim = luma_table(true);
+        assert_eq!(lim[16], 0);
+        assert!((f64::from(lim[235]) / 65535.0 - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn yuyv_and_grey_frames_decode_to_luminance() {
+        // 4x2 YUYV: Y0 U Y1 V
+        let bytes = [
+            0, 128, 128, 128, 255, 128, 10, 128, //
+            64, 1, 200, 2, 128, 3, 30, 4,
+        ];
+        let y = decode(&bytes, PixelFormat::Yuyv, 4, 2, false).unwrap();
+        let t = luma_table(false);
+        assert_eq!(
+            y,
+            vec![t[0], t[128], t[255], t[10], t[64], t[200], t[128], t[30]]
+        );
+        let g = decode(&[0, 128, 255, 10], PixelFormat::Grey, 2, 2, false).unwrap();
+        assert_eq!(g, vec![t[0], t[128], t[255], t[10]]);
+        assert!(decode(&bytes[..10], PixelFormat::Yuyv, 4, 2, false).is_err());
+        let o = V4l2Options {
+            width: 2,
+            height: 2,
+            format: PixelFormat::Grey,
+            exposure_s: 0.01,
+            calibration_cd_m2_s: 10.0,
+            limited_range: false,
+            timeout: Duration::from_secs(1),
+        };
+        let f = o.frame(&[0, 128, 255, 10], "mock").unwrap();
+        // full scale at 10 ms: 1000 cd/m²; code 128 is 21.6 % of it
+        let l = f.luminance_cd_m2(1, 0).unwrap();
+        assert!(
+            (l - 1000.0 * srgb_to_linear(128.0 / 255.0)).abs() < 0.02,
+            "{l}"
+        );
+        assert_eq!(f.luminance_cd_m2(0, 1), None); // saturated
+        assert!(matches!(
+            o.frame(&[1, 2], "mock"),
+            Err(luxnode::camera::CameraError::Garbage { .. })
+        ));
+    }
+}
