@@ -405,6 +405,15 @@ impl LightControl for SimWorld {
     }
 }
 
+/// Checks simulated camera options (for board files).
+pub fn validate_options(
+    depth: &SimDepthOptions,
+    luminance: &SimLuminanceOptions,
+) -> Result<(), CameraError> {
+    depth.validate()?;
+    luminance.validate()
+}
+
 /// The ToF error model and range of a [`SimDepthCamera`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimDepthOptions {
