@@ -528,7 +528,7 @@ fn replay_serves_the_files_byte_for_byte() {
         assert_eq!(f.data, png(&format!("luminance_L{id}.png")), "L{id}");
         assert_eq!(f.cd_m2_per_unit, 0.02);
     }
-    lights.set_levels(&vec![1.0; 8]).unwrap();
+    lights.set_levels(&[1.0; 8]).unwrap();
     assert_eq!(
         lum.capture_luminance().unwrap().data,
         png("luminance_all.png")

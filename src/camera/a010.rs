@@ -168,72 +168,70 @@ impl FrameParser {
     /// The next complete frame, or the reason the next candidate was rejected; `None` until
     /// more bytes are needed.
     pub fn next_frame(&mut self) -> Option<Result<A010Frame, FrameError>> {
-        loop {
-            // find the header
-            let start = self.buf.windows(2).position(|w| w == HEADER);
-            match start {
-                None => {
-                    // keep a trailing 0x00: it may be the first half of a header
-                    let keep = usize::from(self.buf.last() == Some(&HEADER[0]));
-                    let n = self.buf.len() - keep;
-                    self.skipped_bytes += n as u64;
-                    self.drop_front(n);
-                    return None;
-                }
-                Some(s) if s > 0 => {
-                    self.skipped_bytes += s as u64;
-                    self.drop_front(s);
-                }
-                Some(_) => {}
-            }
-            if self.buf.len() < 4 + INFO_LEN {
+        // find the header
+        let start = self.buf.windows(2).position(|w| w == HEADER);
+        match start {
+            None => {
+                // keep a trailing 0x00: it may be the first half of a header
+                let keep = usize::from(self.buf.last() == Some(&HEADER[0]));
+                let n = self.buf.len() - keep;
+                self.skipped_bytes += n as u64;
+                self.drop_front(n);
                 return None;
             }
-            let len = u16::from_le_bytes([self.buf[2], self.buf[3]]);
-            let reject = |p: &mut Self, e: FrameError| {
-                p.skipped_bytes += 1;
-                p.drop_front(1);
-                Some(Err(e))
-            };
-            let pixels = usize::from(len).saturating_sub(INFO_LEN);
-            if usize::from(len) <= INFO_LEN || pixels > MAX_PIXELS {
-                return reject(self, FrameError::BadLength(len));
+            Some(s) if s > 0 => {
+                self.skipped_bytes += s as u64;
+                self.drop_front(s);
             }
-            let (rows, cols) = (self.buf[14], self.buf[15]);
-            if usize::from(rows) * usize::from(cols) != pixels {
-                return reject(self, FrameError::SizeMismatch { len, rows, cols });
-            }
-            let total = 4 + usize::from(len) + 2;
-            if self.buf.len() < total {
-                return None;
-            }
-            let expected = self.buf[..total - 2]
-                .iter()
-                .fold(0u8, |s, x| s.wrapping_add(*x));
-            let actual = self.buf[total - 2];
-            if expected != actual {
-                return reject(self, FrameError::Checksum { expected, actual });
-            }
-            if self.buf[total - 1] != TAIL {
-                return reject(self, FrameError::Tail(self.buf[total - 1]));
-            }
-            let b = &self.buf;
-            let f = A010Frame {
-                command: b[4],
-                output_mode: b[5],
-                sensor_temp: b[6],
-                driver_temp: b[7],
-                exposure_raw: u32::from_le_bytes([b[8], b[9], b[10], b[11]]),
-                error_code: b[12],
-                rows,
-                cols,
-                frame_id: u16::from_le_bytes([b[16], b[17]]),
-                isp_version: b[18],
-                pixels: b[20..20 + pixels].to_vec(),
-            };
-            self.drop_front(total);
-            return Some(Ok(f));
+            Some(_) => {}
         }
+        if self.buf.len() < 4 + INFO_LEN {
+            return None;
+        }
+        let len = u16::from_le_bytes([self.buf[2], self.buf[3]]);
+        let reject = |p: &mut Self, e: FrameError| {
+            p.skipped_bytes += 1;
+            p.drop_front(1);
+            Some(Err(e))
+        };
+        let pixels = usize::from(len).saturating_sub(INFO_LEN);
+        if usize::from(len) <= INFO_LEN || pixels > MAX_PIXELS {
+            return reject(self, FrameError::BadLength(len));
+        }
+        let (rows, cols) = (self.buf[14], self.buf[15]);
+        if usize::from(rows) * usize::from(cols) != pixels {
+            return reject(self, FrameError::SizeMismatch { len, rows, cols });
+        }
+        let total = 4 + usize::from(len) + 2;
+        if self.buf.len() < total {
+            return None;
+        }
+        let expected = self.buf[..total - 2]
+            .iter()
+            .fold(0u8, |s, x| s.wrapping_add(*x));
+        let actual = self.buf[total - 2];
+        if expected != actual {
+            return reject(self, FrameError::Checksum { expected, actual });
+        }
+        if self.buf[total - 1] != TAIL {
+            return reject(self, FrameError::Tail(self.buf[total - 1]));
+        }
+        let b = &self.buf;
+        let f = A010Frame {
+            command: b[4],
+            output_mode: b[5],
+            sensor_temp: b[6],
+            driver_temp: b[7],
+            exposure_raw: u32::from_le_bytes([b[8], b[9], b[10], b[11]]),
+            error_code: b[12],
+            rows,
+            cols,
+            frame_id: u16::from_le_bytes([b[16], b[17]]),
+            isp_version: b[18],
+            pixels: b[20..20 + pixels].to_vec(),
+        };
+        self.drop_front(total);
+        Some(Ok(f))
     }
 }
 
