@@ -27,6 +27,12 @@ pub struct Board {
     pub modbus: ModbusBoard,
     /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
     pub preset: crate::preset::Preset,
+    /// The cameras (`[camera]`; simulated when absent).
+    pub camera: crate::board_camera::CameraBoard,
+    /// Where the flash image lives (`[flash]`; a file next to the board file when absent).
+    pub flash: crate::board_camera::FlashBoard,
+    /// The I2C bus of the board's peripherals (`[i2c]`), if any.
+    pub i2c: Option<crate::board_camera::I2cBoard>,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -116,6 +122,12 @@ struct BoardToml {
     gateway: Option<crate::modbus::gateway::GatewayConfig>,
     #[serde(default)]
     engine: EngineToml,
+    #[serde(default)]
+    camera: Option<crate::board_camera::CameraToml>,
+    #[serde(default)]
+    flash: Option<crate::board_camera::FlashToml>,
+    #[serde(default)]
+    i2c: Option<crate::board_camera::I2cBoard>,
 }
 
 #[derive(Deserialize)]
@@ -226,6 +238,12 @@ impl Board {
                 .parse()
                 .map_err(|e| bad(format!("engine.preset: {e}")))?,
         };
+        let base = path.parent().unwrap_or(Path::new("."));
+        let camera = crate::board_camera::camera(t.camera, base).map_err(&bad)?;
+        let flash = crate::board_camera::flash(t.flash, base).map_err(&bad)?;
+        if let Some(i) = &t.i2c {
+            i.validate().map_err(&bad)?;
+        }
         Ok(Board {
             preset,
             name: t.name,
@@ -238,6 +256,9 @@ impl Board {
                 rtu,
                 gateway: t.gateway,
             },
+            camera,
+            flash,
+            i2c: t.i2c,
         })
     }
 }
@@ -336,6 +357,144 @@ mod tests {
         assert_eq!(
             b.scene,
             SceneSource::Directory(PathBuf::from("/etc/luxnode/../rooms/a"))
+        );
+    }
+}
+
+#[cfg(test)]
+mod camera_section_tests {
+    use super::*;
+    use crate::board_camera::{CameraBoard, ColourBoard, FlashBoard, TofBoard};
+
+    #[test]
+    fn every_board_file_parses_and_validates() {
+        let mut n = 0;
+        for e in std::fs::read_dir("boards").unwrap() {
+            let dir = e.unwrap().path();
+            let file = dir.join("board.toml");
+            if !file.exists() {
+                continue;
+            }
+            let b = Board::load(&file).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(
+                Some(b.name.as_str()),
+                dir.file_name().and_then(|n| n.to_str())
+            );
+            assert!(
+                dir.join("wiring.md").exists(),
+                "{}: no wiring.md",
+                dir.display()
+            );
+            n += 1;
+        }
+        assert!(n >= 3, "{n} boards");
+        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        match &rpi.camera {
+            CameraBoard::Hardware {
+                tof: TofBoard::A010 {
+                    device, options, ..
+                },
+                colour: ColourBoard::V4l2 { device: video, .. },
+            } => {
+                assert_eq!(
+                    (device.as_str(), video.as_str()),
+                    ("/dev/ttyUSB0", "/dev/video0")
+                );
+                assert_eq!(options.unit_mm, 10);
+            }
+            other => panic!("{other:?}"),
+        }
+        let sim = Board::load(Path::new("boards/sim/board.toml")).unwrap();
+        assert!(matches!(sim.camera, CameraBoard::Sim { faults: None, .. }));
+        assert!(matches!(sim.flash, FlashBoard::File { .. }));
+    }
+
+    #[test]
+    fn camera_flash_and_i2c_sections_are_checked() {
+        let base = "name = \"x\"\n[scene]\nsource = \"demo-office\"\n";
+        let hw = "[camera]\nsource = \"hardware\"\n[camera.tof]\ndriver = \"a010\"\ndevice = \"/dev/ttyUSB0\"\ncalibration = \"c.json\"\n[camera.colour]\ndriver = \"v4l2\"\ndevice = \"/dev/video0\"\nwidth = 640\nheight = 480\nformat = \"yuyv\"\nexposure_s = 0.01\ncalibration_cd_m2_s = 10\n";
+        let b = Board::parse(&format!("{base}{hw}"), Path::new("/etc/luxnode/board.toml")).unwrap();
+        match b.camera {
+            CameraBoard::Hardware {
+                tof: TofBoard::A010 {
+                    calibration, baud, ..
+                },
+                ..
+            } => {
+                assert_eq!(calibration, PathBuf::from("/etc/luxnode/c.json"));
+                assert_eq!(baud, 115_200);
+            }
+            other => panic!("{other:?}"),
+        }
+        // no [camera]: simulated; no [flash]: a file next to the board file
+        let b = Board::parse(base, Path::new("/etc/luxnode/board.toml")).unwrap();
+        assert!(matches!(b.camera, CameraBoard::Sim { .. }));
+        assert!(
+            matches!(b.flash, FlashBoard::File { ref path, .. } if path == Path::new("/etc/luxnode/flash.img"))
+        );
+        for (bad, says) in [
+            ("[camera]\nsource = \"usb\"\n", "camera.source"),
+            (
+                "[camera]\nsource = \"sim\"\n[camera.sim]\nrange_noise = 0.01\n",
+                "range_noise",
+            ),
+            (
+                "[camera]\nsource = \"sim\"\n[camera.sim]\ndropout_chance = 2\n",
+                "dropout_chance",
+            ),
+            (
+                "[camera]\nsource = \"sim\"\n[camera.sim.faults]\ntimeout_chance = -1\n",
+                "timeout_chance",
+            ),
+            ("[camera]\nsource = \"replay\"\n", "camera.replay"),
+            (
+                "[camera]\nsource = \"sim\"\n[camera.replay]\ndir = \"x\"\n",
+                "camera.replay is given",
+            ),
+            ("[camera]\nsource = \"hardware\"\n", "camera.tof"),
+            (&hw.replace("a010", "vl53l5"), "vl53l5"),
+            (&hw.replace("/dev/ttyUSB0", "COM3"), "camera.tof.device"),
+            (
+                &hw.replace("driver = \"a010\"", "driver = \"a010\"\nfps = 40"),
+                "fps",
+            ),
+            (
+                &hw.replace("driver = \"a010\"", "driver = \"a010\"\nbaud = 1234"),
+                "baud",
+            ),
+            (&hw.replace("yuyv", "mjpeg"), "mjpeg"),
+            (
+                &hw.replace("exposure_s = 0.01", "exposure_s = 0"),
+                "exposure_s",
+            ),
+            ("[flash]\nkind = \"nand\"\n", "flash.kind"),
+            ("[flash]\nkind = \"file\"\n", "flash.path"),
+            (
+                "[flash]\nkind = \"file\"\npath = \"f\"\nsize_bytes = 1000\n",
+                "size_bytes",
+            ),
+            ("[flash]\nkind = \"mtd\"\ndevice = \"/dev/sda\"\n", "MTD"),
+            (
+                "[flash]\nkind = \"mtd\"\ndevice = \"/dev/mtd0\"\npath = \"x\"\n",
+                "only flash.device",
+            ),
+            ("[i2c]\nbus = \"i2c-1\"\n", "i2c.bus"),
+            ("[i2c]\nbus = \"/dev/i2c-1\"\nclock_hz = 5\n", "clock_hz"),
+            ("[i2c]\nbus = \"/dev/i2c-1\"\nspeed = 5\n", "speed"),
+        ] {
+            let e = Board::parse(&format!("{base}{bad}"), Path::new("b.toml")).unwrap_err();
+            assert!(e.to_string().contains(says), "{bad}: {e}");
+        }
+        let b = Board::parse(
+            &format!("{base}[flash]\nkind = \"mtd\"\ndevice = \"/dev/mtd2\"\n"),
+            Path::new("b.toml"),
+        )
+        .unwrap();
+        assert_eq!(
+            b.flash,
+            FlashBoard::Mtd {
+                device: "/dev/mtd2".into()
+            }
         );
     }
 }

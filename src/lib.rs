@@ -20,6 +20,7 @@
 //! | [`runtime`] | no_std | desk lux for any dimming state from an image borrowed in place |
 //! | [`modbus`] | no_std core | Modbus wire format and register map (no_std); TCP/RTU servers, gateway link (std) |
 //! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
+//! | `camera` | std | the ToF and luminance cameras (simulated, replay, A010, V4L2), fault injection, the capture sequence |
 //! | `commission` | std | capture sets (ToF depth + luminance) to a scene: points, planes, mesh, closure, reflectances |
 //! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
 //! | `render` | std | pictures: the top-view illuminance map |
@@ -68,6 +69,8 @@ pub mod solver;
 pub mod store;
 
 #[cfg(feature = "std")]
+pub mod camera;
+#[cfg(feature = "std")]
 pub mod commission;
 #[cfg(feature = "std")]
 pub mod engine;
@@ -84,6 +87,8 @@ pub mod sensor;
 pub mod bench;
 #[cfg(feature = "std")]
 pub mod board;
+#[cfg(feature = "std")]
+pub mod board_camera;
 #[cfg(feature = "std")]
 pub mod daemon;
 #[cfg(feature = "std")]

@@ -5,12 +5,20 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use luxnode::board::{Board, SceneSource};
+use luxnode::board_camera::{CameraBoard, FlashBoard};
+use luxnode::camera::replay::ReplayWorld;
+use luxnode::camera::sim::SimWorld;
+use luxnode::camera::{DepthCamera, FaultInjector, LightControl, LuminanceCamera, SequenceOptions};
+use luxnode::commission::CommissionOptions;
+use luxnode::daemon::source::CameraSource;
 use luxnode::daemon::{
-    self, CadSource, DaemonConfig, Exit, FlashConfig, controller::SimController,
+    self, CadSource, CommissionSource, DaemonConfig, Exit, FlashConfig, Unavailable,
+    controller::SimController,
 };
 use luxnode::modbus::tcp::TcpOptions;
+use luxnode::scene::Scene;
 use luxnode::serve::ServeOptions;
 use luxnode::store::build::ImageOptions;
 
@@ -45,17 +53,123 @@ pub struct RunArgs {
     /// Stop after this many seconds.
     #[arg(long)]
     pub seconds: Option<f64>,
+    /// Commission from the board's CAD scene instead of its cameras.
+    #[arg(long)]
+    pub cad: bool,
     /// Test only (HIL): the simulated power fails after this many bytes of the image write.
     #[arg(long, hide = true)]
     pub power_cut_after_bytes: Option<usize>,
 }
 
-/// The default flash file of a board without one: next to the build, never in the source tree.
-fn default_flash(board: &Board) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("target")
-        .join(format!("node-{}", board.name))
-        .join("flash.bin")
+fn flash_config(board: &Board, args: &RunArgs) -> Result<FlashConfig> {
+    let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
+    let (path, capacity) = match (&args.flash, &board.flash) {
+        (Some(p), _) => (p.clone(), 2 * region),
+        (None, FlashBoard::File { path, size_bytes }) => (path.clone(), *size_bytes),
+        (None, FlashBoard::Mtd { device }) => bail!(
+            "board {}: flash kind \"mtd\" ({device}): the store has no raw MTD backend yet; use \
+             the partition through mtdblock as kind = \"file\", or --flash FILE",
+            board.name
+        ),
+    };
+    if capacity < 2 * region {
+        bail!(
+            "board {}: flash of {capacity} bytes is smaller than two {region}-byte image slots",
+            board.name
+        );
+    }
+    Ok(FlashConfig {
+        path,
+        capacity,
+        power_cut_after_bytes: args.power_cut_after_bytes,
+    })
+}
+
+/// What a commissioning capture needs: a name, the two cameras, the lights.
+type Rig = (
+    String,
+    Box<dyn DepthCamera>,
+    Box<dyn LuminanceCamera>,
+    Box<dyn LightControl>,
+);
+
+/// The first boot's commissioning source: the board's cameras, or the CAD scene with `--cad`.
+fn commission_source(
+    board: &Board,
+    scene: Scene,
+    image: ImageOptions,
+    cad: bool,
+) -> Result<Box<dyn CommissionSource>> {
+    let preset = board.preset;
+    if cad {
+        return Ok(Box::new(CadSource {
+            scene,
+            settings: preset.engine(),
+            image,
+        }));
+    }
+    let commission = CommissionOptions {
+        engine: preset.engine(),
+        progress: true,
+        ..CommissionOptions::default()
+    };
+    let (what, depth, colour, lights): Rig = match &board.camera {
+        CameraBoard::Sim {
+            depth,
+            luminance,
+            faults,
+        } => {
+            // the simulated room is the scene; the node sees it only through the cameras
+            let world = SimWorld::new(scene.clone(), &luxnode::camera::sim::world_settings())
+                .with_context(|| format!("board {}: simulated cameras", board.name))?;
+            let d = world.depth_camera(depth.clone())?;
+            let c = world.luminance_camera(luminance.clone())?;
+            let (d, c): (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>) = match faults {
+                Some(f) => (
+                    Box::new(FaultInjector::new(d, f.clone(), "simulated ToF camera")?),
+                    Box::new(FaultInjector::new(c, f.clone(), "simulated colour camera")?),
+                ),
+                None => (Box::new(d), Box::new(c)),
+            };
+            (
+                format!("simulated ToF + colour cameras over {}", scene.name),
+                d,
+                c,
+                Box::new(world),
+            )
+        }
+        CameraBoard::Replay { dir } => {
+            let ids: Vec<u32> = scene.luminaires.iter().map(|l| l.id).collect();
+            let world = ReplayWorld::open(dir, &ids)?;
+            (
+                format!("recorded capture {}", dir.display()),
+                Box::new(world.depth_camera()),
+                Box::new(world.luminance_camera()),
+                Box::new(world),
+            )
+        }
+        CameraBoard::Hardware { .. } => {
+            return Ok(Box::new(Unavailable(format!(
+                "board {}: commissioning with the hardware cameras needs the colour frames \
+                 registered to the ToF frames, which is not implemented yet: commission with \
+                 `luxnode commission` from a capture or `luxnode image build` from CAD, write \
+                 the image with `luxnode run --cad` or copy it into the flash file",
+                board.name
+            ))));
+        }
+    };
+    Ok(Box::new(CameraSource {
+        what,
+        depth,
+        colour,
+        lights,
+        luminaires: scene.luminaires.clone(),
+        sensors: scene.sensors.clone(),
+        desks: scene.desks.clone(),
+        sequence: SequenceOptions::default(),
+        commission,
+        image,
+    }))
 }
 
 /// Runs the node.
@@ -73,18 +187,15 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("{e}"))
             .with_context(|| format!("board {} scene", board.name))?,
     };
-    let mut source = CadSource {
-        scene,
-        settings: board.preset.engine(),
-        image: {
-            let st = board.preset.store();
-            ImageOptions {
-                precision: st.precision,
-                prune_below: st.prune_below,
-                ..ImageOptions::default()
-            }
-        },
+    let image = {
+        let st = board.preset.store();
+        ImageOptions {
+            precision: st.precision,
+            prune_below: st.prune_below,
+            ..ImageOptions::default()
+        }
     };
+    let mut source = commission_source(&board, scene, image, args.cad)?;
     let seconds = args
         .seconds
         .map(|s| {
@@ -98,11 +209,7 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
     let m = &board.modbus;
     let config = DaemonConfig {
         board: board.name.clone(),
-        flash: FlashConfig {
-            path: args.flash.clone().unwrap_or_else(|| default_flash(&board)),
-            capacity: 2 * usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?,
-            power_cut_after_bytes: args.power_cut_after_bytes,
-        },
+        flash: flash_config(&board, args)?,
         serve: ServeOptions {
             image: PathBuf::new(),
             bind: args.bind.unwrap_or(m.bind),
@@ -123,7 +230,7 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
         }),
         recommission: args.recommission,
     };
-    match daemon::run(config, &mut source)? {
+    match daemon::run(config, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
         Exit::PowerCut => Ok(ExitCode::from(3)),
     }

@@ -14,6 +14,7 @@
 //! knows a board: [`DaemonConfig`] is built from the board file by the binary.
 
 pub mod controller;
+pub mod source;
 pub mod systemd;
 
 use std::path::PathBuf;
@@ -65,6 +66,20 @@ impl CommissionSource for CadSource {
             options.scene_name = self.scene.name.clone();
         }
         Ok(crate::store::build::build_image(&model, &options)?)
+    }
+}
+
+/// A source that cannot commission, and says why (a board whose cameras cannot commission
+/// yet still boots a valid image from flash).
+pub struct Unavailable(pub String);
+
+impl CommissionSource for Unavailable {
+    fn describe(&self) -> String {
+        "no commissioning source".into()
+    }
+
+    fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
+        bail!("{}", self.0)
     }
 }
 

@@ -1,0 +1,116 @@
+//! Commissioning from cameras: the first boot's [`CommissionSource`] of a board with cameras.
+//!
+//! The sequence is the issue's: depth frames, then one luminaire on at a time (and all on, as
+//! a consistency check), all off at the end ([`crate::camera::capture_sequence_with`]); then
+//! commissioning from that capture ([`crate::commission::commission`]) with the luminaires'
+//! installed positions and photometry and the desk sensors (known: luminaires.json,
+//! sensors.json), and the flash image with the sensors' quality flags.
+
+use std::time::Instant;
+
+use anyhow::Context as _;
+
+use super::CommissionSource;
+use crate::camera::{
+    DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
+};
+use crate::commission::{self, CommissionOptions};
+use crate::scene::{Desks, Luminaire, Sensor};
+use crate::store::build::{ImageOptions, build_image};
+
+/// Cameras, the lights they need switched, and what is known of the room.
+pub struct CameraSource {
+    /// What the cameras are ("simulated ToF + luminance over the demo office").
+    pub what: String,
+    /// Depth camera.
+    pub depth: Box<dyn DepthCamera>,
+    /// Luminance camera.
+    pub colour: Box<dyn LuminanceCamera>,
+    /// Switches the luminaires.
+    pub lights: Box<dyn LightControl>,
+    /// Installed luminaires (positions, photometry).
+    pub luminaires: Vec<Luminaire>,
+    /// Desk sensors.
+    pub sensors: Vec<Sensor>,
+    /// Desk outlines, if known.
+    pub desks: Option<Desks>,
+    /// Capture sequence.
+    pub sequence: SequenceOptions,
+    /// Commissioning.
+    pub commission: CommissionOptions,
+    /// Image.
+    pub image: ImageOptions,
+}
+
+impl CommissionSource for CameraSource {
+    fn describe(&self) -> String {
+        format!(
+            "{} ({} luminaires, {} desk sensors)",
+            self.what,
+            self.luminaires.len(),
+            self.sensors.len()
+        )
+    }
+
+    fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
+        let ids: Vec<u32> = self.luminaires.iter().map(|l| l.id).collect();
+        let t0 = Instant::now();
+        let mut last = String::new();
+        let mut progress = |step: usize, total: usize, what: &str| {
+            // one line per kind of step, not per frame
+            let kind = what.split_whitespace().next().unwrap_or("").to_string();
+            if kind != last {
+                println!("capture: {what} ({step}/{total})");
+                last = kind;
+            }
+        };
+        let seq = capture_sequence_with(
+            self.depth.as_mut(),
+            self.colour.as_mut(),
+            self.lights.as_mut(),
+            &ids,
+            &self.sequence,
+            &mut progress,
+        )
+        .context("capture")?;
+        println!(
+            "capture: {} depth frames, {} luminance frames in {:.2} s; {} retries{}",
+            seq.capture.depth_mm.len(),
+            seq.capture.luminance.len(),
+            t0.elapsed().as_secs_f64(),
+            seq.retries_used,
+            seq.superposition_error.map_or(String::new(), |e| format!(
+                "; all-on frame vs sum of singles: {:.2} %",
+                e * 100.0
+            ))
+        );
+        for w in &seq.capture.warnings {
+            println!("capture warning: {w}");
+        }
+        let c = commission::commission(
+            &seq.capture,
+            self.luminaires.clone(),
+            self.sensors.clone(),
+            self.desks.clone(),
+            &self.commission,
+        )
+        .context("commissioning")?;
+        let r = &c.report;
+        for (name, dt) in &r.timings {
+            println!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
+        }
+        println!(
+            "commission: {} planes, {} triangles (seen {:.1} m², inferred {:.1} m²), {} patches, {} warnings",
+            r.planes.len(),
+            r.triangles,
+            r.seen_area_m2,
+            r.inferred_area_m2,
+            r.patches,
+            r.warnings.len()
+        );
+        let mut options = self.image.clone();
+        options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
+        options.sensor_flags = c.sensor_flags.clone();
+        Ok(build_image(&c.model, &options)?)
+    }
+}

@@ -1,0 +1,857 @@
+//! The cameras: simulated (closed forms, the engine, noise statistics, determinism), replay
+//! (byte-identical to the files), the capture sequence with injected faults, the A010 parser on
+//! byte streams, V4L2 pixel decoding.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use luxnode::camera::sim::{SimDepthOptions, SimLuminanceOptions, SimWorld};
+use luxnode::camera::{
+    CameraError, DepthCamera, FaultInjector, Faults, LightControl, LuminanceCamera,
+    SequenceOptions, capture_sequence, capture_sequence_with,
+};
+use luxnode::engine::direct::{self, Receiver};
+
+fn demo() -> &'static SimWorld {
+    static W: OnceLock<SimWorld> = OnceLock::new();
+    W.get_or_init(|| {
+        let t0 = Instant::now();
+        let w = SimWorld::demo_office().expect("demo world");
+        let t1 = Instant::now();
+        w.prepare();
+        eprintln!(
+            "demo world: engine {:.0} ms, per-pixel hits + direct light {:.0} ms",
+            (t1 - t0).as_secs_f64() * 1e3,
+            t1.elapsed().as_secs_f64() * 1e3
+        );
+        w
+    })
+}
+
+fn office_a() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+}
+
+fn group_of(w: &SimWorld, patch: u32) -> &str {
+    let g = w.model().patches.group[patch as usize] as usize;
+    &w.scene().mesh.groups[g]
+}
+
+#[test]
+fn sim_depth_of_the_floor_is_the_camera_height() {
+    let w = demo();
+    let mut cam = w.depth_camera(SimDepthOptions::exact()).unwrap();
+    let f = cam.capture_depth().unwrap();
+    let c = w.camera();
+    assert_eq!((f.width, f.height), (c.width, c.height));
+    // the camera looks straight down: every floor pixel's depth along the axis is its height
+    let height_mm = (c.position_m.z * 1000.0).round() as u16;
+    let mut floor = 0;
+    for (i, h) in w.hits().iter().enumerate() {
+        let Some(h) = h else { continue };
+        if group_of(w, h.patch) == "floor" {
+            floor += 1;
+            assert!(
+                f.depth_mm[i].abs_diff(height_mm) <= 1,
+                "pixel {i}: {} mm, expected {height_mm} mm",
+                f.depth_mm[i]
+            );
+        }
+        // desk tops: camera height minus the desk height
+        if group_of(w, h.patch).starts_with("desk")
+            && h.front
+            && w.model().patches.normal[h.patch as usize].z > 0.99
+        {
+            let desk_mm = ((c.position_m.z - 0.75) * 1000.0).round() as u16;
+            assert!(
+                f.depth_mm[i].abs_diff(desk_mm) <= 1,
+                "desk pixel {i}: {}",
+                f.depth_mm[i]
+            );
+        }
+    }
+    assert!(floor > 20_000, "{floor} floor pixels");
+    // the room is closed: every pixel has a return
+    assert!(f.depth_mm.iter().all(|&d| d > 0));
+}
+
+#[test]
+fn sim_luminance_is_rho_e_over_pi_with_the_engines_e() {
+    let w = demo();
+    let mut world = w.clone();
+    let n = w.scene().luminaires.len();
+    let mut levels = vec![0.0; n];
+    levels[1] = 1.0;
+    levels[4] = 0.5;
+    world.set_levels(&levels).unwrap();
+    let opts = SimLuminanceOptions::default();
+    let mut cam = w.luminance_camera(opts.clone()).unwrap();
+    let f = cam.capture_luminance().unwrap();
+    // independent reference: direct light with 16x the opening points, indirect from
+    // Model::patch_lux minus the patch's own direct light
+    let m = w.model();
+    let patch_lux = m.patch_lux(&levels).unwrap();
+    let caster = luxnode::engine::raycast::RayCaster::new(&m.patches);
+    let c = w.camera();
+    let mut checked = 0;
+    let mut worst: f64 = 0.0;
+    let mut rels = Vec::new();
+    for v in (10..c.height).step_by(23) {
+        for u in (10..c.width).step_by(29) {
+            let i = (v * c.width + u) as usize;
+            let Some(h) = w.hits()[i] else { continue };
+            if !h.front
+                || !["floor", "desk_2", "desk_5", "wall_s"]
+                    .iter()
+                    .any(|g| group_of(w, h.patch) == *g)
+            {
+                continue;
+            }
+            let p = h.patch as usize;
+            let x = c.position_m + c.ray_world(f64::from(u), f64::from(v)) * h.t_m;
+            let nrm = m.patches.normal[p];
+            let mut e_dir = 0.0;
+            let mut e_dir16 = 0.0;
+            let mut e_dir_patch = 0.0;
+            for (l, lum) in w.scene().luminaires.iter().enumerate() {
+                if levels[l] > 0.0 {
+                    let e = |m| {
+                        let pts = if m == 16 {
+                            luxnode::camera::sim::opening_points(lum, m)
+                        } else {
+                            direct::opening_points(lum, m)
+                        };
+                        direct::illuminance_lx(lum, &pts, x, nrm, Receiver::Surface, &caster)
+                    };
+                    e_dir += levels[l] * e(256);
+                    e_dir16 += levels[l] * e(16);
+                    e_dir_patch += levels[l] * m.direct_patch_lx[l][p];
+                }
+            }
+            let indirect = patch_lux[p] - e_dir_patch;
+            let l_ref = m.patches.rho[p] * (e_dir + indirect) / std::f64::consts::PI;
+            let l_ref16 = m.patches.rho[p] * (e_dir16 + indirect) / std::f64::consts::PI;
+            let l_sim = f64::from(f.data[i]) * f.cd_m2_per_unit;
+            // the engine's own direct light with the same 16 points: equal up to rounding
+            assert!(
+                (l_sim - l_ref16).abs() < 0.002 * l_ref16 + opts.cd_m2_per_unit,
+                "pixel ({u}, {v}) on {}: {l_sim:.3} cd/m², reference {l_ref16:.3}",
+                group_of(w, h.patch)
+            );
+            // 256 points: a few % apart in a penumbra only
+            let rel = (l_sim - l_ref).abs() / l_ref;
+            worst = worst.max(rel);
+            rels.push(rel);
+            checked += 1;
+        }
+    }
+    rels.sort_by(f64::total_cmp);
+    let median = rels[rels.len() / 2];
+    eprintln!(
+        "luminance vs rho E / pi: {checked} pixels, median {:.2} %, worst {:.2} %",
+        100.0 * median,
+        100.0 * worst
+    );
+    assert!(median < 0.005, "{median}");
+    assert!(worst < 0.1, "{worst}");
+    assert!(checked > 30, "{checked}");
+    // all off is black
+    world.set_levels(&vec![0.0; n]).unwrap();
+    assert!(
+        cam.capture_luminance()
+            .unwrap()
+            .data
+            .iter()
+            .all(|&x| x == 0)
+    );
+}
+
+#[test]
+fn sim_depth_noise_matches_the_model() {
+    let w = demo();
+    // range noise and dropouts alone
+    let o = SimDepthOptions {
+        flying_pixel_chance: 0.0,
+        seed: 42,
+        ..SimDepthOptions::default()
+    };
+    let mut cam = w.depth_camera(o.clone()).unwrap();
+    let exact = cam.exact_depth_m();
+    let (mut n, mut sum, mut sum2, mut dropped, mut total) = (0.0, 0.0, 0.0, 0usize, 0usize);
+    for _ in 0..4 {
+        let f = cam.capture_depth().unwrap();
+        for (d, z) in f.depth_mm.iter().zip(&exact) {
+            total += 1;
+            if *d == 0 {
+                dropped += 1;
+                continue;
+            }
+            let r = (f64::from(*d) / 1000.0 - z) / z;
+            n += 1.0;
+            sum += r;
+            sum2 += r * r;
+        }
+    }
+    let mean = sum / n;
+    let sd = (sum2 / n - mean * mean).sqrt();
+    let drop_rate = dropped as f64 / total as f64;
+    eprintln!(
+        "range noise: mean {mean:.5}, sd {sd:.5} (model 0.01); dropouts {:.3} % (model 0.5 %)",
+        100.0 * drop_rate
+    );
+    assert!(mean.abs() < 3e-4, "{mean}");
+    // mm rounding adds (1/sqrt(12)) mm over ~2.5 m: negligible
+    assert!(
+        (sd - o.range_noise_rel).abs() < 0.03 * o.range_noise_rel,
+        "{sd}"
+    );
+    // binomial sd over 307200 pixels: 1.3e-4
+    assert!((drop_rate - o.dropout_chance).abs() < 6e-4, "{drop_rate}");
+
+    // flying pixels alone: only on edges, at the configured rate, between the two depths
+    let o = SimDepthOptions {
+        range_noise_rel: 0.0,
+        dropout_chance: 0.0,
+        seed: 7,
+        ..SimDepthOptions::default()
+    };
+    let mut cam = w.depth_camera(o.clone()).unwrap();
+    let edges: Vec<(usize, f64)> = cam.edge_pixels().to_vec();
+    let f = cam.capture_depth().unwrap();
+    let mut is_edge = vec![false; exact.len()];
+    let mut flying = 0;
+    for &(i, zn) in &edges {
+        is_edge[i] = true;
+        let d = f64::from(f.depth_mm[i]) / 1000.0;
+        if (d - exact[i]).abs() > 0.0015 {
+            flying += 1;
+            let (lo, hi) = (exact[i].min(zn), exact[i].max(zn));
+            assert!(
+                d > lo && d < hi,
+                "flying pixel {i} at {d} m outside [{lo}, {hi}]"
+            );
+        }
+    }
+    for (i, d) in f.depth_mm.iter().enumerate() {
+        if !is_edge[i] {
+            assert!(
+                (f64::from(*d) / 1000.0 - exact[i]).abs() <= 0.0005 + 1e-9,
+                "pixel {i}"
+            );
+        }
+    }
+    let rate = flying as f64 / edges.len() as f64;
+    eprintln!(
+        "flying pixels: {} edge pixels ({:.2} % of the frame), {:.1} % flying (model {:.0} %)",
+        edges.len(),
+        100.0 * edges.len() as f64 / exact.len() as f64,
+        100.0 * rate,
+        100.0 * o.flying_pixel_chance
+    );
+    let sd = (o.flying_pixel_chance * (1.0 - o.flying_pixel_chance) / edges.len() as f64).sqrt();
+    assert!(
+        (rate - o.flying_pixel_chance).abs() < 4.0 * sd + 0.01,
+        "{rate}"
+    );
+}
+
+#[test]
+fn sim_is_deterministic_for_a_seed() {
+    let w = demo();
+    let o = SimDepthOptions::default();
+    let mut a = w.depth_camera(o.clone()).unwrap();
+    let mut b = w.depth_camera(o.clone()).unwrap();
+    let (a1, b1) = (a.capture_depth().unwrap(), b.capture_depth().unwrap());
+    assert_eq!(a1.depth_mm, b1.depth_mm);
+    // frames differ from each other, and another seed differs
+    assert_ne!(a.capture_depth().unwrap().depth_mm, a1.depth_mm);
+    let mut c = w.depth_camera(SimDepthOptions { seed: 99, ..o }).unwrap();
+    assert_ne!(c.capture_depth().unwrap().depth_mm, a1.depth_mm);
+}
+
+#[test]
+fn capture_sequence_survives_transient_faults_and_reports_the_rest() {
+    let w = demo();
+    let ids = w.luminaire_ids();
+    let depth = w.depth_camera(SimDepthOptions::default()).unwrap();
+    let lum = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
+    // call 1 of the depth camera is garbage, call 0 and 2 of the colour camera time out
+    let mut depth = FaultInjector::new(
+        depth,
+        Faults {
+            garbage_at: vec![1],
+            ..Faults::none()
+        },
+        "tof",
+    )
+    .unwrap();
+    let mut lum = FaultInjector::new(
+        lum,
+        Faults {
+            timeout_at: vec![0, 2],
+            ..Faults::none()
+        },
+        "rgb",
+    )
+    .unwrap();
+    let mut lights = w.clone();
+    let mut steps = Vec::new();
+    let s = capture_sequence_with(
+        &mut depth,
+        &mut lum,
+        &mut lights,
+        &ids,
+        &SequenceOptions {
+            depth_frames: 3,
+            retries: 2,
+            ..SequenceOptions::default()
+        },
+        &mut |step, total, what| steps.push((step, total, what.to_owned())),
+    )
+    .unwrap();
+    assert_eq!(s.retries_used, 3);
+    assert_eq!(s.capture.warnings.len(), 3, "{:?}", s.capture.warnings);
+    assert!(s.capture.warnings[0].contains("bad frame"));
+    assert_eq!(s.capture.depth_mm.len(), 3);
+    assert_eq!(
+        s.capture.luminance.iter().map(|l| l.0).collect::<Vec<_>>(),
+        ids
+    );
+    assert_eq!(s.capture.camera.luminance_cd_m2_per_unit, Some(0.02));
+    assert!(s.all_on.is_some());
+    // superposition holds in the simulation (rounding only)
+    let e = s.superposition_error.unwrap();
+    assert!(e < 0.01, "{e}");
+    let total = 3 + ids.len() + 1;
+    assert_eq!(steps.first().map(|s| s.1), Some(total));
+    assert_eq!(steps.last().map(|s| s.0), Some(total));
+    assert!(w.levels().iter().all(|&x| x == 0.0), "lights left on");
+
+    // a frame that keeps failing: the error after `retries` retries
+    let mut depth = FaultInjector::new(
+        w.depth_camera(SimDepthOptions::default()).unwrap(),
+        Faults {
+            timeout_chance: 1.0,
+            ..Faults::none()
+        },
+        "tof",
+    )
+    .unwrap();
+    let mut lum = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
+    let e = capture_sequence(
+        &mut depth,
+        &mut lum,
+        &mut lights,
+        &ids,
+        2,
+        3,
+        &mut |_, _, _| {},
+    )
+    .unwrap_err();
+    assert!(matches!(e, CameraError::Timeout { .. }), "{e}");
+    assert_eq!(depth.calls(), 4);
+
+    // a disconnect is not retried; the lights are switched off anyway
+    let mut lum = FaultInjector::new(
+        w.luminance_camera(SimLuminanceOptions::default()).unwrap(),
+        Faults {
+            disconnect_after_frames: Some(2),
+            ..Faults::none()
+        },
+        "rgb",
+    )
+    .unwrap();
+    let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
+    let e = capture_sequence(
+        &mut depth,
+        &mut lum,
+        &mut lights,
+        &ids,
+        1,
+        5,
+        &mut |_, _, _| {},
+    )
+    .unwrap_err();
+    assert!(matches!(e, CameraError::Disconnected { .. }), "{e}");
+    assert_eq!(lum.calls(), 3);
+    assert!(w.levels().iter().all(|&x| x == 0.0), "lights left on");
+    lum.reconnect();
+    assert!(lum.capture_luminance().is_ok());
+
+    // random faults: deterministic for a seed, never a panic
+    let run = |seed| {
+        let mut d = FaultInjector::new(
+            w.depth_camera(SimDepthOptions::default()).unwrap(),
+            Faults {
+                seed,
+                timeout_chance: 0.2,
+                garbage_chance: 0.2,
+                ..Faults::none()
+            },
+            "tof",
+        )
+        .unwrap();
+        (0..50)
+            .map(|_| match d.capture_depth() {
+                Ok(_) => 'o',
+                Err(CameraError::Timeout { .. }) => 't',
+                Err(CameraError::Garbage { .. }) => 'g',
+                Err(_) => '?',
+            })
+            .collect::<String>()
+    };
+    let a = run(5);
+    assert_eq!(a, run(5));
+    assert_ne!(a, run(6));
+    assert!(a.contains('t') && a.contains('g') && a.contains('o') && !a.contains('?'));
+}
+
+#[test]
+fn demo_office_commissions_from_simulated_cameras() {
+    let w = demo();
+    let t0 = Instant::now();
+    let ids = w.luminaire_ids();
+    let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
+    let mut lum = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
+    let mut lights = w.clone();
+    let capture = capture_sequence(
+        &mut depth,
+        &mut lum,
+        &mut lights,
+        &ids,
+        5,
+        2,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    let t_capture = t0.elapsed();
+    let scene = w.scene();
+    let c = luxnode::commission::commission(
+        &capture,
+        scene.luminaires.clone(),
+        scene.sensors.clone(),
+        scene.desks.clone(),
+        &luxnode::commission::CommissionOptions::default(),
+    )
+    .unwrap();
+    let t_total = t0.elapsed();
+    let all_on = vec![1.0; ids.len()];
+    let got = c.model.sensor_lux(&all_on).unwrap();
+    let want = w.model().sensor_lux(&all_on).unwrap();
+    let err: f64 = got
+        .iter()
+        .zip(&want)
+        .map(|(g, t)| (g - t).abs())
+        .sum::<f64>()
+        / want.iter().sum::<f64>();
+    eprintln!(
+        "demo office from simulated cameras: capture {:.0} ms, capture + commission {:.0} ms, \
+         all-on sensor error {:.1} % (mean abs / mean), got {got:.0?}, world {want:.0?}",
+        t_capture.as_secs_f64() * 1e3,
+        t_total.as_secs_f64() * 1e3,
+        100.0 * err
+    );
+    assert!(err < 0.15, "{err}");
+}
+
+#[test]
+fn sim_luminance_agrees_with_the_radiance_capture_of_office_a() {
+    let dir = office_a();
+    let scene = luxnode::scene::Scene::load(&dir, &Default::default()).unwrap();
+    let t0 = Instant::now();
+    let w = SimWorld::new(scene, &luxnode::camera::sim::world_settings()).unwrap();
+    let mut lights = w.clone();
+    let mut cam = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
+    let n = w.scene().luminaires.len();
+    let mut medians = Vec::new();
+    for k in [0usize, 4] {
+        let mut levels = vec![0.0; n];
+        levels[k] = 1.0;
+        lights.set_levels(&levels).unwrap();
+        let f = cam.capture_luminance().unwrap();
+        let id = w.scene().luminaires[k].id;
+        let img = image::open(dir.join(format!("capture_clean/luminance_L{id}.png")))
+            .unwrap()
+            .into_luma16();
+        assert_eq!((img.width(), img.height()), (f.width, f.height));
+        let mut rel: Vec<f64> = img
+            .as_raw()
+            .iter()
+            .zip(&f.data)
+            .filter(|(r, _)| **r > 500 && **r < u16::MAX)
+            .map(|(r, s)| (f64::from(*s) - f64::from(*r)) / f64::from(*r))
+            .collect();
+        rel.sort_by(f64::total_cmp);
+        let med = rel[rel.len() / 2];
+        let mut abs: Vec<f64> = rel.iter().map(|x| x.abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        eprintln!(
+            "office_a L{id}: simulated vs Radiance luminance over {} pixels: median {:+.2} %, \
+             median |.| {:.2} %, 90th pct |.| {:.2} %",
+            rel.len(),
+            100.0 * med,
+            100.0 * abs[abs.len() / 2],
+            100.0 * abs[abs.len() * 9 / 10]
+        );
+        medians.push(med);
+    }
+    eprintln!(
+        "office_a world + 2 frames: {:.0} ms",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    assert!(medians.iter().all(|m| m.abs() < 0.01), "{medians:?}");
+}
+
+#[test]
+fn replay_serves_the_files_byte_for_byte() {
+    let dir = office_a().join("capture_clean");
+    let ids: Vec<u32> = (1..=8).collect();
+    let world = luxnode::camera::replay::ReplayWorld::open(&dir, &ids).unwrap();
+    let mut lights = world.clone();
+    let mut depth = world.depth_camera();
+    let mut lum = world.luminance_camera();
+    let png = |name: &str| {
+        image::open(dir.join(name))
+            .unwrap()
+            .into_luma16()
+            .into_raw()
+    };
+    let d = depth.capture_depth().unwrap();
+    assert_eq!(d.depth_mm, png("depth_000.png"));
+    assert_eq!(depth.camera().width, 320);
+    for (k, id) in ids.iter().enumerate() {
+        let mut levels = vec![0.0; ids.len()];
+        levels[k] = 1.0;
+        lights.set_levels(&levels).unwrap();
+        let f = lum.capture_luminance().unwrap();
+        assert_eq!(f.data, png(&format!("luminance_L{id}.png")), "L{id}");
+        assert_eq!(f.cd_m2_per_unit, 0.02);
+    }
+    lights.set_levels(&[1.0; 8]).unwrap();
+    assert_eq!(
+        lum.capture_luminance().unwrap().data,
+        png("luminance_all.png")
+    );
+    // a dimmed state is the weighted sum
+    let mut levels = vec![0.0; 8];
+    levels[2] = 0.5;
+    lights.set_levels(&levels).unwrap();
+    let half = lum.capture_luminance().unwrap().data;
+    let l3 = png("luminance_L3.png");
+    assert!(half.iter().zip(&l3).all(|(h, f)| if *f == u16::MAX {
+        *h == u16::MAX
+    } else {
+        h.abs_diff(((f64::from(*f)) * 0.5).round() as u16) == 0
+    }));
+    assert!(lights.set_levels(&[1.0; 3]).is_err());
+
+    // the sequence over the replay reproduces the capture set, and saving it gives the files back
+    let mut depth = world.depth_camera();
+    let cap = capture_sequence(
+        &mut depth,
+        &mut lum,
+        &mut lights,
+        &ids,
+        1,
+        0,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    luxnode::camera::save_capture(tmp.path(), &cap, None).unwrap();
+    let again = luxnode::commission::capture::Capture::load(tmp.path(), &ids).unwrap();
+    assert_eq!(again.camera, cap.camera);
+    assert_eq!(again.depth_mm[0].data, png("depth_000.png"));
+    assert_eq!(again.luminance[7].1.data, png("luminance_L8.png"));
+}
+
+mod a010 {
+    use std::collections::VecDeque;
+    use std::io::{ErrorKind, Read, Write};
+    use std::time::Duration;
+
+    use luxnode::camera::a010::{
+        A010, A010Frame, A010Options, FrameError, FrameParser, encode, pixel_to_mm,
+    };
+    use luxnode::camera::{CameraError, DepthCamera};
+
+    fn frame(id: u16, fill: impl Fn(usize) -> u8) -> A010Frame {
+        A010Frame {
+            command: 0,
+            output_mode: 0,
+            sensor_temp: 40,
+            driver_temp: 38,
+            exposure_raw: 500,
+            error_code: 0,
+            rows: 100,
+            cols: 100,
+            frame_id: id,
+            isp_version: 3,
+            pixels: (0..10_000).map(fill).collect(),
+        }
+    }
+
+    #[test]
+    fn layout_checksum_and_units() {
+        let f = frame(0x1234, |i| (i % 251) as u8);
+        let b = encode(&f);
+        assert_eq!(b.len(), 10_022);
+        assert_eq!(&b[..4], &[0x00, 0xFF, 0x20, 0x27]); // 16 + 10000 = 0x2720
+        assert_eq!((b[14], b[15]), (100, 100));
+        assert_eq!((b[16], b[17]), (0x34, 0x12));
+        assert_eq!(b[10_021], 0xDD);
+        let sum = b[..10_020].iter().map(|&x| u32::from(x)).sum::<u32>();
+        assert_eq!(u32::from(b[10_020]), sum & 0xFF);
+        // UNIT=0: (p/5.1)^2 mm; UNIT=k: p*k mm; 0 and 255: no return
+        assert_eq!(pixel_to_mm(51, 0), 100);
+        assert_eq!(pixel_to_mm(200, 10), 2000);
+        assert_eq!((pixel_to_mm(0, 10), pixel_to_mm(255, 10)), (0, 0));
+    }
+
+    #[test]
+    fn parser_resynchronises_over_garbage_truncation_and_bad_checksums() {
+        let good: Vec<Vec<u8>> = (0..4u16)
+            .map(|k| encode(&frame(k, |i| ((i + k as usize) % 250) as u8 + 1)))
+            .collect();
+        let mut stream = Vec::new();
+        stream.extend_from_slice(b"OK\r\nOK\r\n\x00\x00\xff"); // AT replies, a false header
+        stream.extend_from_slice(&good[0]);
+        stream.extend_from_slice(&good[1][..5000]); // truncated: the next frame follows
+        stream.extend_from_slice(&good[2]);
+        let mut bad = good[3].clone();
+        bad[500] ^= 0x40; // flipped bit: checksum
+        stream.extend_from_slice(&bad);
+        stream.extend_from_slice(&[0x00, 0xFF, 0xFF, 0xFF]); // impossible length
+        stream.extend_from_slice(&good[3]);
+        let mut p = FrameParser::new();
+        let mut ids = Vec::new();
+        let mut errors = Vec::new();
+        // bytes arrive in odd-sized chunks
+        for chunk in stream.chunks(777) {
+            p.push(chunk);
+            while let Some(r) = p.next_frame() {
+                match r {
+                    Ok(f) => ids.push(f.frame_id),
+                    Err(e) => errors.push(e),
+                }
+            }
+        }
+        assert_eq!(ids, vec![0, 2, 3], "{errors:?}");
+        assert!(
+            errors
+                .iter()
+                .any(|e| matches!(e, FrameError::Checksum { .. }))
+        );
+        assert!(errors.iter().any(|e| matches!(e, FrameError::BadLength(_))));
+        // the truncated frame swallowed the start of frame 2, whose checksum/tail then failed
+        // at the truncated frame's position, and frame 2 was found again after it
+        assert!(errors.len() >= 3, "{errors:?}");
+        assert_eq!(p.buffered(), 0);
+    }
+
+    #[test]
+    fn random_bytes_never_panic() {
+        let mut rng = luxnode::rng::SplitMix64::new(3);
+        let mut p = FrameParser::new();
+        for _ in 0..200 {
+            let chunk: Vec<u8> = (0..997)
+                .map(|_| {
+                    let r = rng.next_u64();
+                    // plenty of header bytes
+                    if r % 7 == 0 {
+                        0
+                    } else if r % 11 == 0 {
+                        0xFF
+                    } else {
+                        r as u8
+                    }
+                })
+                .collect();
+            p.push(&chunk);
+            while let Some(r) = p.next_frame() {
+                assert!(r.is_err());
+            }
+            assert!(p.buffered() <= 10_022 + 997);
+        }
+    }
+
+    /// A serial port that plays a script: data, silence (read timeouts), end of stream.
+    enum Event {
+        Data(Vec<u8>),
+        Silence,
+        Gone,
+    }
+
+    struct MockPort {
+        script: VecDeque<Event>,
+        written: Vec<u8>,
+    }
+
+    impl Read for MockPort {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            match self.script.pop_front() {
+                Some(Event::Data(mut d)) => {
+                    let n = d.len().min(buf.len());
+                    buf[..n].copy_from_slice(&d[..n]);
+                    if n < d.len() {
+                        self.script.push_front(Event::Data(d.split_off(n)));
+                    }
+                    Ok(n)
+                }
+                Some(Event::Silence) | None => {
+                    std::thread::sleep(Duration::from_millis(5));
+                    Err(ErrorKind::TimedOut.into())
+                }
+                Some(Event::Gone) => Err(ErrorKind::BrokenPipe.into()),
+            }
+        }
+    }
+
+    impl Write for MockPort {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.written.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    fn camera() -> luxnode::scene::Camera {
+        let mut c = luxnode::demo::demo_office().camera.unwrap();
+        c.width = 100;
+        c.height = 100;
+        c.cx = 49.5;
+        c.cy = 49.5;
+        c.fx = 71.4;
+        c.fy = 86.6;
+        c
+    }
+
+    #[test]
+    fn driver_configures_reads_and_reports_faults() {
+        let good = encode(&frame(7, |_| 200));
+        let mut bad = encode(&frame(8, |_| 200));
+        bad[100] ^= 1;
+        let script = VecDeque::from(vec![
+            Event::Data(b"OK\r\n".to_vec()),
+            Event::Data(good[..3000].to_vec()),
+            Event::Silence,
+            Event::Data(good[3000..].to_vec()),
+            Event::Data(bad),
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Silence,
+            Event::Gone,
+        ]);
+        let port = MockPort {
+            script,
+            written: Vec::new(),
+        };
+        let o = A010Options {
+            timeout: Duration::from_millis(20),
+            ..A010Options::default()
+        };
+        let mut cam = A010::new(port, camera(), o, "mock-tof").unwrap();
+        let w = String::from_utf8(cam.port().written.clone()).unwrap();
+        assert_eq!(w, "AT+ISP=1\rAT+BINN=1\rAT+UNIT=10\rAT+FPS=10\rAT+DISP=2\r");
+        let f = cam.capture_depth().unwrap();
+        assert_eq!((f.width, f.height), (100, 100));
+        assert!(f.depth_mm.iter().all(|&d| d == 2000));
+        assert!((f.exposure_s - 500e-6).abs() < 1e-12);
+        let e = cam.capture_depth().unwrap_err();
+        assert!(matches!(e, CameraError::Garbage { .. }), "{e}");
+        // the rest of the bad frame is skipped, then silence: a timeout
+        let e = loop {
+            match cam.capture_depth() {
+                Err(CameraError::Garbage { .. }) => continue,
+                other => break other.unwrap_err(),
+            }
+        };
+        assert!(matches!(e, CameraError::Timeout { .. }), "{e}");
+        let e = loop {
+            match cam.capture_depth() {
+                Err(CameraError::Timeout { .. }) => continue,
+                other => break other.unwrap_err(),
+            }
+        };
+        assert!(matches!(e, CameraError::Disconnected { .. }), "{e}");
+        // a bad option is a configuration error
+        let port = MockPort {
+            script: VecDeque::new(),
+            written: Vec::new(),
+        };
+        let o = A010Options {
+            fps: 30,
+            ..A010Options::default()
+        };
+        assert!(matches!(
+            A010::new(port, camera(), o, "x").err(),
+            Some(CameraError::Config(_))
+        ));
+    }
+}
+
+mod v4l2 {
+    use luxnode::camera::v4l2::{PixelFormat, V4l2Options, decode, luma_table, srgb_to_linear};
+    use std::time::Duration;
+
+    #[test]
+    fn srgb_decode_is_the_iec_curve() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-12);
+        // continuous at the knee, and mid grey (code 0.5) is 21.4 % linear
+        let k = 0.04045;
+        assert!((srgb_to_linear(k) - ((k + 0.055) / 1.055f64).powf(2.4)).abs() < 1e-6);
+        assert!((srgb_to_linear(0.5) - 0.21404).abs() < 1e-4);
+        let t = luma_table(false);
+        assert_eq!((t[0], t[255]), (0, u16::MAX));
+        assert!(t.windows(2).all(|w| w[0] < w[1]));
+        let lim = luma_table(true);
+        assert_eq!(lim[16], 0);
+        assert!((f64::from(lim[235]) / 65535.0 - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn yuyv_and_grey_frames_decode_to_luminance() {
+        // 4x2 YUYV: Y0 U Y1 V
+        let bytes = [
+            0, 128, 128, 128, 255, 128, 10, 128, //
+            64, 1, 200, 2, 128, 3, 30, 4,
+        ];
+        let y = decode(&bytes, PixelFormat::Yuyv, 4, 2, false).unwrap();
+        let t = luma_table(false);
+        assert_eq!(
+            y,
+            vec![t[0], t[128], t[255], t[10], t[64], t[200], t[128], t[30]]
+        );
+        let g = decode(&[0, 128, 255, 10], PixelFormat::Grey, 2, 2, false).unwrap();
+        assert_eq!(g, vec![t[0], t[128], t[255], t[10]]);
+        assert!(decode(&bytes[..10], PixelFormat::Yuyv, 4, 2, false).is_err());
+        let o = V4l2Options {
+            width: 2,
+            height: 2,
+            format: PixelFormat::Grey,
+            exposure_s: 0.01,
+            calibration_cd_m2_s: 10.0,
+            limited_range: false,
+            timeout: Duration::from_secs(1),
+        };
+        let f = o.frame(&[0, 128, 255, 10], "mock").unwrap();
+        // full scale at 10 ms: 1000 cd/m²; code 128 is 21.6 % of it
+        let l = f.luminance_cd_m2(1, 0).unwrap();
+        assert!(
+            (l - 1000.0 * srgb_to_linear(128.0 / 255.0)).abs() < 0.02,
+            "{l}"
+        );
+        assert_eq!(f.luminance_cd_m2(0, 1), None); // saturated
+        assert!(matches!(
+            o.frame(&[1, 2], "mock"),
+            Err(luxnode::camera::CameraError::Garbage { .. })
+        ));
+    }
+}
