@@ -353,3 +353,54 @@ fn the_readme_main_job_runs_the_live_table() {
     }
     assert!(row("off").iter().all(|&x| x == 0.0));
 }
+
+/// The sim board with camera faults injected.
+fn faulty_board(dir: &Path, faults: &str) -> PathBuf {
+    let sim = std::fs::read_to_string(sim_board()).unwrap();
+    let board = dir.join("board.toml");
+    std::fs::write(&board, format!("{sim}\n[camera.sim.faults]\n{faults}")).unwrap();
+    board
+}
+
+#[test]
+fn camera_faults_during_commissioning() {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.bin");
+    // transient faults (timeouts, garbage frames): retried, commissioning completes
+    let board = faulty_board(
+        dir.path(),
+        "seed = 7\ntimeout_chance = 0.2\ngarbage_chance = 0.2\n",
+    );
+    let (code, out) = node_to_exit(&board, &flash, &[]);
+    assert_eq!(code, Some(0), "{out}");
+    let retries: usize = out
+        .lines()
+        .find_map(|l| {
+            let (_, rest) = l.split_once(" s; ")?;
+            rest.split_whitespace().next()?.parse().ok()
+        })
+        .unwrap_or_else(|| panic!("no capture line:\n{out}"));
+    assert!(retries > 0, "faults injected, none retried:\n{out}");
+    assert!(out.contains("generation 1"), "{out}");
+    // the camera disconnects mid-capture: a clear error, nothing written, no panic
+    let flash2 = dir.path().join("flash2.bin");
+    let board = faulty_board(dir.path(), "disconnect_after_frames = 3\n");
+    let o = Command::new(LUXNODE)
+        .args(["run", "--board"])
+        .arg(&board)
+        .arg("--flash")
+        .arg(&flash2)
+        .args(["--bind", "127.0.0.1:0", "--no-controller", "--seconds", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("disconnected"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let bytes = std::fs::read(&flash2).unwrap();
+    assert!(bytes.iter().all(|&b| b == 0xFF), "flash stays erased");
+    // the camera back: the next boot commissions
+    let (code, out) = node_to_exit(&sim_board(), &flash2, &[]);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("generation 1"), "{out}");
+}
