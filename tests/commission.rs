@@ -12,9 +12,10 @@ use luxnode::commission::{
 };
 
 // spherical-harmonic fit on capture_clean; measured values in docs/commissioning.md
-const SH_RHO_MEDIAN_BOUND: f64 = 0.03;
-const SH_RHO_P90_BOUND: f64 = 1.0;
-const SH_IN_VIEW_BOUND: f64 = 0.05;
+// (measured |Δρ| median 0.0101, 90th percentile 0.0270; in view 3.77 %, worst 6.8 %)
+const SH_RHO_MEDIAN_BOUND: f64 = 0.015;
+const SH_RHO_P90_BOUND: f64 = 0.04;
+const SH_IN_VIEW_BOUND: f64 = 0.045;
 use luxnode::engine::raycast::{Hit, RayCaster};
 use luxnode::scene::Camera;
 use luxnode::scene::{
@@ -236,6 +237,8 @@ fn clean_capture_and_a_luxmeter_gain() {
         errs[errs.len() * 9 / 10],
         errs.len()
     );
+    // measured 0.0065 and 0.0171: better than the SH fit (0.0101, 0.0270)
+    assert!(errs[errs.len() / 2] <= 0.01 && errs[errs.len() * 9 / 10] <= 0.025);
     // gain from one luxmeter reading (sensor 7, all on) instead of camera.json
     let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
     let lux = truth

@@ -283,8 +283,8 @@ fn sh_pixels(
         .collect();
     // pixels grouped by triangle, in pixel order (deterministic)
     let mut by_tri: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
-    for k in 0..n_px {
-        if frames[k].is_some() {
+    for (k, f) in frames.iter().enumerate() {
+        if f.is_some() {
             by_tri.entry(samples.tri[k]).or_default().push(k);
         }
     }
@@ -349,9 +349,9 @@ fn sh_pixels(
             }
             // global scale: shading / k ≈ engine irradiance → 1/k = Σ s E / Σ s²
             let (mut se, mut ss) = (0.0, 0.0);
-            for i in 0..px.len() {
+            for (i, bi) in b.iter().enumerate() {
                 for (l, lj) in light.iter().enumerate() {
-                    let s = lj.dot(&b[i]);
+                    let s = lj.dot(bi);
                     if let (Some((_, e)), true) = (obs(i, l), s > 0.0) {
                         se += s * e;
                         ss += s * s;
