@@ -583,11 +583,8 @@ fn true_rho_model(c: &Commissioned, capture: &str) -> luxnode::engine::Model {
         (!v.is_empty()).then(|| v[v.len() / 2])
     };
     let mut by_part: std::collections::HashMap<Part, Vec<f64>> = Default::default();
-    for t in 0..n_tri {
-        by_part
-            .entry(c.reco.part[t])
-            .or_default()
-            .extend(&per_tri[t]);
+    for (t, v) in per_tri.iter().enumerate() {
+        by_part.entry(c.reco.part[t]).or_default().extend(v);
     }
     let part_med: std::collections::HashMap<Part, f64> = by_part
         .into_iter()
