@@ -166,6 +166,10 @@ struct CommissionArgs {
     /// Reflectance of seen surfaces before (or without) estimation.
     #[arg(long, default_value_t = 0.5)]
     start_rho: f64,
+    /// How the one-luminaire-on frames combine: median of π L / E per pixel, or the paper's
+    /// first-order spherical-harmonic fit per triangle (docs/commissioning.md).
+    #[arg(long, value_enum, default_value_t = ReflectanceMethodArg::Median)]
+    reflectance_method: ReflectanceMethodArg,
     /// Print the error against a truth.csv (with --states).
     #[arg(long, requires = "states")]
     truth: Option<PathBuf>,
@@ -176,6 +180,15 @@ struct CommissionArgs {
     engine: EngineArgs,
     #[command(flatten)]
     store: StoreArgs,
+}
+
+/// `--reflectance-method`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ReflectanceMethodArg {
+    /// Median over the well-lit frames of ρ = π L / E.
+    Median,
+    /// First-order spherical-harmonic fit (RGBD2lux §3.1).
+    Sh,
 }
 
 #[derive(clap::Args)]
@@ -1476,6 +1489,10 @@ mod commission_cmd {
             ..CommissionOptions::default()
         };
         o.closure.enabled = a.closure == OnOff::On;
+        o.reflectance.method = match a.reflectance_method {
+            ReflectanceMethodArg::Median => commission::ReflectanceMethod::Median,
+            ReflectanceMethodArg::Sh => commission::ReflectanceMethod::SphericalHarmonics,
+        };
         o.closure.wall_rho = a.wall_rho;
         o.closure.ceiling_rho = a.ceiling_rho;
         o.closure.ceiling_z_m = a.ceiling_height;

@@ -7,8 +7,15 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DVec3};
 use luxnode::commission::capture::Frame;
 use luxnode::commission::{
-    self, Capture, CommissionError, CommissionOptions, Commissioned, Gain, depth, grid, planes,
+    self, Capture, CommissionError, CommissionOptions, Commissioned, Gain, ReflectanceMethod,
+    depth, grid, planes,
 };
+
+// spherical-harmonic fit on capture_clean; measured values in docs/commissioning.md
+// (measured |Δρ| median 0.0101, 90th percentile 0.0270; in view 3.77 %, worst 6.8 %)
+const SH_RHO_MEDIAN_BOUND: f64 = 0.015;
+const SH_RHO_P90_BOUND: f64 = 0.04;
+const SH_IN_VIEW_BOUND: f64 = 0.045;
 use luxnode::engine::raycast::{Hit, RayCaster};
 use luxnode::scene::Camera;
 use luxnode::scene::{
@@ -107,6 +114,12 @@ fn labels(capture: &str) -> (Vec<u16>, Vec<(u16, String)>) {
 
 /// Median |ρ estimated − ρ true| over pixels of floor, desks and walls (albedo.png: ρ × 10000).
 fn reflectance_error(c: &Commissioned, capture: &str) -> (f64, usize) {
+    let errs = reflectance_errors(c, capture);
+    (errs[errs.len() / 2], errs.len())
+}
+
+/// |ρ of the pixel's patch − ρ true| over pixels of floor, desks and walls, sorted.
+fn reflectance_errors(c: &Commissioned, capture: &str) -> Vec<f64> {
     let gt = scene_dir().join(capture).join("groundtruth");
     let albedo = image::open(gt.join("albedo.png"))
         .expect("albedo.png")
@@ -137,7 +150,7 @@ fn reflectance_error(c: &Commissioned, capture: &str) -> (f64, usize) {
         }
     }
     errs.sort_by(f64::total_cmp);
-    (errs[errs.len() / 2], errs.len())
+    errs
 }
 
 #[test]
@@ -217,6 +230,15 @@ fn clean_capture_and_a_luxmeter_gain() {
     let (e, worst, each) = errors(&c, &view);
     eprintln!("clean capture, in view: {e:.4} worst {worst:.4} {each:?}");
     assert!(e <= 0.05 && worst <= 0.10);
+    let errs = reflectance_errors(&c, "capture_clean");
+    eprintln!(
+        "clean capture, median method: |Δρ| median {:.4}, 90th percentile {:.4} over {} pixels",
+        errs[errs.len() / 2],
+        errs[errs.len() * 9 / 10],
+        errs.len()
+    );
+    // measured 0.0065 and 0.0171: better than the SH fit (0.0101, 0.0270)
+    assert!(errs[errs.len() / 2] <= 0.01 && errs[errs.len() * 9 / 10] <= 0.025);
     // gain from one luxmeter reading (sensor 7, all on) instead of camera.json
     let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
     let lux = truth
@@ -417,4 +439,182 @@ fn noise_only_depth_is_rejected_not_meshed() {
     let e = depth::fuse(&[f], &depth::DepthOptions::default()).expect_err("noise");
     assert!(e.to_string().contains("depth unusable"), "{e}");
     let _ = cam;
+}
+
+#[test]
+fn spherical_harmonic_reflectance_fit_on_the_clean_capture() {
+    let mut o = CommissionOptions::default();
+    o.reflectance.method = ReflectanceMethod::SphericalHarmonics;
+    let c = run("capture_clean", &o);
+    let view = in_view("capture_clean");
+    let (e, worst, each) = errors(&c, &view);
+    let (e_all, _, _) = errors(&c, &(1..=8).collect::<Vec<u32>>());
+    let errs = reflectance_errors(&c, "capture_clean");
+    let (med, p90) = (errs[errs.len() / 2], errs[errs.len() * 9 / 10]);
+    eprintln!(
+        "clean capture, SH fit: in view {e:.4} worst {worst:.4} all {e_all:.4} {each:?}; \
+         |Δρ| median {med:.4}, 90th percentile {p90:.4} over {} pixels; floor {:?}, {} clamped",
+        errs.len(),
+        c.report.reflectance.floor_rho,
+        c.report.reflectance.clamped
+    );
+    // measured: see docs/commissioning.md (SH fit row); bounds with margin
+    assert!(errs.len() > 5000);
+    assert!(med <= SH_RHO_MEDIAN_BOUND, "median |Δρ| {med}");
+    assert!(p90 <= SH_RHO_P90_BOUND, "90th percentile |Δρ| {p90}");
+    assert!(e <= SH_IN_VIEW_BOUND && worst <= 0.10, "{e} {worst}");
+    let floor = c.report.reflectance.floor_rho.expect("floor");
+    assert!((floor - 0.25).abs() < 0.02, "floor {floor}");
+}
+
+/// The Table 1 rows of docs/accuracy.md (slow: about ten commissioning runs). Run with
+/// `cargo nextest run --release --test commission --run-ignored only --no-capture table_1`.
+#[test]
+#[ignore]
+fn table_1_rows() {
+    let all: Vec<u32> = (1..=8).collect();
+    let row = |name: &str, capture: &str, closure: bool, rho: &str| {
+        let mut o = CommissionOptions::default();
+        o.closure.enabled = closure;
+        match rho {
+            "median" => {}
+            "sh" => o.reflectance.method = ReflectanceMethod::SphericalHarmonics,
+            _ => {
+                // true reflectances: seen triangles from albedo.png, unseen parts from the CAD
+                o.estimate_reflectances = false;
+                o.closure.wall_rho = 0.6;
+                o.closure.ceiling_rho = 0.8;
+            }
+        }
+        let mut c = run(capture, &o);
+        if rho == "true" {
+            c.model = true_rho_model(&c, capture);
+        }
+        let view = in_view(capture);
+        let (e_view, worst, _) = errors(&c, &view);
+        let (e_all, _, _) = errors(&c, &all);
+        eprintln!(
+            "| {name} | {:.2} % | {:.2} % | {:.2} % |",
+            100.0 * e_all,
+            100.0 * e_view,
+            100.0 * worst
+        );
+    };
+    row(
+        "CAD clipped to the camera view: clean depth, no closure, true ρ",
+        "capture_clean",
+        false,
+        "true",
+    );
+    row("RGBD clean, closure, true ρ", "capture_clean", true, "true");
+    row(
+        "RGBD clean, closure, estimated ρ (median)",
+        "capture_clean",
+        true,
+        "median",
+    );
+    row(
+        "RGBD clean, closure, estimated ρ (SH)",
+        "capture_clean",
+        true,
+        "sh",
+    );
+    row(
+        "RGBD clean, no closure, estimated ρ (median)",
+        "capture_clean",
+        false,
+        "median",
+    );
+    row("RGBD noisy, closure, true ρ", "capture", true, "true");
+    row(
+        "RGBD noisy, closure, estimated ρ (median)",
+        "capture",
+        true,
+        "median",
+    );
+    row(
+        "RGBD noisy, closure, estimated ρ (SH)",
+        "capture",
+        true,
+        "sh",
+    );
+    row(
+        "RGBD noisy, no closure, estimated ρ (median)",
+        "capture",
+        false,
+        "median",
+    );
+    row(
+        "RGBD noisy, no closure, estimated ρ (SH)",
+        "capture",
+        false,
+        "sh",
+    );
+}
+
+/// The commissioned geometry with true reflectances (test side): each seen triangle gets the
+/// median of albedo.png over the pixels that see it (its part's median if none), the inferred
+/// floor the seen floor's; walls and ceiling keep the options' values; full engine settings.
+fn true_rho_model(c: &Commissioned, capture: &str) -> luxnode::engine::Model {
+    use luxnode::commission::Part;
+    let gt = scene_dir().join(capture).join("groundtruth");
+    let albedo = image::open(gt.join("albedo.png"))
+        .expect("albedo.png")
+        .to_luma16();
+    let cam = c.scene.camera.as_ref().expect("camera");
+    let caster = RayCaster::new(&c.model.patches);
+    let n_tri = c.reco.tris.len();
+    let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
+    for v in 0..cam.height {
+        for u in 0..cam.width {
+            let Hit::Front { patch, .. } =
+                caster.closest(cam.position_m, cam.ray_world(f64::from(u), f64::from(v)))
+            else {
+                continue;
+            };
+            let t = c.model.patches.source_triangle[patch as usize] as usize;
+            if c.reco.part[t].seen() {
+                per_tri[t].push(f64::from(albedo.get_pixel(u, v)[0]) / 10000.0);
+            }
+        }
+    }
+    let med = |v: &mut Vec<f64>| -> Option<f64> {
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| v[v.len() / 2])
+    };
+    let mut by_part: std::collections::HashMap<Part, Vec<f64>> = Default::default();
+    for (t, v) in per_tri.iter().enumerate() {
+        by_part.entry(c.reco.part[t]).or_default().extend(v);
+    }
+    let part_med: std::collections::HashMap<Part, f64> = by_part
+        .into_iter()
+        .filter_map(|(k, mut v)| med(&mut v).map(|m| (k, m)))
+        .collect();
+    // the floor: the seen plane with the largest area at z ≈ 0
+    let floor = c
+        .report
+        .planes
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.normal.z > 0.99 && p.origin_m.z.abs() < 0.05)
+        .max_by(|a, b| a.1.area_m2.total_cmp(&b.1.area_m2))
+        .and_then(|(k, _)| part_med.get(&Part::Plane(k as u32)).copied())
+        .unwrap_or(0.25);
+    let rho: Vec<f64> = (0..n_tri)
+        .map(|t| {
+            let part = c.reco.part[t];
+            if part.seen() {
+                med(&mut per_tri[t])
+                    .or_else(|| part_med.get(&part).copied())
+                    .unwrap_or(0.5)
+            } else if part == Part::FloorFill {
+                floor
+            } else {
+                c.scene.mesh.materials[t].rho.get()
+            }
+        })
+        .collect();
+    let mut scene = c.scene.clone();
+    scene.mesh = commission::to_mesh(&c.reco, &rho);
+    luxnode::engine::commission(&scene, &c.model.settings).expect("engine")
 }

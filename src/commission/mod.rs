@@ -38,7 +38,7 @@ pub use closure::{ClosureOptions, RoomBox};
 pub use depth::{DepthMap, DepthOptions};
 pub use mesh::{MeshOptions, Part, RecoMesh};
 pub use planes::{Plane, PlaneOptions};
-pub use reflectance::{Estimate, ReflectanceOptions};
+pub use reflectance::{Estimate, ReflectanceMethod, ReflectanceOptions};
 
 /// Why commissioning failed.
 #[derive(Debug, thiserror::Error)]

@@ -28,9 +28,25 @@ use crate::engine::{Model, Settings};
 use crate::scene::Luminaire;
 use crate::solver::{self, CsrSystem};
 
+/// How the frames of a pixel combine into a reflectance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ReflectanceMethod {
+    /// Median over the well-lit frames of `ρ = π L / E` (E from the engine per pixel).
+    #[default]
+    Median,
+    /// RGBD2lux §3.1 / physics.md §8.1: first-order spherical-harmonic photometric stereo with
+    /// known normals, per mesh triangle, alternating least squares; the global scale it leaves
+    /// open is fixed by the engine's irradiance on the triangle.
+    SphericalHarmonics,
+}
+
 /// Reflectance knobs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReflectanceOptions {
+    /// Frame combination.
+    pub method: ReflectanceMethod,
+    /// Alternating least-squares rounds of the spherical-harmonic fit.
+    pub sh_rounds: usize,
     /// Use every n-th pixel in u and v.
     pub stride_px: u32,
     /// A frame counts for a pixel when its irradiance is at least this fraction of the pixel's
@@ -49,6 +65,8 @@ pub struct ReflectanceOptions {
 impl Default for ReflectanceOptions {
     fn default() -> Self {
         Self {
+            method: ReflectanceMethod::Median,
+            sh_rounds: 10,
             stride_px: 2,
             min_rel_irradiance: 0.25,
             iterations: 2,
@@ -189,6 +207,175 @@ pub fn indirect_lx(model: &Model, patch_rho: &[f64], settings: &Settings) -> Vec
         .collect()
 }
 
+/// A pixel's irradiance per luminaire (exact direct + the patch's interreflected), lx, and
+/// which frames count for it: lit at least `min_rel_irradiance` of its best frame, not
+/// saturated or black. `None`: the pixel is dark in every frame.
+fn pixel_frames(
+    samples: &Samples,
+    k: usize,
+    e_ind: &[Vec<f64>],
+    o: &ReflectanceOptions,
+) -> Option<(Vec<f64>, Vec<bool>)> {
+    let p = samples.patch[k] as usize;
+    let e: Vec<f64> = (0..e_ind.len())
+        .map(|l| samples.e_dir_lx[k][l] + e_ind[l][p])
+        .collect();
+    let best = e.iter().copied().fold(0.0, f64::max);
+    if best <= 1e-6 {
+        return None;
+    }
+    let ok = e
+        .iter()
+        .enumerate()
+        .map(|(l, &el)| {
+            let val = samples.value[k].get(l).copied().unwrap_or(f64::NAN);
+            val.is_finite() && el >= o.min_rel_irradiance * best && el > 0.0
+        })
+        .collect();
+    Some((e, ok))
+}
+
+/// Median method: per pixel, the median over its counted frames of `π gain L / E`.
+fn median_pixels(
+    samples: &Samples,
+    e_ind: &[Vec<f64>],
+    gain: f64,
+    o: &ReflectanceOptions,
+) -> Vec<Option<f64>> {
+    let mut buf = Vec::with_capacity(e_ind.len());
+    (0..samples.pixel.len())
+        .map(|k| {
+            let (e, ok) = pixel_frames(samples, k, e_ind, o)?;
+            buf.clear();
+            for l in 0..e.len() {
+                if ok[l] {
+                    buf.push(std::f64::consts::PI * gain * samples.value[k][l] / e[l]);
+                }
+            }
+            median(&mut buf)
+        })
+        .collect()
+}
+
+/// Spherical-harmonic method (physics.md §8.1, known normals), one fit per mesh triangle.
+///
+/// Observations `M_jp = π gain L_jp` (lx: ρ times irradiance). Model `M_jp = ρ_p l_jᵀ b(n_p)`,
+/// `b(n) = (1, n_x, n_y, n_z)`, one lighting vector `l_j` per frame. From `ρ ≡ 1`, alternate
+/// the lighting step `(Bᵀ diag(ρ²) B) l_j = Bᵀ diag(ρ) M_j` (a tiny ridge: a flat triangle's
+/// normals span one direction only, and the minimum-norm `l_j` gives the same shading) and the
+/// albedo step `ρ_p = Σ_j M_jp s_jp / Σ_j s_jp²` over frames with `s_jp > 0`; ρ is normalised to
+/// mean 1 each round. The fit leaves a global scale open per triangle (the paper fixes it with a
+/// reference surface); here the shading `s_jp / k` is matched to the engine's irradiance
+/// `E_jp` by least squares, which gives the scale `k`. Frames that do not count for a pixel
+/// (shadowed by the engine's light, saturated, black) are left out of both steps.
+fn sh_pixels(
+    samples: &Samples,
+    model: &Model,
+    e_ind: &[Vec<f64>],
+    gain: f64,
+    o: &ReflectanceOptions,
+) -> Vec<Option<f64>> {
+    use nalgebra::{Matrix4, Vector4};
+    let n_px = samples.pixel.len();
+    let n_lum = e_ind.len();
+    let frames: Vec<Option<(Vec<f64>, Vec<bool>)>> = (0..n_px)
+        .map(|k| pixel_frames(samples, k, e_ind, o))
+        .collect();
+    // pixels grouped by triangle, in pixel order (deterministic)
+    let mut by_tri: std::collections::BTreeMap<u32, Vec<usize>> = Default::default();
+    for (k, f) in frames.iter().enumerate() {
+        if f.is_some() {
+            by_tri.entry(samples.tri[k]).or_default().push(k);
+        }
+    }
+    let groups: Vec<Vec<usize>> = by_tri.into_values().collect();
+    let fitted: Vec<Vec<(usize, f64)>> = groups
+        .par_iter()
+        .map(|px| {
+            let b: Vec<Vector4<f64>> = px
+                .iter()
+                .map(|&k| {
+                    let n = model.patches.normal[samples.patch[k] as usize];
+                    Vector4::new(1.0, n.x, n.y, n.z)
+                })
+                .collect();
+            let obs = |i: usize, l: usize| -> Option<(f64, f64)> {
+                let (e, ok) = frames[px[i]].as_ref()?;
+                ok[l].then(|| (std::f64::consts::PI * gain * samples.value[px[i]][l], e[l]))
+            };
+            let mut rho = vec![1.0_f64; px.len()];
+            let mut light = vec![Vector4::<f64>::zeros(); n_lum];
+            for _ in 0..o.sh_rounds.max(1) {
+                for (l, lj) in light.iter_mut().enumerate() {
+                    let mut a = Matrix4::<f64>::zeros();
+                    let mut r = Vector4::<f64>::zeros();
+                    for i in 0..px.len() {
+                        if let (Some((m, _)), true) = (obs(i, l), rho[i].is_finite()) {
+                            a += b[i] * b[i].transpose() * (rho[i] * rho[i]);
+                            r += b[i] * (rho[i] * m);
+                        }
+                    }
+                    let ridge = 1e-9 * a.trace() + 1e-300;
+                    a += Matrix4::identity() * ridge;
+                    *lj = a.cholesky().map_or(Vector4::zeros(), |c| c.solve(&r));
+                }
+                let mut sum = 0.0;
+                let mut cnt = 0usize;
+                for i in 0..px.len() {
+                    let (mut num, mut den) = (0.0, 0.0);
+                    for (l, lj) in light.iter().enumerate() {
+                        let s = lj.dot(&b[i]);
+                        if let (Some((m, _)), true) = (obs(i, l), s > 0.0) {
+                            num += m * s;
+                            den += s * s;
+                        }
+                    }
+                    rho[i] = if den > 0.0 { num / den } else { f64::NAN };
+                    if rho[i].is_finite() {
+                        sum += rho[i];
+                        cnt += 1;
+                    }
+                }
+                if cnt == 0 || sum <= 0.0 {
+                    return Vec::new();
+                }
+                let mean = sum / cnt as f64;
+                for r in &mut rho {
+                    *r /= mean;
+                }
+                for lj in &mut light {
+                    *lj *= mean;
+                }
+            }
+            // global scale: shading / k ≈ engine irradiance → 1/k = Σ s E / Σ s²
+            let (mut se, mut ss) = (0.0, 0.0);
+            for (i, bi) in b.iter().enumerate() {
+                for (l, lj) in light.iter().enumerate() {
+                    let s = lj.dot(bi);
+                    if let (Some((_, e)), true) = (obs(i, l), s > 0.0) {
+                        se += s * e;
+                        ss += s * s;
+                    }
+                }
+            }
+            if se <= 0.0 || ss <= 0.0 {
+                return Vec::new();
+            }
+            let k = ss / se;
+            px.iter()
+                .zip(&rho)
+                .filter(|(_, r)| r.is_finite())
+                .map(|(&p, &r)| (p, k * r))
+                .collect()
+        })
+        .collect();
+    let mut out = vec![None; n_px];
+    for (k, r) in fitted.into_iter().flatten() {
+        out[k] = Some(r);
+    }
+    out
+}
+
 /// Per-triangle reflectances for a gain, iterating with interreflections. `tri_rho` holds the
 /// starting values (unseen triangles keep theirs, except the inferred floor, which takes the
 /// seen floor's). `floor_plane`: the part of the floor plane.
@@ -224,26 +411,13 @@ pub fn estimate(
         };
         let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
         let mut floor_px = Vec::new();
+        let pixel_rho = match o.method {
+            ReflectanceMethod::Median => median_pixels(samples, &e_ind, gain, o),
+            ReflectanceMethod::SphericalHarmonics => sh_pixels(samples, model, &e_ind, gain, o),
+        };
         let mut used = 0;
-        let mut buf = Vec::with_capacity(n_lum);
-        for k in 0..samples.pixel.len() {
-            let p = samples.patch[k] as usize;
-            let e: Vec<f64> = (0..n_lum)
-                .map(|l| samples.e_dir_lx[k][l] + e_ind[l][p])
-                .collect();
-            let best = e.iter().copied().fold(0.0, f64::max);
-            if best <= 1e-6 {
-                continue;
-            }
-            buf.clear();
-            #[allow(clippy::needless_range_loop)]
-            for l in 0..n_lum {
-                let val = samples.value[k].get(l).copied().unwrap_or(f64::NAN);
-                if val.is_finite() && e[l] >= o.min_rel_irradiance * best && e[l] > 0.0 {
-                    buf.push(std::f64::consts::PI * gain * val / e[l]);
-                }
-            }
-            if let Some(r) = median(&mut buf) {
+        for (k, r) in pixel_rho.iter().enumerate() {
+            if let Some(r) = *r {
                 used += 1;
                 let t = samples.tri[k] as usize;
                 per_tri[t].push(r);
