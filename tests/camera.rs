@@ -1302,4 +1302,21 @@ mod registration {
         let e = parse(&missing).unwrap_err();
         assert!(e.contains("[camera.colour.registration]"), "{e}");
     }
+
+    #[test]
+    fn hardware_open_refuses_other_boards_and_reports_a_missing_calibration() {
+        let sim = Board::load(Path::new("boards/sim/board.toml")).unwrap();
+        match luxnode::camera::hardware::open(&sim.camera) {
+            Err(CameraError::Config(m)) => assert!(m.contains("hardware"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("opened a sim board"),
+        }
+        // the rpi4's tof_camera.json is written at installation: not in the repo
+        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        match luxnode::camera::hardware::open(&rpi.camera) {
+            Err(CameraError::Config(m)) => assert!(m.contains("ToF calibration"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("opened without a calibration"),
+        }
+    }
 }

@@ -24,6 +24,7 @@
 
 pub mod a010;
 mod faults;
+pub mod hardware;
 pub mod register;
 pub mod replay;
 mod sequence;
@@ -167,7 +168,8 @@ pub trait DepthCamera: Send {
     fn capture_depth(&mut self) -> Result<DepthFrame, CameraError>;
 }
 
-/// A camera delivering linear luminance, registered to the depth camera.
+/// A camera delivering linear luminance, registered to the depth camera, or resampled onto its
+/// grid by the capture sequence ([`SequenceOptions::registration`]).
 pub trait LuminanceCamera: Send {
     /// Takes one luminance frame.
     fn capture_luminance(&mut self) -> Result<LuminanceFrame, CameraError>;
