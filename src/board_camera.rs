@@ -30,8 +30,8 @@
 //! ```
 //!
 //! Without `[camera.colour.registration]` the colour frames must already be on the ToF grid
-//! (same size as the ToF camera): an A010 (100 × 100) with a colour camera of another size and
-//! no registration is refused.
+//! (same size as the ToF camera): otherwise the capture sequence refuses them with a
+//! configuration error naming the section.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -282,9 +282,6 @@ struct RegistrationToml {
     translation_m: [f64; 3],
 }
 
-/// ToF frame size of each ToF driver (the A010 sends 100 × 100).
-const A010_SIZE: (u32, u32) = (100, 100);
-
 #[doc(hidden)]
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -462,19 +459,9 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                             )
                             .map_err(|e| format!("camera.colour.registration: {e}"))?,
                         ),
-                        None => {
-                            let TofBoard::A010 { .. } = &tof;
-                            if (colour.width, colour.height) != A010_SIZE {
-                                return Err(format!(
-                                    "camera.colour is {}x{} pixels, the ToF camera {}x{}: give \
-                                     the colour camera's calibration in \
-                                     [camera.colour.registration] (fx, fy, cx, cy, k1, k2, \
-                                     rotation, translation_m)",
-                                    colour.width, colour.height, A010_SIZE.0, A010_SIZE.1
-                                ));
-                            }
-                            None
-                        }
+                        // frames already on the ToF grid (same size), or the capture
+                        // sequence refuses them with a configuration error naming this section
+                        None => None,
                     };
                     ColourBoard::V4l2 {
                         device: device("camera.colour.device", &colour.device)?,

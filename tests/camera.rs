@@ -1275,7 +1275,9 @@ mod registration {
             &o,
             &mut |_, _, _| {},
         ) {
-            Err(CameraError::Config(m)) => assert!(m.contains("registered"), "{m}"),
+            Err(CameraError::Config(m)) => {
+                assert!(m.contains("[camera.colour.registration]"), "{m}")
+            }
             other => panic!("{other:?}"),
         }
     }
@@ -1299,8 +1301,9 @@ mod registration {
         let start = text.find("[camera.colour.registration]").unwrap();
         let end = text[start..].find("\n\n").unwrap() + start;
         let missing = format!("{}{}", &text[..start], &text[end + 2..]);
-        let e = parse(&missing).unwrap_err();
-        assert!(e.contains("[camera.colour.registration]"), "{e}");
+        // accepted (frames of the ToF's size need none); the capture sequence refuses 640 x 480
+        let b = Board::parse(&missing, path).unwrap();
+        assert!(b.camera.registration().is_none());
     }
 
     #[test]

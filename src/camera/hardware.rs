@@ -14,14 +14,15 @@ use super::a010::A010;
 use super::{CameraError, DepthCamera, LuminanceCamera};
 use crate::board_camera::{CameraBoard, ColourBoard, TofBoard};
 
+/// A board's opened cameras: (depth, colour).
+pub type Cameras = (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>);
+
 /// Opens the ToF and colour cameras of a hardware board. The ToF camera's intrinsics and pose
 /// come from its calibration file (the capture format's `camera.json`); registration of the
 /// colour frames is separate ([`CameraBoard::registration`] into
 /// [`super::SequenceOptions::registration`]). A board that is not `Hardware` is a
 /// configuration error.
-pub fn open(
-    board: &CameraBoard,
-) -> Result<(Box<dyn DepthCamera>, Box<dyn LuminanceCamera>), CameraError> {
+pub fn open(board: &CameraBoard) -> Result<Cameras, CameraError> {
     let CameraBoard::Hardware { tof, colour } = board else {
         return Err(CameraError::Config(
             "camera::hardware::open: the board's camera source is not \"hardware\"".into(),

@@ -112,7 +112,9 @@ fn with_retries<T>(
 fn check_size(what: &str, w: u32, h: u32, cam: &Camera, len: usize) -> Result<(), CameraError> {
     if w != cam.width || h != cam.height {
         return Err(CameraError::Config(format!(
-            "{what} is {w}x{h} pixels, the depth camera's frame is {}x{} (frames must be registered)",
+            "{what} is {w}x{h} pixels, the depth camera's frame is {}x{} (frames must be \
+             registered: give the colour camera's calibration, [camera.colour.registration] in \
+             the board file)",
             cam.width, cam.height
         )));
     }
