@@ -18,7 +18,20 @@
 //! [camera.colour]
 //! driver = "v4l2"
 //! device = "/dev/video0"
+//! [camera.colour.registration]      # per-unit calibration of the colour camera against the ToF
+//! fx = 554.3                        # pixels, at camera.colour width x height
+//! fy = 554.3
+//! cx = 319.5
+//! cy = 239.5
+//! k1 = -0.05                        # optional radial distortion (OpenCV k1, k2), default 0
+//! k2 = 0.01
+//! rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # X_colour = rotation · X_tof + translation_m
+//! translation_m = [-0.03, 0.0, 0.0]
 //! ```
+//!
+//! Without `[camera.colour.registration]` the colour frames must already be on the ToF grid
+//! (same size as the ToF camera): otherwise the capture sequence refuses them with a
+//! configuration error naming the section.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -27,6 +40,7 @@ use serde::Deserialize;
 
 use crate::camera::Faults;
 use crate::camera::a010::A010Options;
+use crate::camera::register::{ColourFromTof, ColourIntrinsics, Registration};
 use crate::camera::sim::{SimDepthOptions, SimLuminanceOptions};
 use crate::camera::v4l2::{PixelFormat, V4l2Options};
 
@@ -81,7 +95,24 @@ pub enum ColourBoard {
         device: String,
         /// Format, exposure, calibration.
         options: V4l2Options,
+        /// The colour camera's intrinsics and pose relative to the ToF camera (frames are
+        /// resampled onto the ToF grid); `None` when its frames are already registered.
+        registration: Option<Registration>,
     },
+}
+
+impl CameraBoard {
+    /// The colour-to-ToF registration the capture sequence needs
+    /// ([`crate::camera::SequenceOptions::registration`]), if the board has one.
+    pub fn registration(&self) -> Option<&Registration> {
+        match self {
+            CameraBoard::Hardware {
+                colour: ColourBoard::V4l2 { registration, .. },
+                ..
+            } => registration.as_ref(),
+            _ => None,
+        }
+    }
 }
 
 /// Where the flash image is stored.
@@ -232,6 +263,23 @@ struct ColourToml {
     limited_range: bool,
     #[serde(default = "default_timeout_s")]
     timeout_s: f64,
+    #[serde(default)]
+    registration: Option<RegistrationToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RegistrationToml {
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    #[serde(default)]
+    k1: f64,
+    #[serde(default)]
+    k2: f64,
+    rotation: [[f64; 3]; 3],
+    translation_m: [f64; 3],
 }
 
 #[doc(hidden)]
@@ -391,9 +439,34 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                     options
                         .validate()
                         .map_err(|e| format!("camera.colour: {e}"))?;
+                    let registration = match colour.registration {
+                        Some(r) => Some(
+                            Registration::new(
+                                ColourIntrinsics {
+                                    width: colour.width,
+                                    height: colour.height,
+                                    fx: r.fx,
+                                    fy: r.fy,
+                                    cx: r.cx,
+                                    cy: r.cy,
+                                    k1: r.k1,
+                                    k2: r.k2,
+                                },
+                                ColourFromTof {
+                                    rotation: r.rotation,
+                                    translation_m: r.translation_m,
+                                },
+                            )
+                            .map_err(|e| format!("camera.colour.registration: {e}"))?,
+                        ),
+                        // frames already on the ToF grid (same size), or the capture
+                        // sequence refuses them with a configuration error naming this section
+                        None => None,
+                    };
                     ColourBoard::V4l2 {
                         device: device("camera.colour.device", &colour.device)?,
                         options,
+                        registration,
                     }
                 }
                 other => {

@@ -855,3 +855,471 @@ mod v4l2 {
         ));
     }
 }
+
+/// Registration of a colour camera of another size / intrinsics / pose onto the ToF grid,
+/// against closed forms.
+mod registration {
+    use std::path::Path;
+    use std::time::SystemTime;
+
+    use glam::{DMat3, DVec3};
+    use luxnode::board::Board;
+    use luxnode::camera::register::{RegistrationMap, Unmapped};
+    use luxnode::camera::{
+        CameraError, ColourFromTof, ColourIntrinsics, DepthCamera, LightControl, LuminanceCamera,
+        Registration, SequenceOptions, capture_sequence_with,
+    };
+    use luxnode::camera::{DepthFrame, LuminanceFrame};
+    use luxnode::commission::capture::{Frame, SATURATED};
+    use luxnode::scene::Camera;
+
+    fn tof() -> Camera {
+        Camera {
+            position_m: DVec3::new(0.0, 0.0, 2.8),
+            world_from_camera: DMat3::IDENTITY,
+            fx: 70.0,
+            fy: 70.0,
+            cx: 49.5,
+            cy: 49.5,
+            width: 100,
+            height: 100,
+            luminance_cd_m2_per_unit: None,
+        }
+    }
+
+    fn depth(f: impl Fn(u32, u32) -> u16) -> Frame {
+        Frame {
+            width: 100,
+            height: 100,
+            data: (0..100 * 100).map(|i| f(i % 100, i / 100)).collect(),
+        }
+    }
+
+    fn colour(w: u32, h: u32, f: impl Fn(u32, u32) -> u16) -> LuminanceFrame {
+        LuminanceFrame {
+            width: w,
+            height: h,
+            data: (0..w * h).map(|i| f(i % w, i / w)).collect(),
+            cd_m2_per_unit: 0.01,
+            timestamp: SystemTime::UNIX_EPOCH,
+            exposure_s: 0.01,
+        }
+    }
+
+    fn intrinsics(w: u32, h: u32, f: f64, k1: f64, k2: f64) -> ColourIntrinsics {
+        ColourIntrinsics {
+            width: w,
+            height: h,
+            fx: f,
+            fy: f,
+            cx: (f64::from(w) - 1.0) / 2.0,
+            cy: (f64::from(h) - 1.0) / 2.0,
+            k1,
+            k2,
+        }
+    }
+
+    fn rot_z(deg: f64) -> [[f64; 3]; 3] {
+        let (s, c) = deg.to_radians().sin_cos();
+        [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    }
+
+    /// The colour pixel a ToF pixel centre at depth z lands on, written out independently.
+    fn closed_form(
+        i: &ColourIntrinsics,
+        e: &ColourFromTof,
+        u: f64,
+        v: f64,
+        z_m: f64,
+    ) -> (f64, f64) {
+        let t = tof();
+        let p = [(u - t.cx) / t.fx * z_m, (v - t.cy) / t.fy * z_m, z_m];
+        let r = e.rotation;
+        let q: Vec<f64> = (0..3)
+            .map(|a| r[a][0] * p[0] + r[a][1] * p[1] + r[a][2] * p[2] + e.translation_m[a])
+            .collect();
+        let (x, y) = (q[0] / q[2], q[1] / q[2]);
+        let r2 = x * x + y * y;
+        let d = 1.0 + i.k1 * r2 + i.k2 * r2 * r2;
+        (i.fx * x * d + i.cx, i.fy * y * d + i.cy)
+    }
+
+    #[test]
+    fn identity_calibration_with_equal_intrinsics_is_the_identity() {
+        let t = tof();
+        let r = Registration::identity(&t).unwrap();
+        let d = depth(|u, v| 1500 + ((u * 7 + v * 13) % 900) as u16);
+        let c = colour(100, 100, |u, v| match (u, v) {
+            (3, 4) => SATURATED,
+            (5, 5) => 0,
+            _ => ((u * 131 + v * 37) % 60000) as u16,
+        });
+        let out = r.register(&t, &d, &c).unwrap();
+        assert_eq!((out.width, out.height), (100, 100));
+        assert_eq!(out.data, c.data);
+        assert_eq!(out.cd_m2_per_unit, c.cd_m2_per_unit);
+    }
+
+    #[test]
+    fn a_plane_seen_from_a_colour_camera_with_a_baseline_matches_the_closed_form() {
+        // 640 x 480, f = 550 px (ToF pixel ≈ 7.8 colour pixels: area-averaged), turned 2°
+        // about the axis, 3 cm / 1 cm / 2 cm away; a plane at 2.5 m; colour = 1000 + 20 u + 10 v
+        // (linear, so the footprint average is the value at the centre's image: the plane is
+        // fronto-parallel and the mapping affine)
+        let i = intrinsics(640, 480, 550.0, 0.0, 0.0);
+        let e = ColourFromTof {
+            rotation: rot_z(2.0),
+            translation_m: [0.03, -0.01, 0.02],
+        };
+        let r = Registration::new(i.clone(), e.clone()).unwrap();
+        let t = tof();
+        let d = depth(|_, _| 2500);
+        let c = colour(640, 480, |u, v| (1000 + 20 * u + 10 * v) as u16);
+        let map = r.map(&t, &d).unwrap();
+        let out = map.apply(&c).unwrap();
+        let half_footprint = 550.0 / 70.0 * 2.5 / 2.52 / 2.0 * 1.5; // with the 2° turn, generous
+        let (mut inside, mut outside) = (0, 0);
+        for v in 0..100 {
+            for u in 0..100 {
+                let (uc, vc) = closed_form(&i, &e, f64::from(u), f64::from(v), 2.5);
+                let got = out.data[(v * 100 + u) as usize];
+                let m = half_footprint + 1.0;
+                if uc > m && uc < 639.0 - m && vc > m && vc < 479.0 - m {
+                    let want = 1000.0 + 20.0 * uc + 10.0 * vc;
+                    assert!(
+                        (f64::from(got) - want).abs() <= 0.5 + 1e-6,
+                        "({u}, {v}): {got} vs {want}"
+                    );
+                    inside += 1;
+                } else if uc < -0.5 - m || uc > 639.5 + m || vc < -0.5 - m || vc > 479.5 + m {
+                    assert_eq!(got, 0, "({u}, {v}) is out of view");
+                    assert_eq!(map.unmapped(u, v), Some(Unmapped::OutOfView));
+                    outside += 1;
+                }
+            }
+        }
+        // the ToF sees ±35.5°, the colour camera ±30.2° × ±23.6°: both cases are common
+        assert!(
+            inside > 4000 && outside > 1500,
+            "{inside} inside, {outside} outside"
+        );
+        let n = map.counts();
+        assert_eq!(n.occluded + n.no_depth, 0, "{n:?}");
+    }
+
+    #[test]
+    fn distortion_and_a_coarser_colour_camera_match_the_closed_form() {
+        // 160 x 120 at f = 40 px: coarser than the ToF (bilinear at the pixel centre's image)
+        let i = intrinsics(160, 120, 40.0, -0.1, 0.02);
+        let e = ColourFromTof {
+            rotation: rot_z(-3.0),
+            translation_m: [-0.05, 0.02, 0.0],
+        };
+        let r = Registration::new(i.clone(), e.clone()).unwrap();
+        let t = tof();
+        let d = depth(|u, _| 2000 + 10 * u as u16); // a slanted plane
+        let c = colour(160, 120, |u, v| (500 + 100 * u + 37 * v) as u16);
+        let out = r.register(&t, &d, &c).unwrap();
+        let mut n = 0;
+        for v in 0..100 {
+            for u in 0..100 {
+                let z = f64::from(2000 + 10 * u) * 1e-3;
+                let (uc, vc) = closed_form(&i, &e, f64::from(u), f64::from(v), z);
+                if uc > 0.0 && uc < 159.0 && vc > 0.0 && vc < 119.0 {
+                    let want = 500.0 + 100.0 * uc + 37.0 * vc;
+                    let got = f64::from(out.data[(v * 100 + u) as usize]);
+                    assert!(
+                        (got - want).abs() <= 0.5 + 1e-6,
+                        "({u}, {v}): {got} vs {want}"
+                    );
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > 5000, "{n}");
+    }
+
+    #[test]
+    fn a_nearer_box_occludes_the_floor_beside_it_in_the_colour_view() {
+        // floor at 2.5 m, a box top at 1.5 m over ToF pixels 40..60 × 40..60; the colour camera
+        // has the ToF's intrinsics, 20 cm to the side (+x). Closed form: the box top moves by
+        // 70·0.2/1.5 = 9.33 px, the floor by 5.6 px: floor columns u − 5.6 ∈ [30.2, 50.2]
+        // with u < 39.5 (u = 36..39), rows 40..59, are hidden behind the box.
+        let t = tof();
+        let i = intrinsics(100, 100, 70.0, 0.0, 0.0);
+        let e = ColourFromTof {
+            rotation: ColourFromTof::identity().rotation,
+            translation_m: [-0.2, 0.0, 0.0],
+        };
+        let r = Registration::new(i, e).unwrap();
+        let boxed = |u: u32, v: u32| (40..60).contains(&u) && (40..60).contains(&v);
+        let d = depth(|u, v| if boxed(u, v) { 1500 } else { 2500 });
+        let map: RegistrationMap = r.map(&t, &d).unwrap();
+        let c = colour(100, 100, |_, _| 1234);
+        let out = map.apply(&c).unwrap();
+        let mut occluded = 0;
+        for v in 0..100 {
+            for u in 0..100 {
+                let o = map.unmapped(u, v) == Some(Unmapped::Occluded);
+                if o {
+                    occluded += 1;
+                    assert!(
+                        (35..=40).contains(&u) && (39..=60).contains(&v),
+                        "({u}, {v})"
+                    );
+                    assert_eq!(out.data[(v * 100 + u) as usize], 0);
+                }
+                if (37..=38).contains(&u) && (41..=58).contains(&v) {
+                    assert!(o, "({u}, {v}) should be occluded");
+                }
+                if boxed(u, v) && u >= 46 {
+                    assert_eq!(out.data[(v * 100 + u) as usize], 1234, "box top ({u}, {v})");
+                }
+            }
+        }
+        assert!((60..=100).contains(&occluded), "{occluded} occluded");
+    }
+
+    #[test]
+    fn no_depth_and_saturated_colour_are_marked() {
+        let t = tof();
+        let i = intrinsics(640, 480, 550.0, 0.0, 0.0);
+        let r = Registration::new(i, ColourFromTof::identity()).unwrap();
+        let d = depth(|u, v| if (u, v) == (50, 50) { 0 } else { 2500 });
+        // one saturated colour pixel near the image of ToF pixel (60, 50)
+        let (su, sv): (f64, f64) = (319.5 + 10.5 * 550.0 / 70.0, 239.5 + 0.5 * 550.0 / 70.0);
+        let c = colour(640, 480, |u, v| {
+            if (u, v) == (su.round() as u32, sv.round() as u32) {
+                SATURATED
+            } else {
+                2000
+            }
+        });
+        let map = r.map(&t, &d).unwrap();
+        let out = map.apply(&c).unwrap();
+        assert_eq!(map.unmapped(50, 50), Some(Unmapped::NoDepth));
+        assert_eq!(out.data[50 * 100 + 50], 0);
+        let sat: Vec<usize> = (0..out.data.len())
+            .filter(|&k| out.data[k] == SATURATED)
+            .collect();
+        assert!(!sat.is_empty() && sat.len() <= 4, "{sat:?}");
+        assert!(
+            sat.contains(&(50 * 100 + 60)) || sat.contains(&(51 * 100 + 61)),
+            "{sat:?}"
+        );
+        assert_eq!(out.data[20 * 100 + 30], 2000);
+    }
+
+    #[test]
+    fn bad_calibrations_are_clear_errors() {
+        let ok = intrinsics(640, 480, 550.0, 0.0, 0.0);
+        let id = ColourFromTof::identity();
+        let err = |i: ColourIntrinsics, e: ColourFromTof| match Registration::new(i, e) {
+            Err(CameraError::Config(m)) => m,
+            other => panic!("{other:?}"),
+        };
+        assert!(
+            err(
+                ColourIntrinsics {
+                    fx: 0.0,
+                    ..ok.clone()
+                },
+                id.clone()
+            )
+            .contains("fx")
+        );
+        assert!(
+            err(
+                ColourIntrinsics {
+                    fy: -5.0,
+                    ..ok.clone()
+                },
+                id.clone()
+            )
+            .contains("fy")
+        );
+        assert!(
+            err(
+                ColourIntrinsics {
+                    fx: f64::NAN,
+                    ..ok.clone()
+                },
+                id.clone()
+            )
+            .contains("finite")
+        );
+        assert!(
+            err(
+                ColourIntrinsics {
+                    cx: 900.0,
+                    ..ok.clone()
+                },
+                id.clone()
+            )
+            .contains("cx")
+        );
+        assert!(
+            err(
+                ColourIntrinsics {
+                    k1: -2.0,
+                    ..ok.clone()
+                },
+                id.clone()
+            )
+            .contains("folds")
+        );
+        let mut scaled = id.clone();
+        scaled.rotation[0][0] = 1.1;
+        assert!(err(ok.clone(), scaled).contains("orthonormal"));
+        let mut mirror = id.clone();
+        mirror.rotation[2][2] = -1.0;
+        assert!(err(ok.clone(), mirror).contains("reflection"));
+        let mut inf = id.clone();
+        inf.rotation[1][0] = f64::INFINITY;
+        assert!(err(ok.clone(), inf).contains("finite"));
+        let mm = ColourFromTof {
+            translation_m: [30.0, 0.0, 0.0],
+            ..id.clone()
+        };
+        assert!(err(ok.clone(), mm).contains("millimetres"));
+        // a colour frame of another size than calibrated
+        let r = Registration::new(ok, id).unwrap();
+        let map = r.map(&tof(), &depth(|_, _| 2500)).unwrap();
+        match map.apply(&colour(320, 240, |_, _| 1)) {
+            Err(CameraError::Config(m)) => assert!(m.contains("640x480"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    struct PlaneDepth(Camera, u32);
+    impl DepthCamera for PlaneDepth {
+        fn camera(&self) -> &Camera {
+            &self.0
+        }
+        fn capture_depth(&mut self) -> Result<DepthFrame, CameraError> {
+            self.1 += 1;
+            let k = self.1;
+            Ok(DepthFrame {
+                width: 100,
+                height: 100,
+                // a dropout per frame at a different place: the median hides it
+                depth_mm: (0..10_000u32)
+                    .map(|i| if i == k * 97 { 0 } else { 2500 })
+                    .collect(),
+                timestamp: SystemTime::UNIX_EPOCH,
+                exposure_s: 0.001,
+            })
+        }
+    }
+    struct Pattern;
+    impl LuminanceCamera for Pattern {
+        fn capture_luminance(&mut self) -> Result<LuminanceFrame, CameraError> {
+            Ok(colour(640, 480, |u, v| (1000 + 20 * u + 10 * v) as u16))
+        }
+    }
+    struct NoLights;
+    impl LightControl for NoLights {
+        fn set_levels(&mut self, _: &[f64]) -> Result<(), CameraError> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn capture_sequence_registers_a_colour_camera_of_another_size() {
+        let i = intrinsics(640, 480, 550.0, -0.05, 0.01);
+        let e = ColourFromTof {
+            rotation: rot_z(1.0),
+            translation_m: [-0.03, 0.0, 0.0],
+        };
+        let r = Registration::new(i, e).unwrap();
+        let o = SequenceOptions {
+            depth_frames: 3,
+            all_on_frame: false,
+            registration: Some(r.clone()),
+            ..SequenceOptions::default()
+        };
+        let mut d = PlaneDepth(tof(), 0);
+        let s = capture_sequence_with(
+            &mut d,
+            &mut Pattern,
+            &mut NoLights,
+            &[1, 2],
+            &o,
+            &mut |_, _, _| {},
+        )
+        .unwrap();
+        assert_eq!(s.capture.luminance.len(), 2);
+        let want = r
+            .register(
+                &tof(),
+                &depth(|_, _| 2500),
+                &Pattern.capture_luminance().unwrap(),
+            )
+            .unwrap();
+        for (_, f) in &s.capture.luminance {
+            assert_eq!((f.width, f.height), (100, 100));
+            assert_eq!(f.data, want.data);
+        }
+        assert!(s.capture.warnings.is_empty(), "{:?}", s.capture.warnings);
+        // without the calibration the frames are refused as unregistered
+        let o = SequenceOptions {
+            registration: None,
+            ..o
+        };
+        let mut d = PlaneDepth(tof(), 0);
+        match capture_sequence_with(
+            &mut d,
+            &mut Pattern,
+            &mut NoLights,
+            &[1, 2],
+            &o,
+            &mut |_, _, _| {},
+        ) {
+            Err(CameraError::Config(m)) => {
+                assert!(m.contains("[camera.colour.registration]"), "{m}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn boards_carry_a_validated_colour_registration() {
+        for b in ["rpi4", "rock5b"] {
+            let board = Board::load(Path::new(&format!("boards/{b}/board.toml"))).unwrap();
+            let r = board.camera.registration().expect("a registration");
+            assert!(r.intrinsics().width > 100, "{b}");
+        }
+        let text = std::fs::read_to_string("boards/rpi4/board.toml").unwrap();
+        let path = Path::new("boards/rpi4/board.toml");
+        let parse = |t: &str| Board::parse(t, path).map(|_| ()).map_err(|e| e.to_string());
+        let unknown = text.replace("k2 = 0.01", "k2 = 0.01\nk3 = 0.001");
+        let e = parse(&unknown).unwrap_err();
+        assert!(e.contains("k3"), "{e}");
+        let bent = text.replace("[[1.0, 0.0, 0.0],", "[[1.0, 0.2, 0.0],");
+        let e = parse(&bent).unwrap_err();
+        assert!(e.contains("orthonormal"), "{e}");
+        let start = text.find("[camera.colour.registration]").unwrap();
+        let end = text[start..].find("\n\n").unwrap() + start;
+        let missing = format!("{}{}", &text[..start], &text[end + 2..]);
+        // accepted (frames of the ToF's size need none); the capture sequence refuses 640 x 480
+        let b = Board::parse(&missing, path).unwrap();
+        assert!(b.camera.registration().is_none());
+    }
+
+    #[test]
+    fn hardware_open_refuses_other_boards_and_reports_a_missing_calibration() {
+        let sim = Board::load(Path::new("boards/sim/board.toml")).unwrap();
+        match luxnode::camera::hardware::open(&sim.camera) {
+            Err(CameraError::Config(m)) => assert!(m.contains("hardware"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("opened a sim board"),
+        }
+        // the rpi4's tof_camera.json is written at installation: not in the repo
+        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        match luxnode::camera::hardware::open(&rpi.camera) {
+            Err(CameraError::Config(m)) => assert!(m.contains("ToF calibration"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("opened without a calibration"),
+        }
+    }
+}

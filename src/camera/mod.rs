@@ -8,6 +8,7 @@
 //! | replay | [`replay`] | serves a recorded capture directory (`../shared/scenes/README.md`) |
 //! | Sipeed MaixSense A010 | [`a010`] | ToF over serial / USB-CDC: AT commands, framed packets with checksum, resynchronising parser |
 //! | V4L2 | [`v4l2`] | a UVC/CSI colour camera on Linux (YUYV or GREY), sRGB decoded to linear luminance |
+//! | registration | [`register`] | resamples colour frames of another camera (size, intrinsics, baseline) onto the ToF grid |
 //! | fault injection | [`FaultInjector`] | wraps any camera: timeouts, garbage frames, disconnects (seeded or at given frames) |
 //!
 //! Every driver reports trouble as a [`CameraError`], never a panic. [`CameraError::is_transient`]
@@ -23,6 +24,8 @@
 
 pub mod a010;
 mod faults;
+pub mod hardware;
+pub mod register;
 pub mod replay;
 mod sequence;
 pub mod sim;
@@ -31,6 +34,7 @@ pub mod v4l2;
 use std::time::SystemTime;
 
 pub use faults::{FaultInjector, Faults};
+pub use register::{ColourFromTof, ColourIntrinsics, Registration};
 pub use sequence::{
     Sequence, SequenceOptions, capture_sequence, capture_sequence_with, save_capture,
 };
@@ -164,7 +168,8 @@ pub trait DepthCamera: Send {
     fn capture_depth(&mut self) -> Result<DepthFrame, CameraError>;
 }
 
-/// A camera delivering linear luminance, registered to the depth camera.
+/// A camera delivering linear luminance, registered to the depth camera, or resampled onto its
+/// grid by the capture sequence ([`SequenceOptions::registration`]).
 pub trait LuminanceCamera: Send {
     /// Takes one luminance frame.
     fn capture_luminance(&mut self) -> Result<LuminanceFrame, CameraError>;

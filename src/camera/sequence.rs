@@ -14,6 +14,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use super::register::{Registration, RegistrationMap, median_depth};
 use super::{CameraError, DepthCamera, LightControl, LuminanceCamera, LuminanceFrame};
 use crate::commission::capture::{Capture, Frame};
 use crate::scene::Camera;
@@ -31,6 +32,11 @@ pub struct SequenceOptions {
     pub discard_after_switch: usize,
     /// Take the all-on frame (a consistency check: it should equal the sum of the singles).
     pub all_on_frame: bool,
+    /// The colour camera's calibration relative to the ToF camera: when given, every colour
+    /// frame is resampled onto the ToF grid with the per-pixel median of the depth frames
+    /// ([`super::register`]); when `None`, colour frames must already be registered (the
+    /// simulation, replay) and of the ToF camera's size.
+    pub registration: Option<Registration>,
 }
 
 impl Default for SequenceOptions {
@@ -41,6 +47,7 @@ impl Default for SequenceOptions {
             settle: Duration::ZERO,
             discard_after_switch: 0,
             all_on_frame: true,
+            registration: None,
         }
     }
 }
@@ -105,7 +112,9 @@ fn with_retries<T>(
 fn check_size(what: &str, w: u32, h: u32, cam: &Camera, len: usize) -> Result<(), CameraError> {
     if w != cam.width || h != cam.height {
         return Err(CameraError::Config(format!(
-            "{what} is {w}x{h} pixels, the depth camera's frame is {}x{} (frames must be registered)",
+            "{what} is {w}x{h} pixels, the depth camera's frame is {}x{} (frames must be \
+             registered: give the colour camera's calibration, [camera.colour.registration] in \
+             the board file)",
             cam.width, cam.height
         )));
     }
@@ -216,6 +225,7 @@ fn run(
         step += 1;
     }
 
+    let map = registration_map(o.registration.as_ref(), &camera, &depth_mm, &mut warnings)?;
     let mut scale: Option<f64> = None;
     let mut luminance = Vec::with_capacity(n);
     let take = |what: &str,
@@ -227,6 +237,10 @@ fn run(
         let f = with_retries(what, o.retries, used, warnings, || {
             colour.capture_luminance()
         })?;
+        let f = match &map {
+            Some(m) => m.apply(&f)?,
+            None => f,
+        };
         check_size(what, f.width, f.height, &camera, f.data.len())?;
         if !(f.cd_m2_per_unit.is_finite() && f.cd_m2_per_unit > 0.0) {
             return Err(CameraError::Garbage {
@@ -279,6 +293,33 @@ fn run(
         retries_used: used,
         superposition_error,
     })
+}
+
+/// The resampling of the colour frames for this capture's geometry (the median depth), with a
+/// warning when fewer than half the pixels with depth get a colour value.
+fn registration_map(
+    registration: Option<&Registration>,
+    camera: &Camera,
+    depth_mm: &[Frame],
+    warnings: &mut Vec<String>,
+) -> Result<Option<RegistrationMap>, CameraError> {
+    let Some(r) = registration else {
+        return Ok(None);
+    };
+    let depth = median_depth(depth_mm).ok_or_else(|| {
+        CameraError::Config("registration: the depth frames differ in size".into())
+    })?;
+    let map = r.map(camera, &depth)?;
+    let c = map.counts();
+    let with_depth = c.mapped + c.out_of_view + c.occluded;
+    if c.mapped * 2 < with_depth {
+        warnings.push(format!(
+            "registration: only {} of {} pixels with depth have a colour value ({} outside the \
+             colour image, {} occluded): check the colour camera's calibration",
+            c.mapped, with_depth, c.out_of_view, c.occluded
+        ));
+    }
+    Ok(Some(map))
 }
 
 /// Relative difference between the all-on frame and the sum of the singles, over pixels that
