@@ -748,3 +748,34 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn commissioning_switches_luminaires_through_the_gateway() {
+    use luxnode::camera::LightControl;
+    use luxnode::modbus::gateway::{GatewayConfig, GatewayLights};
+    let gw = spawn_listening(GATEWAY_SIM, &["--bind".into(), "127.0.0.1:0".into()]);
+    for (encoding, want) in [("dali", [254u16, 229, 0, 1]), ("percent", [100, 51, 0, 0])] {
+        let config = GatewayConfig::from_toml(&format!(
+            "address = \"{}\"\n[levels]\nbase = 10\nstride = 3\nencoding = \"{encoding}\"\n",
+            gw.addr
+        ))
+        .unwrap();
+        let mut lights = GatewayLights::connect(&config).unwrap();
+        lights.set_levels(&[1.0, 0.5053, 0.0, 0.001]).unwrap();
+        assert!(lights.set_levels(&[1.5, 0.0, 0.0, 0.0]).is_err());
+        let got = rt().block_on(async {
+            let mut c = connect(gw.addr).await;
+            let mut v = Vec::new();
+            for j in 0..4u16 {
+                v.push(
+                    c.read_holding_registers(10 + 3 * j, 1)
+                        .await
+                        .unwrap()
+                        .unwrap()[0],
+                );
+            }
+            v
+        });
+        assert_eq!(got, want, "{encoding}");
+    }
+}

@@ -149,13 +149,21 @@ fn commission_source(
             )
         }
         CameraBoard::Hardware { .. } => {
-            return Ok(Box::new(Unavailable(format!(
-                "board {}: commissioning with the hardware cameras needs the colour frames \
-                 registered to the ToF frames, which is not implemented yet: commission with \
-                 `luxnode commission` from a capture or `luxnode image build` from CAD, write \
-                 the image with `luxnode run --cad` or copy it into the flash file",
-                board.name
-            ))));
+            let Some(gateway) = &board.modbus.gateway else {
+                return Ok(Box::new(Unavailable(format!(
+                    "board {}: commissioning with the hardware cameras switches the luminaires \
+                     one at a time through the DALI gateway, and the board has no [gateway]",
+                    board.name
+                ))));
+            };
+            let (d, c) = luxnode::camera::hardware::open(&board.camera)?;
+            let lights = luxnode::modbus::gateway::GatewayLights::connect(gateway)?;
+            (
+                format!("A010 ToF + V4L2 colour cameras of board {}", board.name),
+                d,
+                c,
+                Box::new(lights),
+            )
         }
     };
     Ok(Box::new(CameraSource {
@@ -166,7 +174,16 @@ fn commission_source(
         luminaires: scene.luminaires.clone(),
         sensors: scene.sensors.clone(),
         desks: scene.desks.clone(),
-        sequence: SequenceOptions::default(),
+        sequence: match &board.camera {
+            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
+            CameraBoard::Hardware { .. } => SequenceOptions {
+                registration: board.camera.registration().cloned(),
+                settle: Duration::from_millis(500),
+                discard_after_switch: 2,
+                ..SequenceOptions::default()
+            },
+            _ => SequenceOptions::default(),
+        },
         commission,
         image,
     }))

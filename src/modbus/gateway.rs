@@ -425,6 +425,84 @@ pub async fn run(
     }
 }
 
+/// Switches the luminaires through the gateway for the commissioning capture (one on at a
+/// time): writes each luminaire's level register in the configured layout and encoding.
+/// Synchronous (the capture runs before the servers start), on its own small runtime.
+pub struct GatewayLights {
+    rt: tokio::runtime::Runtime,
+    ctx: Context,
+    config: GatewayConfig,
+}
+
+impl GatewayLights {
+    /// Connects to the gateway.
+    pub fn connect(config: &GatewayConfig) -> anyhow::Result<Self> {
+        config.validate()?;
+        let addr = config.socket_addr()?;
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?;
+        let timeout = Duration::from_millis(config.timeout_ms);
+        let unit = Slave(config.unit_id);
+        let ctx = rt
+            .block_on(async {
+                tokio::time::timeout(
+                    timeout,
+                    tokio_modbus::client::tcp::connect_slave(addr, unit),
+                )
+                .await
+            })
+            .map_err(|_| anyhow::anyhow!("timeout connecting to the gateway {addr}"))??;
+        Ok(Self {
+            rt,
+            ctx,
+            config: config.clone(),
+        })
+    }
+
+    /// The register value of a level in [0, 1].
+    pub fn encode(&self, level: f64) -> Option<u16> {
+        match self.config.levels.encoding {
+            Encoding::Dali => {
+                crate::dali::ArcLevel::nearest(level, crate::dali::DimmingCurve::Logarithmic)
+                    .map(|a| u16::from(a.0))
+            }
+            Encoding::Percent => (level.is_finite() && (0.0..=1.0).contains(&level))
+                .then(|| (level * 100.0).round() as u16),
+        }
+    }
+}
+
+impl crate::camera::LightControl for GatewayLights {
+    fn set_levels(&mut self, levels: &[f64]) -> Result<(), crate::camera::CameraError> {
+        use crate::camera::CameraError;
+        if self.config.levels.function != RegisterKind::Holding {
+            return Err(CameraError::Lights(
+                "the gateway's levels are input registers: they cannot be written".into(),
+            ));
+        }
+        let addrs = self
+            .config
+            .level_addresses(levels.len())
+            .map_err(|e| CameraError::Lights(e.to_string()))?;
+        let timeout = Duration::from_millis(self.config.timeout_ms);
+        for (&x, &a) in levels.iter().zip(&addrs) {
+            let v = self
+                .encode(x)
+                .ok_or_else(|| CameraError::Lights(format!("level {x} outside [0, 1]")))?;
+            let ctx = &mut self.ctx;
+            self.rt
+                .block_on(async {
+                    tokio::time::timeout(timeout, ctx.write_single_register(a, v)).await
+                })
+                .map_err(|_| CameraError::Lights(format!("gateway timeout writing register {a}")))?
+                .map_err(|e| CameraError::Lights(format!("gateway: {e}")))?
+                .map_err(|e| CameraError::Lights(format!("gateway exception {e:?} at {a}")))?;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
