@@ -99,6 +99,7 @@ fn commission_source(
     scene: Scene,
     image: ImageOptions,
     cad: bool,
+    report_png: PathBuf,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
     if cad {
@@ -186,6 +187,7 @@ fn commission_source(
         },
         commission,
         image,
+        report_png: Some(report_png),
     }))
 }
 
@@ -212,7 +214,9 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
             ..ImageOptions::default()
         }
     };
-    let mut source = commission_source(&board, scene, image, args.cad)?;
+    let flash = flash_config(&board, args)?;
+    let report = flash.path.with_file_name("commissioning-report.png");
+    let mut source = commission_source(&board, scene, image, args.cad, report)?;
     let seconds = args
         .seconds
         .map(|s| {
@@ -226,7 +230,7 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
     let m = &board.modbus;
     let config = DaemonConfig {
         board: board.name.clone(),
-        flash: flash_config(&board, args)?,
+        flash,
         serve: ServeOptions {
             image: PathBuf::new(),
             bind: args.bind.unwrap_or(m.bind),

@@ -40,6 +40,8 @@ pub struct CameraSource {
     pub commission: CommissionOptions,
     /// Image.
     pub image: ImageOptions,
+    /// Where to write the commissioning report picture (camera view, false-colour lux, desks).
+    pub report_png: Option<std::path::PathBuf>,
 }
 
 impl CommissionSource for CameraSource {
@@ -108,6 +110,13 @@ impl CommissionSource for CameraSource {
             r.patches,
             r.warnings.len()
         );
+        if let Some(path) = &self.report_png {
+            match commission::output::report_png(&c, path) {
+                Ok(()) => println!("commission: report picture {}", path.display()),
+                // a picture for people: its failure never stops the node
+                Err(e) => println!("commission: report picture {}: {e}", path.display()),
+            }
+        }
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
