@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::procs::{GATEWAY_SIM, LUXNODE, Proc, floats_abcd, rt, spawn_listening};
+use common::procs::{
+    GATEWAY_SIM, LUXNODE, Proc, floats_abcd, mbpoll_values, need, pty_pair, rt, spawn_listening,
+};
 use luxnode::modbus::regmap::status;
 use tokio_modbus::client::{Context, Reader, Writer};
 
@@ -403,4 +405,55 @@ fn camera_faults_during_commissioning() {
     let (code, out) = node_to_exit(&sim_board(), &flash2, &[]);
     assert_eq!(code, Some(0), "{out}");
     assert!(out.contains("generation 1"), "{out}");
+}
+
+#[test]
+fn the_bms_reads_the_node_over_rs485_and_tcp() {
+    need("mbpoll");
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.bin");
+    let pty = pty_pair();
+    // the sim board with an RS-485 line on one end of a pty pair (no parity on a pty: see
+    // tests/modbus.rs)
+    let board = dir.path().join("board.toml");
+    let sim = std::fs::read_to_string(sim_board()).unwrap();
+    std::fs::write(
+        &board,
+        format!(
+            "{sim}\n[modbus.rtu]\ndevice = \"{}\"\nbaud = 19200\nparity = \"none\"\nunit_id = 5\n",
+            pty.a.display()
+        ),
+    )
+    .unwrap();
+    let n = node(&board, &flash, &[]);
+    let arcs = [254u16, 229, 1, 0, 170, 254];
+    let tcp = rt().block_on(async {
+        let mut c = bms(n.addr).await;
+        c.write_multiple_registers(1000, &arcs)
+            .await
+            .unwrap()
+            .unwrap();
+        floats_abcd(&c.read_input_registers(100, 14).await.unwrap().unwrap())
+    });
+    // mbpoll on the other end of the line, unit 5: the same floats
+    let out = Command::new("mbpoll")
+        .args([
+            "-m", "rtu", "-b", "19200", "-P", "none", "-s", "2", "-a", "5",
+        ])
+        .args([
+            "-r", "101", "-c", "7", "-t", "3:float", "-B", "-1", "-o", "1",
+        ])
+        .arg(&pty.b)
+        .output()
+        .unwrap();
+    let rtu = mbpoll_values(&out.stdout);
+    assert_eq!(rtu.len(), 7, "{}", String::from_utf8_lossy(&out.stdout));
+    for (r, t) in rtu.iter().zip(&tcp) {
+        assert!((r - t).abs() <= 1e-5 * t.max(1.0), "rtu {r} vs tcp {t}");
+    }
+    // and `luxnode image eval` on the flash agrees
+    let levels: Vec<u8> = arcs.iter().map(|&a| a as u8).collect();
+    for ((sup, _), t) in eval_cli(&flash, &levels).iter().zip(&tcp) {
+        assert!((sup - t).abs() <= 1e-6 * sup.max(1.0), "{sup} vs {t}");
+    }
 }

@@ -8,7 +8,7 @@
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use luxnode::modbus::regmap::status;
@@ -20,7 +20,9 @@ use tokio_modbus::prelude::{ExceptionCode, Slave};
 
 mod common;
 
-use common::procs::{GATEWAY_SIM, LUXNODE, Proc, floats_abcd, rt, spawn_listening};
+use common::procs::{
+    GATEWAY_SIM, LUXNODE, Proc, floats_abcd, mbpoll_values, need, pty_pair, rt, spawn_listening,
+};
 
 fn office_a() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
@@ -323,19 +325,6 @@ fn slow_and_hostile_clients_never_block_others() {
     drop(flooder.join().unwrap());
 }
 
-fn need(tool: &str) {
-    let found = Command::new("sh")
-        .arg("-c")
-        .arg(format!("command -v {tool}"))
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false);
-    assert!(
-        found,
-        "{tool} is not installed: run scripts/install-test-tools.sh (scripts/test.sh does)"
-    );
-}
-
 fn python() -> String {
     std::env::var("LUXNODE_PYTHON").unwrap_or_else(|_| "python3".into())
 }
@@ -360,15 +349,6 @@ fn json_f64s(v: &serde_json::Value) -> Vec<f64> {
         .expect("array")
         .iter()
         .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-/// mbpoll's values: lines `[ref]: \tvalue`.
-fn mbpoll_values(stdout: &[u8]) -> Vec<f64> {
-    String::from_utf8_lossy(stdout)
-        .lines()
-        .filter_map(|l| l.split_once("]:"))
-        .filter_map(|(_, v)| v.trim().parse().ok())
         .collect()
 }
 
@@ -421,44 +401,6 @@ fn mbpoll_and_pymodbus_read_desk_lux_over_tcp() {
     assert_f32_equal(&json_f64s(&v["lux_f32"]), &runtime_lux(&arcs));
     assert_eq!(json_f64s(&v["arc"]), arcs.map(f64::from).to_vec());
     assert_eq!(v["write_input_exception"], 2);
-}
-
-/// A pty pair from socat: (server side, client side).
-struct PtyPair {
-    child: Child,
-    a: PathBuf,
-    b: PathBuf,
-    _dir: tempfile::TempDir,
-}
-
-impl Drop for PtyPair {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn pty_pair() -> PtyPair {
-    need("socat");
-    let dir = tempfile::tempdir().unwrap();
-    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
-    let child = Command::new("socat")
-        .arg(format!("pty,raw,echo=0,link={}", a.display()))
-        .arg(format!("pty,raw,echo=0,link={}", b.display()))
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("socat");
-    let t0 = Instant::now();
-    while !(a.exists() && b.exists()) {
-        assert!(t0.elapsed() < Duration::from_secs(10), "socat ptys");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    PtyPair {
-        child,
-        a,
-        b,
-        _dir: dir,
-    }
 }
 
 /// Line settings of the pty tests: no parity, two stop bits (the Modbus rule without parity).

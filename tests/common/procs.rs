@@ -5,7 +5,7 @@ use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex, mpsc};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 pub const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
 pub const GATEWAY_SIM: &str = env!("CARGO_BIN_EXE_gateway-sim");
@@ -104,4 +104,66 @@ pub fn floats_abcd(regs: &[u16]) -> Vec<f64> {
     regs.chunks(2)
         .map(|w| f64::from(f32::from_bits((u32::from(w[0]) << 16) | u32::from(w[1]))))
         .collect()
+}
+
+/// Fails with a clear message when a client program is missing.
+pub fn need(tool: &str) {
+    let found = Command::new("sh")
+        .arg("-c")
+        .arg(format!("command -v {tool}"))
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    assert!(
+        found,
+        "{tool} is not installed: run scripts/install-test-tools.sh (scripts/test.sh does)"
+    );
+}
+
+/// mbpoll's values: lines `[ref]: \tvalue`.
+pub fn mbpoll_values(stdout: &[u8]) -> Vec<f64> {
+    String::from_utf8_lossy(stdout)
+        .lines()
+        .filter_map(|l| l.split_once("]:"))
+        .filter_map(|(_, v)| v.trim().parse().ok())
+        .collect()
+}
+
+/// A pty pair from socat: (server side, client side).
+pub struct PtyPair {
+    pub child: Child,
+    pub a: std::path::PathBuf,
+    pub b: std::path::PathBuf,
+    pub _dir: tempfile::TempDir,
+}
+
+impl Drop for PtyPair {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A socat pty pair.
+pub fn pty_pair() -> PtyPair {
+    need("socat");
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let child = Command::new("socat")
+        .arg(format!("pty,raw,echo=0,link={}", a.display()))
+        .arg(format!("pty,raw,echo=0,link={}", b.display()))
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("socat");
+    let t0 = Instant::now();
+    while !(a.exists() && b.exists()) {
+        assert!(t0.elapsed() < Duration::from_secs(10), "socat ptys");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    PtyPair {
+        child,
+        a,
+        b,
+        _dir: dir,
+    }
 }
