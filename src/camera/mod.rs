@@ -210,3 +210,20 @@ pub(crate) fn gaussian(rng: &mut crate::rng::SplitMix64) -> f64 {
     let u2 = rng.next_f64();
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
+
+/// Checks levels for `n` luminaires: the right count, each in [0, 1].
+pub fn check_levels(levels: &[f64], n: usize) -> Result<(), CameraError> {
+    if levels.len() != n {
+        return Err(CameraError::Lights(format!(
+            "{} levels for {n} luminaires",
+            levels.len()
+        )));
+    }
+    if let Some(x) = levels
+        .iter()
+        .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
+    {
+        return Err(CameraError::Lights(format!("level {x} is outside [0, 1]")));
+    }
+    Ok(())
+}

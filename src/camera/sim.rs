@@ -388,18 +388,7 @@ impl SimWorld {
 impl LightControl for SimWorld {
     fn set_levels(&mut self, levels: &[f64]) -> Result<(), CameraError> {
         let n = self.shared.scene.luminaires.len();
-        if levels.len() != n {
-            return Err(CameraError::Lights(format!(
-                "{} levels for {n} luminaires",
-                levels.len()
-            )));
-        }
-        if let Some(x) = levels
-            .iter()
-            .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
-        {
-            return Err(CameraError::Lights(format!("level {x} is outside [0, 1]")));
-        }
+        super::check_levels(levels, n)?;
         *self.levels.lock().unwrap_or_else(|p| p.into_inner()) = levels.to_vec();
         Ok(())
     }
