@@ -470,7 +470,7 @@ fn spherical_harmonic_reflectance_fit_on_the_clean_capture() {
 /// The Table 1 rows of docs/accuracy.md (slow: about ten commissioning runs). Run with
 /// `cargo nextest run --release --test commission --run-ignored only --no-capture table_1`.
 #[test]
-#[ignore]
+#[ignore = "a 33 s measurement, not a check: it prints the Table 1 rows of docs/accuracy.md (run with --run-ignored only)"]
 fn table_1_rows() {
     let all: Vec<u32> = (1..=8).collect();
     let row = |name: &str, capture: &str, closure: bool, rho: &str| {
