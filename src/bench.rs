@@ -3,6 +3,7 @@
 //! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
 
 pub mod patches;
+pub mod radiance;
 pub mod tradeoffs;
 
 use std::time::{Duration, Instant};
@@ -16,22 +17,12 @@ pub fn scenario_readings(
     model: &Model,
     scenarios: &[Scenario],
 ) -> Result<Vec<Computed>, EngineError> {
-    let mut out = Vec::with_capacity(scenarios.len() * model.sensors());
-    for s in scenarios {
-        let levels: Vec<f64> = model
-            .luminaire_ids
-            .iter()
-            .map(|id| if s.on.contains(id) { 1.0 } else { 0.0 })
-            .collect();
-        for (sensor, lux) in model.sensor_ids.iter().zip(model.sensor_lux(&levels)?) {
-            out.push(Computed {
-                scenario: s.id.clone(),
-                sensor: *sensor,
-                lux,
-            });
-        }
-    }
-    Ok(out)
+    crate::evaluate::readings(
+        scenarios,
+        &model.luminaire_ids,
+        &model.sensor_ids,
+        |levels| model.sensor_lux(levels),
+    )
 }
 
 /// Accuracy of a model over scenarios against a truth table.
@@ -63,7 +54,7 @@ pub fn time_commissioning(
     let mut last = None;
     for _ in 0..runs.max(1) {
         let t0 = Instant::now();
-        let m = engine::commission(scene, settings)?;
+        let m = engine::compute_model(scene, settings)?;
         totals.push(t0.elapsed());
         for (name, d) in &m.stats.timings {
             match stages.iter_mut().find(|(n, _)| n == name) {
@@ -142,7 +133,7 @@ pub fn tradeoff_sweep(
                 ..Settings::default()
             };
             let t0 = Instant::now();
-            let model = engine::commission(scene, &settings)?;
+            let model = engine::compute_model(scene, &settings)?;
             let time = t0.elapsed();
             let Some(accuracy) = accuracy(&model, scenarios, truth)? else {
                 return Err(EngineError::Empty(
@@ -194,7 +185,7 @@ pub fn ablation(
                 rays: 1000,
                 ..Settings::default()
             };
-            let model = engine::commission(scene, &settings)?;
+            let model = engine::compute_model(scene, &settings)?;
             if let Some(accuracy) = accuracy(&model, scenarios, truth)? {
                 rows.push(AblationRow {
                     direct,

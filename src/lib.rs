@@ -11,24 +11,41 @@
 //! sensors -> mesh -> form factors -> store -> solver -> registers
 //! ```
 //!
-//! | module | std? | owns |
-//! |---|---|---|
-//! | [`units`] | no_std | physical quantities with their unit in the name |
-//! | [`layout`] | no_std | the `memory.x` regions (the `FORMFACTORS` flash region's size) |
-//! | [`dali`] | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear) |
-//! | [`store`] | no_std | the flash image (header + postcard payload), A/B slots on a flash device |
-//! | [`runtime`] | no_std | desk lux for any dimming state from an image borrowed in place |
-//! | [`modbus`] | no_std core | Modbus wire format and register map (no_std); TCP/RTU servers, gateway link (std) |
-//! | [`solver`] | no_std | the radiosity solve over sparse form factors (Gauss-Seidel, f64) |
-//! | `camera` | std | the ToF and luminance cameras (simulated, replay, A010, V4L2), fault injection, the capture sequence |
-//! | `commission` | std | capture sets (ToF depth + luminance) to a scene: points, planes, mesh, closure, reflectances |
-//! | `engine` | std | patches, Isocell rays, BVH, form factors, direct light, sensors, superposition |
-//! | `render` | std | pictures: the top-view illuminance map |
-//! | `photometry` | std | EULUMDAT / IES LM-63 parsing into one [`photometry::IntensityDistribution`] |
-//! | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation |
-//! | `sensor` | std | the desk sensor model: light sensitivity curve (LSC), cosine error f2 |
-//! | `demo` | std | the built-in demo office the simulated board uses |
-//! | `board` | std | board files (`boards/<name>/board.toml`): hardware as data |
+//! The run-time core (store, solver over stored data, registers) sits at the bottom and knows
+//! nothing of commissioning: it builds without std and runs from flash on a microcontroller.
+//! The commissioning side sits above it: the cameras (sensors) give frames, `commission` turns
+//! them into a mesh with reflectances, the `engine` computes its form factors, and
+//! `image_build` writes them in the store's format. The node (`serve`, `board`, `daemon`) wires
+//! both together. Off-product code (the simulated world, pictures, benchmarks) is on top, behind
+//! cargo features.
+//!
+//! A module uses only modules of lower layers (never its own layer, never a higher one). The
+//! test `tests/architecture.rs` reads the `crate::` paths of every file in `src/` and fails on
+//! an edge against this table, so the table is the rule, not a description.
+//!
+//! | layer | modules | std? | owns |
+//! |---:|---|---|---|
+//! | 0 | `units`, `layout`, `rng`, `host` | no_std (`rng`, `host`: std) | physical quantities named with their unit; the `memory.x` regions; a seedable generator; facts of the host process |
+//! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
+//! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
+//! | 3 | `runtime` | no_std | the solver over stored data: desk lux for any dimming state from an image borrowed in place |
+//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/RTU servers, DALI gateway link (std) |
+//! | 5 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
+//! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
+//! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
+//! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
+//! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
+//! | 10 | `image_build`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the speed/accuracy presets |
+//! | 11 | `render` | feature `report` | pictures: the top-view illuminance map, the camera-view report, plots |
+//! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
+//! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
+//! | 14 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
+//! | 15 | `daemon` | std | the node: boot from flash or commission, serve, systemd |
+//! | 16 | `bench` | feature `bench` | benchmarks that print tables: timing, accuracy, trade-offs, Modbus load and fuzzing |
+//!
+//! The binary (`src/main.rs`, `src/cli/`) parses arguments and prints; it may use any layer.
+//! Errors are `thiserror` enums in the library and `anyhow` only in the binary; the library
+//! speaks through `tracing`, never `println!`.
 //!
 //! ## Conventions
 //!
@@ -41,9 +58,16 @@
 //!
 //! ## Features
 //!
-//! * `std` (default): everything that needs an operating system. Without it the run-time core
-//!   builds for `thumbv7em-none-eabihf` (`cargo build --lib --no-default-features --target
-//!   thumbv7em-none-eabihf`).
+//! * `std`: everything that needs an operating system. Without it only the run-time core
+//!   builds, for `thumbv7em-none-eabihf` (`cargo build --lib --no-default-features --target
+//!   thumbv7em-none-eabihf`). `--no-default-features --features std` is the product build.
+//! * `sim`: the simulated world (simulated cameras, the demo office, fault injectors, the
+//!   power-cut hook, the simulated controller).
+//! * `report`: pictures and reports.
+//! * `bench`: the benchmarks.
+//! * `hil`: the hardware-in-the-loop rig's programs (`gateway-sim`).
+//!
+//! The default (development) build enables all of them.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
@@ -77,27 +101,30 @@ pub mod engine;
 #[cfg(feature = "std")]
 pub mod evaluate;
 #[cfg(feature = "std")]
-pub mod render;
+pub mod host;
 #[cfg(feature = "std")]
-pub mod rng;
+pub mod image_build;
 #[cfg(feature = "std")]
-pub mod sensor;
-
-#[cfg(feature = "std")]
-pub mod bench;
-#[cfg(feature = "std")]
-pub mod board;
-#[cfg(feature = "std")]
-pub mod board_camera;
-#[cfg(feature = "std")]
-pub mod daemon;
-#[cfg(feature = "std")]
-pub mod demo;
+pub mod lsc;
 #[cfg(feature = "std")]
 pub mod photometry;
 #[cfg(feature = "std")]
-pub mod preset;
+pub mod rng;
 #[cfg(feature = "std")]
 pub mod scene;
+
+#[cfg(feature = "std")]
+pub mod board;
+#[cfg(feature = "std")]
+pub mod daemon;
+#[cfg(feature = "std")]
+pub mod preset;
 #[cfg(feature = "std")]
 pub mod serve;
+
+#[cfg(feature = "bench")]
+pub mod bench;
+#[cfg(feature = "report")]
+pub mod render;
+#[cfg(feature = "sim")]
+pub mod sim;

@@ -31,6 +31,13 @@ pub fn hash64(x: u64) -> u64 {
     SplitMix64::new(x).next_u64()
 }
 
+/// A standard normal deviate from two uniforms (Box-Muller), for the seeded noise models.
+pub fn gaussian(rng: &mut SplitMix64) -> f64 {
+    let u1 = rng.next_f64().max(f64::MIN_POSITIVE);
+    let u2 = rng.next_f64();
+    (-2.0 * u1.ln()).sqrt() * (core::f64::consts::TAU * u2).cos()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

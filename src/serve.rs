@@ -2,29 +2,55 @@
 //! DALI gateway link, all on one [`Node`]. `luxnode serve` runs this; the daemon reuses it.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use anyhow::Context as _;
 use tokio::sync::watch;
 
 use crate::modbus::gateway::{self, GatewayConfig, GatewayCounters};
-use crate::modbus::node::{Node, NodeModel, NodeOptions, SharedNode};
+use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode};
 use crate::modbus::regmap::Identity;
-use crate::modbus::rtu::{self, RtuCounters, RtuOptions};
-use crate::modbus::tcp::{self, TcpCounters, TcpOptions};
-use crate::store::Image;
+use crate::modbus::rtu::{self, RtuCounters, RtuError, RtuOptions};
+use crate::modbus::tcp::{self, BindError, TcpCounters, TcpOptions};
+use crate::store::file::{FileError, read_image_file};
+use crate::store::{Image, ImageError};
 
 /// The sim board's Modbus TCP address (port 1502: no root needed, unlike 502).
 pub const DEFAULT_BIND: &str = "127.0.0.1:1502";
 
-/// What to serve and how.
+/// Why serving did not start or stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The image file could not be read.
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// The image does not parse.
+    #[error("image {path}: {source}")]
+    Image {
+        /// The file.
+        path: String,
+        /// Why.
+        source: ImageError,
+    },
+    /// The register map refused the image.
+    #[error(transparent)]
+    Node(#[from] NodeError),
+    /// The TCP socket did not open.
+    #[error(transparent)]
+    Bind(#[from] BindError),
+    /// The RTU line did not open.
+    #[error(transparent)]
+    Rtu(#[from] RtuError),
+    /// The async runtime or a socket failed.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// How to serve (where the image comes from is the caller's business).
 #[derive(Debug, Clone)]
 pub struct ServeOptions {
-    /// The image file.
-    pub image: PathBuf,
     /// TCP address.
     pub bind: SocketAddr,
     /// TCP limits.
@@ -42,23 +68,25 @@ pub struct ServeOptions {
 }
 
 /// The async runtime of the servers: two workers (the node's SoC class has 2 to 4 cores).
-pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
+pub fn runtime() -> Result<tokio::runtime::Runtime, ServeError> {
+    Ok(tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
-        .build()
-        .context("tokio runtime")
+        .build()?)
 }
 
-/// Builds the node for an image file.
-pub fn load_node(path: &std::path::Path, options: NodeOptions) -> anyhow::Result<Node> {
-    let bytes = crate::daemon::read_image_file(path)?;
-    let image = Image::parse(&bytes).with_context(|| format!("image {}", path.display()))?;
+/// Builds the node for an image file (or a flash file's newest image).
+pub fn load_node(path: &Path, options: NodeOptions) -> Result<Node, ServeError> {
+    let bytes = read_image_file(path)?;
+    let image = Image::parse(&bytes).map_err(|source| ServeError::Image {
+        path: path.display().to_string(),
+        source,
+    })?;
     let model = NodeModel::from_image(&image, image.header.generation);
     Ok(Node::new(model, options)?)
 }
 
-fn identity(model_name: &str, image: &std::path::Path) -> Identity {
+fn identity(model_name: &str, image: &Path) -> Identity {
     let mut id = Identity::default();
     for c in model_name.chars() {
         if id.model.push(c).is_err() {
@@ -77,13 +105,14 @@ fn identity(model_name: &str, image: &std::path::Path) -> Identity {
     id
 }
 
-/// Serves until Ctrl-C, SIGTERM or `run_for`. Prints `modbus tcp listening on ADDR` (the bound
-/// address: with port 0 the kernel picks one) on stdout once the socket is open.
-pub fn serve(options: ServeOptions) -> anyhow::Result<()> {
+/// Serves the image file `image` until Ctrl-C, SIGTERM or `run_for`. Logs `modbus tcp
+/// listening on ADDR` (the bound address: with port 0 the kernel picks one) once the socket is
+/// open.
+pub fn serve(image: &Path, options: ServeOptions) -> Result<(), ServeError> {
     let node = load_node(
-        &options.image,
+        image,
         NodeOptions {
-            identity: identity(&options.model_name, &options.image),
+            identity: identity(&options.model_name, image),
             gateway_configured: options.gateway.is_some(),
             initial_arc: options.initial_arc,
         },
@@ -104,15 +133,10 @@ pub async fn serve_node(
     listener: tokio::net::TcpListener,
     options: ServeOptions,
     stop: impl std::future::Future<Output = ()>,
-) -> anyhow::Result<()> {
+) -> Result<(), ServeError> {
     let (stop_tx, stop_rx) = watch::channel(false);
     let local = listener.local_addr()?;
-    {
-        use std::io::Write as _;
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "modbus tcp listening on {local}");
-        let _ = out.flush();
-    }
+    tracing::info!(address = %local, "modbus tcp listening on {local}");
     let tcp_counters = Arc::new(TcpCounters::default());
     let tcp_task = tokio::spawn(tcp::serve(
         listener,
@@ -126,7 +150,7 @@ pub async fn serve_node(
     let rtu_thread = match &options.rtu {
         Some((device, line)) => {
             let port = rtu::open_port(device, line)?;
-            println!(
+            tracing::info!(
                 "modbus rtu on {device}: unit {}, {} baud, parity {:?}, t3.5 {:?}",
                 line.unit_id,
                 line.baud,
@@ -145,7 +169,7 @@ pub async fn serve_node(
     };
 
     let gateway_task = options.gateway.clone().map(|config| {
-        println!("dali gateway link: polling {}", config.address);
+        tracing::info!("dali gateway link: polling {}", config.address);
         tokio::spawn(gateway::run(
             config,
             node.clone(),

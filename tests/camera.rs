@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::Instant;
 
-use luxnode::camera::sim::{SimDepthOptions, SimLuminanceOptions, SimWorld};
 use luxnode::camera::{
     CameraError, DepthCamera, FaultInjector, Faults, LightControl, LuminanceCamera,
     SequenceOptions, capture_sequence, capture_sequence_with,
 };
 use luxnode::engine::direct::{self, Receiver};
+use luxnode::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld};
 
 fn demo() -> &'static SimWorld {
     static W: OnceLock<SimWorld> = OnceLock::new();
@@ -118,7 +118,7 @@ fn sim_luminance_is_rho_e_over_pi_with_the_engines_e() {
                 if levels[l] > 0.0 {
                     let e = |m| {
                         let pts = if m == 16 {
-                            luxnode::camera::sim::opening_points(lum, m)
+                            luxnode::sim::camera::opening_points(lum, m)
                         } else {
                             direct::opening_points(lum, m)
                         };
@@ -427,7 +427,7 @@ fn demo_office_commissions_from_simulated_cameras() {
     .unwrap();
     let t_capture = t0.elapsed();
     let scene = w.scene();
-    let c = luxnode::commission::commission(
+    let c = luxnode::commission::from_capture(
         &capture,
         scene.luminaires.clone(),
         scene.sensors.clone(),
@@ -460,7 +460,7 @@ fn sim_luminance_agrees_with_the_radiance_capture_of_office_a() {
     let dir = office_a();
     let scene = luxnode::scene::Scene::load(&dir, &Default::default()).unwrap();
     let t0 = Instant::now();
-    let w = SimWorld::new(scene, &luxnode::camera::sim::world_settings()).unwrap();
+    let w = SimWorld::new(scene, &luxnode::sim::camera::world_settings()).unwrap();
     let mut lights = w.clone();
     let mut cam = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
     let n = w.scene().luminaires.len();
@@ -560,7 +560,7 @@ fn replay_serves_the_files_byte_for_byte() {
     .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     luxnode::camera::save_capture(tmp.path(), &cap, None).unwrap();
-    let again = luxnode::commission::capture::Capture::load(tmp.path(), &ids).unwrap();
+    let again = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap();
     assert_eq!(again.camera, cap.camera);
     assert_eq!(again.depth_mm[0].data, png("depth_000.png"));
     assert_eq!(again.luminance[7].1.data, png("luminance_L8.png"));
@@ -719,7 +719,7 @@ mod a010 {
     }
 
     fn camera() -> luxnode::scene::Camera {
-        let mut c = luxnode::demo::demo_office().camera.unwrap();
+        let mut c = luxnode::sim::demo::demo_office().camera.unwrap();
         c.width = 100;
         c.height = 100;
         c.cx = 49.5;
@@ -864,13 +864,13 @@ mod registration {
 
     use glam::{DMat3, DVec3};
     use luxnode::board::Board;
+    use luxnode::camera::capture::{Frame, SATURATED};
     use luxnode::camera::register::{RegistrationMap, Unmapped};
     use luxnode::camera::{
         CameraError, ColourFromTof, ColourIntrinsics, DepthCamera, LightControl, LuminanceCamera,
         Registration, SequenceOptions, capture_sequence_with,
     };
     use luxnode::camera::{DepthFrame, LuminanceFrame};
-    use luxnode::commission::capture::{Frame, SATURATED};
     use luxnode::scene::Camera;
 
     fn tof() -> Camera {
@@ -1309,14 +1309,14 @@ mod registration {
     #[test]
     fn hardware_open_refuses_other_boards_and_reports_a_missing_calibration() {
         let sim = Board::load(Path::new("boards/sim/board.toml")).unwrap();
-        match luxnode::camera::hardware::open(&sim.camera) {
+        match luxnode::board::hardware::open(&sim.camera) {
             Err(CameraError::Config(m)) => assert!(m.contains("hardware"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened a sim board"),
         }
         // the rpi4's tof_camera.json is written at installation: not in the repo
         let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
-        match luxnode::camera::hardware::open(&rpi.camera) {
+        match luxnode::board::hardware::open(&rpi.camera) {
             Err(CameraError::Config(m)) => assert!(m.contains("ToF calibration"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened without a calibration"),

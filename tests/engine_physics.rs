@@ -10,8 +10,8 @@ use luxnode::engine::patches::{PatchSettings, Patches, subdivide};
 use luxnode::engine::raycast::{Hit, RayCaster};
 use luxnode::engine::rayset::{RaySet, RaySetKind, frame, to_world};
 use luxnode::engine::{self, Csr, GatherWeighting, Settings, formfactor};
+use luxnode::lsc::{AngularResponse, Lsc};
 use luxnode::scene::{Mesh, MeshBuilder};
-use luxnode::sensor::{AngularResponse, Lsc};
 use luxnode::solver::{self, CsrSystem, SolveOptions};
 
 #[test]
@@ -331,7 +331,7 @@ fn point_source_direct_light() {
         vec![l],
         vec![sensor(1, p(0., 0., 0.)), sensor(2, p(2., 0., 0.))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     let lux = model.sensor_lux(&[1.0]).unwrap();
     assert!(rel(lux[0], 250.0) < 1e-9, "{}", lux[0]);
     assert!(rel(lux[1], 88.388_347_648_318_44) < 1e-9, "{}", lux[1]);
@@ -379,7 +379,7 @@ fn area_sources_direct_light() {
             opening_samples: samples,
             ..Settings::default()
         };
-        let model = engine::commission(&s, &settings).unwrap();
+        let model = engine::compute_model(&s, &settings).unwrap();
         let e_panel = model.sensor_lux(&[1.0, 0.0]).unwrap()[0];
         let e_disc = model.sensor_lux(&[0.0, 1.0]).unwrap()[0];
         let panel_exact = std::f64::consts::PI * 1000.0 * b3(1.0, 1.0, 1.0);
@@ -449,7 +449,7 @@ fn consistent_sensor_estimator_reproduces_direct_light() {
     });
     let mut s = sensor(1, DVec3::ZERO);
     s.response = lsc.clone();
-    let model = engine::commission(
+    let model = engine::compute_model(
         &scene(fb.build(), vec![panel], vec![s]),
         &Settings {
             opening_samples: 256,

@@ -44,7 +44,7 @@ fn closed_box_mean(rho: f64) -> (f64, f64, u32) {
         vec![l],
         vec![sensor(1, DVec3::new(1.0, 1.0, 0.8))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert!(all_finite(&model));
     let e = model.patch_lux(&[1.0]).unwrap();
     let p = &model.patches;
@@ -126,7 +126,7 @@ fn degenerate_and_sliver_triangles() {
     );
     let l = luminaire(1, p(2.0, 2.0, 2.9), [0.3, 0.3], false, isotropic(500.0));
     let s = scene(b.build(), vec![l], vec![sensor(1, p(2.0, 2.0, 0.75))]);
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert!(all_finite(&model));
     assert!(model.patches.area_m2.iter().all(|a| *a > 0.0));
     assert!(
@@ -152,7 +152,7 @@ fn sensor_lying_on_a_surface_reads_like_one_just_above() {
     );
     let on = sensor(1, DVec3::new(1.5, 1.5, 0.0));
     let above = sensor(2, DVec3::new(1.5, 1.5, 0.001));
-    let model = engine::commission(
+    let model = engine::compute_model(
         &scene(b.build(), vec![l], vec![on, above]),
         &Settings::default(),
     )
@@ -179,7 +179,7 @@ fn luminaire_one_centimetre_from_a_wall() {
         vec![l],
         vec![sensor(1, DVec3::new(2.0, 2.0, 0.0))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert!(all_finite(&model));
     // the wall patch nearest the source is very bright but finite
     let e = model.patch_lux(&[1.0]).unwrap();
@@ -204,7 +204,7 @@ fn open_scene_without_ceiling() {
         vec![l],
         vec![sensor(1, DVec3::new(2.0, 2.0, 0.0))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert!(all_finite(&model));
     assert!(
         model.stats.escaped_fraction > 0.1,
@@ -243,7 +243,7 @@ fn hundred_metre_hall() {
         },
         ..Settings::default()
     };
-    let model = engine::commission(&s, &settings).unwrap();
+    let model = engine::compute_model(&s, &settings).unwrap();
     assert!(all_finite(&model));
     // direct part at the centre: an isotropic source 9.9 m up (the opening is tiny at that range)
     let direct = model.direct_sensor_lx[0][0];
@@ -260,7 +260,7 @@ fn zero_and_fifty_thousand_lumens() {
             l.photometry = std::sync::Arc::new(l.photometry.scaled_to_flux(flux).unwrap());
             l.flux_lm = flux;
         }
-        engine::commission(&s, &Settings::default()).unwrap()
+        engine::compute_model(&s, &Settings::default()).unwrap()
     };
     let dark = scaled(0.0);
     assert!(dark.response_lx.iter().flatten().all(|v| *v == 0.0));
@@ -317,8 +317,8 @@ fn millimetre_scene_gives_the_same_lux() {
         },
     )
     .unwrap();
-    let a = engine::commission(&m, &Settings::default()).unwrap();
-    let b = engine::commission(&mm, &Settings::default()).unwrap();
+    let a = engine::compute_model(&m, &Settings::default()).unwrap();
+    let b = engine::compute_model(&mm, &Settings::default()).unwrap();
     for (x, y) in a
         .response_lx
         .iter()
@@ -353,7 +353,7 @@ fn box_room(rho: f64, open: bool, settings: &Settings) -> (engine::Model, f64) {
         vec![l],
         vec![sensor(1, DVec3::new(1.0, 1.0, 0.8))],
     );
-    (engine::commission(&s, settings).unwrap(), flux)
+    (engine::compute_model(&s, settings).unwrap(), flux)
 }
 
 fn area_weighted_mean(model: &engine::Model, v: &[f64]) -> f64 {
@@ -476,7 +476,7 @@ fn one_patch_scene() {
         },
         ..Settings::default()
     };
-    let model = engine::commission(&s, &settings).unwrap();
+    let model = engine::compute_model(&s, &settings).unwrap();
     assert_eq!(model.patches.len(), 1);
     // a plane sees nothing of itself: no form factor, all rays escape
     assert_eq!(model.ff.f.nnz(), 0);
@@ -484,7 +484,7 @@ fn one_patch_scene() {
     let lux = model.sensor_lux(&[1.0]).unwrap()[0];
     assert!(rel(lux, 1000.0 / 4.0) < 1e-9, "{lux}");
     // and through the flash image and the run-time core
-    let bytes = luxnode::store::build::build_image(&model, &Default::default()).unwrap();
+    let bytes = luxnode::image_build::build_image(&model, &Default::default()).unwrap();
     let image = luxnode::store::Image::parse(&bytes).unwrap();
     let mut out = [0.0];
     luxnode::runtime::Runtime::new(&image)
@@ -532,7 +532,7 @@ fn hundred_thousand_patches_cheaply() {
         ..Settings::default()
     };
     let t0 = std::time::Instant::now();
-    let model = engine::commission(&s, &settings).unwrap();
+    let model = engine::compute_model(&s, &settings).unwrap();
     let patches = model.patches.len();
     println!(
         "{patches} patches, {} form factors, {} iterations in {:.2} s",
@@ -563,15 +563,15 @@ fn hundred_thousand_patches_cheaply() {
     assert!(rel(mean, exact) < 0.01, "{mean} vs {exact}");
     // the sensor: direct exact, the rest from few rays; within 5 % of a well-sampled coarse model
     let lux = model.sensor_lux(&[1.0]).unwrap()[0];
-    let reference = engine::commission(&s, &Settings::default()).unwrap();
+    let reference = engine::compute_model(&s, &Settings::default()).unwrap();
     let ref_lux = reference.sensor_lux(&[1.0]).unwrap()[0];
     assert!(rel(lux, ref_lux) < 0.05, "{lux} vs {ref_lux}");
     // such a model does not fit the flash region: the image builder says so and what helps
-    let bytes = luxnode::store::build::build_image(&model, &Default::default()).unwrap();
+    let bytes = luxnode::image_build::build_image(&model, &Default::default()).unwrap();
     let image = luxnode::store::Image::parse(&bytes).unwrap();
     let region = luxnode::layout::FORMFACTORS_LEN_BYTES as usize;
     assert!(bytes.len() > region, "{}", bytes.len());
-    let msg = luxnode::store::build::too_large_message(&image, region);
+    let msg = luxnode::image_build::too_large_message(&image, region);
     println!("{msg}");
     assert!(msg.contains("patch"), "{msg}");
 }
@@ -595,7 +595,7 @@ fn grazing_light_on_the_floor() {
         vec![l],
         vec![sensor(1, DVec3::new(4.0, 2.0, 0.0))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert!(all_finite(&model));
     let direct = model.direct_sensor_lx[0][0];
     let exact = 1000.0 * h / (9.0 + h * h).powf(1.5);
@@ -620,7 +620,7 @@ fn grazing_light_on_the_floor() {
         vec![l],
         vec![sensor(1, DVec3::new(4.0, 2.0, 0.0))],
     );
-    let model = engine::commission(&s, &Settings::default()).unwrap();
+    let model = engine::compute_model(&s, &Settings::default()).unwrap();
     assert_eq!(model.direct_sensor_lx[0][0], 0.0);
     assert!(all_finite(&model));
 }
@@ -645,14 +645,14 @@ fn luminaire_inside_a_wall() {
         )
     };
     // 5 cm inside the west wall (x = 0): a clear error naming the luminaire and its position
-    let err = engine::commission(&build(-0.05), &Settings::default()).unwrap_err();
+    let err = engine::compute_model(&build(-0.05), &Settings::default()).unwrap_err();
     let msg = err.to_string();
     println!("{msg}");
     assert!(msg.contains("luminaire 1"), "{msg}");
     assert!(msg.contains("inside or behind a surface"), "{msg}");
     assert!(msg.contains("(-0.050, 2.000, 2.500)"), "{msg}");
     // 5 mm in front of it: light, finite, the direct reading as from a free point
-    let model = engine::commission(&build(0.005), &Settings::default()).unwrap();
+    let model = engine::compute_model(&build(0.005), &Settings::default()).unwrap();
     assert!(all_finite(&model));
     let v = DVec3::new(0.005, 2.0, 2.5) - DVec3::new(2.0, 2.0, 0.0);
     let exact = 1000.0 * v.z / v.length().powi(3);
@@ -691,8 +691,8 @@ fn coincident_faces() {
             ],
         )
     };
-    let once = engine::commission(&build(false), &Settings::default()).unwrap();
-    let twice = engine::commission(&build(true), &Settings::default()).unwrap();
+    let once = engine::compute_model(&build(false), &Settings::default()).unwrap();
+    let twice = engine::compute_model(&build(true), &Settings::default()).unwrap();
     assert!(all_finite(&twice));
     let a = once.sensor_lux(&[1.0]).unwrap();
     let b = twice.sensor_lux(&[1.0]).unwrap();
@@ -731,8 +731,9 @@ fn dali_level_1_and_254_in_f32_and_u16_registers() {
         sensor(1, DVec3::new(2.0, 2.0, 0.75)),
         sensor(2, DVec3::new(5.5, 0.5, 0.75)),
     ];
-    let model = engine::commission(&scene(b.build(), lums, sensors), &Settings::default()).unwrap();
-    let bytes = luxnode::store::build::build_image(&model, &Default::default()).unwrap();
+    let model =
+        engine::compute_model(&scene(b.build(), lums, sensors), &Settings::default()).unwrap();
+    let bytes = luxnode::image_build::build_image(&model, &Default::default()).unwrap();
     let image = luxnode::store::Image::parse(&bytes).unwrap();
     let rt = luxnode::runtime::Runtime::new(&image);
     let frac = |a: u8| ArcLevel(a).fraction(DimmingCurve::Logarithmic).unwrap();
@@ -805,8 +806,8 @@ fn dali_level_1_and_254_in_f32_and_u16_registers() {
 
 #[test]
 fn form_factors_quantised_to_8_bits() {
+    use luxnode::image_build::{ImageOptions, build_image};
     use luxnode::store::Precision;
-    use luxnode::store::build::{ImageOptions, build_image};
     // high reflectance amplifies every error in F by up to 1 / (1 − ρ)
     let rho = 0.9;
     let settings = Settings {

@@ -41,7 +41,7 @@ fn node(board: &Path, flash: &Path, extra: &[&str]) -> Proc {
     spawn_listening(LUXNODE, &args)
 }
 
-/// Runs `luxnode run` to its end (power-cut scenarios); (exit code, stdout).
+/// Runs `luxnode run` to its end (power-cut scenarios); (exit code, stdout and stderr).
 fn node_to_exit(board: &Path, flash: &Path, extra: &[&str]) -> (Option<i32>, String) {
     let out = Command::new(LUXNODE)
         .args(["run", "--board"])
@@ -54,7 +54,11 @@ fn node_to_exit(board: &Path, flash: &Path, extra: &[&str]) -> (Option<i32>, Str
         .expect("luxnode run");
     (
         out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
     )
 }
 

@@ -694,7 +694,7 @@ proptest::proptest! {
 #[test]
 fn commissioning_switches_luminaires_through_the_gateway() {
     use luxnode::camera::LightControl;
-    use luxnode::modbus::gateway::{GatewayConfig, GatewayLights};
+    use luxnode::modbus::gateway::{GatewayConfig, GatewayWriter};
     let gw = spawn_listening(GATEWAY_SIM, &["--bind".into(), "127.0.0.1:0".into()]);
     for (encoding, want) in [("dali", [254u16, 229, 0, 1]), ("percent", [100, 51, 0, 0])] {
         let config = GatewayConfig::from_toml(&format!(
@@ -702,7 +702,7 @@ fn commissioning_switches_luminaires_through_the_gateway() {
             gw.addr
         ))
         .unwrap();
-        let mut lights = GatewayLights::connect(&config).unwrap();
+        let mut lights = GatewayWriter::connect(&config).unwrap();
         lights.set_levels(&[1.0, 0.5053, 0.0, 0.001]).unwrap();
         assert!(lights.set_levels(&[1.5, 0.0, 0.0, 0.0]).is_err());
         let got = rt().block_on(async {

@@ -51,7 +51,7 @@ fn accuracy(model: &Model) -> Accuracy {
 fn default_settings_meet_the_accuracy_target() {
     // Issue target: error <= 2 %, worst sensor <= 6 % over 31 scenarios x 8 sensors.
     let model =
-        engine::commission(&scene(PhotometryPreference::Ldt), &Settings::default()).unwrap();
+        engine::compute_model(&scene(PhotometryPreference::Ldt), &Settings::default()).unwrap();
     let a = accuracy(&model);
     println!(
         "office_a: {} patches, error {:.2} %, bias {:+.2} %, worst sensor {:.2} %, per sensor {:?}",
@@ -69,7 +69,7 @@ fn default_settings_meet_the_accuracy_target() {
 #[test]
 fn superposition_equals_full_resolve() {
     let model =
-        engine::commission(&scene(PhotometryPreference::Ldt), &Settings::default()).unwrap();
+        engine::compute_model(&scene(PhotometryPreference::Ldt), &Settings::default()).unwrap();
     let states = read_states(&dir().join("states.csv")).unwrap();
     let mut cases: Vec<Vec<f64>> = states.iter().map(|s| levels(&model, &s.on)).collect();
     // dimmed states (DALI levels 1, 128, 229, 254 and others)
@@ -102,8 +102,8 @@ fn superposition_equals_full_resolve() {
 #[test]
 fn deterministic_for_a_fixed_seed() {
     let s = scene(PhotometryPreference::Ldt);
-    let a = engine::commission(&s, &Settings::default()).unwrap();
-    let b = engine::commission(&s, &Settings::default()).unwrap();
+    let a = engine::compute_model(&s, &Settings::default()).unwrap();
+    let b = engine::compute_model(&s, &Settings::default()).unwrap();
     assert_eq!(a.response_lx, b.response_lx);
     assert_eq!(a.ff.f, b.ff.f);
 }
@@ -111,8 +111,8 @@ fn deterministic_for_a_fixed_seed() {
 #[test]
 fn eulumdat_and_ies_give_the_same_lux() {
     let settings = Settings::default();
-    let a = engine::commission(&scene(PhotometryPreference::Ldt), &settings).unwrap();
-    let b = engine::commission(&scene(PhotometryPreference::Ies), &settings).unwrap();
+    let a = engine::compute_model(&scene(PhotometryPreference::Ldt), &settings).unwrap();
+    let b = engine::compute_model(&scene(PhotometryPreference::Ies), &settings).unwrap();
     for (ra, rb) in a.response_lx.iter().zip(&b.response_lx) {
         for (x, y) in ra.iter().zip(rb) {
             assert!((x - y).abs() <= 1e-3 * y, "{x} vs {y}");
@@ -125,12 +125,12 @@ fn the_papers_formulation_is_less_accurate() {
     // The ablation's point, as a regression check: LDC-weighted emitting patches (w = I, not
     // I/cos) and the paper's sensor weighting are worse than the exact model.
     let s = scene(PhotometryPreference::Ldt);
-    let exact = accuracy(&engine::commission(&s, &Settings::default()).unwrap());
+    let exact = accuracy(&engine::compute_model(&s, &Settings::default()).unwrap());
     let paper_settings = Settings {
         direct: DirectModel::Paper,
         ..Settings::default()
     };
-    let paper_model = engine::commission(&s, &paper_settings).unwrap();
+    let paper_model = engine::compute_model(&s, &paper_settings).unwrap();
     let paper = accuracy(&paper_model);
     println!(
         "exact {:.2} %, paper {:.2} %",

@@ -9,9 +9,9 @@ use std::path::Path;
 use common::{luminaire, scene, sensor};
 use glam::DVec3;
 use luxnode::engine::{self, Model, PatchSettings, Settings};
+use luxnode::image_build::{ImageOptions, build_image};
 use luxnode::runtime::{Runtime, RuntimeError};
 use luxnode::scene::{LoadOptions, MeshBuilder, Scene, read_states, read_truth};
-use luxnode::store::build::{ImageOptions, build_image};
 use luxnode::store::devices::{Faults, FaultyFlash, FileFlash, MemFlash};
 use luxnode::store::slots::{FlashDevice, Slot, SlotState, Slots, WriteError};
 use luxnode::store::{HEADER_LEN, Image, ImageError, Precision};
@@ -22,7 +22,7 @@ fn office_a_dir() -> std::path::PathBuf {
 
 fn office_a_model() -> Model {
     let s = Scene::load(&office_a_dir(), &LoadOptions::default()).unwrap();
-    engine::commission(&s, &Settings::default()).unwrap()
+    engine::compute_model(&s, &Settings::default()).unwrap()
 }
 
 /// A small room (two luminaires, two sensors) whose image is a few kB: for exhaustive tests.
@@ -56,7 +56,7 @@ fn small_image(flux_scale: f64) -> Vec<u8> {
         final_gather_rays: 100,
         ..Settings::default()
     };
-    let model = engine::commission(&s, &settings).unwrap();
+    let model = engine::compute_model(&s, &settings).unwrap();
     build_image(
         &model,
         &ImageOptions {

@@ -12,12 +12,12 @@ use std::time::{Duration, Instant};
 
 use crate::engine::{EngineError, Model, PatchSettings, RaySetKind, Settings};
 use crate::evaluate::{Accuracy, Computed, compare};
+use crate::image_build::{ImageOptions, build_image};
 use crate::preset::{Preset, StoreSettings};
 use crate::render::plot::{Plot, Series};
 use crate::scene::{Scenario, Scene, TruthRow};
 use crate::store::Image;
 use crate::store::Precision;
-use crate::store::build::{ImageOptions, build_image};
 
 /// Why a point could not be measured.
 #[derive(Debug, thiserror::Error)]
@@ -27,7 +27,7 @@ pub enum StudyError {
     Engine(#[from] EngineError),
     /// The image could not be built.
     #[error(transparent)]
-    Build(#[from] crate::store::build::BuildError),
+    Build(#[from] crate::image_build::BuildError),
     /// The image does not parse.
     #[error(transparent)]
     Image(#[from] crate::store::ImageError),
@@ -413,7 +413,7 @@ pub fn measure_capture(
     };
     o.closure.enabled = v.closure;
     let t0 = Instant::now();
-    let c = crate::commission::commission(
+    let c = crate::commission::from_capture(
         &inputs.capture,
         inputs.luminaires.clone(),
         inputs.sensors.clone(),

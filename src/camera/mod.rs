@@ -4,12 +4,12 @@
 //!
 //! | driver | module | what it is |
 //! |---|---|---|
-//! | simulated | [`sim`] | renders depth and luminance of a scene with the project's own ray caster and engine; seeded ToF noise |
+//! | simulated | `crate::sim::camera` (feature `sim`) | renders depth and luminance of a scene with the project's own ray caster and engine; seeded ToF noise |
 //! | replay | [`replay`] | serves a recorded capture directory (`../shared/scenes/README.md`) |
 //! | Sipeed MaixSense A010 | [`a010`] | ToF over serial / USB-CDC: AT commands, framed packets with checksum, resynchronising parser |
 //! | V4L2 | [`v4l2`] | a UVC/CSI colour camera on Linux (YUYV or GREY), sRGB decoded to linear luminance |
 //! | registration | [`register`] | resamples colour frames of another camera (size, intrinsics, baseline) onto the ToF grid |
-//! | fault injection | [`FaultInjector`] | wraps any camera: timeouts, garbage frames, disconnects (seeded or at given frames) |
+//! | fault injection (feature `sim`) | `FaultInjector` | wraps any camera: timeouts, garbage frames, disconnects (seeded or at given frames) |
 //!
 //! Every driver reports trouble as a [`CameraError`], never a panic. [`CameraError::is_transient`]
 //! says which errors a retry may cure (timeouts, garbage frames); [`capture_sequence`] retries
@@ -23,23 +23,24 @@
 //! [`crate::scene::Camera`] (the capture format's convention).
 
 pub mod a010;
+pub mod capture;
+#[cfg(feature = "sim")]
 mod faults;
-pub mod hardware;
 pub mod register;
 pub mod replay;
 mod sequence;
-pub mod sim;
 pub mod v4l2;
 
 use std::time::SystemTime;
 
+#[cfg(feature = "sim")]
 pub use faults::{FaultInjector, Faults};
 pub use register::{ColourFromTof, ColourIntrinsics, Registration};
 pub use sequence::{
     Sequence, SequenceOptions, capture_sequence, capture_sequence_with, save_capture,
 };
 
-use crate::commission::capture::Frame;
+use crate::camera::capture::Frame;
 
 /// One depth frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -202,13 +203,6 @@ impl<T: LightControl + ?Sized> LightControl for Box<T> {
     fn set_levels(&mut self, levels: &[f64]) -> Result<(), CameraError> {
         (**self).set_levels(levels)
     }
-}
-
-/// A standard normal deviate from two uniforms (Box-Muller), for the seeded noise models.
-pub(crate) fn gaussian(rng: &mut crate::rng::SplitMix64) -> f64 {
-    let u1 = rng.next_f64().max(f64::MIN_POSITIVE);
-    let u2 = rng.next_f64();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// Checks levels for `n` luminaires: the right count, each in [0, 1].

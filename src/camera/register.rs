@@ -31,7 +31,7 @@
 //! see cannot occlude (a thin object the ToF misses but the colour camera sees is not detected).
 
 use super::{CameraError, LuminanceFrame};
-use crate::commission::capture::{Frame, SATURATED};
+use crate::camera::capture::{Frame, SATURATED};
 use crate::scene::Camera;
 
 /// Most sub-samples per axis of one ToF pixel's footprint.

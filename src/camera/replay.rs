@@ -19,7 +19,7 @@ use std::sync::{Arc, Mutex};
 use std::time::SystemTime;
 
 use super::{CameraError, DepthCamera, DepthFrame, LightControl, LuminanceCamera, LuminanceFrame};
-use crate::commission::capture::{Capture, Frame};
+use crate::camera::capture::{Capture, Frame};
 use crate::scene::Camera;
 
 struct Data {

@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use super::register::{Registration, RegistrationMap, median_depth};
 use super::{CameraError, DepthCamera, LightControl, LuminanceCamera, LuminanceFrame};
-use crate::commission::capture::{Capture, Frame};
+use crate::camera::capture::{Capture, Frame};
 use crate::scene::Camera;
 
 /// Knobs of the sequence beyond the interface's arguments.

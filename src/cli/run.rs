@@ -6,25 +6,26 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use luxnode::board::camera::{CameraBoard, FlashBoard};
 use luxnode::board::{Board, SceneSource};
-use luxnode::board_camera::{CameraBoard, FlashBoard};
 use luxnode::camera::replay::ReplayWorld;
-use luxnode::camera::sim::SimWorld;
-use luxnode::camera::{DepthCamera, FaultInjector, LightControl, LuminanceCamera, SequenceOptions};
+use luxnode::camera::{DepthCamera, LightControl, LuminanceCamera, SequenceOptions};
 use luxnode::commission::CommissionOptions;
 use luxnode::daemon::source::CameraSource;
 use luxnode::daemon::{
-    self, CadSource, CommissionSource, DaemonConfig, Exit, FlashConfig, Unavailable,
-    controller::SimController,
+    self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, Unavailable,
 };
+use luxnode::image_build::ImageOptions;
+use luxnode::modbus::gateway::GatewayWriter;
 use luxnode::modbus::tcp::TcpOptions;
 use luxnode::scene::Scene;
 use luxnode::serve::ServeOptions;
-use luxnode::store::build::ImageOptions;
+use luxnode::store::devices::{DeviceError, FileFlash};
+use luxnode::store::slots::FlashDevice;
 
 /// `luxnode run`.
 #[derive(clap::Args)]
-pub struct RunArgs {
+pub struct Args {
     /// The board file, e.g. boards/sim/board.toml.
     #[arg(long)]
     pub board: PathBuf,
@@ -57,11 +58,13 @@ pub struct RunArgs {
     #[arg(long)]
     pub cad: bool,
     /// Test only (HIL): the simulated power fails after this many bytes of the image write.
+    #[cfg(feature = "sim")]
     #[arg(long, hide = true)]
     pub power_cut_after_bytes: Option<usize>,
 }
 
-fn flash_config(board: &Board, args: &RunArgs) -> Result<FlashConfig> {
+/// The flash device's path and size, from the board or `--flash`.
+fn flash_config(board: &Board, args: &Args) -> Result<(PathBuf, usize)> {
     let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
     let (path, capacity) = match (&args.flash, &board.flash) {
         (Some(p), _) => (p.clone(), 2 * region),
@@ -78,11 +81,69 @@ fn flash_config(board: &Board, args: &RunArgs) -> Result<FlashConfig> {
             board.name
         );
     }
-    Ok(FlashConfig {
-        path,
-        capacity,
-        power_cut_after_bytes: args.power_cut_after_bytes,
-    })
+    Ok((path, capacity))
+}
+
+/// The flash device, with the simulated power cut of `--power-cut-after-bytes` (HIL) if asked.
+fn open_flash(path: &std::path::Path, capacity: usize, args: &Args) -> Result<Flash> {
+    let dev = daemon::open_flash_file(path, capacity)?;
+    #[cfg(feature = "sim")]
+    if let Some(n) = args.power_cut_after_bytes {
+        use luxnode::store::devices::{Faults, FaultyFlash};
+        let faults = Faults {
+            cut_after_bytes: Some(n),
+            ..Faults::default()
+        };
+        return Ok(Flash::Faulty(FaultyFlash::new(dev, faults)));
+    }
+    let _ = args;
+    Ok(Flash::File(dev))
+}
+
+/// The node's flash: the file, or (HIL) the file behind a fault injector.
+enum Flash {
+    File(FileFlash),
+    #[cfg(feature = "sim")]
+    Faulty(luxnode::store::devices::FaultyFlash<FileFlash>),
+}
+
+impl FlashDevice for Flash {
+    type Error = DeviceError;
+    fn capacity(&self) -> usize {
+        match self {
+            Flash::File(d) => d.capacity(),
+            #[cfg(feature = "sim")]
+            Flash::Faulty(d) => d.capacity(),
+        }
+    }
+    fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
+        match self {
+            Flash::File(d) => d.read(offset, buf),
+            #[cfg(feature = "sim")]
+            Flash::Faulty(d) => d.read(offset, buf),
+        }
+    }
+    fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
+        match self {
+            Flash::File(d) => d.erase(offset, len),
+            #[cfg(feature = "sim")]
+            Flash::Faulty(d) => d.erase(offset, len),
+        }
+    }
+    fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
+        match self {
+            Flash::File(d) => d.write(offset, data),
+            #[cfg(feature = "sim")]
+            Flash::Faulty(d) => d.write(offset, data),
+        }
+    }
+    fn sync(&mut self) -> Result<(), DeviceError> {
+        match self {
+            Flash::File(d) => d.sync(),
+            #[cfg(feature = "sim")]
+            Flash::Faulty(d) => d.sync(),
+        }
+    }
 }
 
 /// What a commissioning capture needs: a name, the two cameras, the lights.
@@ -115,13 +176,16 @@ fn commission_source(
         ..CommissionOptions::default()
     };
     let (what, depth, colour, lights): Rig = match &board.camera {
+        #[cfg(feature = "sim")]
         CameraBoard::Sim {
             depth,
             luminance,
             faults,
         } => {
+            use luxnode::camera::FaultInjector;
+            use luxnode::sim::camera::{SimWorld, world_settings};
             // the simulated room is the scene; the node sees it only through the cameras
-            let world = SimWorld::new(scene.clone(), &luxnode::camera::sim::world_settings())
+            let world = SimWorld::new(scene.clone(), &world_settings())
                 .with_context(|| format!("board {}: simulated cameras", board.name))?;
             let d = world.depth_camera(depth.clone())?;
             let c = world.luminance_camera(luminance.clone())?;
@@ -157,8 +221,8 @@ fn commission_source(
                     board.name
                 ))));
             };
-            let (d, c) = luxnode::camera::hardware::open(&board.camera)?;
-            let lights = luxnode::modbus::gateway::GatewayLights::connect(gateway)?;
+            let (d, c) = luxnode::board::hardware::open(&board.camera)?;
+            let lights = GatewayWriter::connect(gateway)?;
             (
                 format!("A010 ToF + V4L2 colour cameras of board {}", board.name),
                 d,
@@ -192,18 +256,17 @@ fn commission_source(
 }
 
 /// Runs the node.
-pub fn run(args: &RunArgs) -> Result<ExitCode> {
+pub fn run(args: &Args) -> Result<ExitCode> {
     let board = Board::load(&args.board)?;
-    println!(
+    tracing::info!(
         "luxnode {} on board {}: {}",
         env!("CARGO_PKG_VERSION"),
         board.name,
         board.description
     );
     let scene = match &board.scene {
-        SceneSource::DemoOffice => luxnode::demo::demo_office(),
+        SceneSource::DemoOffice => demo_office()?,
         SceneSource::Directory(dir) => luxnode::scene::Scene::load(dir, &Default::default())
-            .map_err(|e| anyhow::anyhow!("{e}"))
             .with_context(|| format!("board {} scene", board.name))?,
     };
     let image = {
@@ -214,26 +277,33 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
             ..ImageOptions::default()
         }
     };
-    let flash = flash_config(&board, args)?;
-    let report = flash.path.with_file_name("commissioning-report.png");
+    let (flash_path, capacity) = flash_config(&board, args)?;
+    let report = flash_path.with_file_name("commissioning-report.png");
     let mut source = commission_source(&board, scene, image, args.cad, report)?;
     let seconds = args
         .seconds
         .map(|s| {
-            if s.is_finite() && s > 0.0 {
+            if s.is_finite() && s > 0.0 && s < 1e9 {
                 Ok(Duration::from_secs_f64(s))
             } else {
-                Err(anyhow::anyhow!("--seconds {s}: must be positive"))
+                Err(anyhow::anyhow!(
+                    "--seconds {s}: must be a positive number of seconds"
+                ))
             }
         })
         .transpose()?;
     let m = &board.modbus;
+    let flash = open_flash(&flash_path, capacity, args)?;
+    let companion = if m.gateway.is_none() && !args.no_controller {
+        Some(controller(args)?)
+    } else {
+        None
+    };
     let config = DaemonConfig {
         board: board.name.clone(),
-        flash,
+        flash_path,
         serve: ServeOptions {
-            image: PathBuf::new(),
-            bind: args.bind.unwrap_or(m.bind),
+            bind: bind(args.bind, m.bind),
             tcp: TcpOptions {
                 max_connections: m.max_connections,
                 idle_timeout: m.idle_timeout,
@@ -244,15 +314,54 @@ pub fn run(args: &RunArgs) -> Result<ExitCode> {
             initial_arc: None,
             run_for: seconds,
         },
-        controller: (m.gateway.is_none() && !args.no_controller).then(|| SimController {
-            period: Duration::from_millis(args.step_ms),
-            cycles: args.cycles,
-            forever: args.forever,
-        }),
+        companion,
         recommission: args.recommission,
     };
-    match daemon::run(config, source.as_mut())? {
+    match daemon::run(config, flash, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
         Exit::PowerCut => Ok(ExitCode::from(3)),
     }
+}
+
+fn bind(arg: Option<SocketAddr>, board: SocketAddr) -> SocketAddr {
+    arg.unwrap_or(board)
+}
+
+#[cfg(feature = "sim")]
+fn demo_office() -> Result<Scene> {
+    Ok(luxnode::sim::demo::demo_office())
+}
+
+#[cfg(not(feature = "sim"))]
+fn demo_office() -> Result<Scene> {
+    bail!(
+        "the board names the built-in demo office, part of the `sim` feature, which this binary \
+         was built without"
+    )
+}
+
+/// The sim board's simulated controller: steps through dimming states over Modbus TCP and
+/// prints the live table on stdout; the node stops after it unless `--forever`.
+#[cfg(feature = "sim")]
+fn controller(args: &Args) -> Result<(Companion, bool)> {
+    let c = luxnode::sim::controller::SimController {
+        period: Duration::from_millis(args.step_ms),
+        cycles: args.cycles,
+        forever: args.forever,
+    };
+    let stops = !c.forever;
+    let task: Companion = Box::new(move |addr| {
+        Box::pin(async move {
+            let mut out = std::io::stdout();
+            if let Err(e) = c.run(addr, &mut out).await {
+                tracing::error!("simulated controller: {e}");
+            }
+        })
+    });
+    Ok((task, stops))
+}
+
+#[cfg(not(feature = "sim"))]
+fn controller(_args: &Args) -> Result<(Companion, bool)> {
+    bail!("the simulated controller is part of the `sim` feature; run with --no-controller")
 }

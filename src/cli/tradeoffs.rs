@@ -23,14 +23,11 @@ pub struct Args {
 }
 
 fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|s| s.split_whitespace().next().map(str::to_owned))
-        .unwrap_or_else(|| "?".into())
+    luxnode::host::load_average().unwrap_or_else(|| "?".into())
 }
 
 pub fn tradeoffs(a: &Args) -> Result<()> {
-    let (sc, scenarios, truth) = crate::scene_with_truth(&a.scene)?;
+    let (sc, scenarios, truth) = super::bench::scene_with_truth(&a.scene)?;
     let threads = rayon::current_num_threads();
     let started = std::time::Instant::now();
     let mut print = |m: &Measured| println!("{}", st::table_row(m));
@@ -114,7 +111,7 @@ pub fn tradeoffs(a: &Args) -> Result<()> {
                 )
             })
             .collect();
-        crate::tradeoff_plot(
+        super::bench::tradeoff_plot(
             &rows,
             &format!(
                 "{}: COMMISSIONING TIME VS ERROR (RAYS PER PATCH GRID)",
@@ -129,7 +126,7 @@ pub fn tradeoffs(a: &Args) -> Result<()> {
 }
 
 pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
-    let (sc, scenarios, truth) = crate::scene_with_truth(scene)?;
+    let (sc, scenarios, truth) = super::bench::scene_with_truth(scene)?;
     if let Some(d) = out_dir {
         std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
     }
@@ -137,7 +134,7 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
     let mut rows = Vec::new();
     for preset in Preset::ALL {
         let s = preset.engine();
-        let adaptive = engine::commission(&sc, &s)?;
+        let adaptive = engine::compute_model(&sc, &s)?;
         let acc = luxnode::bench::accuracy(&adaptive, &scenarios, &truth)?
             .context("no truth values match the scenarios")?;
         let n = adaptive.stats.patches;
@@ -146,7 +143,7 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
             patches: lp::uniform(size),
             ..s.clone()
         };
-        let uniform = engine::commission(&sc, &u_settings)?;
+        let uniform = engine::compute_model(&sc, &u_settings)?;
         let acc_u = luxnode::bench::accuracy(&uniform, &scenarios, &truth)?
             .context("no truth values match the scenarios")?;
         println!("## {preset}: {n} patches\n");

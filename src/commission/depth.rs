@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use super::CommissionError;
-use super::capture::Frame;
+use crate::camera::capture::Frame;
 use crate::scene::Camera;
 
 /// Depth cleaning knobs.

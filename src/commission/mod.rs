@@ -14,7 +14,6 @@
 //! spinner and its time. Bad input is an error ([`CommissionError`]) or a counted warning,
 //! never a panic. The capture's `groundtruth/` is never read.
 
-pub mod capture;
 pub mod closure;
 pub mod depth;
 pub mod grid;
@@ -23,17 +22,16 @@ pub mod output;
 pub mod planes;
 pub mod reflectance;
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
+pub use crate::camera::capture::Capture;
 use crate::engine::raycast::RayCaster;
 use crate::engine::{self, EngineError, Model, Settings};
 use crate::scene::{Desks, Luminaire, Material, Mesh, ObjReport, Scene, Sensor, Triangle};
 use crate::store::sensor_flags;
 use crate::units::Reflectance;
-pub use capture::Capture;
 pub use closure::{ClosureOptions, RoomBox};
 pub use depth::{DepthMap, DepthOptions};
 pub use mesh::{MeshOptions, Part, RecoMesh};
@@ -44,13 +42,8 @@ pub use reflectance::{Estimate, ReflectanceMethod, ReflectanceOptions};
 #[derive(Debug, thiserror::Error)]
 pub enum CommissionError {
     /// A capture file is missing or unusable.
-    #[error("{}: {message}", path.display())]
-    Capture {
-        /// The file or directory.
-        path: PathBuf,
-        /// What is wrong.
-        message: String,
-    },
+    #[error(transparent)]
+    Capture(#[from] crate::camera::capture::CaptureError),
     /// The input as a whole is unusable.
     #[error("{0}")]
     Input(String),
@@ -118,6 +111,82 @@ impl Default for CommissionOptions {
             engine: Settings::default(),
             progress: false,
         }
+    }
+}
+
+impl CommissionOptions {
+    /// Checks every knob a person or a board file can set, before any work: reflectances in
+    /// [0, 1), sizes within sane bounds, a luxmeter reading that is a positive number. The
+    /// error names the option.
+    pub fn validate(&self) -> Result<(), CommissionError> {
+        let bad = |what: &str, why: String| Err(CommissionError::Input(format!("{what}: {why}")));
+        for (name, v) in [
+            ("wall reflectance", self.closure.wall_rho),
+            ("ceiling reflectance", self.closure.ceiling_rho),
+            ("start reflectance", self.start_rho),
+        ] {
+            if !(0.0..1.0).contains(&v) {
+                return bad(name, format!("{v} must be a reflectance in [0, 1)"));
+            }
+        }
+        let m = &self.mesh;
+        if !(m.patch_size_m.is_finite() && (0.05..=100.0).contains(&m.patch_size_m)) {
+            return bad(
+                "mesh patch size",
+                format!("{} m must be within 0.05..=100 m", m.patch_size_m),
+            );
+        }
+        if !(m.cell_m.is_finite() && m.cell_m >= 0.005 && m.cell_m <= m.patch_size_m) {
+            return bad(
+                "mesh cell",
+                format!(
+                    "{} m must be within 0.005 m and the patch size ({} m)",
+                    m.cell_m, m.patch_size_m
+                ),
+            );
+        }
+        if !(1..=64).contains(&self.grid_stride_px) {
+            return bad(
+                "grid stride",
+                format!("{} px must be within 1..=64", self.grid_stride_px),
+            );
+        }
+        if let Some([x0, y0, x1, y1]) = self.closure.room_xy_m {
+            let finite = [x0, y0, x1, y1]
+                .iter()
+                .all(|v| v.is_finite() && v.abs() < 1e4);
+            if !(finite && x1 > x0 && y1 > y0 && x1 - x0 <= 1000.0 && y1 - y0 <= 1000.0) {
+                return bad(
+                    "room box",
+                    format!(
+                        "{x0},{y0},{x1},{y1} m must be x0 < x1, y0 < y1, at most 1000 m a side"
+                    ),
+                );
+            }
+        }
+        if let Some(z) = self.closure.ceiling_z_m
+            && !(z.is_finite() && z.abs() < 1e3)
+        {
+            return bad("ceiling height", format!("{z} m is not a height"));
+        }
+        if let Gain::Luxmeter { lux_lx, levels, .. } = &self.gain {
+            if !(lux_lx.is_finite() && *lux_lx > 0.0 && *lux_lx < 1e6) {
+                return bad(
+                    "luxmeter reading",
+                    format!("{lux_lx} lx must be within (0, 1e6)"),
+                );
+            }
+            if let Some(x) = levels
+                .iter()
+                .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
+            {
+                return bad(
+                    "luxmeter dimming state",
+                    format!("level {x} is outside [0, 1]"),
+                );
+            }
+        }
+        Ok(())
     }
 }
 
@@ -257,7 +326,7 @@ fn run_engine(
     settings: &Settings,
     warnings: &mut Vec<String>,
 ) -> Result<Model, CommissionError> {
-    match engine::commission(scene, settings) {
+    match engine::compute_model(scene, settings) {
         Err(EngineError::Solve { what, source }) if settings.rectify => {
             warnings.push(format!(
                 "radiosity solve for {what} failed ({source}) with rectified form factors; \
@@ -267,7 +336,7 @@ fn run_engine(
                 rectify: false,
                 ..settings.clone()
             };
-            Ok(engine::commission(scene, &s)?)
+            Ok(engine::compute_model(scene, &s)?)
         }
         other => Ok(other?),
     }
@@ -282,13 +351,14 @@ fn pass_settings(final_settings: &Settings) -> Settings {
 }
 
 /// Commissions from a capture set.
-pub fn commission(
+pub fn from_capture(
     capture: &Capture,
     luminaires: Vec<Luminaire>,
     sensors: Vec<Sensor>,
     desks: Option<Desks>,
     o: &CommissionOptions,
 ) -> Result<Commissioned, CommissionError> {
+    o.validate()?;
     let mut report = Report {
         warnings: capture.warnings.clone(),
         ..Report::default()

@@ -20,8 +20,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::capture::{Capture, SATURATED};
 use super::mesh::{Part, RecoMesh};
+use crate::camera::capture::{Capture, SATURATED};
 use crate::engine::direct::{self, Receiver};
 use crate::engine::raycast::{Hit, RayCaster};
 use crate::engine::{Model, Settings};

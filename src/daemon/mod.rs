@@ -11,31 +11,103 @@
 //!
 //! First boot commissions through a [`CommissionSource`] (the board decides which: cameras, a
 //! recorded capture, or a CAD scene) and writes the image; later boots load it. Nothing here
-//! knows a board: [`DaemonConfig`] is built from the board file by the binary.
+//! knows a board or a simulator: [`DaemonConfig`] is built from the board file by the binary,
+//! the flash device is opened by the caller (who may wrap it in a fault injector), and a
+//! [`Companion`] task (the sim board's simulated controller) is only a closure to the daemon.
+//!
+//! Everything the daemon has to say goes out as `tracing` events (journald-friendly when
+//! stderr is not a terminal); it never prints.
 
-pub mod controller;
 pub mod source;
 pub mod systemd;
 
-use std::path::PathBuf;
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, bail};
-
-use crate::modbus::node::{Node, NodeModel, NodeOptions, SharedNode, lock};
+use crate::engine::EngineError;
+use crate::image_build::{BuildError, ImageOptions};
+use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::modbus::regmap::Identity;
-use crate::serve::{ServeOptions, serve_node, wait_for_stop};
-use crate::store::devices::{DeviceError, Faults, FaultyFlash, FileFlash};
-use crate::store::slots::{BootStatus, FlashDevice, Slots, WriteError};
-use crate::store::{Image, build::ImageOptions};
+use crate::serve::{ServeError, ServeOptions, serve_node, wait_for_stop};
+use crate::store::devices::{DeviceError, FileFlash};
+use crate::store::file::{FileError, read_newest};
+use crate::store::slots::{BootStatus, FlashDevice, SlotState, Slots, WriteError};
+use crate::store::{Image, ImageError};
+
+/// Why commissioning produced no image.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// The engine failed on the scene.
+    #[error("engine: {0}")]
+    Engine(#[from] EngineError),
+    /// The image could not be built (or does not fit the flash region).
+    #[error("image: {0}")]
+    Build(#[from] BuildError),
+    /// The capture failed (a camera, or switching the lights).
+    #[error("capture: {0}")]
+    Capture(#[from] crate::camera::CameraError),
+    /// Commissioning from the capture failed.
+    #[error("commissioning: {0}")]
+    Commission(#[from] crate::commission::CommissionError),
+    /// This source cannot commission, and says why.
+    #[error("{0}")]
+    Unavailable(String),
+}
+
+/// Why the node stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    /// The flash device failed.
+    #[error("flash {}: {source}", path.display())]
+    Flash {
+        /// The device.
+        path: PathBuf,
+        /// Why.
+        source: DeviceError,
+    },
+    /// Reading the booted image back failed.
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// Commissioning failed.
+    #[error("commissioning from {from}: {source}")]
+    Commission {
+        /// The source.
+        from: String,
+        /// Why.
+        source: SourceError,
+    },
+    /// Writing the new image failed (the previous image, if any, is untouched).
+    #[error("writing the image to {}: {reason}", path.display())]
+    Write {
+        /// The device.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The image just written does not boot.
+    #[error("the image just written does not boot: {0}")]
+    NotBootable(String),
+    /// The booted image does not parse.
+    #[error("the booted image: {0}")]
+    Image(#[from] ImageError),
+    /// The register map refused the image.
+    #[error("the booted image: {0}")]
+    Node(#[from] NodeError),
+    /// Serving failed.
+    #[error(transparent)]
+    Serve(#[from] ServeError),
+}
 
 /// Where the first boot's model comes from.
 pub trait CommissionSource {
     /// What it is, for the log ("simulated cameras over the demo office", ...).
     fn describe(&self) -> String;
     /// Commissions the room; returns the flash image.
-    fn commission(&mut self) -> anyhow::Result<Vec<u8>>;
+    fn commission(&mut self) -> Result<Vec<u8>, SourceError>;
 }
 
 /// Commissioning from a CAD scene (no cameras): the engine on the scene as given.
@@ -59,13 +131,17 @@ impl CommissionSource for CadSource {
         )
     }
 
-    fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
-        let model = crate::engine::commission(&self.scene, &self.settings)?;
+    fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        let model = crate::engine::compute_model(&self.scene, &self.settings)?;
         let mut options = self.image.clone();
         if options.scene_name.is_empty() {
             options.scene_name = self.scene.name.clone();
         }
-        Ok(crate::store::build::build_image(&model, &options)?)
+        Ok(crate::image_build::build_for_region(
+            &model,
+            &options,
+            crate::image_build::formfactors_region_bytes(),
+        )?)
     }
 }
 
@@ -78,33 +154,25 @@ impl CommissionSource for Unavailable {
         "no commissioning source".into()
     }
 
-    fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
-        bail!("{}", self.0)
+    fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        Err(SourceError::Unavailable(self.0.clone()))
     }
 }
 
-/// The flash the image lives in.
-#[derive(Debug, Clone)]
-pub struct FlashConfig {
-    /// A file or an MTD block device.
-    pub path: PathBuf,
-    /// Device size, bytes (two slots).
-    pub capacity: usize,
-    /// Test only (HIL): power fails after this many bytes of the image write.
-    pub power_cut_after_bytes: Option<usize>,
-}
+/// A task that runs beside the servers once they listen (the sim board's simulated controller),
+/// given the bound Modbus TCP address.
+pub type Companion = Box<dyn FnOnce(SocketAddr) -> Pin<Box<dyn Future<Output = ()> + Send>> + Send>;
 
 /// Everything the daemon needs, resolved from the board file.
 pub struct DaemonConfig {
     /// Board name (device identification's model name).
     pub board: String,
-    /// Flash.
-    pub flash: FlashConfig,
+    /// The flash device's path, for the log and errors.
+    pub flash_path: PathBuf,
     /// Modbus and gateway.
     pub serve: ServeOptions,
-    /// The simulated controller (sim board): steps through dimming states and prints the live
-    /// table; the daemon stops when it has finished, unless it runs forever.
-    pub controller: Option<controller::SimController>,
+    /// A companion task, and whether the daemon stops when it ends.
+    pub companion: Option<(Companion, bool)>,
     /// Re-commission even if a valid image exists.
     pub recommission: bool,
 }
@@ -112,144 +180,132 @@ pub struct DaemonConfig {
 /// How the daemon ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Exit {
-    /// Signal or the controller's sequence finished.
+    /// Signal, `run_for`, or the companion finished.
     Stopped,
     /// The (simulated) power failed during the image write.
     PowerCut,
 }
 
-fn slots_status_line(status: &BootStatus) -> String {
-    status.to_string()
-}
-
-fn open_flash(flash: &FlashConfig) -> anyhow::Result<FileFlash> {
-    if let Some(dir) = flash.path.parent()
+/// Opens (creating it if needed) a flash file of `capacity` bytes.
+pub fn open_flash_file(path: &Path, capacity: usize) -> Result<FileFlash, DaemonError> {
+    let flash = |source| DaemonError::Flash {
+        path: path.to_owned(),
+        source,
+    };
+    if let Some(dir) = path.parent()
         && !dir.as_os_str().is_empty()
     {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| {
+            flash(DeviceError::Io {
+                path: dir.to_owned(),
+                source,
+            })
+        })?;
     }
-    FileFlash::open(&flash.path, flash.capacity)
-        .map_err(|e| anyhow::anyhow!("flash {}: {e}", flash.path.display()))
+    FileFlash::open(path, capacity).map_err(flash)
 }
 
-/// Reads the newest valid image of a flash device.
-fn read_newest<F: FlashDevice>(slots: &mut Slots<F>) -> anyhow::Result<Option<(Vec<u8>, u64)>>
-where
-    F::Error: std::fmt::Debug,
-{
-    let status = slots.boot();
-    let (Some(slot), Some(generation)) = (status.chosen, status.generation()) else {
-        return Ok(None);
-    };
-    let mut buf = vec![0u8; slots.slot_len()];
-    let n = slots
-        .read_image(slot, &mut buf)
-        .map_err(|e| anyhow::anyhow!("reading slot {slot}: {e}"))?;
-    buf.truncate(n);
-    Ok(Some((buf, generation)))
+/// What [`boot`] found or made.
+#[derive(Debug)]
+pub enum Booted {
+    /// An image to serve: (bytes, generation, slot status).
+    Image(Vec<u8>, u64, BootStatus),
+    /// The simulated power failed during the image write.
+    PowerCut,
 }
 
-/// The newest valid image of a flash file (A/B slots), without changing it.
-pub fn read_flash_image(path: &std::path::Path) -> anyhow::Result<Option<(Vec<u8>, u64)>> {
-    let len = std::fs::metadata(path)
-        .with_context(|| format!("{}", path.display()))?
-        .len();
-    let len = usize::try_from(len)?;
-    let dev = FileFlash::open(path, len).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    read_newest(&mut Slots::new(dev))
-}
-
-/// An image file, or a flash file with A/B slots (its newest valid image). Anything else is
-/// returned as read, for the caller's parse to report what is wrong with it.
-pub fn read_image_file(path: &std::path::Path) -> anyhow::Result<Vec<u8>> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    // an image file is exactly header + payload; a flash device is longer (two slots)
-    let exact = crate::store::Header::parse(&bytes)
-        .is_ok_and(|h| bytes.len() == crate::store::HEADER_LEN + h.payload_len as usize);
-    if exact {
-        return Ok(bytes);
-    }
-    if let Ok(Some((image, generation))) = read_flash_image(path) {
-        eprintln!(
-            "{}: flash with A/B slots; using its newest valid image (generation {generation})",
-            path.display()
-        );
-        return Ok(image);
-    }
-    Ok(bytes)
-}
-
-/// Boots: the newest valid image, or commissions and writes one. `Ok(None)`: the simulated
-/// power cut hit the write.
-pub fn boot(
-    flash: &FlashConfig,
+/// Boots from `flash`: its newest valid image, or commissions and writes one.
+pub fn boot<F>(
+    flash: F,
+    flash_path: &Path,
     source: &mut dyn CommissionSource,
     recommission: bool,
-) -> anyhow::Result<Option<(Vec<u8>, u64, BootStatus)>> {
-    let mut slots = Slots::new(open_flash(flash)?);
+) -> Result<Booted, DaemonError>
+where
+    F: FlashDevice<Error = DeviceError>,
+{
+    let mut slots = Slots::new(flash);
     let status = slots.boot();
-    tracing::info!(
-        "flash {}: {}",
-        flash.path.display(),
-        slots_status_line(&status)
-    );
-    println!("boot: {status}");
+    tracing::info!(flash = %flash_path.display(), "boot: {status}");
     if !recommission && let Some((bytes, generation)) = read_newest(&mut slots)? {
-        println!(
+        tracing::info!(
+            generation,
+            bytes = bytes.len(),
             "boot: loaded image generation {generation} ({} bytes)",
             bytes.len()
         );
-        return Ok(Some((bytes, generation, status)));
+        return Ok(Booted::Image(bytes, generation, status));
     }
-    println!(
-        "boot: {}; commissioning from {}",
+    let from = source.describe();
+    tracing::info!(
+        "boot: {}; commissioning from {from}",
         if recommission {
             "re-commissioning requested"
         } else {
             "no valid image"
-        },
-        source.describe()
+        }
     );
     let t0 = Instant::now();
-    let image = source.commission().context("commissioning")?;
-    println!(
+    let image = source
+        .commission()
+        .map_err(|source| DaemonError::Commission { from, source })?;
+    tracing::info!(
+        bytes = image.len(),
         "commissioned in {:.1} s: image of {} bytes",
         t0.elapsed().as_secs_f64(),
         image.len()
     );
-    let dev = slots.into_inner();
-    let faults = Faults {
-        cut_after_bytes: flash.power_cut_after_bytes,
-        ..Faults::default()
-    };
-    let mut slots = Slots::new(FaultyFlash::new(dev, faults));
     match slots.write_image(&image) {
-        Ok(report) => println!(
+        Ok(report) => tracing::info!(
             "flash: image written to slot {} as generation {}, verified",
-            report.slot, report.generation
+            report.slot,
+            report.generation
         ),
-        Err(WriteError::Device(DeviceError::PowerCut)) if slots.device().power_cut() => {
-            println!("flash: POWER CUT during the image write (simulated); the node stops here");
-            return Ok(None);
+        Err(WriteError::Device(DeviceError::PowerCut)) => {
+            tracing::error!(
+                "flash: POWER CUT during the image write (simulated); the node stops here"
+            );
+            return Ok(Booted::PowerCut);
         }
-        Err(e) => bail!("writing the image to {}: {e}", flash.path.display()),
+        Err(e) => {
+            return Err(DaemonError::Write {
+                path: flash_path.to_owned(),
+                reason: e.to_string(),
+            });
+        }
     }
-    let mut slots = Slots::new(slots.into_inner().into_inner());
     let status = slots.boot();
-    println!("boot: {status}");
+    tracing::info!("boot: {status}");
     match read_newest(&mut slots)? {
-        Some((bytes, generation)) => Ok(Some((bytes, generation, status))),
-        None => bail!("the image just written does not boot: {status}"),
+        Some((bytes, generation)) => Ok(Booted::Image(bytes, generation, status)),
+        None => Err(DaemonError::NotBootable(status.to_string())),
     }
 }
 
-/// Runs the node until a signal (or the simulated controller's end).
-pub fn run(config: DaemonConfig, source: &mut dyn CommissionSource) -> anyhow::Result<Exit> {
-    let Some((bytes, generation, status)) = boot(&config.flash, source, config.recommission)?
-    else {
-        return Ok(Exit::PowerCut);
-    };
-    let image = Image::parse(&bytes).context("the booted image")?;
+/// A slot that holds something other than an image or erased flash.
+fn damaged(s: SlotState) -> bool {
+    match s {
+        SlotState::Invalid(e) => e != ImageError::Erased,
+        SlotState::Unreadable => true,
+        SlotState::Valid { .. } => false,
+    }
+}
+
+/// Runs the node until a signal, `run_for`, or the end of a stopping companion.
+pub fn run<F>(
+    config: DaemonConfig,
+    flash: F,
+    source: &mut dyn CommissionSource,
+) -> Result<Exit, DaemonError>
+where
+    F: FlashDevice<Error = DeviceError>,
+{
+    let (bytes, generation, status) =
+        match boot(flash, &config.flash_path, source, config.recommission)? {
+            Booted::Image(b, g, s) => (b, g, s),
+            Booted::PowerCut => return Ok(Exit::PowerCut),
+        };
+    let image = Image::parse(&bytes)?;
     let model = NodeModel::from_image(&image, generation);
     let mut identity = Identity::default();
     for c in config.board.chars() {
@@ -268,35 +324,28 @@ pub fn run(config: DaemonConfig, source: &mut dyn CommissionSource) -> anyhow::R
     )?;
     // store health: the other slot is erased (never written) or valid; a corrupt one is
     // reported (the next commissioning overwrites it)
-    let damaged = |s: crate::store::slots::SlotState| match s {
-        crate::store::slots::SlotState::Invalid(e) => e != crate::store::ImageError::Erased,
-        crate::store::slots::SlotState::Unreadable => true,
-        crate::store::slots::SlotState::Valid { .. } => false,
-    };
     let other_bad = damaged(status.a) || damaged(status.b);
     if other_bad {
-        println!("store: one slot holds a damaged image; running from the other");
+        tracing::warn!("store: one slot holds a damaged image; running from the other");
     }
     node.set_store_ok(!other_bad);
     let node: SharedNode = Arc::new(Mutex::new(node));
     let rt = crate::serve::runtime()?;
-    let serve = config.serve.clone();
-    let controller = config.controller.clone();
+    let serve = config.serve;
+    let companion = config.companion;
     rt.block_on(async move {
-        let listener = crate::modbus::tcp::bind(serve.bind).await?;
-        let addr = listener.local_addr()?;
+        let listener = crate::modbus::tcp::bind(serve.bind)
+            .await
+            .map_err(ServeError::from)?;
+        let addr = listener.local_addr().map_err(ServeError::Io)?;
         let (done_tx, done_rx) = tokio::sync::oneshot::channel::<()>();
-        let controller_task = controller.map(|c| {
-            let node = node.clone();
+        let stops_with_companion = companion.as_ref().is_some_and(|c| c.1);
+        let companion_task = companion.map(|(task, stops)| {
             tokio::spawn(async move {
-                let r = c.run(addr, node).await;
-                if let Err(e) = &r {
-                    tracing::error!("simulated controller: {e:#}");
-                }
-                if !c.forever {
+                task(addr).await;
+                if stops {
                     let _ = done_tx.send(());
                 }
-                r
             })
         });
         let watchdog = tokio::spawn(systemd::watchdog_loop());
@@ -304,12 +353,15 @@ pub fn run(config: DaemonConfig, source: &mut dyn CommissionSource) -> anyhow::R
         let stop = async move {
             tokio::select! {
                 _ = wait_for_stop(serve.run_for) => {}
-                _ = async { let _ = done_rx.await; }, if controller_task.is_some() => {}
+                _ = async { let _ = done_rx.await; }, if stops_with_companion => {}
             }
             systemd::notify("STOPPING=1");
         };
         let r = serve_node(node.clone(), listener, serve, stop).await;
         watchdog.abort();
+        if let Some(t) = companion_task {
+            t.abort();
+        }
         let n = lock(&node);
         tracing::info!("stopped; {} publications", n.map().heartbeat);
         r

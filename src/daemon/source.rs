@@ -8,15 +8,22 @@
 
 use std::time::Instant;
 
-use anyhow::Context as _;
-
-use super::CommissionSource;
+use super::{CommissionSource, SourceError};
 use crate::camera::{
-    DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
+    CameraError, DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
 };
 use crate::commission::{self, CommissionOptions};
+use crate::image_build::{ImageOptions, build_for_region, formfactors_region_bytes};
+use crate::modbus::gateway::GatewayWriter;
 use crate::scene::{Desks, Luminaire, Sensor};
-use crate::store::build::{ImageOptions, build_image};
+
+/// The DALI gateway switches the luminaires for the capture.
+impl LightControl for GatewayWriter {
+    fn set_levels(&mut self, levels: &[f64]) -> Result<(), CameraError> {
+        self.write_levels(levels)
+            .map_err(|e| CameraError::Lights(e.to_string()))
+    }
+}
 
 /// Cameras, the lights they need switched, and what is known of the room.
 pub struct CameraSource {
@@ -40,7 +47,8 @@ pub struct CameraSource {
     pub commission: CommissionOptions,
     /// Image.
     pub image: ImageOptions,
-    /// Where to write the commissioning report picture (camera view, false-colour lux, desks).
+    /// Where to write the commissioning report picture (camera view, false-colour lux, desks);
+    /// only with the `report` feature.
     pub report_png: Option<std::path::PathBuf>,
 }
 
@@ -54,7 +62,7 @@ impl CommissionSource for CameraSource {
         )
     }
 
-    fn commission(&mut self) -> anyhow::Result<Vec<u8>> {
+    fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
         let ids: Vec<u32> = self.luminaires.iter().map(|l| l.id).collect();
         let t0 = Instant::now();
         let mut last = String::new();
@@ -62,7 +70,7 @@ impl CommissionSource for CameraSource {
             // one line per kind of step, not per frame
             let kind = what.split_whitespace().next().unwrap_or("").to_string();
             if kind != last {
-                println!("capture: {what} ({step}/{total})");
+                tracing::info!("capture: {what} ({step}/{total})");
                 last = kind;
             }
         };
@@ -73,9 +81,8 @@ impl CommissionSource for CameraSource {
             &ids,
             &self.sequence,
             &mut progress,
-        )
-        .context("capture")?;
-        println!(
+        )?;
+        tracing::info!(
             "capture: {} depth frames, {} luminance frames in {:.2} s; {} retries{}",
             seq.capture.depth_mm.len(),
             seq.capture.luminance.len(),
@@ -87,21 +94,20 @@ impl CommissionSource for CameraSource {
             ))
         );
         for w in &seq.capture.warnings {
-            println!("capture warning: {w}");
+            tracing::warn!("capture: {w}");
         }
-        let c = commission::commission(
+        let c = commission::from_capture(
             &seq.capture,
             self.luminaires.clone(),
             self.sensors.clone(),
             self.desks.clone(),
             &self.commission,
-        )
-        .context("commissioning")?;
+        )?;
         let r = &c.report;
         for (name, dt) in &r.timings {
-            println!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
+            tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
         }
-        println!(
+        tracing::info!(
             "commission: {} planes, {} triangles (seen {:.1} m², inferred {:.1} m²), {} patches, {} warnings",
             r.planes.len(),
             r.triangles,
@@ -110,16 +116,21 @@ impl CommissionSource for CameraSource {
             r.patches,
             r.warnings.len()
         );
+        #[cfg(feature = "report")]
         if let Some(path) = &self.report_png {
-            match commission::output::report_png(&c, path) {
-                Ok(()) => println!("commission: report picture {}", path.display()),
+            match crate::render::camera_view::report_png(&c, path) {
+                Ok(()) => tracing::info!("commission: report picture {}", path.display()),
                 // a picture for people: its failure never stops the node
-                Err(e) => println!("commission: report picture {}: {e}", path.display()),
+                Err(e) => tracing::warn!("commission: report picture {}: {e}", path.display()),
             }
         }
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
-        Ok(build_image(&c.model, &options)?)
+        Ok(build_for_region(
+            &c.model,
+            &options,
+            formfactors_region_bytes(),
+        )?)
     }
 }

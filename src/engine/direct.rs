@@ -17,8 +17,8 @@
 use glam::DVec3;
 
 use super::raycast::RayCaster;
+use crate::lsc::AngularResponse;
 use crate::scene::Luminaire;
-use crate::sensor::AngularResponse;
 
 /// `m` points spread evenly over a luminaire's opening (R2 sequence, centred; area-uniform on
 /// a disc for a circular opening); one point for a point source.

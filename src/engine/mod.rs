@@ -36,9 +36,9 @@ pub use formfactor::{Csr, FormFactors, RectifyReport};
 pub use patches::{PatchSettings, Patches};
 pub use rayset::{RaySet, RaySetKind, isocell_count};
 
+use crate::lsc::AngularResponse;
 use crate::photometry::IntensityDistribution;
 use crate::scene::{Luminaire, Scene};
-use crate::sensor::AngularResponse;
 use crate::solver::{self, CsrSystem, SolveOptions, SolveReport};
 use direct::Receiver;
 use raycast::{Hit, RayCaster};
@@ -268,7 +268,7 @@ fn check_settings(s: &Settings) -> Result<(), EngineError> {
 
 /// Commissions a scene: patches, form factors, direct light, sensor rows, one solve per
 /// luminaire.
-pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineError> {
+pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, EngineError> {
     check_settings(settings)?;
     if scene.mesh.triangles.is_empty() {
         return Err(EngineError::Empty("the scene has no geometry".into()));

@@ -9,8 +9,8 @@ use super::direct::{self, Receiver};
 use super::raycast::{Hit, RayCaster};
 use super::rayset::RaySet;
 use super::{GatherWeighting, Model, gather_row};
+use crate::lsc::AngularResponse;
 use crate::scene::Scene;
-use crate::sensor::AngularResponse;
 
 /// Per-luminaire readings at a set of points (ideal cosine receivers).
 #[derive(Debug, Clone)]

@@ -35,9 +35,45 @@ use tokio::sync::watch;
 use tokio_modbus::client::{Context, Reader, Writer};
 use tokio_modbus::prelude::Slave;
 
+use super::node::NodeError;
 use super::node::{SharedNode, lock};
 use super::pdu::{MAX_READ, MAX_WRITE};
 use super::regmap::U16_LUX_MAX;
+
+/// Why the gateway link, its configuration or a write to the gateway failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GatewayError {
+    /// The configuration is unusable.
+    #[error("gateway config: {0}")]
+    Config(String),
+    /// No answer in time.
+    #[error("gateway: timeout {0}")]
+    Timeout(String),
+    /// The gateway answered with a Modbus exception.
+    #[error("gateway exception {code:?} {what}")]
+    Exception {
+        /// The exception.
+        code: tokio_modbus::ExceptionCode,
+        /// What was asked.
+        what: String,
+    },
+    /// The gateway answered, but not what was asked.
+    #[error("gateway: {0}")]
+    Answer(String),
+    /// The connection failed.
+    #[error("gateway: {0}")]
+    Link(#[from] tokio_modbus::Error),
+    /// The client's own runtime or socket failed.
+    #[error("gateway: {0}")]
+    Io(#[from] std::io::Error),
+    /// The node refused the levels.
+    #[error("gateway levels: {0}")]
+    Node(#[from] NodeError),
+}
+
+fn exception(what: String) -> impl FnOnce(tokio_modbus::ExceptionCode) -> GatewayError {
+    move |code| GatewayError::Exception { code, what }
+}
 
 /// Where the levels are read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
@@ -140,68 +176,70 @@ pub struct GatewayConfig {
 
 impl GatewayConfig {
     /// Parses and checks a TOML description.
-    pub fn from_toml(text: &str) -> anyhow::Result<Self> {
+    pub fn from_toml(text: &str) -> Result<Self, GatewayError> {
         let c: GatewayConfig =
-            toml::from_str(text).map_err(|e| anyhow::anyhow!("gateway config: {e}"))?;
+            toml::from_str(text).map_err(|e| GatewayError::Config(e.to_string()))?;
         c.validate()?;
         Ok(c)
     }
 
     /// Checks ranges.
-    pub fn validate(&self) -> anyhow::Result<()> {
+    pub fn validate(&self) -> Result<(), GatewayError> {
+        let ensure = |ok: bool, what: String| {
+            if ok {
+                Ok(())
+            } else {
+                Err(GatewayError::Config(what))
+            }
+        };
         self.socket_addr()?;
-        anyhow::ensure!(
-            self.levels.stride >= 1,
-            "gateway config: levels.stride must be >= 1"
-        );
-        anyhow::ensure!(
+        ensure(self.levels.stride >= 1, "levels.stride must be >= 1".into())?;
+        ensure(
             (10..=3_600_000).contains(&self.poll_interval_ms),
-            "gateway config: poll_interval_ms {} outside 10..=3600000",
-            self.poll_interval_ms
-        );
-        anyhow::ensure!(
+            format!(
+                "poll_interval_ms {} outside 10..=3600000",
+                self.poll_interval_ms
+            ),
+        )?;
+        ensure(
             (10..=60_000).contains(&self.timeout_ms),
-            "gateway config: timeout_ms {} outside 10..=60000",
-            self.timeout_ms
-        );
-        anyhow::ensure!(
-            self.retries <= 10,
-            "gateway config: retries {} > 10",
-            self.retries
-        );
+            format!("timeout_ms {} outside 10..=60000", self.timeout_ms),
+        )?;
+        ensure(self.retries <= 10, format!("retries {} > 10", self.retries))?;
         if let Some(l) = &self.lux {
-            anyhow::ensure!(l.stride >= 1, "gateway config: lux.stride must be >= 1");
-            anyhow::ensure!(
+            ensure(l.stride >= 1, "lux.stride must be >= 1".into())?;
+            ensure(
                 l.scale.is_finite() && l.scale > 0.0,
-                "gateway config: lux.scale must be > 0"
-            );
+                "lux.scale must be > 0".into(),
+            )?;
         }
         Ok(())
     }
 
     /// The gateway's socket address.
-    pub fn socket_addr(&self) -> anyhow::Result<SocketAddr> {
+    pub fn socket_addr(&self) -> Result<SocketAddr, GatewayError> {
         use std::net::ToSocketAddrs;
         self.address
             .to_socket_addrs()
-            .map_err(|e| anyhow::anyhow!("gateway address {:?}: {e}", self.address))?
+            .map_err(|e| GatewayError::Config(format!("address {:?}: {e}", self.address)))?
             .next()
             .ok_or_else(|| {
-                anyhow::anyhow!("gateway address {:?} resolves to nothing", self.address)
+                GatewayError::Config(format!("address {:?} resolves to nothing", self.address))
             })
     }
 
     /// Register addresses of `count` luminaires' levels; an error if they pass 65535.
-    pub fn level_addresses(&self, count: usize) -> anyhow::Result<Vec<u16>> {
+    pub fn level_addresses(&self, count: usize) -> Result<Vec<u16>, GatewayError> {
         addresses(self.levels.base, self.levels.stride, count, "levels")
     }
 }
 
-fn addresses(base: u16, stride: u16, count: usize, what: &str) -> anyhow::Result<Vec<u16>> {
+fn addresses(base: u16, stride: u16, count: usize, what: &str) -> Result<Vec<u16>, GatewayError> {
     (0..count)
         .map(|j| {
-            u16::try_from(usize::from(base) + usize::from(stride) * j)
-                .map_err(|_| anyhow::anyhow!("gateway {what}: register of item {j} is past 65535"))
+            u16::try_from(usize::from(base) + usize::from(stride) * j).map_err(|_| {
+                GatewayError::Config(format!("{what}: register of item {j} is past 65535"))
+            })
         })
         .collect()
 }
@@ -250,7 +288,7 @@ async fn read_registers(
     kind: RegisterKind,
     addrs: &[u16],
     timeout: Duration,
-) -> anyhow::Result<Vec<u16>> {
+) -> Result<Vec<u16>, GatewayError> {
     let mut out = Vec::with_capacity(addrs.len());
     let (Some(&first), Some(&last)) = (addrs.first(), addrs.last()) else {
         return Ok(out);
@@ -268,13 +306,14 @@ async fn read_registers(
         };
         let words = tokio::time::timeout(timeout, fut)
             .await
-            .map_err(|_| anyhow::anyhow!("timeout reading registers {a}..{}", a + n))??
-            .map_err(|e| anyhow::anyhow!("gateway exception {e:?} reading {a}..{}", a + n))?;
-        anyhow::ensure!(
-            words.len() == usize::from(n),
-            "gateway answered {} registers for {n}",
-            words.len()
-        );
+            .map_err(|_| GatewayError::Timeout(format!("reading registers {a}..{}", a + n)))??
+            .map_err(exception(format!("reading {a}..{}", a + n)))?;
+        if words.len() != usize::from(n) {
+            return Err(GatewayError::Answer(format!(
+                "{} registers for {n}",
+                words.len()
+            )));
+        }
         span.extend(words);
         match a.checked_add(n) {
             Some(next) if next <= last => a = next,
@@ -292,7 +331,7 @@ async fn write_lux(
     layout: &LuxLayout,
     lux: &[f64],
     timeout: Duration,
-) -> anyhow::Result<()> {
+) -> Result<(), GatewayError> {
     let values: Vec<u16> = lux
         .iter()
         .map(|&x| {
@@ -310,16 +349,16 @@ async fn write_lux(
             let fut = ctx.write_multiple_registers(a[0], chunk);
             tokio::time::timeout(timeout, fut)
                 .await
-                .map_err(|_| anyhow::anyhow!("timeout writing lux"))??
-                .map_err(|e| anyhow::anyhow!("gateway exception {e:?} writing lux"))?;
+                .map_err(|_| GatewayError::Timeout("writing lux".into()))??
+                .map_err(exception("writing lux".into()))?;
         }
     } else {
         for (&v, &a) in values.iter().zip(&addrs) {
             let fut = ctx.write_single_register(a, v);
             tokio::time::timeout(timeout, fut)
                 .await
-                .map_err(|_| anyhow::anyhow!("timeout writing lux"))??
-                .map_err(|e| anyhow::anyhow!("gateway exception {e:?} writing lux"))?;
+                .map_err(|_| GatewayError::Timeout("writing lux".into()))??
+                .map_err(exception("writing lux".into()))?;
         }
     }
     Ok(())
@@ -332,7 +371,7 @@ async fn poll_once(
     addr: SocketAddr,
     node: &SharedNode,
     counters: &GatewayCounters,
-) -> anyhow::Result<()> {
+) -> Result<(), GatewayError> {
     let timeout = Duration::from_millis(config.timeout_ms);
     if ctx.is_none() {
         let c = tokio::time::timeout(
@@ -340,11 +379,11 @@ async fn poll_once(
             tokio_modbus::client::tcp::connect_slave(addr, Slave(config.unit_id)),
         )
         .await
-        .map_err(|_| anyhow::anyhow!("timeout connecting to {addr}"))??;
+        .map_err(|_| GatewayError::Timeout(format!("connecting to {addr}")))??;
         *ctx = Some(c);
     }
     let Some(c) = ctx.as_mut() else {
-        anyhow::bail!("no connection");
+        return Err(GatewayError::Answer("no connection".into()));
     };
     let (count, curve) = {
         let n = lock(node);
@@ -380,7 +419,7 @@ pub async fn run(
     node: SharedNode,
     counters: Arc<GatewayCounters>,
     mut shutdown: watch::Receiver<bool>,
-) -> anyhow::Result<()> {
+) -> Result<(), GatewayError> {
     config.validate()?;
     let addr = config.socket_addr()?;
     let mut ctx: Option<Context> = None;
@@ -425,18 +464,18 @@ pub async fn run(
     }
 }
 
-/// Switches the luminaires through the gateway for the commissioning capture (one on at a
-/// time): writes each luminaire's level register in the configured layout and encoding.
-/// Synchronous (the capture runs before the servers start), on its own small runtime.
-pub struct GatewayLights {
+/// Writes the luminaires' levels to the gateway, in the configured layout and encoding: the
+/// commissioning capture switches them one at a time through it. Synchronous (the capture runs
+/// before the servers start), on its own small runtime.
+pub struct GatewayWriter {
     rt: tokio::runtime::Runtime,
     ctx: Context,
     config: GatewayConfig,
 }
 
-impl GatewayLights {
+impl GatewayWriter {
     /// Connects to the gateway.
-    pub fn connect(config: &GatewayConfig) -> anyhow::Result<Self> {
+    pub fn connect(config: &GatewayConfig) -> Result<Self, GatewayError> {
         config.validate()?;
         let addr = config.socket_addr()?;
         let rt = tokio::runtime::Builder::new_current_thread()
@@ -452,7 +491,7 @@ impl GatewayLights {
                 )
                 .await
             })
-            .map_err(|_| anyhow::anyhow!("timeout connecting to the gateway {addr}"))??;
+            .map_err(|_| GatewayError::Timeout(format!("connecting to the gateway {addr}")))??;
         Ok(Self {
             rt,
             ctx,
@@ -473,31 +512,27 @@ impl GatewayLights {
     }
 }
 
-impl crate::camera::LightControl for GatewayLights {
-    fn set_levels(&mut self, levels: &[f64]) -> Result<(), crate::camera::CameraError> {
-        use crate::camera::CameraError;
+impl GatewayWriter {
+    /// Writes one level in [0, 1] per luminaire (luminaire order).
+    pub fn write_levels(&mut self, levels: &[f64]) -> Result<(), GatewayError> {
         if self.config.levels.function != RegisterKind::Holding {
-            return Err(CameraError::Lights(
+            return Err(GatewayError::Config(
                 "the gateway's levels are input registers: they cannot be written".into(),
             ));
         }
-        let addrs = self
-            .config
-            .level_addresses(levels.len())
-            .map_err(|e| CameraError::Lights(e.to_string()))?;
+        let addrs = self.config.level_addresses(levels.len())?;
         let timeout = Duration::from_millis(self.config.timeout_ms);
         for (&x, &a) in levels.iter().zip(&addrs) {
             let v = self
                 .encode(x)
-                .ok_or_else(|| CameraError::Lights(format!("level {x} outside [0, 1]")))?;
+                .ok_or_else(|| GatewayError::Config(format!("level {x} outside [0, 1]")))?;
             let ctx = &mut self.ctx;
             self.rt
                 .block_on(async {
                     tokio::time::timeout(timeout, ctx.write_single_register(a, v)).await
                 })
-                .map_err(|_| CameraError::Lights(format!("gateway timeout writing register {a}")))?
-                .map_err(|e| CameraError::Lights(format!("gateway: {e}")))?
-                .map_err(|e| CameraError::Lights(format!("gateway exception {e:?} at {a}")))?;
+                .map_err(|_| GatewayError::Timeout(format!("writing register {a}")))??
+                .map_err(exception(format!("writing register {a}")))?;
         }
         Ok(())
     }

@@ -49,20 +49,39 @@ pub enum Parity {
     None,
 }
 
+/// Why RTU settings were refused or the serial port did not open.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RtuError {
+    /// A unit id that is not a server's.
+    #[error("unit id {0} is outside 1..=247 (0 is broadcast, 248..=255 reserved)")]
+    UnitId(u8),
+    /// A baud rate no line runs at.
+    #[error("baud {0} is outside 1200..=1000000")]
+    Baud(u32),
+    /// Stop bits other than 1 or 2.
+    #[error("stop bits {0} is not 1 or 2")]
+    StopBits(u8),
+    /// The serial device did not open.
+    #[error("modbus rtu: cannot open {device}: {reason}")]
+    Open {
+        /// The device.
+        device: String,
+        /// The driver's reason.
+        reason: String,
+    },
+}
+
 impl RtuOptions {
     /// Checks the settings.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RtuError> {
         if !(1..=247).contains(&self.unit_id) {
-            return Err(format!(
-                "unit id {} is outside 1..=247 (0 is broadcast, 248..=255 reserved)",
-                self.unit_id
-            ));
+            return Err(RtuError::UnitId(self.unit_id));
         }
         if !(1200..=1_000_000).contains(&self.baud) {
-            return Err(format!("baud {} is outside 1200..=1000000", self.baud));
+            return Err(RtuError::Baud(self.baud));
         }
         if !(1..=2).contains(&self.stop_bits) {
-            return Err(format!("stop bits {} is not 1 or 2", self.stop_bits));
+            return Err(RtuError::StopBits(self.stop_bits));
         }
         Ok(())
     }
@@ -205,10 +224,8 @@ fn end_of_frame<P: Write, H: PduHandler + ?Sized>(
 pub fn open_port(
     device: &str,
     options: &RtuOptions,
-) -> anyhow::Result<Box<dyn serialport::SerialPort>> {
-    options
-        .validate()
-        .map_err(|e| anyhow::anyhow!("modbus rtu: {e}"))?;
+) -> Result<Box<dyn serialport::SerialPort>, RtuError> {
+    options.validate()?;
     let parity = match options.parity {
         Parity::Even => serialport::Parity::Even,
         Parity::Odd => serialport::Parity::Odd,
@@ -226,7 +243,10 @@ pub fn open_port(
         .flow_control(serialport::FlowControl::None)
         .timeout(options.t35())
         .open()
-        .map_err(|e| anyhow::anyhow!("modbus rtu: cannot open {device}: {e}"))
+        .map_err(|e| RtuError::Open {
+            device: device.to_owned(),
+            reason: e.to_string(),
+        })
 }
 
 /// Runs the RTU server on its own thread until `stop` is set.

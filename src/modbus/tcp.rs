@@ -212,9 +212,19 @@ async fn connection<H: PduHandler>(
     }
 }
 
+/// The listening socket did not open.
+#[derive(Debug, thiserror::Error)]
+#[error("modbus tcp: cannot bind {addr}: {source}")]
+pub struct BindError {
+    /// The address.
+    pub addr: SocketAddr,
+    /// The operating system's reason.
+    pub source: std::io::Error,
+}
+
 /// Binds `addr` (with a clear error naming it).
-pub async fn bind(addr: SocketAddr) -> anyhow::Result<TcpListener> {
+pub async fn bind(addr: SocketAddr) -> Result<TcpListener, BindError> {
     TcpListener::bind(addr)
         .await
-        .map_err(|e| anyhow::anyhow!("modbus tcp: cannot bind {addr}: {e}"))
+        .map_err(|source| BindError { addr, source })
 }

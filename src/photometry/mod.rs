@@ -27,7 +27,9 @@
 
 mod eulumdat;
 mod ies;
+mod summary;
 mod text;
+pub use summary::{Summary, describe_grid};
 mod write;
 
 use std::fmt;

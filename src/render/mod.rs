@@ -2,6 +2,7 @@
 //! commissioning report. A small RGB canvas with lines, boxes and labels, a perceptual colour
 //! map, PNG output.
 
+pub mod camera_view;
 mod font;
 pub mod map;
 pub mod plot;

@@ -9,8 +9,8 @@ use serde::Deserialize;
 
 use super::obj::load_obj;
 use super::{Camera, Desk, Desks, Luminaire, Scene, SceneError, SceneErrors, Sensor, read_text};
+use crate::lsc::{AngularResponse, Lsc};
 use crate::photometry::IntensityDistribution;
-use crate::sensor::{AngularResponse, Lsc};
 
 /// Which photometric file to use when a luminaire names both.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

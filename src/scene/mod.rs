@@ -29,11 +29,11 @@ pub use files::{
     load_sensors_file,
 };
 pub use obj::ObjReport;
-pub use states::{Scenario, TruthRow, read_states, read_truth};
+pub use states::{Scenario, TruthRow, UnknownLuminaire, check_scenarios, read_states, read_truth};
 pub use summary::SceneSummary;
 
+use crate::lsc::AngularResponse;
 use crate::photometry::{IntensityDistribution, PhotometryError};
-use crate::sensor::AngularResponse;
 use crate::units::Reflectance;
 
 /// A material: a name and a grey diffuse reflectance.

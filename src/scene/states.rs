@@ -17,6 +17,62 @@ pub struct Scenario {
     pub on: Vec<u32>,
 }
 
+impl Scenario {
+    /// Every luminaire of `luminaire_ids` on.
+    pub fn all_on(luminaire_ids: &[u32]) -> Self {
+        Self {
+            id: "all_on".into(),
+            on: luminaire_ids.to_vec(),
+        }
+    }
+
+    /// These luminaires on, the others off; the id lists them (`on:1;3;8`).
+    pub fn only(on: &[u32]) -> Self {
+        Self {
+            id: format!(
+                "on:{}",
+                on.iter().map(u32::to_string).collect::<Vec<_>>().join(";")
+            ),
+            on: on.to_vec(),
+        }
+    }
+
+    /// The dimming state of this scenario: 1 for each luminaire of `luminaire_ids` that is on,
+    /// 0 for the others (luminaire order).
+    pub fn levels(&self, luminaire_ids: &[u32]) -> Vec<f64> {
+        luminaire_ids
+            .iter()
+            .map(|id| if self.on.contains(id) { 1.0 } else { 0.0 })
+            .collect()
+    }
+}
+
+/// A scenario that switches on a luminaire the model does not have.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("scenario {scenario}: luminaire {luminaire} is not in the scene")]
+pub struct UnknownLuminaire {
+    /// The scenario.
+    pub scenario: String,
+    /// The luminaire id.
+    pub luminaire: u32,
+}
+
+/// Checks that every scenario names only luminaires of `luminaire_ids`.
+pub fn check_scenarios(
+    scenarios: &[Scenario],
+    luminaire_ids: &[u32],
+) -> Result<(), UnknownLuminaire> {
+    for s in scenarios {
+        if let Some(&luminaire) = s.on.iter().find(|id| !luminaire_ids.contains(id)) {
+            return Err(UnknownLuminaire {
+                scenario: s.id.clone(),
+                luminaire,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// One line of `truth.csv`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TruthRow {

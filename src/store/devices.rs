@@ -203,6 +203,7 @@ impl FlashDevice for FileFlash {
 }
 
 /// Faults to inject.
+#[cfg(feature = "sim")]
 #[derive(Debug, Clone, Default)]
 pub struct Faults {
     /// Power fails after this many bytes have been erased or written: the operation in progress
@@ -217,6 +218,7 @@ pub struct Faults {
 }
 
 /// A device that misbehaves as told.
+#[cfg(feature = "sim")]
 #[derive(Debug)]
 pub struct FaultyFlash<D> {
     inner: D,
@@ -225,6 +227,7 @@ pub struct FaultyFlash<D> {
     dead: bool,
 }
 
+#[cfg(feature = "sim")]
 impl<D: FlashDevice<Error = DeviceError>> FaultyFlash<D> {
     /// Wraps a device.
     pub fn new(inner: D, faults: Faults) -> Self {
@@ -263,6 +266,7 @@ impl<D: FlashDevice<Error = DeviceError>> FaultyFlash<D> {
     }
 }
 
+#[cfg(feature = "sim")]
 impl<D: FlashDevice<Error = DeviceError>> FlashDevice for FaultyFlash<D> {
     type Error = DeviceError;
     fn capacity(&self) -> usize {

@@ -24,9 +24,9 @@ pub mod slots;
 pub mod values;
 
 #[cfg(feature = "std")]
-pub mod build;
-#[cfg(feature = "std")]
 pub mod devices;
+#[cfg(feature = "std")]
+pub mod file;
 
 use serde::{Deserialize, Serialize};
 

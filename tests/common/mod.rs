@@ -2,15 +2,16 @@
 //! closed form (physics.md §2), and small scenes built in code.
 #![allow(dead_code)]
 
+#[cfg(feature = "hil")]
 pub mod procs;
 
 use std::f64::consts::PI;
 use std::sync::Arc;
 
 use glam::DVec3;
+use luxnode::lsc::AngularResponse;
 use luxnode::photometry::IntensityDistribution;
 use luxnode::scene::{Luminaire, Mesh, ObjReport, Scene, Sensor};
-use luxnode::sensor::AngularResponse;
 
 /// B-3: differential element to a parallel a × b rectangle at distance c, the element on the
 /// normal through one corner.

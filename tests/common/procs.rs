@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 pub const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
 pub const GATEWAY_SIM: &str = env!("CARGO_BIN_EXE_gateway-sim");
 
-/// A child process killed on drop, with everything it printed so far.
+/// A child process killed on drop, with everything it printed so far (stdout and stderr).
 pub struct Proc {
     pub child: Child,
     pub addr: SocketAddr,
@@ -48,29 +48,36 @@ impl Drop for Proc {
     }
 }
 
-/// Starts `bin args` and waits (at most `limit`) for its `modbus tcp listening on ADDR` line.
+/// Starts `bin args` and waits (at most `limit`) for its `modbus tcp listening on ADDR` line
+/// (a log line on stderr, or a line on stdout); both streams are kept, interleaved as read.
 pub fn spawn_listening_within(bin: &str, args: &[String], limit: Duration) -> Proc {
     let mut child = Command::new(bin)
         .args(args)
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(Stdio::piped())
         .spawn()
         .unwrap_or_else(|e| panic!("{bin}: {e}"));
-    let stdout = child.stdout.take().expect("stdout");
     let lines = Arc::new(Mutex::new(Vec::new()));
     let (tx, rx) = mpsc::channel();
-    let keep = lines.clone();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines() {
-            let Ok(line) = line else { break };
-            if let Some(a) = line.strip_prefix("modbus tcp listening on ") {
-                let _ = tx.send(a.trim().to_string());
+    let stdout = child.stdout.take().expect("stdout");
+    let stderr = child.stderr.take().expect("stderr");
+    let readers: [Box<dyn std::io::Read + Send>; 2] = [Box::new(stdout), Box::new(stderr)];
+    for stream in readers {
+        let keep = lines.clone();
+        let tx = tx.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stream).lines() {
+                let Ok(line) = line else { break };
+                if let Some((_, a)) = line.split_once("modbus tcp listening on ") {
+                    let a = a.split_whitespace().next().unwrap_or("").to_string();
+                    let _ = tx.send(a);
+                }
+                if let Ok(mut v) = keep.lock() {
+                    v.push(line);
+                }
             }
-            if let Ok(mut v) = keep.lock() {
-                v.push(line);
-            }
-        }
-    });
+        });
+    }
     let addr = match rx.recv_timeout(limit) {
         Ok(a) => a,
         Err(_) => {

@@ -1,6 +1,9 @@
 //! Board files: hardware as data (`boards/<name>/board.toml`). Core logic never reads them; the
 //! binary turns them into typed settings. Unknown keys are errors so a typo fails loudly.
 
+pub mod camera;
+pub mod hardware;
+
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
@@ -28,11 +31,11 @@ pub struct Board {
     /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
     pub preset: crate::preset::Preset,
     /// The cameras (`[camera]`; simulated when absent).
-    pub camera: crate::board_camera::CameraBoard,
+    pub camera: crate::board::camera::CameraBoard,
     /// Where the flash image lives (`[flash]`; a file next to the board file when absent).
-    pub flash: crate::board_camera::FlashBoard,
+    pub flash: crate::board::camera::FlashBoard,
     /// The I2C bus of the board's peripherals (`[i2c]`), if any.
-    pub i2c: Option<crate::board_camera::I2cBoard>,
+    pub i2c: Option<crate::board::camera::I2cBoard>,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -123,11 +126,11 @@ struct BoardToml {
     #[serde(default)]
     engine: EngineToml,
     #[serde(default)]
-    camera: Option<crate::board_camera::CameraToml>,
+    camera: Option<crate::board::camera::CameraToml>,
     #[serde(default)]
-    flash: Option<crate::board_camera::FlashToml>,
+    flash: Option<crate::board::camera::FlashToml>,
     #[serde(default)]
-    i2c: Option<crate::board_camera::I2cBoard>,
+    i2c: Option<crate::board::camera::I2cBoard>,
 }
 
 #[derive(Deserialize)]
@@ -239,10 +242,10 @@ impl Board {
                 .map_err(|e| bad(format!("engine.preset: {e}")))?,
         };
         let base = path.parent().unwrap_or(Path::new("."));
-        let camera = crate::board_camera::camera(t.camera, base).map_err(&bad)?;
-        let flash = crate::board_camera::flash(t.flash, base).map_err(&bad)?;
+        let camera = crate::board::camera::camera(t.camera, base).map_err(|e| bad(e.0))?;
+        let flash = crate::board::camera::flash(t.flash, base).map_err(|e| bad(e.0))?;
         if let Some(i) = &t.i2c {
-            i.validate().map_err(&bad)?;
+            i.validate().map_err(|e| bad(e.0))?;
         }
         Ok(Board {
             preset,
@@ -263,7 +266,7 @@ impl Board {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
 
@@ -361,10 +364,10 @@ mod tests {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "sim"))]
 mod camera_section_tests {
     use super::*;
-    use crate::board_camera::{CameraBoard, ColourBoard, FlashBoard, TofBoard};
+    use crate::board::camera::{CameraBoard, ColourBoard, FlashBoard, TofBoard};
 
     #[test]
     fn every_board_file_parses_and_validates() {

@@ -9,8 +9,17 @@
 
 use std::path::{Path, PathBuf};
 
-use super::CommissionError;
 use crate::scene::{Camera, load_camera_file};
+
+/// A capture file is missing or unusable.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct CaptureError {
+    /// The file or directory.
+    pub path: PathBuf,
+    /// What is wrong.
+    pub message: String,
+}
 
 /// Saturated value of a 16-bit frame.
 pub const SATURATED: u16 = u16::MAX;
@@ -41,8 +50,8 @@ pub struct Capture {
     pub warnings: Vec<String>,
 }
 
-fn read_frame16(path: &Path) -> Result<Frame, CommissionError> {
-    let bad = |message: String| CommissionError::Capture {
+fn read_frame16(path: &Path) -> Result<Frame, CaptureError> {
+    let bad = |message: String| CaptureError {
         path: path.to_path_buf(),
         message,
     };
@@ -65,9 +74,9 @@ fn read_frame16(path: &Path) -> Result<Frame, CommissionError> {
     }
 }
 
-fn check_size(path: &Path, f: &Frame, camera: &Camera) -> Result<(), CommissionError> {
+fn check_size(path: &Path, f: &Frame, camera: &Camera) -> Result<(), CaptureError> {
     if f.width != camera.width || f.height != camera.height {
-        return Err(CommissionError::Capture {
+        return Err(CaptureError {
             path: path.to_path_buf(),
             message: format!(
                 "frame is {}x{} pixels, camera.json says {}x{}",
@@ -80,12 +89,11 @@ fn check_size(path: &Path, f: &Frame, camera: &Camera) -> Result<(), CommissionE
 
 impl Capture {
     /// Loads a capture set for the given luminaire ids (one `luminance_L<id>.png` each).
-    pub fn load(dir: &Path, luminaire_ids: &[u32]) -> Result<Capture, CommissionError> {
-        let camera =
-            load_camera_file(&dir.join("camera.json")).map_err(|e| CommissionError::Capture {
-                path: dir.join("camera.json"),
-                message: e.to_string(),
-            })?;
+    pub fn load(dir: &Path, luminaire_ids: &[u32]) -> Result<Capture, CaptureError> {
+        let camera = load_camera_file(&dir.join("camera.json")).map_err(|e| CaptureError {
+            path: dir.join("camera.json"),
+            message: e.to_string(),
+        })?;
         let mut warnings = Vec::new();
         let mut depth_mm = Vec::new();
         for k in 0..1000 {
@@ -106,7 +114,7 @@ impl Capture {
             depth_mm.push(f);
         }
         if depth_mm.is_empty() {
-            return Err(CommissionError::Capture {
+            return Err(CaptureError {
                 path: dir.to_path_buf(),
                 message: "no usable depth frame (depth_000.png, depth_001.png, ...)".into(),
             });
@@ -115,7 +123,7 @@ impl Capture {
         for &id in luminaire_ids {
             let path = dir.join(format!("luminance_L{id}.png"));
             if !path.exists() {
-                return Err(CommissionError::Capture {
+                return Err(CaptureError {
                     path,
                     message: format!("missing: the frame with only luminaire {id} on"),
                 });

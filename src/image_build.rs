@@ -1,14 +1,19 @@
-//! Building an image from a commissioned [`Model`] (std): prune and quantise the form factors
-//! and direct terms to the chosen precision, then compute the response matrix *from the
+//! Building the flash image from a commissioned [`Model`] (std): prune and quantise the form
+//! factors and direct terms to the chosen precision, then compute the response matrix *from the
 //! stored arrays* (by solving the image's own system, with the run-time code), so that
 //! superposition and a run-time re-solve agree whatever the precision.
+//!
+//! This is the "form factors → store" step of the data flow. It sits above both the engine
+//! (its input) and the run-time core (which it runs on the image it built); the store format
+//! itself ([`crate::store`]) knows neither. [`build_for_region`] is the one entry point that
+//! also checks the image fits the `FORMFACTORS` region of `memory.x`.
 
 use std::fmt;
 
-use super::values::{Bytes, Precision, Sparse, Values};
-use super::{FORMAT_VERSION, HEADER_LEN, Header, Image, PayloadV1, SettingsRecord, crc32};
 use crate::engine::{Csr, Model};
 use crate::solver;
+use crate::store::values::{Bytes, Precision, Sparse, Values};
+use crate::store::{FORMAT_VERSION, HEADER_LEN, Header, Image, PayloadV1, SettingsRecord, crc32};
 
 /// How to store a model.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,7 +24,7 @@ pub struct ImageOptions {
     pub prune_below: f64,
     /// The scene's name, for inspection.
     pub scene_name: String,
-    /// Per-sensor flags ([`super::sensor_flags`]); empty means none set.
+    /// Per-sensor flags ([`crate::store::sensor_flags`]); empty means none set.
     pub sensor_flags: Vec<u8>,
 }
 
@@ -53,10 +58,13 @@ pub enum BuildError {
     },
     /// The built image does not parse (a bug).
     #[error("the built image does not parse: {0}")]
-    Parse(super::ImageError),
+    Parse(crate::store::ImageError),
     /// Serialisation failed.
     #[error("serialising the payload: {0}")]
     Serialise(String),
+    /// The image does not fit the flash region; the message names the knobs that shrink it.
+    #[error("{0}")]
+    TooLarge(String),
 }
 
 /// Sizes of the parts of an image, bytes.
@@ -375,6 +383,30 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
     let bytes = serialise(options.precision as u8, &payload)?;
     Image::parse(&bytes).map_err(BuildError::Parse)?;
     Ok(bytes)
+}
+
+/// Builds the image of a model and checks that it fits a flash region of `region_bytes`
+/// (the `FORMFACTORS` region: [`crate::layout::FORMFACTORS_LEN_BYTES`]). An image that does not
+/// fit is an error naming the knobs that would shrink it, with their estimated savings.
+pub fn build_for_region(
+    model: &Model,
+    options: &ImageOptions,
+    region_bytes: usize,
+) -> Result<Vec<u8>, BuildError> {
+    let bytes = build_image(model, options)?;
+    if bytes.len() > region_bytes {
+        let image = Image::parse(&bytes).map_err(BuildError::Parse)?;
+        return Err(BuildError::TooLarge(too_large_message(
+            &image,
+            region_bytes,
+        )));
+    }
+    Ok(bytes)
+}
+
+/// The `FORMFACTORS` region of `memory.x`, bytes.
+pub fn formfactors_region_bytes() -> usize {
+    usize::try_from(crate::layout::FORMFACTORS_LEN_BYTES).unwrap_or(usize::MAX)
 }
 
 /// How an image compares with the `FORMFACTORS` region, and what would help if it does not fit.

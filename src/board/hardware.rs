@@ -3,16 +3,16 @@
 //! needs.
 //!
 //! ```ignore
-//! let (depth, colour) = camera::hardware::open(&board.camera)?;
+//! let (depth, colour) = board::hardware::open(&board.camera)?;
 //! let sequence = SequenceOptions {
 //!     registration: board.camera.registration().cloned(),
 //!     ..SequenceOptions::default()
 //! };
 //! ```
 
-use super::a010::A010;
-use super::{CameraError, DepthCamera, LuminanceCamera};
-use crate::board_camera::{CameraBoard, ColourBoard, TofBoard};
+use crate::board::camera::{CameraBoard, ColourBoard, TofBoard};
+use crate::camera::a010::A010;
+use crate::camera::{CameraError, DepthCamera, LuminanceCamera};
 
 /// A board's opened cameras: (depth, colour).
 pub type Cameras = (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>);
@@ -20,12 +20,12 @@ pub type Cameras = (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>);
 /// Opens the ToF and colour cameras of a hardware board. The ToF camera's intrinsics and pose
 /// come from its calibration file (the capture format's `camera.json`); registration of the
 /// colour frames is separate ([`CameraBoard::registration`] into
-/// [`super::SequenceOptions::registration`]). A board that is not `Hardware` is a
+/// [`crate::camera::SequenceOptions::registration`]). A board that is not `Hardware` is a
 /// configuration error.
 pub fn open(board: &CameraBoard) -> Result<Cameras, CameraError> {
     let CameraBoard::Hardware { tof, colour } = board else {
         return Err(CameraError::Config(
-            "camera::hardware::open: the board's camera source is not \"hardware\"".into(),
+            "board::hardware::open: the board's camera source is not \"hardware\"".into(),
         ));
     };
     let depth: Box<dyn DepthCamera> = match tof {
@@ -52,9 +52,9 @@ pub fn open(board: &CameraBoard) -> Result<Cameras, CameraError> {
 #[cfg(target_os = "linux")]
 fn open_v4l2(
     device: &str,
-    options: &super::v4l2::V4l2Options,
+    options: &crate::camera::v4l2::V4l2Options,
 ) -> Result<Box<dyn LuminanceCamera>, CameraError> {
-    Ok(Box::new(super::v4l2::V4l2Camera::open(
+    Ok(Box::new(crate::camera::v4l2::V4l2Camera::open(
         device,
         options.clone(),
     )?))
@@ -63,7 +63,7 @@ fn open_v4l2(
 #[cfg(not(target_os = "linux"))]
 fn open_v4l2(
     device: &str,
-    _options: &super::v4l2::V4l2Options,
+    _options: &crate::camera::v4l2::V4l2Options,
 ) -> Result<Box<dyn LuminanceCamera>, CameraError> {
     Err(CameraError::Config(format!(
         "{device}: V4L2 cameras need Linux"

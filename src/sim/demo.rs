@@ -11,9 +11,9 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec3};
 
+use crate::lsc::AngularResponse;
 use crate::photometry::IntensityDistribution;
 use crate::scene::{Camera, Desk, Desks, Luminaire, MeshBuilder, ObjReport, Scene, Sensor};
-use crate::sensor::AngularResponse;
 
 /// Room size, m.
 pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];

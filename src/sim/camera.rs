@@ -40,7 +40,9 @@ use std::time::SystemTime;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{CameraError, DepthCamera, DepthFrame, LightControl, LuminanceCamera, LuminanceFrame};
+use crate::camera::{
+    CameraError, DepthCamera, DepthFrame, LightControl, LuminanceCamera, LuminanceFrame,
+};
 use crate::engine::direct::{self, Receiver};
 use crate::engine::raycast::{Hit, RayCaster};
 use crate::engine::{self, Model, Settings};
@@ -190,14 +192,14 @@ impl SimWorld {
     /// A world for a scene: commissions it with the engine (`settings`). The scene must have a
     /// camera. All luminaires start off.
     pub fn new(scene: Scene, settings: &Settings) -> Result<SimWorld, CameraError> {
-        let model = engine::commission(&scene, settings)
+        let model = engine::compute_model(&scene, settings)
             .map_err(|e| CameraError::Config(format!("simulated world: engine: {e}")))?;
         Self::from_model(scene, model)
     }
 
     /// The built-in demo office with [`world_settings`].
     pub fn demo_office() -> Result<SimWorld, CameraError> {
-        Self::new(crate::demo::demo_office(), &world_settings())
+        Self::new(crate::sim::demo::demo_office(), &world_settings())
     }
 
     /// A world from a scene and a model already computed for it.
@@ -388,7 +390,7 @@ impl SimWorld {
 impl LightControl for SimWorld {
     fn set_levels(&mut self, levels: &[f64]) -> Result<(), CameraError> {
         let n = self.shared.scene.luminaires.len();
-        super::check_levels(levels, n)?;
+        crate::camera::check_levels(levels, n)?;
         *self.levels.lock().unwrap_or_else(|p| p.into_inner()) = levels.to_vec();
         Ok(())
     }
@@ -568,7 +570,7 @@ impl DepthCamera for SimDepthCamera {
             .iter()
             .map(|&zi| {
                 let g = if o.range_noise_rel > 0.0 {
-                    super::gaussian(&mut rng)
+                    crate::rng::gaussian(&mut rng)
                 } else {
                     0.0
                 };
@@ -656,7 +658,7 @@ impl LuminanceCamera for SimLuminanceCamera {
             .iter()
             .map(|&x| {
                 let n = if o.noise_rel > 0.0 {
-                    1.0 + o.noise_rel * super::gaussian(&mut rng)
+                    1.0 + o.noise_rel * crate::rng::gaussian(&mut rng)
                 } else {
                     1.0
                 };

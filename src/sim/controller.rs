@@ -2,14 +2,30 @@
 //! writing the arc-level holding registers over Modbus TCP, exactly as the installed controller
 //! or a BMS would, reads the desk lux back the same way, and prints the live table.
 
+use std::io::Write;
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use anyhow::Context as _;
 use tokio_modbus::client::{Reader, Writer};
 
-use crate::modbus::node::SharedNode;
 use crate::modbus::regmap::addr;
+
+/// Why the controller stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ControllerError {
+    /// The connection to the node failed.
+    #[error("controller: {0}")]
+    Link(#[from] tokio_modbus::Error),
+    /// The node answered with an exception.
+    #[error("controller: the node answered exception {0:?}")]
+    Exception(#[from] tokio_modbus::ExceptionCode),
+    /// The node's answer is not what the register map says.
+    #[error("controller: {0}")]
+    Answer(String),
+    /// Connecting or writing the table failed.
+    #[error("controller: {0}")]
+    Io(#[from] std::io::Error),
+}
 
 /// The controller's settings.
 #[derive(Debug, Clone)]
@@ -51,12 +67,21 @@ fn f32_at(regs: &[u16], k: usize) -> f64 {
 }
 
 impl SimController {
-    /// Runs the passes against the node's own Modbus TCP server at `addr`.
-    pub async fn run(&self, addr: SocketAddr, _node: SharedNode) -> anyhow::Result<()> {
-        let mut c = tokio_modbus::client::tcp::connect(addr)
-            .await
-            .with_context(|| format!("controller: connecting to {addr}"))?;
+    /// Runs the passes against the node's Modbus TCP server at `addr`, writing the live table
+    /// to `out`.
+    pub async fn run(
+        &self,
+        addr: SocketAddr,
+        out: &mut (dyn Write + Send),
+    ) -> Result<(), ControllerError> {
+        let mut c = tokio_modbus::client::tcp::connect(addr).await?;
         let core = c.read_input_registers(0, 4).await??;
+        if core.len() < 3 {
+            return Err(ControllerError::Answer(format!(
+                "{} core registers for 4",
+                core.len()
+            )));
+        }
         let (desks, lums) = (usize::from(core[1]), usize::from(core[2]));
         let ids = if desks > 0 {
             c.read_input_registers(addr::DESK_ID, desks as u16)
@@ -69,8 +94,11 @@ impl SimController {
         for id in &ids {
             header.push_str(&format!(" {:>9}", format!("desk {id}")));
         }
-        println!("\nlive desk lux (read over Modbus TCP from {addr}; lx)\n{header}");
-        println!("{}", "-".repeat(header.len()));
+        writeln!(
+            out,
+            "\nlive desk lux (read over Modbus TCP from {addr}; lx)\n{header}"
+        )?;
+        writeln!(out, "{}", "-".repeat(header.len()))?;
         let mut step = 0usize;
         for _ in 0..self.cycles.max(1) {
             for (name, level) in &states {
@@ -86,6 +114,13 @@ impl SimController {
                 let quality = c
                     .read_input_registers(addr::DESK_QUALITY, desks as u16)
                     .await??;
+                if lux.len() < 2 * quality.len() {
+                    return Err(ControllerError::Answer(format!(
+                        "{} lux registers for {} desks",
+                        lux.len(),
+                        quality.len()
+                    )));
+                }
                 let mut row = format!("{name:<12} {step:>6}");
                 for (k, q) in quality.iter().enumerate() {
                     let mark = match q {
@@ -96,13 +131,15 @@ impl SimController {
                     };
                     row.push_str(&format!(" {:>8.0}{mark}", f32_at(&lux, k)));
                 }
-                println!("{row}");
+                writeln!(out, "{row}")?;
+                out.flush()?;
                 tokio::time::sleep(self.period).await;
             }
         }
-        println!(
+        writeln!(
+            out,
             "(marks: v = desk outside the camera's view, e = estimated surroundings, s = stale)"
-        );
+        )?;
         Ok(())
     }
 }

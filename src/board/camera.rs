@@ -38,16 +38,42 @@ use std::time::Duration;
 
 use serde::Deserialize;
 
+#[cfg(feature = "sim")]
 use crate::camera::Faults;
 use crate::camera::a010::A010Options;
 use crate::camera::register::{ColourFromTof, ColourIntrinsics, Registration};
-use crate::camera::sim::{SimDepthOptions, SimLuminanceOptions};
 use crate::camera::v4l2::{PixelFormat, V4l2Options};
+#[cfg(feature = "sim")]
+use crate::sim::camera::{SimDepthOptions, SimLuminanceOptions};
+
+/// A board file section that is not acceptable, in words naming the key.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct SectionError(pub String);
+
+impl From<String> for SectionError {
+    fn from(s: String) -> Self {
+        Self(s)
+    }
+}
+
+impl From<&str> for SectionError {
+    fn from(s: &str) -> Self {
+        Self(s.to_owned())
+    }
+}
+
+fn err<T>(message: impl Into<String>) -> Result<T, SectionError> {
+    Err(SectionError(message.into()))
+}
 
 /// Where the node's frames come from.
+// read once from the board file: the size of a variant does not matter
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum CameraBoard {
-    /// Simulated cameras on the board's scene.
+    /// Simulated cameras on the board's scene (feature `sim`).
+    #[cfg(feature = "sim")]
     Sim {
         /// Depth camera error model.
         depth: SimDepthOptions,
@@ -149,15 +175,15 @@ fn default_i2c_hz() -> u32 {
 
 impl I2cBoard {
     /// Checks the bus path and clock.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SectionError> {
         if !self.bus.starts_with("/dev/") {
-            return Err(format!(
+            return err(format!(
                 "i2c.bus {:?} must be a device under /dev",
                 self.bus
             ));
         }
         if !(10_000..=3_400_000).contains(&self.clock_hz) {
-            return Err(format!(
+            return err(format!(
                 "i2c.clock_hz {} is outside 10 kHz..3.4 MHz",
                 self.clock_hz
             ));
@@ -183,6 +209,7 @@ pub struct CameraToml {
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
 struct SimToml {
     seed: Option<u64>,
     range_noise_rel: Option<f64>,
@@ -196,6 +223,7 @@ struct SimToml {
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
 struct FaultsToml {
     #[serde(default)]
     seed: u64,
@@ -298,30 +326,30 @@ pub struct FlashToml {
 /// Default flash file size: two slots of the 4 MiB `FORMFACTORS` budget plus a sector.
 pub const DEFAULT_FLASH_BYTES: usize = 2 * 4 * 1024 * 1024 + 4096;
 
-fn timeout(name: &str, s: f64) -> Result<Duration, String> {
+fn timeout(name: &str, s: f64) -> Result<Duration, SectionError> {
     if s.is_finite() && s > 0.0 && s <= 60.0 {
         Ok(Duration::from_secs_f64(s))
     } else {
-        Err(format!("{name} {s} must be in (0, 60] s"))
+        err(format!("{name} {s} must be in (0, 60] s"))
     }
 }
 
-fn device(name: &str, d: &str) -> Result<String, String> {
+fn device(name: &str, d: &str) -> Result<String, SectionError> {
     if d.starts_with("/dev/") {
         Ok(d.to_owned())
     } else {
-        Err(format!("{name} {d:?} must be a device under /dev"))
+        err(format!("{name} {d:?} must be a device under /dev"))
     }
 }
 
-pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, String> {
+pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, SectionError> {
     let t = t.unwrap_or_else(|| CameraToml {
         source: "sim".into(),
         ..CameraToml::default()
     });
     let unused = |what: &str, present: bool| {
         if present {
-            Err(format!(
+            err(format!(
                 "camera.{what} is given but camera.source is {:?}",
                 t.source
             ))
@@ -330,6 +358,11 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
         }
     };
     match t.source.as_str() {
+        #[cfg(not(feature = "sim"))]
+        "sim" => {
+            err("camera.source = \"sim\": this build has no simulated cameras (feature `sim`)")
+        }
+        #[cfg(feature = "sim")]
         "sim" => {
             unused("replay", t.replay.is_some())?;
             unused("tof", t.tof.is_some())?;
@@ -352,7 +385,7 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 ..l0
             };
             // the option checks live with the cameras: build throwaway checks here
-            crate::camera::sim::validate_options(&depth, &luminance)
+            crate::sim::camera::validate_options(&depth, &luminance)
                 .map_err(|e| format!("camera.sim: {e}"))?;
             let faults = s.faults.map(|f| Faults {
                 seed: f.seed,
@@ -407,7 +440,7 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                     ]
                     .contains(&tof.baud)
                     {
-                        return Err(format!(
+                        return err(format!(
                             "camera.tof.baud {} is not one the A010 supports",
                             tof.baud
                         ));
@@ -420,7 +453,7 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                     }
                 }
                 other => {
-                    return Err(format!(
+                    return err(format!(
                         "camera.tof.driver {other:?} is not known (known: \"a010\")"
                     ));
                 }
@@ -470,20 +503,20 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                     }
                 }
                 other => {
-                    return Err(format!(
+                    return err(format!(
                         "camera.colour.driver {other:?} is not known (known: \"v4l2\")"
                     ));
                 }
             };
             Ok(CameraBoard::Hardware { tof, colour })
         }
-        other => Err(format!(
+        other => err(format!(
             "camera.source {other:?}: use \"sim\", \"replay\" or \"hardware\""
         )),
     }
 }
 
-pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, String> {
+pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, SectionError> {
     let Some(t) = t else {
         return Ok(FlashBoard::File {
             path: base.join("flash.img"),
@@ -493,12 +526,12 @@ pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, Str
     match t.kind.as_str() {
         "file" => {
             if t.device.is_some() {
-                return Err("flash.device is for kind = \"mtd\"; a file takes flash.path".into());
+                return err("flash.device is for kind = \"mtd\"; a file takes flash.path");
             }
             let path = t.path.ok_or("flash kind = \"file\" needs flash.path")?;
             let size_bytes = t.size_bytes.unwrap_or(DEFAULT_FLASH_BYTES);
             if size_bytes < 64 * 1024 || size_bytes % 4096 != 0 {
-                return Err(format!(
+                return err(format!(
                     "flash.size_bytes {size_bytes} must be whole 4 KiB sectors, at least 64 KiB"
                 ));
             }
@@ -509,20 +542,19 @@ pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, Str
         }
         "mtd" => {
             if t.path.is_some() || t.size_bytes.is_some() {
-                return Err(
-                    "flash kind = \"mtd\" takes only flash.device (the size is the partition's)"
-                        .into(),
+                return err(
+                    "flash kind = \"mtd\" takes only flash.device (the size is the partition's)",
                 );
             }
             let d = t.device.ok_or("flash kind = \"mtd\" needs flash.device")?;
             let d = device("flash.device", &d)?;
             if !d.starts_with("/dev/mtd") {
-                return Err(format!(
+                return err(format!(
                     "flash.device {d:?} is not an MTD device (/dev/mtdN)"
                 ));
             }
             Ok(FlashBoard::Mtd { device: d })
         }
-        other => Err(format!("flash.kind {other:?}: use \"file\" or \"mtd\"")),
+        other => err(format!("flash.kind {other:?}: use \"file\" or \"mtd\"")),
     }
 }

@@ -1,0 +1,517 @@
+//! `luxnode bench ...` (feature `bench`): benchmarks that print tables (and draw plots) for
+//! docs/. The measuring code is in `luxnode::bench`; this file parses and prints.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use luxnode::bench;
+use luxnode::engine::{DirectModel, Settings};
+use luxnode::modbus::tcp::TcpOptions;
+use luxnode::scene::{LoadOptions, Scenario, Scene, TruthRow, read_states, read_truth};
+use luxnode::store::Image;
+use luxnode::store::file::read_image_file;
+
+use super::load_scene;
+use super::modbus::duration_s;
+
+/// `luxnode bench ...`.
+#[derive(clap::Subcommand)]
+pub enum Command {
+    /// Commissioning time per stage, per-state time, accuracy against the scene's truth.
+    Engine {
+        /// The scene directory (with states.csv and truth.csv for accuracy).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Commissioning runs (the median is printed).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Also run this Radiance harness (bench/radiance/office_a.py) and compare.
+        #[arg(long)]
+        radiance: Option<PathBuf>,
+        /// Arguments for the Radiance harness (its settings), one string.
+        #[arg(long, default_value = "", allow_hyphen_values = true)]
+        radiance_args: String,
+    },
+    /// Speed against accuracy: the presets, every engine and store knob one at a time, and the
+    /// rays x patch size grid; commissioning time, image size, per-state time, error against
+    /// the truth (mean, worst sensor). Prints a table; writes Pareto plots with --plots.
+    Tradeoffs {
+        /// The scene directory (states.csv, truth.csv; with --capture: luminaires.json,
+        /// sensors.json, desks.json).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Commission from this capture set instead of the scene's CAD model (each point a full
+        /// `commission` run).
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// Grid: rays per patch (empty: no grid).
+        #[arg(long, value_delimiter = ',', default_values_t = [100, 300, 1000])]
+        rays: Vec<usize>,
+        /// Grid: base patch sizes, m.
+        #[arg(long, value_delimiter = ',', default_values_t = [2.0, 1.0, 0.5, 0.25])]
+        patch_sizes: Vec<f64>,
+        /// Skip the grid.
+        #[arg(long)]
+        no_grid: bool,
+        /// Skip the one-at-a-time knob sweep.
+        #[arg(long)]
+        no_knobs: bool,
+        /// Commissioning runs per point (the median is kept).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+        /// Commissioning runs per preset.
+        #[arg(long, default_value_t = 3)]
+        preset_runs: usize,
+        /// Write the Pareto plots (PNG) into this directory.
+        #[arg(long)]
+        plots: Option<PathBuf>,
+        /// Also write the rays x patch-size plot (PNG) of the grid rows.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// "Model only what the scene requires": patch counts per preset and surface, pictures of
+    /// the patch layout, and the error of uniform meshes with the same patch counts.
+    Patches {
+        /// The scene directory (with states.csv and truth.csv).
+        #[arg(long)]
+        scene: PathBuf,
+        /// Write the layout pictures (PNG) into this directory.
+        #[arg(long)]
+        out_dir: Option<PathBuf>,
+    },
+    /// The run-time core over an image: one dimming state, and a full re-solve.
+    Runtime {
+        /// The image file.
+        #[arg(long)]
+        image: PathBuf,
+    },
+    /// Draw the trade-off plot from a table printed by `bench tradeoffs`.
+    PlotTradeoffs {
+        /// The markdown table (the output of `bench tradeoffs`).
+        #[arg(long)]
+        table: PathBuf,
+        /// The PNG to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Plot title.
+        #[arg(
+            long,
+            default_value = "OFFICE_A: COMMISSIONING TIME VS ERROR (RAYS 100..10000)"
+        )]
+        title: String,
+    },
+    /// Many Modbus TCP clients polling the desk lux at once: throughput, latency, memory.
+    ModbusLoad {
+        /// The image to serve.
+        #[arg(long)]
+        image: PathBuf,
+        /// Concurrent Modbus TCP clients.
+        #[arg(long, default_value_t = 100)]
+        clients: usize,
+        /// How long the clients poll, s.
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// Each client's poll interval, ms (0: back to back).
+        #[arg(long, default_value_t = 0)]
+        interval_ms: u64,
+    },
+    /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
+    Fuzz {
+        /// Frames to send.
+        #[arg(long, default_value_t = 10_000_000)]
+        frames: u64,
+        /// Seed of the frame generator (the same seed sends the same frames).
+        #[arg(long, default_value_t = 0x6C75_786E)]
+        seed: u64,
+    },
+    /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
+    Ablation {
+        /// The scene directory.
+        #[arg(long)]
+        scene: PathBuf,
+    },
+}
+
+/// The scene, its scenarios and its truth (states.csv, truth.csv in the scene directory).
+pub(crate) fn scene_with_truth(dir: &Path) -> Result<(Scene, Vec<Scenario>, Vec<TruthRow>)> {
+    let scene = load_scene(dir, &LoadOptions::default())?;
+    let scenarios = read_states(&dir.join("states.csv"))?;
+    let truth = read_truth(&dir.join("truth.csv"))?;
+    Ok((scene, scenarios, truth))
+}
+
+/// Runs `luxnode bench ...`.
+pub fn run(command: Command) -> Result<()> {
+    match command {
+        Command::Engine {
+            scene,
+            runs,
+            radiance,
+            radiance_args,
+        } => {
+            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
+            let settings = Settings::default();
+            let threads = rayon::current_num_threads();
+            println!(
+                "# luxnode engine benchmark: {} ({threads} threads)",
+                sc.name
+            );
+            let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
+            println!();
+            println!(
+                "commissioning at default settings, median of {runs} runs: {:.3} s",
+                total.as_secs_f64()
+            );
+            println!("| stage | time (ms) |");
+            println!("|---|---:|");
+            for (name, d) in &stages {
+                println!("| {name} | {:.1} |", d.as_secs_f64() * 1e3);
+            }
+            let st = &model.stats;
+            println!(
+                "\n{} patches, {} rays per patch, {} rays per sensor, {} non-zero form factors",
+                st.patches, st.rays_per_patch, st.rays_per_sensor, st.nnz
+            );
+            let per_state = bench::time_state(&model, 2_000_000)?;
+            println!(
+                "one dimming state ({} sensors x {} luminaires, superposition): {:.1} ns",
+                model.sensors(),
+                model.luminaires(),
+                per_state.as_secs_f64() * 1e9
+            );
+            let t0 = std::time::Instant::now();
+            let (_, report) = model.solve_state(&vec![1.0; model.luminaires()])?;
+            println!(
+                "full re-solve of one state: {:.1} ms ({} Gauss-Seidel sweeps)",
+                t0.elapsed().as_secs_f64() * 1e3,
+                report.iterations
+            );
+            let acc = bench::accuracy(&model, &scenarios, &truth)?
+                .context("no truth values match the scenarios")?;
+            println!(
+                "accuracy against {}: error {:.2} %, worst sensor {:.2} % ({} values)",
+                scene.join("truth.csv").display(),
+                100.0 * acc.error,
+                100.0 * acc.worst_sensor,
+                acc.pairs
+            );
+            if let Some(script) = radiance {
+                let r = bench::radiance::run(&script, &scene, &radiance_args)?;
+                println!("\nRadiance: {}", r.command);
+                let ours = total.as_secs_f64() + per_state.as_secs_f64() * scenarios.len() as f64;
+                println!(
+                    "\n| tool | settings | time for the {} x {} table (s) | error | worst sensor |",
+                    scenarios.len(),
+                    model.sensors()
+                );
+                println!("|---|---|---:|---:|---:|");
+                println!(
+                    "| luxnode | defaults | {ours:.3} | {:.2} % | {:.2} % |",
+                    100.0 * acc.error,
+                    100.0 * acc.worst_sensor
+                );
+                println!(
+                    "| Radiance | {} | {:.1} | {:.2} % | {:.2} % |",
+                    r.settings,
+                    r.wall_time_s,
+                    100.0 * r.error,
+                    100.0 * r.worst_sensor_error
+                );
+                println!(
+                    "\nluxnode is {:.0} x faster; error ratio (Radiance / luxnode) {:.2}",
+                    r.wall_time_s / ours,
+                    r.error / acc.error
+                );
+            }
+        }
+        Command::Tradeoffs {
+            scene,
+            capture,
+            rays,
+            patch_sizes,
+            no_grid,
+            no_knobs,
+            runs,
+            preset_runs,
+            plots,
+            plot,
+        } => {
+            super::tradeoffs::tradeoffs(&super::tradeoffs::Args {
+                scene,
+                capture,
+                rays: if no_grid { Vec::new() } else { rays },
+                patch_sizes,
+                knobs: !no_knobs,
+                runs,
+                preset_runs,
+                plots,
+                plot,
+            })?;
+        }
+        Command::Patches { scene, out_dir } => {
+            super::tradeoffs::patches(&scene, out_dir.as_deref())?;
+        }
+        Command::Runtime { image } => {
+            let bytes = read_image_file(&image)?;
+            let t0 = std::time::Instant::now();
+            let img = Image::parse(&bytes)?;
+            let parse = t0.elapsed();
+            let (per_state, resolve, sweeps) = bench::time_runtime(&img, 2_000_000, 11)?;
+            println!(
+                "# run-time core over {} ({}, {} bytes)",
+                image.display(),
+                img.payload.scene_name,
+                img.len()
+            );
+            println!("| measure | value | target |");
+            println!("|---|---:|---:|");
+            println!(
+                "| parse and check the image (CRCs, every array) | {:.2} ms | |",
+                parse.as_secs_f64() * 1e3
+            );
+            println!(
+                "| one dimming state, {} sensors x {} luminaires (superposition) | {:.1} ns | <= 1 us |",
+                img.sensors(),
+                img.luminaires(),
+                per_state.as_secs_f64() * 1e9
+            );
+            println!(
+                "| full re-solve over the stored form factors ({} patches, {} entries, {}) | {:.2} ms ({sweeps} sweeps) | <= 20 ms |",
+                img.patches(),
+                img.payload.ff.nnz(),
+                img.payload.ff.values.precision().name(),
+                resolve.as_secs_f64() * 1e3
+            );
+        }
+        Command::PlotTradeoffs { table, out, title } => {
+            let text = std::fs::read_to_string(&table)
+                .with_context(|| format!("reading {}", table.display()))?;
+            // rows: | patch size | rays | patches | form factors | seconds | error % | worst % |
+            let mut rows = Vec::new();
+            for line in text.lines().filter(|l| l.starts_with('|')) {
+                let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+                let num = |i: usize| {
+                    cells
+                        .get(i)
+                        .and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok())
+                };
+                if let (Some(size), Some(secs), Some(err)) = (num(0), num(4), num(5)) {
+                    rows.push((size, secs, err));
+                }
+            }
+            if rows.is_empty() {
+                bail!("{} has no table rows of `bench tradeoffs`", table.display());
+            }
+            tradeoff_plot(&rows, &title)
+                .save_png(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!("plot: {} ({} points)", out.display(), rows.len());
+        }
+        Command::ModbusLoad {
+            image,
+            clients,
+            seconds,
+            interval_ms,
+        } => {
+            modbus_load(&image, clients, seconds, interval_ms)?;
+        }
+        Command::Fuzz { frames, seed } => {
+            fuzz(frames, seed)?;
+        }
+        Command::Ablation { scene } => {
+            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
+            println!(
+                "# ablation on {} (31 scenarios x 8 sensors against the Radiance truth)",
+                sc.name
+            );
+            println!("| direct light | LDC | LSC | mean abs error (lx) | error | worst sensor |");
+            println!("|---|---|---|---:|---:|---:|");
+            for r in bench::ablation(&sc, &scenarios, &truth)? {
+                println!(
+                    "| {} | {} | {} | {:.1} | {:.2} % | {:.2} % |",
+                    match r.direct {
+                        DirectModel::Paper => "paper (emitting patches, w = I)",
+                        DirectModel::Exact => "exact (photometry, shadow rays)",
+                    },
+                    if r.ldc { "yes" } else { "no" },
+                    if r.lsc { "yes" } else { "no" },
+                    r.accuracy.mean_abs_lx,
+                    100.0 * r.accuracy.error,
+                    100.0 * r.accuracy.worst_sensor
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Error against commissioning time, one series per patch size: rows of (size, seconds, error %).
+pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::render::Canvas {
+    let mut sizes: Vec<f64> = Vec::new();
+    for r in rows {
+        if !sizes.contains(&r.0) {
+            sizes.push(r.0);
+        }
+    }
+    let series = sizes
+        .iter()
+        .map(|size| luxnode::render::plot::Series {
+            name: format!("PATCH {size} M"),
+            points: rows
+                .iter()
+                .filter(|r| r.0 == *size)
+                .map(|r| (r.1, r.2))
+                .collect(),
+        })
+        .collect();
+    luxnode::render::plot::Plot {
+        title: title.to_owned(),
+        x_label: "COMMISSIONING TIME (S, LOG)".into(),
+        y_label: "ERROR VS RADIANCE (%)".into(),
+        log_x: true,
+        log_y: false,
+        series,
+    }
+    .draw(900, 560)
+}
+
+/// `luxnode bench modbus-load`: many TCP clients polling the desk lux at once.
+fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> Result<()> {
+    use luxnode::modbus::node::{NodeOptions, lock};
+    use luxnode::modbus::tcp::{self, TcpCounters};
+    use std::sync::{Arc, Mutex};
+    use tokio_modbus::client::Reader;
+
+    if clients == 0 || clients > 10_000 {
+        bail!("--clients {clients}: 1..=10000");
+    }
+    let run_for = duration_s("--seconds", seconds)?;
+    let node = luxnode::serve::load_node(
+        image,
+        NodeOptions {
+            initial_arc: Some(254),
+            ..NodeOptions::default()
+        },
+    )?;
+    let desks = node.map().desk_count() as u16;
+    let node = Arc::new(Mutex::new(node));
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let rss_before = luxnode::host::rss_kib();
+    let (lat, errors, counters) = rt.block_on(async {
+        let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+        let listener = tcp::bind("127.0.0.1:0".parse()?).await?;
+        let addr = listener.local_addr()?;
+        let counters = Arc::new(TcpCounters::default());
+        let server = tokio::spawn(tcp::serve(
+            listener,
+            node.clone(),
+            TcpOptions {
+                max_connections: clients + 8,
+                idle_timeout: Duration::from_secs(60),
+            },
+            counters.clone(),
+            stop_rx,
+        ));
+        let deadline = tokio::time::Instant::now() + run_for;
+        let mut tasks = Vec::with_capacity(clients);
+        for k in 0..clients {
+            tasks.push(tokio::spawn(async move {
+                let mut lat_us: Vec<u32> = Vec::new();
+                let mut errors = 0u64;
+                let Ok(mut c) = tokio_modbus::client::tcp::connect(addr).await else {
+                    return (lat_us, 1);
+                };
+                // spread the clients' phases over the interval
+                if interval_ms > 0 {
+                    let phase = interval_ms * k as u64 / clients as u64;
+                    tokio::time::sleep(Duration::from_millis(phase)).await;
+                }
+                let mut next = tokio::time::Instant::now();
+                while tokio::time::Instant::now() < deadline {
+                    let t0 = std::time::Instant::now();
+                    match c.read_input_registers(100, 2 * desks).await {
+                        Ok(Ok(_)) => {
+                            lat_us.push(t0.elapsed().as_micros().min(u32::MAX as u128) as u32)
+                        }
+                        _ => errors += 1,
+                    }
+                    if interval_ms > 0 {
+                        next += Duration::from_millis(interval_ms);
+                        tokio::time::sleep_until(next).await;
+                    }
+                }
+                (lat_us, errors)
+            }));
+        }
+        let mut all = Vec::new();
+        let mut errors = 0;
+        for t in tasks {
+            let (l, e) = t.await?;
+            all.extend(l);
+            errors += e;
+        }
+        let _ = stop_tx.send(true);
+        let _ = server.await;
+        anyhow::Ok((all, errors, counters))
+    })?;
+    let rss_after = luxnode::host::rss_kib();
+    let mut lat = lat;
+    lat.sort_unstable();
+    let pct = |p: f64| -> f64 {
+        if lat.is_empty() {
+            return f64::NAN;
+        }
+        let i = ((lat.len() as f64 - 1.0) * p).round() as usize;
+        f64::from(lat[i]) / 1000.0
+    };
+    let accepted = counters.accepted.load(std::sync::atomic::Ordering::Relaxed);
+    println!(
+        "| clients | poll interval | duration | requests | requests/s | p50 | p99 | p99.9 | max | errors | connections | RSS |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "| {clients} | {} | {seconds:.0} s | {} | {:.0} | {:.2} ms | {:.2} ms | {:.2} ms | {:.2} ms | {errors} | {accepted} | {} → {} KiB |",
+        if interval_ms == 0 {
+            "back to back".to_string()
+        } else {
+            format!("{interval_ms} ms")
+        },
+        lat.len(),
+        lat.len() as f64 / seconds,
+        pct(0.5),
+        pct(0.99),
+        pct(0.999),
+        pct(1.0),
+        rss_before.map_or("?".into(), |v| v.to_string()),
+        rss_after.map_or("?".into(), |v| v.to_string()),
+    );
+    let _ = lock(&node).desks();
+    Ok(())
+}
+
+/// `luxnode bench fuzz`.
+fn fuzz(frames: u64, seed: u64) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let r = luxnode::modbus::fuzz::run(frames, seed).map_err(|f| anyhow::anyhow!("{f}"))?;
+    let dt = t0.elapsed().as_secs_f64();
+    println!(
+        "| frames | seed | answers | exception 01 | exception 02 | exception 03 | not answered (empty) | RTU answered | RTU silent | time | invariant violations |"
+    );
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "| {} | {seed:#x} | {} | {} | {} | {} | {} | {} | {} | {dt:.1} s | 0 |",
+        r.frames,
+        r.answers,
+        r.exceptions[1],
+        r.exceptions[2],
+        r.exceptions[3],
+        r.silent,
+        r.rtu_answered,
+        r.rtu_silent
+    );
+    Ok(())
+}

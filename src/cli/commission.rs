@@ -1,0 +1,290 @@
+//! `luxnode commission`: from a capture set (ToF depth + luminance frames, no CAD model) to the
+//! flash image.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use luxnode::commission::{self, Capture, CommissionOptions, Gain, ReflectanceMethod};
+use luxnode::evaluate::{per_sensor, pooled, readings};
+use luxnode::image_build::{ImageOptions, build_for_region, formfactors_region_bytes};
+use luxnode::scene::{
+    LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
+};
+use luxnode::store::file::write_image_file;
+use luxnode::store::{Image, sensor_flags};
+
+use super::{EngineArgs, OnOff, StoreArgs};
+
+/// `luxnode commission`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The capture set directory (camera.json, depth_NNN.png, luminance_L<k>.png).
+    #[arg(long)]
+    capture: PathBuf,
+    /// luminaires.json (installed positions and photometry).
+    #[arg(long)]
+    luminaires: PathBuf,
+    /// sensors.json (the desk points to answer for).
+    #[arg(long)]
+    sensors: PathBuf,
+    /// desks.json, for the report's desk outlines and desk lux.
+    #[arg(long)]
+    desks: Option<PathBuf>,
+    /// The flash image to write.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write the mesh as PLY (grey = reflectance).
+    #[arg(long, value_name = "FILE.ply")]
+    export_mesh: Option<PathBuf>,
+    /// Also draw the camera view with a false-colour lux overlay, desk outlines and desk lux.
+    #[cfg(feature = "report")]
+    #[arg(long, value_name = "FILE.png")]
+    report: Option<PathBuf>,
+    /// Close the room (inferred floor, walls, ceiling).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    closure: OnOff,
+    /// Reflectance of the inferred walls.
+    #[arg(long, default_value_t = commission::ClosureOptions::default().wall_rho)]
+    wall_rho: f64,
+    /// Reflectance of the inferred ceiling.
+    #[arg(long, default_value_t = commission::ClosureOptions::default().ceiling_rho)]
+    ceiling_rho: f64,
+    /// Room box x0,y0,x1,y1 in m (default: inferred).
+    #[arg(long, value_delimiter = ',', num_args = 4)]
+    room: Option<Vec<f64>>,
+    /// Ceiling height, m (default: just above the highest luminaire opening).
+    #[arg(long)]
+    ceiling_height: Option<f64>,
+    /// Target patch size of the reconstructed mesh (largest rectangle side), m.
+    #[arg(long, default_value_t = commission::MeshOptions::default().patch_size_m)]
+    mesh_patch_size: f64,
+    /// Camera gain from one luxmeter reading instead of camera.json: SENSOR_ID:LUX with all
+    /// luminaires on.
+    #[arg(long, value_name = "ID:LUX")]
+    luxmeter: Option<String>,
+    /// Estimate reflectances (off: every seen surface gets --start-rho).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    reflectances: OnOff,
+    /// Reflectance of seen surfaces before (or without) estimation.
+    #[arg(long, default_value_t = 0.5)]
+    start_rho: f64,
+    /// How the one-luminaire-on frames combine: median of π L / E per pixel, or the paper's
+    /// first-order spherical-harmonic fit per triangle (docs/commissioning.md).
+    #[arg(long, value_enum, default_value_t = ReflectanceMethodArg::Median)]
+    reflectance_method: ReflectanceMethodArg,
+    /// Print the error against a truth.csv (with --states).
+    #[arg(long, requires = "states")]
+    truth: Option<PathBuf>,
+    /// states.csv for --truth.
+    #[arg(long)]
+    states: Option<PathBuf>,
+    #[command(flatten)]
+    engine: EngineArgs,
+    #[command(flatten)]
+    store: StoreArgs,
+}
+
+/// `--reflectance-method`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ReflectanceMethodArg {
+    /// Median over the well-lit frames of ρ = π L / E.
+    Median,
+    /// First-order spherical-harmonic fit (RGBD2lux §3.1).
+    Sh,
+}
+
+impl Args {
+    /// The commissioning options these arguments ask for, checked.
+    fn options(&self, luminaires: usize) -> Result<CommissionOptions> {
+        let gain = match &self.luxmeter {
+            None => Gain::Camera,
+            Some(s) => {
+                let (id, lux) = s
+                    .split_once(':')
+                    .context("--luxmeter wants SENSOR_ID:LUX")?;
+                Gain::Luxmeter {
+                    sensor_id: id.trim().parse().context("--luxmeter sensor id")?,
+                    lux_lx: lux.trim().parse().context("--luxmeter lux")?,
+                    levels: vec![1.0; luminaires],
+                }
+            }
+        };
+        let mut o = CommissionOptions {
+            gain,
+            engine: self.engine.settings(),
+            progress: true,
+            start_rho: self.start_rho,
+            estimate_reflectances: self.reflectances == OnOff::On,
+            ..CommissionOptions::default()
+        };
+        o.closure.enabled = self.closure == OnOff::On;
+        o.reflectance.method = match self.reflectance_method {
+            ReflectanceMethodArg::Median => ReflectanceMethod::Median,
+            ReflectanceMethodArg::Sh => ReflectanceMethod::SphericalHarmonics,
+        };
+        o.closure.wall_rho = self.wall_rho;
+        o.closure.ceiling_rho = self.ceiling_rho;
+        o.closure.ceiling_z_m = self.ceiling_height;
+        o.closure.room_xy_m = self.room.as_ref().map(|r| [r[0], r[1], r[2], r[3]]);
+        o.mesh.patch_size_m = self.mesh_patch_size;
+        o.validate()?;
+        Ok(o)
+    }
+}
+
+/// Runs `luxnode commission`.
+pub fn run(a: &Args) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let load = LoadOptions::default();
+    let (lums, w1) = load_luminaires_file(&a.luminaires, &load)?;
+    let (sensors, w2) = load_sensors_file(&a.sensors, &load)?;
+    let desks = match &a.desks {
+        Some(p) => Some(load_desks_file(p, &load)?),
+        None => None,
+    };
+    for w in w1.iter().chain(&w2) {
+        tracing::warn!("{w}");
+    }
+    let o = a.options(lums.len())?;
+    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
+    let cap = Capture::load(&a.capture, &ids)?;
+    let c = commission::from_capture(&cap, lums, sensors, desks, &o)?;
+    let r = &c.report;
+    for w in &r.warnings {
+        tracing::warn!("{w}");
+    }
+    println!(
+        "depth: {} frames, {} of {} pixels kept ({} dropouts, {} flying pixels or outliers)",
+        r.depth.frames, r.depth.valid, r.depth.pixels, r.depth.dropouts, r.depth.flying_or_outliers
+    );
+    println!("planes: {}", r.planes.len());
+    for (k, p) in r.planes.iter().enumerate() {
+        println!(
+            "  plane_{k}: normal ({:.2}, {:.2}, {:.2}), centre ({:.2}, {:.2}, {:.2}) m, {:.2} m², {} triangles, rms {:.1} mm",
+            p.normal.x,
+            p.normal.y,
+            p.normal.z,
+            p.origin_m.x,
+            p.origin_m.y,
+            p.origin_m.z,
+            p.area_m2,
+            p.triangles,
+            p.rms_m * 1e3
+        );
+    }
+    println!(
+        "mesh: {} triangles, seen {:.1} m², inferred {:.1} m²; {} patches in the final model",
+        r.triangles, r.seen_area_m2, r.inferred_area_m2, r.patches
+    );
+    if let Some(room) = &r.room {
+        println!(
+            "room box: x {:.2}..{:.2} m, y {:.2}..{:.2} m, floor {:.3} m, ceiling {:.3} m",
+            room.xy_m[0],
+            room.xy_m[2],
+            room.xy_m[1],
+            room.xy_m[3],
+            room.floor_z_m,
+            room.ceiling_z_m
+        );
+    }
+    println!(
+        "reflectances: gain {:.5} cd/m² per unit, {} pixels, floor {}, {} clamped",
+        r.reflectance.gain_cd_m2_per_unit,
+        r.reflectance.pixels_used,
+        r.reflectance
+            .floor_rho
+            .map_or("-".into(), |v| format!("{v:.3}")),
+        r.reflectance.clamped
+    );
+    let flags = c.sensor_flags.clone();
+    let st = a.store.store(a.engine.preset);
+    let options = ImageOptions {
+        precision: st.precision,
+        prune_below: st.prune_below,
+        scene_name: c.scene.name.clone(),
+        sensor_flags: flags.clone(),
+    };
+    let bytes = build_for_region(&c.model, &options, formfactors_region_bytes())?;
+    let image = Image::parse(&bytes)?;
+    write_image_file(&a.out, &bytes)?;
+    println!(
+        "{}: {} bytes, {} patches",
+        a.out.display(),
+        bytes.len(),
+        image.patches()
+    );
+    for (s, f) in c.model.sensor_ids.iter().zip(&flags) {
+        if *f != 0 {
+            println!(
+                "sensor {s}:{}{}",
+                if f & sensor_flags::OUT_OF_VIEW != 0 {
+                    " out of view"
+                } else {
+                    ""
+                },
+                if f & sensor_flags::ESTIMATED != 0 {
+                    " estimated"
+                } else {
+                    ""
+                }
+            );
+        }
+    }
+    if let Some(p) = &a.export_mesh {
+        commission::output::write_ply(&c, p).with_context(|| format!("writing {}", p.display()))?;
+    }
+    #[cfg(feature = "report")]
+    if let Some(p) = &a.report {
+        luxnode::render::camera_view::report_png(&c, p)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    if let (Some(t), Some(s)) = (&a.truth, &a.states) {
+        let states = read_states(s)?;
+        let truth = read_truth(t)?;
+        let computed = readings(&states, &c.model.luminaire_ids, &c.model.sensor_ids, |l| {
+            c.model.sensor_lux(l)
+        })?;
+        let errors = per_sensor(&computed, &truth, &c.model.sensor_ids);
+        println!("sensor,flags,mean_abs_error_lx,mean_truth_lx,error_pct");
+        let flag_of = |id: u32| {
+            c.model
+                .sensor_ids
+                .iter()
+                .position(|s| *s == id)
+                .and_then(|k| flags.get(k).copied())
+                .unwrap_or(0)
+        };
+        for e in &errors {
+            println!(
+                "{},{},{:.1},{:.1},{:.2}",
+                e.sensor,
+                flag_of(e.sensor),
+                e.mean_abs_lx,
+                e.mean_truth_lx,
+                100.0 * e.error()
+            );
+        }
+        let all: Vec<_> = errors.iter().collect();
+        let in_view: Vec<_> = errors
+            .iter()
+            .filter(|e| flag_of(e.sensor) & sensor_flags::OUT_OF_VIEW == 0)
+            .collect();
+        println!(
+            "error, all sensors: {:.2} %; in view: {:.2} %",
+            100.0 * pooled(&all),
+            100.0 * pooled(&in_view)
+        );
+    }
+    println!("stage,ms");
+    for (stage, d) in &r.timings {
+        println!("{stage},{:.0}", d.as_secs_f64() * 1e3);
+    }
+    println!(
+        "total (with loading and the image),{:.0}",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    if let Some(m) = luxnode::host::peak_memory_mib() {
+        println!("peak memory: {m:.0} MiB");
+    }
+    Ok(())
+}

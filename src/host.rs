@@ -1,0 +1,57 @@
+//! Facts about this process from the operating system, for reports and benchmarks: memory in
+//! use and at its peak, the load average. `None` where the system does not say (not Linux).
+
+/// A `/proc/self/status` field in KiB (`VmRSS`, `VmHWM`).
+fn status_kib(field: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    parse_status_kib(&s, field)
+}
+
+fn parse_status_kib(status: &str, field: &str) -> Option<u64> {
+    let line = status
+        .lines()
+        .find(|l| l.split(':').next() == Some(field))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// Resident memory now, KiB.
+pub fn rss_kib() -> Option<u64> {
+    status_kib("VmRSS")
+}
+
+/// Peak resident memory of the process so far, MiB.
+pub fn peak_memory_mib() -> Option<f64> {
+    status_kib("VmHWM").map(|k| k as f64 / 1024.0)
+}
+
+/// The one-minute load average, as the system writes it.
+pub fn load_average() -> Option<String> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()
+        .map(str::to_owned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_status_kib;
+
+    #[test]
+    fn status_fields_are_read_in_kib() {
+        let s = "Name:\tluxnode\nVmHWM:\t  123456 kB\nVmRSS:\t   2048 kB\n";
+        assert_eq!(parse_status_kib(s, "VmHWM"), Some(123_456));
+        assert_eq!(parse_status_kib(s, "VmRSS"), Some(2048));
+        assert_eq!(parse_status_kib(s, "VmSwap"), None);
+        assert_eq!(parse_status_kib("VmRSS: lots kB\n", "VmRSS"), None);
+    }
+
+    #[test]
+    fn this_process_has_memory_on_linux() {
+        if cfg!(target_os = "linux") {
+            let rss = super::rss_kib().expect("VmRSS on Linux");
+            let peak = super::peak_memory_mib().expect("VmHWM on Linux");
+            assert!(rss > 0 && peak * 1024.0 >= rss as f64 * 0.5, "{rss} {peak}");
+        }
+    }
+}
