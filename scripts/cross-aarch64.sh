@@ -3,8 +3,9 @@
 # tests under qemu-aarch64: every unit test, photometry, scenes, the closed-form physics, the
 # store (images, slots, corruption, bit flips, stuck pages, file flash), and office_a's accuracy
 # at default settings. Emulation is 40-50 times slower, so the tests that commission office_a
-# many times, the exhaustive power-cut sweeps, the extremes suite and the CLI tests run natively
-# only (scripts/test.sh); they exercise the same code. The Modbus tests that start servers as
+# many times, the exhaustive power-cut sweeps, the extremes suite, the CLI tests and the checks of
+# the published figures (timed, and office_a commissioned a dozen times) run natively only
+# (scripts/test.sh); they exercise the same code. The Modbus tests that start servers as
 # processes and drive them with mbpoll/pymodbus, the HIL rig (processes), commissioning from
 # captures and the camera simulator (seconds of ray casting each) run natively too; the fuzzer,
 # the A010 ToF parser, V4L2 decoding and the replay camera run on both.
@@ -21,6 +22,7 @@ export CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER="qemu-aarch64 -L /usr/aarch
 export LUXNODE_TEST_RUNNER="$CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER"
 cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
   -E 'not (test(power_cut) | test(open_box) | binary(extremes) | binary(cli)
+          | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
           | (binary(modbus) & not test(fuzzed))
           | binary(hil) | binary(commission)
           | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)))

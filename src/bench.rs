@@ -4,6 +4,7 @@
 
 pub mod patches;
 pub mod radiance;
+pub mod table1;
 pub mod tradeoffs;
 
 use std::time::{Duration, Instant};

@@ -659,9 +659,9 @@ mod a010 {
                 .map(|_| {
                     let r = rng.next_u64();
                     // plenty of header bytes
-                    if r % 7 == 0 {
+                    if r.is_multiple_of(7) {
                         0
-                    } else if r % 11 == 0 {
+                    } else if r.is_multiple_of(11) {
                         0xFF
                     } else {
                         r as u8
@@ -700,7 +700,7 @@ mod a010 {
                     Ok(n)
                 }
                 Some(Event::Silence) | None => {
-                    std::thread::sleep(Duration::from_millis(5));
+                    std::thread::sleep(Duration::from_millis(30));
                     Err(ErrorKind::TimedOut.into())
                 }
                 Some(Event::Gone) => Err(ErrorKind::BrokenPipe.into()),
@@ -753,7 +753,7 @@ mod a010 {
             written: Vec::new(),
         };
         let o = A010Options {
-            timeout: Duration::from_millis(20),
+            timeout: Duration::from_millis(100),
             ..A010Options::default()
         };
         let mut cam = A010::new(port, camera(), o, "mock-tof").unwrap();

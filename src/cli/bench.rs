@@ -125,6 +125,15 @@ pub enum Command {
         #[arg(long, default_value_t = 0x6C75_786E)]
         seed: u64,
     },
+    /// The paper's Table 1, CAD vs RGBD rows: commissioning from the capture sets (clean and
+    /// noisy depth, closure on and off, true and estimated reflectances) against the truth,
+    /// over all desks and the desks in view (docs/accuracy.md).
+    Table1 {
+        /// The scene directory (capture/, capture_clean/ with groundtruth/, states.csv,
+        /// truth.csv, luminaires.json, sensors.json).
+        #[arg(long)]
+        scene: PathBuf,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -318,6 +327,14 @@ pub fn run(command: Command) -> Result<()> {
         }
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
+        }
+        Command::Table1 { scene } => {
+            println!(
+                "# the paper's Table 1, CAD vs RGBD rows, on {} (error = mean |error| / mean truth)",
+                scene.display()
+            );
+            println!("{}", bench::table1::HEADER);
+            bench::table1::run(&scene, |r| println!("{}", r.markdown()))?;
         }
         Command::Ablation { scene } => {
             let (sc, scenarios, truth) = scene_with_truth(&scene)?;

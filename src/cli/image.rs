@@ -141,7 +141,7 @@ fn eval(file: &std::path::Path, arc: &[String], demo_states: bool) -> Result<()>
                     .with_context(|| format!("arc level {a:?} is not 0..255"))
             })
             .collect::<Result<_>>()?;
-        if l == 0 || levels_all.is_empty() || levels_all.len() % l != 0 {
+        if l == 0 || levels_all.is_empty() || !levels_all.len().is_multiple_of(l) {
             bail!(
                 "give {l} arc levels per state (one per luminaire); got {}",
                 levels_all.len()

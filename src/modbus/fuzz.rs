@@ -97,7 +97,7 @@ fn seeds() -> Vec<Vec<u8>> {
 
 fn mutate(rng: &mut SplitMix64, seed: &[u8]) -> Vec<u8> {
     let mut f = seed.to_vec();
-    let rounds = 1 + u64::from(rng.next_u64() % 3 == 0);
+    let rounds = 1 + u64::from(rng.next_u64().is_multiple_of(3));
     for _ in 0..rounds {
         let r = rng.next_u64();
         let pos = if f.is_empty() {

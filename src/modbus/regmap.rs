@@ -245,7 +245,7 @@ impl RegisterMap {
             let off = a - addr::DESK_FLOAT;
             let bits = self.float_bits(usize::from(off / 2));
             let (hi, lo) = ((bits >> 16) as u16, bits as u16);
-            let first = off % 2 == 0;
+            let first = off.is_multiple_of(2);
             match (self.word_order, first) {
                 (WordOrder::Abcd, true) | (WordOrder::Cdab, false) => hi,
                 _ => lo,

@@ -302,12 +302,13 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         .map(|(&c_deg, cd)| StoredPlane { c_deg, cd })
         .collect();
     // 0–360: the 360 plane is the 0 plane measured again; average the two.
-    if symmetry == Symmetry::None && near(h1, 360.0) {
-        if let Some(last) = planes.pop() {
-            let first = &mut planes[0];
-            for (a, b) in first.cd.iter_mut().zip(&last.cd) {
-                *a = 0.5 * (*a + b);
-            }
+    if symmetry == Symmetry::None
+        && near(h1, 360.0)
+        && let Some(last) = planes.pop()
+    {
+        let first = &mut planes[0];
+        for (a, b) in first.cd.iter_mut().zip(&last.cd) {
+            *a = 0.5 * (*a + b);
         }
     }
 

@@ -31,15 +31,15 @@ impl IntensityDistribution {
             Symmetry::None => Some((0..mc).collect()),
             Symmetry::AboutC0C180 => {
                 let end = find(180.0)?;
-                (mc % 2 == 0 && end == mc / 2).then(|| (0..=end).collect())
+                (mc.is_multiple_of(2) && end == mc / 2).then(|| (0..=end).collect())
             }
             Symmetry::Quadrant => {
                 let end = find(90.0)?;
-                (mc % 4 == 0 && end == mc / 4).then(|| (0..=end).collect())
+                (mc.is_multiple_of(4) && end == mc / 4).then(|| (0..=end).collect())
             }
             Symmetry::AboutC90C270 => {
                 let start = find(270.0)?;
-                (mc % 4 == 0 && start == 3 * mc / 4)
+                (mc.is_multiple_of(4) && start == 3 * mc / 4)
                     .then(|| (0..=mc / 2).map(|r| (start + r) % mc).collect())
             }
         }

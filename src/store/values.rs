@@ -22,7 +22,10 @@ impl<'de: 'a, 'a> Deserialize<'de> for Bytes<'a> {
 impl Bytes<'_> {
     /// Number of `width`-byte elements, if the length is a whole multiple.
     pub fn count(&self, width: usize) -> Option<usize> {
-        (self.0.len() % width == 0).then_some(self.0.len() / width)
+        self.0
+            .len()
+            .is_multiple_of(width)
+            .then_some(self.0.len() / width)
     }
 
     /// Element `i` as u32 LE.

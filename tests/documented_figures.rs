@@ -1,0 +1,285 @@
+//! The figures README.md publishes, measured again and compared with what it says: the office_a
+//! accuracy table, the preset table, and the ablation figures beside them. Accuracy, patch
+//! counts and image sizes are deterministic (fixed seed): their tolerance is the printed
+//! rounding plus a tenth of the value, so a regression (or a README left behind by a change)
+//! fails. Times are guarded at three times the published value (the machine may be another),
+//! scaled by how much busier than idle the machine is: `.config/nextest.toml` runs this file
+//! alone, so no other test shares the cores.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use luxnode::engine::{self, DirectModel, Model, Settings};
+use luxnode::evaluate::{Accuracy, compare, readings};
+use luxnode::image_build::{ImageOptions, build_image};
+use luxnode::preset::Preset;
+use luxnode::runtime::Runtime;
+use luxnode::scene::{LoadOptions, Scenario, Scene, TruthRow, read_states, read_truth};
+use luxnode::store::Image;
+
+fn office_a() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+}
+
+fn readme() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .expect("README.md")
+}
+
+/// The cells of the README table row whose first cell starts with `first`.
+fn row(readme: &str, first: &str) -> Vec<String> {
+    let line = readme
+        .lines()
+        .find(|l| l.starts_with('|') && l.trim_start_matches('|').trim_start().starts_with(first))
+        .unwrap_or_else(|| panic!("README.md has no table row starting with {first:?}"));
+    line.trim()
+        .trim_matches('|')
+        .split('|')
+        .map(|c| c.trim().to_owned())
+        .collect()
+}
+
+/// A printed number and the half unit of its last digit: "0.27 %" -> (0.27, 0.005).
+fn number(cell: &str) -> (f64, f64) {
+    let s: String = cell
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    let v: f64 = s
+        .parse()
+        .unwrap_or_else(|_| panic!("no number in {cell:?}"));
+    let decimals = s.split_once('.').map_or(0, |(_, d)| d.len());
+    (v, 0.5 * 10f64.powi(-(decimals as i32)))
+}
+
+/// Bytes of a printed size ("98 kB", "1.98 MB"; decimal units) and its rounding, bytes.
+fn bytes(cell: &str) -> (f64, f64) {
+    let (v, half) = number(cell);
+    let unit = if cell.contains("MB") {
+        1e6
+    } else if cell.contains("kB") {
+        1e3
+    } else {
+        panic!("no kB or MB in {cell:?}")
+    };
+    (v * unit, half * unit)
+}
+
+/// An accuracy figure (percent) that must be reproduced: within its rounding plus 10 %.
+fn check_pct(what: &str, measured: f64, printed: &str) {
+    let (v, half) = number(printed);
+    let got = 100.0 * measured;
+    assert!(
+        (got - v).abs() <= half + 0.1 * v,
+        "{what}: measured {got:.3} %, README says {printed}"
+    );
+}
+
+/// How much busier than idle this machine is: the one-minute load average over the cores, at
+/// least 1 (CI runs this file alone on its own machine: 1; a developer's shared machine can be
+/// several times busier, and then every time is that much longer).
+fn busy_factor() -> f64 {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    let load = luxnode::host::load_average()
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(0.0);
+    (load / cores).max(1.0)
+}
+
+/// A time that must not be more than 3 times the published one (plus a little slack for
+/// very short ones), times how much busier the machine is than idle.
+fn check_time(what: &str, measured_s: f64, printed: &str, slack_s: f64) {
+    let (v, _) = number(printed);
+    let unit = if printed.contains("ms") {
+        1e-3
+    } else if printed.contains("ns") {
+        1e-9
+    } else if printed.contains("µs") {
+        1e-6
+    } else if printed.contains(" s") {
+        1.0
+    } else {
+        panic!("no time unit in {printed:?}")
+    };
+    let published = v * unit;
+    let busy = busy_factor();
+    assert!(
+        measured_s <= (3.0 * published + slack_s) * busy,
+        "{what}: measured {measured_s:.3e} s, README says {printed} (machine {busy:.1} x busier than idle)"
+    );
+    eprintln!("{what}: measured {measured_s:.3e} s, README {printed}, busy x{busy:.1}");
+}
+
+fn truth() -> (Scene, Vec<Scenario>, Vec<TruthRow>) {
+    let scene = Scene::load(&office_a(), &LoadOptions::default()).unwrap();
+    let states = read_states(&office_a().join("states.csv")).unwrap();
+    let truth = read_truth(&office_a().join("truth.csv")).unwrap();
+    (scene, states, truth)
+}
+
+fn model_accuracy(model: &Model, states: &[Scenario], truth: &[TruthRow]) -> Accuracy {
+    let c = readings(states, &model.luminaire_ids, &model.sensor_ids, |l| {
+        model.sensor_lux(l)
+    })
+    .unwrap();
+    compare(&c, truth).unwrap()
+}
+
+#[test]
+fn the_office_a_table_and_the_ablation_figures_hold() {
+    let text = readme();
+    let (scene, states, truth) = truth();
+    let t0 = Instant::now();
+    let model = engine::compute_model(&scene, &Settings::default()).unwrap();
+    let commissioning_s = t0.elapsed().as_secs_f64();
+    let a = model_accuracy(&model, &states, &truth);
+    assert_eq!(a.pairs, 31 * 8);
+    check_pct("error", a.error, &row(&text, "error over 31 scenarios")[1]);
+    check_pct(
+        "worst sensor",
+        a.worst_sensor,
+        &row(&text, "worst sensor")[1],
+    );
+    check_time(
+        "commissioning",
+        commissioning_s,
+        &row(&text, "commissioning (")[1],
+        0.2,
+    );
+    let per_state = luxnode::bench::time_state(&model, 200_000).unwrap();
+    check_time(
+        "one dimming state",
+        per_state.as_secs_f64(),
+        &row(&text, "one dimming state")[1],
+        50e-9,
+    );
+    // "The paper's formulation ... scores 11.3 % on the same table; direct light alone, 23.6 %."
+    let sentence = text
+        .split("The paper's formulation")
+        .nth(1)
+        .expect("README: the paper's formulation sentence");
+    let mut pcts = sentence.split(" %").map(|s| {
+        s.rsplit(' ')
+            .next()
+            .unwrap_or_default()
+            .trim_start_matches(',')
+            .to_owned()
+    });
+    let paper_pct = pcts.next().expect("paper figure");
+    let direct_pct = pcts.next().expect("direct-only figure");
+    let paper = engine::compute_model(
+        &scene,
+        &Settings {
+            direct: DirectModel::Paper,
+            ..Settings::default()
+        },
+    )
+    .unwrap();
+    check_pct(
+        "paper formulation",
+        model_accuracy(&paper, &states, &truth).error,
+        &format!("{paper_pct} %"),
+    );
+    let direct_only = readings(&states, &model.luminaire_ids, &model.sensor_ids, |l| {
+        Ok::<_, ()>(
+            model
+                .direct_sensor_lx
+                .iter()
+                .map(|row| row.iter().zip(l).map(|(d, x)| d * x).sum())
+                .collect(),
+        )
+    })
+    .unwrap();
+    check_pct(
+        "direct light alone",
+        compare(&direct_only, &truth).unwrap().error,
+        &format!("{direct_pct} %"),
+    );
+}
+
+#[test]
+fn the_preset_table_holds() {
+    let text = readme();
+    let (scene, states, truth) = truth();
+    for (preset, first) in [
+        (Preset::Fast, "fast"),
+        (Preset::Balanced, "balanced"),
+        (Preset::Accurate, "accurate"),
+    ] {
+        let cells = row(&text, first);
+        // | preset | patches | commissioning | image | one state | re-solve | error | worst |
+        let t0 = Instant::now();
+        let model = engine::compute_model(&scene, &preset.engine()).unwrap();
+        let commissioning_s = t0.elapsed().as_secs_f64();
+        let store = preset.store();
+        let bytes_built = build_image(
+            &model,
+            &ImageOptions {
+                precision: store.precision,
+                prune_below: store.prune_below,
+                scene_name: scene.name.clone(),
+                sensor_flags: Vec::new(),
+            },
+        )
+        .unwrap();
+        let image = Image::parse(&bytes_built).unwrap();
+        assert_eq!(image.patches().to_string(), cells[1], "{first}: patches");
+        let (size, half) = bytes(&cells[3]);
+        let got = bytes_built.len() as f64;
+        assert!(
+            (got - size).abs() <= half + 0.01 * size,
+            "{first}: image of {got} bytes, README says {}",
+            cells[3]
+        );
+        assert!(
+            cells[3].contains(store.precision.name()),
+            "{first}: precision {} not in {}",
+            store.precision.name(),
+            cells[3]
+        );
+        // the error is that of the flash image (superposition over the stored response)
+        let rt = Runtime::new(&image);
+        let ids: Vec<u32> = (0..image.luminaires())
+            .map(|j| image.luminaire_id(j))
+            .collect();
+        let sensors: Vec<u32> = (0..image.sensors()).map(|k| image.sensor_id(k)).collect();
+        let c = readings(&states, &ids, &sensors, |l| {
+            let mut out = vec![0.0; sensors.len()];
+            rt.sensor_lux(l, &mut out).map(|()| out)
+        })
+        .unwrap();
+        let a = compare(&c, &truth).unwrap();
+        check_pct(&format!("{first}: error"), a.error, &cells[6]);
+        check_pct(&format!("{first}: worst sensor"), a.worst_sensor, &cells[7]);
+        check_time(
+            &format!("{first}: commissioning"),
+            commissioning_s,
+            &cells[2],
+            0.2,
+        );
+        let (per_state, resolve, _) = luxnode::bench::time_runtime(&image, 200_000, 5).unwrap();
+        check_time(
+            &format!("{first}: one state"),
+            per_state.as_secs_f64(),
+            &cells[4],
+            50e-9,
+        );
+        check_time(
+            &format!("{first}: re-solve"),
+            resolve.as_secs_f64(),
+            &cells[5],
+            2e-3,
+        );
+    }
+}
+
+#[test]
+fn the_readers_of_the_tables_read_what_they_must() {
+    let t = "| | a | b |\n|---|---:|---:|\n| worst sensor | 0.53 % | ≤ 6 % |\n| fast | 524 | 98 kB (u8) |";
+    assert_eq!(row(t, "worst")[1], "0.53 %");
+    assert_eq!(number("0.53 %"), (0.53, 0.005));
+    assert_eq!(number("524"), (524.0, 0.5));
+    assert_eq!(bytes("98 kB (u8)"), (98e3, 500.0));
+    let (b, h) = bytes("1.98 MB (u16)");
+    assert!((b - 1.98e6).abs() < 1e-6 && (h - 5e3).abs() < 1e-9);
+}

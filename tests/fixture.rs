@@ -1,0 +1,135 @@
+//! The repository's own fixture scene (`tests/fixtures/small_office`, written by
+//! `scripts/make-fixture-scene.py`): tests that need a scene but not the Radiance truth run
+//! from it, without `../shared`. Its numbers are closed forms of its construction.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use luxnode::photometry::IntensityDistribution;
+use luxnode::scene::{LoadOptions, Scene};
+
+fn dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/small_office")
+}
+
+fn luxnode(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args(args)
+        .output()
+        .expect("luxnode")
+}
+
+#[test]
+fn the_fixture_loads_with_the_areas_it_was_built_with() {
+    let s = Scene::load(&dir(), &LoadOptions::default()).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.mesh.triangles.len(), 26);
+    assert_eq!(s.luminaires.len(), 2);
+    assert_eq!(s.sensors.len(), 3);
+    let area = |label: &str| -> f64 {
+        s.mesh
+            .triangles
+            .iter()
+            .filter(|t| s.mesh.groups[t.group as usize] == label)
+            .map(|t| s.mesh.area_m2(t))
+            .sum()
+    };
+    // 4 x 3 x 2.8 m room; desk 1.6 x 0.8 x 0.75 m without a bottom
+    assert!((area("floor") - 12.0).abs() < 1e-9);
+    assert!((area("wall_s") - 4.0 * 2.8).abs() < 1e-9);
+    assert!((area("desk_1") - (1.6 * 0.8 + 2.0 * (1.6 + 0.8) * 0.75)).abs() < 1e-9);
+    let total: f64 = s.mesh.triangles.iter().map(|t| s.mesh.area_m2(t)).sum();
+    assert!((total - 68.8).abs() < 1e-6, "{total}");
+}
+
+#[test]
+fn the_cosine_photometry_integrates_to_its_closed_form() {
+    // I(γ) = I0 cos γ on the lower hemisphere emits π I0; the file is per 1000 lm
+    for file in ["cosine.ldt", "cosine.ies"] {
+        let d = IntensityDistribution::load(&dir().join(file)).unwrap();
+        let i0 = 1000.0 / PI;
+        assert!((d.intensity_cd(0.0, 0.0) - i0).abs() < 1e-3 * i0, "{file}");
+        let i60 = d.intensity_cd(0.3, 60f64.to_radians());
+        assert!((i60 - 0.5 * i0).abs() < 1e-3 * i0, "{file}: I(60°) = {i60}");
+        assert_eq!(d.intensity_cd(1.0, 120f64.to_radians()), 0.0, "{file}");
+        // the 5° table integrates to the closed form within the quadrature's error
+        // (trapezoids of cos γ sin γ on a 5° grid: -0.063 %)
+        let flux = d.flux_lm();
+        assert!((flux / 1000.0 - 1.0).abs() < 1e-3, "{file}: {flux} lm");
+        assert!(d.warnings().is_empty(), "{file}: {:?}", d.warnings());
+    }
+}
+
+#[test]
+fn the_cli_commissions_serves_and_evaluates_the_fixture() {
+    let tmp = tempfile::tempdir().unwrap();
+    let image = tmp.path().join("small.img");
+    let dir = dir();
+    let out = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        dir.to_str().unwrap(),
+        "--out",
+        image.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // the image alone answers as the run-time core's full re-solve does
+    let eval = luxnode(&["image", "eval", image.to_str().unwrap(), "--arc", "254,0"]);
+    assert!(eval.status.success());
+    let text = String::from_utf8_lossy(&eval.stdout);
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(2).map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 3, "{text}");
+    for r in &rows {
+        assert!(r[0] > 0.0 && (r[0] - r[1]).abs() <= 1e-6 * r[1], "{text}");
+    }
+    let states = dir.join("states.csv");
+    let sim = luxnode(&[
+        "simulate",
+        "--image",
+        image.to_str().unwrap(),
+        "--states",
+        states.to_str().unwrap(),
+    ]);
+    assert!(sim.status.success());
+    let lux: Vec<(String, u32, f64)> = String::from_utf8_lossy(&sim.stdout)
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            (
+                c[0].to_owned(),
+                c[1].parse().unwrap(),
+                c[2].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(lux.len(), 9);
+    // superposition: all on = luminaire 1 + luminaire 2, for every sensor
+    for s in 1..=3 {
+        let get = |sc: &str| lux.iter().find(|r| r.0 == sc && r.1 == s).unwrap().2;
+        let (a, b, all) = (get("1"), get("2"), get("all"));
+        assert!(
+            (a + b - all).abs() <= 2e-3 * all,
+            "sensor {s}: {a} + {b} vs {all}"
+        );
+    }
+    // the image's first row (luminaire 1 at 254 = 100 %) equals simulate's scenario 1
+    let s1 = lux.iter().find(|r| r.0 == "1" && r.1 == 1).unwrap().2;
+    assert!(
+        (rows[0][0] - s1).abs() <= 2e-3 * s1,
+        "{} vs {s1}",
+        rows[0][0]
+    );
+}
