@@ -50,6 +50,8 @@ enum Command {
         #[command(subcommand)]
         command: cli::bench::Command,
     },
+    /// The least-power dimming state that meets every desk's target (from an image).
+    Control(Box<cli::control::Args>),
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
 }
@@ -67,6 +69,7 @@ fn main() -> ExitCode {
         Command::Commission(a) => cli::commission::run(&a).map(|()| ExitCode::SUCCESS),
         #[cfg(feature = "bench")]
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),
+        Command::Control(a) => cli::control::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
     };
     match done {

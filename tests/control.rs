@@ -459,3 +459,92 @@ fn the_loop_brightens_at_once_dims_after_the_hold_and_is_safe_without_camera() {
     reg.mode = Mode::Off;
     assert!(tick(&mut reg, 230.0, Some(0.0), true).write.is_none());
 }
+
+/// Runs the binary; stdout.
+fn luxnode(args: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args(args)
+        .output()
+        .expect("luxnode");
+    assert!(
+        out.status.success(),
+        "luxnode {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn every_desk_meets_its_target_when_the_run_time_core_evaluates_the_plan() {
+    // the plan of `luxnode control`, evaluated by `luxnode image eval` (the run-time core's
+    // superposition and full re-solve over the stored form factors): every desk at its target
+    let tmp = tempfile::tempdir().unwrap();
+    let img = tmp.path().join("office_a.img");
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        img.to_str().unwrap(),
+    ]);
+    let img = img.to_str().unwrap();
+    for (extra, targets) in [
+        (vec![], [500.0; 8]),
+        (
+            vec![
+                "--target",
+                "300",
+                "--target-desk",
+                "3:750",
+                "--daylight",
+                "1:200,5:450,8:90",
+            ],
+            [300.0, 300.0, 750.0, 300.0, 300.0, 300.0, 300.0, 300.0],
+        ),
+    ] {
+        let mut args = vec!["control", "--image", img];
+        args.extend(extra.iter().copied());
+        let plan = luxnode(&args);
+        let sections: Vec<&str> = plan.split("\n\n").collect();
+        assert_eq!(sections.len(), 3, "{plan}");
+        let arcs: Vec<String> = sections[0]
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().to_owned())
+            .collect();
+        assert_eq!(arcs.len(), 8);
+        let eval = luxnode(&["image", "eval", img, "--arc", &arcs.join(",")]);
+        let daylight = |id: usize| match (extra.is_empty(), id) {
+            (false, 1) => 200.0,
+            (false, 5) => 450.0,
+            (false, 8) => 90.0,
+            _ => 0.0,
+        };
+        for line in eval.lines().skip(1) {
+            let c: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+            let id = c[1] as usize;
+            let (sup, full) = (c[2] + daylight(id), c[3] + daylight(id));
+            let t = targets[id - 1];
+            assert!(
+                sup >= t - 1e-3 && full >= t * (1.0 - 1e-6),
+                "desk {id}: {sup} / {full} lx for a target of {t}\n{plan}"
+            );
+        }
+        // the summary line: power within 0.5 % of the continuous optimum, less than all on
+        let summary: Vec<f64> = sections[2]
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let (power, all_on, lp_bound) = (summary[0], summary[1], summary[3]);
+        assert!(
+            power >= lp_bound - 1e-9 && power <= 1.005 * lp_bound,
+            "{plan}"
+        );
+        assert!(power < all_on);
+    }
+}

@@ -134,6 +134,16 @@ pub enum Command {
         #[arg(long)]
         scene: PathBuf,
     },
+    /// The least-power optimiser (luminaires x desks up to 64 x 100): time per optimisation,
+    /// the continuous optimum against the independent microlp solver, the DALI plan's excess.
+    Control {
+        /// Instances per size.
+        #[arg(long, default_value_t = 20)]
+        instances: usize,
+        /// Seed of the instances.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -327,6 +337,33 @@ pub fn run(command: Command) -> Result<()> {
         }
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
+        }
+        Command::Control { instances, seed } => {
+            if !(1..=10_000).contains(&instances) {
+                bail!("--instances {instances}: 1..=10000");
+            }
+            println!(
+                "# least-power dimming: {instances} office-like instances per size (seed {seed}), load average {}",
+                luxnode::host::load_average().unwrap_or_else(|| "?".into())
+            );
+            println!(
+                "| luminaires x desks | median time | worst time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
+            );
+            println!("|---|---:|---:|---:|---:|---:|");
+            let sizes = [(8, 8), (16, 24), (32, 50), (64, 100)];
+            for r in bench::control::run(&sizes, instances, seed) {
+                println!(
+                    "| {} x {} | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
+                    r.luminaires,
+                    r.desks,
+                    r.median.as_secs_f64() * 1e6,
+                    r.worst.as_secs_f64() * 1e6,
+                    r.lp_rel_diff,
+                    100.0 * r.dali_excess,
+                    r.infeasible,
+                    r.instances
+                );
+            }
         }
         Command::Table1 { scene } => {
             println!(

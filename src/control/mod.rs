@@ -193,7 +193,7 @@ pub const fn scratch_len(desks: usize, luminaires: usize, uniformity: bool) -> u
     let rows = if uniformity { 2 * desks } else { desks };
     // a, b, c, m, x (continuous), x (quantised), lux of the LP, the exchange's trial outputs and
     // deficits, then the LP's tableau
-    rows * luminaires + 2 * rows + 4 * luminaires + 2 * desks + lp::scratch_len(rows, luminaires)
+    rows * luminaires + 2 * rows + 5 * luminaires + 3 * desks + lp::scratch_len(rows, luminaires)
 }
 
 /// The arc level of at least `output` on `curve` (the smallest such level), at least
@@ -309,7 +309,7 @@ pub fn optimise(
     let (x, rest) = rest.split_at_mut(l);
     let (xq, rest) = rest.split_at_mut(l);
     let (lux_lp, rest) = rest.split_at_mut(kd);
-    let (exchange, tableau) = rest.split_at_mut(l + kd);
+    let (exchange, tableau) = rest.split_at_mut(2 * l + 2 * kd);
     for (cj, p) in c.iter_mut().zip(plant.power) {
         *cj = p.slope_w();
     }
@@ -397,9 +397,7 @@ pub fn optimise(
         }
     }
     if demand.uniformity.is_none() {
-        let (trial_x, rest) = exchange.split_at_mut(l);
-        let (deficit, _) = rest.split_at_mut(kd);
-        exchange_down(plant, floor, out.arc, xq, out.lux, trial_x, deficit);
+        exchange_down(plant, floor, out.arc, xq, out.lux, exchange);
     }
     desk_lux(plant, demand.daylight_lx, xq, out.lux);
     let short = met(out.lux, demand, 1e-6 * DEFAULT_TARGET_LX, out.met);
@@ -441,10 +439,13 @@ fn exchange_down(
     arc: &mut [ArcLevel],
     xq: &mut [f64],
     lux: &mut [f64],
-    trial_x: &mut [f64],
-    deficit: &mut [f64],
+    work: &mut [f64],
 ) {
     let (kd, l, r) = (plant.desks, plant.luminaires, plant.response_lx);
+    let (trial_x, rest) = work.split_at_mut(l);
+    let (trial_arc, rest) = rest.split_at_mut(l);
+    let (deficit, rest) = rest.split_at_mut(kd);
+    let short = &mut rest[..kd]; // indices of the desks in deficit
     let frac = |a: ArcLevel| fraction(a, plant.curve);
     for _ in 0..EXCHANGE_PASSES {
         let mut improved = false;
@@ -454,54 +455,64 @@ fn exchange_down(
             }
             let pj = plant.power[j];
             let down = step_down(arc[j], pj.min_arc);
-            let saving = pj.slope_w() * (xq[j] - frac(down));
-            trial_x.copy_from_slice(xq);
-            trial_x[j] = frac(down);
+            let dxj = xq[j] - frac(down);
+            let saving = pj.slope_w() * dxj;
+            // the desks this step would leave short
+            let mut n_short = 0;
             for k in 0..kd {
-                deficit[k] = floor[k] - (lux[k] - r[k * l + j] * (xq[j] - trial_x[j]));
+                let d = floor[k] - (lux[k] - r[k * l + j] * dxj);
+                if d > 0.0 {
+                    deficit[n_short] = d;
+                    short[n_short] = k as f64;
+                    n_short += 1;
+                }
             }
+            if n_short == 0 {
+                continue;
+            }
+            trial_x.copy_from_slice(xq);
+            for (t, a) in trial_arc.iter_mut().zip(arc.iter()) {
+                *t = f64::from(a.0);
+            }
+            trial_x[j] = frac(down);
+            trial_arc[j] = f64::from(down.0);
             let mut cost = 0.0;
             let mut ok = true;
-            while deficit.iter().any(|&d| d > 0.0) {
+            while deficit[..n_short].iter().any(|&d| d > 0.0) {
                 // the step up that covers the most deficit per watt
-                let mut best: Option<(usize, f64, f64, f64)> = None; // (i, new x, cost, ratio)
+                let mut best: Option<(usize, ArcLevel, f64, f64)> = None; // (i, up, Δx, ratio)
                 for i in 0..l {
                     if i == j {
                         continue;
                     }
                     let pi = plant.power[i];
-                    let cur = ArcLevel::nearest(trial_x[i], plant.curve).unwrap_or(ArcLevel::OFF);
-                    let cur = if trial_x[i] <= 0.0 {
-                        ArcLevel::OFF
-                    } else {
-                        cur
-                    };
-                    let Some(up) = step_up(cur, pi.min_arc) else {
+                    let Some(up) = step_up(ArcLevel(trial_arc[i] as u8), pi.min_arc) else {
                         continue;
                     };
                     let du = frac(up) - trial_x[i];
-                    let c = pi.slope_w() * du;
-                    let cover: f64 = (0..kd)
-                        .filter(|&k| deficit[k] > 0.0)
-                        .map(|k| deficit[k].min(r[k * l + i] * du))
-                        .sum();
+                    let mut cover = 0.0;
+                    for s in 0..n_short {
+                        if deficit[s] > 0.0 {
+                            cover += deficit[s].min(r[short[s] as usize * l + i] * du);
+                        }
+                    }
                     if cover <= 0.0 {
                         continue;
                     }
-                    let ratio = cover / c.max(1e-12);
+                    let ratio = cover / (pi.slope_w() * du).max(1e-12);
                     if best.is_none_or(|b| ratio > b.3) {
-                        best = Some((i, frac(up), c, ratio));
+                        best = Some((i, up, du, ratio));
                     }
                 }
-                let Some((i, x_new, c, _)) = best else {
+                let Some((i, up, du, _)) = best else {
                     ok = false;
                     break;
                 };
-                let du = x_new - trial_x[i];
-                trial_x[i] = x_new;
-                cost += c;
-                for k in 0..kd {
-                    deficit[k] -= r[k * l + i] * du;
+                trial_x[i] += du;
+                trial_arc[i] = f64::from(up.0);
+                cost += plant.power[i].slope_w() * du;
+                for s in 0..n_short {
+                    deficit[s] -= r[short[s] as usize * l + i] * du;
                 }
                 if cost >= saving {
                     ok = false;
@@ -516,11 +527,7 @@ fn exchange_down(
                             lux[k] += r[k * l + i] * dx;
                         }
                         xq[i] = trial_x[i];
-                        arc[i] = if xq[i] <= 0.0 {
-                            ArcLevel::OFF
-                        } else {
-                            ArcLevel::nearest(xq[i], plant.curve).unwrap_or(ArcLevel::OFF)
-                        };
+                        arc[i] = ArcLevel(trial_arc[i] as u8);
                     }
                 }
                 improved = true;
