@@ -47,6 +47,10 @@ use rayset::{frame, to_world};
 /// Fewest points over a luminaire's opening for a sensor's direct light.
 pub const SENSOR_OPENING_POINTS: usize = 256;
 
+/// Points over a luminaire's opening for the direct light at final-gather hit points farther
+/// than four opening diagonals from it (centred: [`direct::centred_opening_points`]).
+pub const FAR_OPENING_POINTS: usize = 4;
+
 /// How direct light reaches patches and sensors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectModel {
@@ -485,26 +489,40 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
     let final_gather = settings.final_gather_rays > 0 && settings.direct == DirectModel::Exact;
     let first_bounce_sensor_lx: Vec<Vec<f64>> = if final_gather {
         timed(&mut stats, "final gather", || {
-            let set = RaySet::new(settings.ray_set, settings.final_gather_rays);
+            // Isocell: one jittered set per sensor (unbiased; the midpoint set's quadrature
+            // error has one sign, see RaySet::isocell_jittered); Monte Carlo: the seeded set.
+            let fixed = RaySet::new(settings.ray_set, settings.final_gather_rays);
             let near: Vec<Vec<DVec3>> = luminaires
                 .iter()
                 .map(|l| opening_points_for(l, k))
                 .collect();
             let far: Vec<Vec<DVec3>> = luminaires
                 .iter()
-                .map(|l| opening_points_for(l, 4))
+                .map(|l| opening_points_for(l, FAR_OPENING_POINTS))
                 .collect();
             scene
                 .sensors
                 .par_iter()
                 .zip(responses.par_iter())
-                .map(|(s, resp)| {
+                .enumerate()
+                .map(|(i, (s, resp))| {
+                    let jittered;
+                    let set = match settings.ray_set {
+                        RaySetKind::Isocell => {
+                            jittered = RaySet::isocell_jittered(
+                                settings.final_gather_rays,
+                                crate::rng::hash64(settings.seed ^ 0xF1_6A7E ^ ((i as u64) << 20)),
+                            );
+                            &jittered
+                        }
+                        RaySetKind::MonteCarlo { .. } => &fixed,
+                    };
                     first_bounce(
                         s.position_m,
                         s.normal,
                         resp,
                         &caster,
-                        &set,
+                        set,
                         &patches,
                         &luminaires,
                         &near,
@@ -622,7 +640,7 @@ fn gather_dot(g: &Csr, s: usize, b: &[f64]) -> f64 {
 }
 
 fn opening_points_for(l: &Luminaire, k: usize) -> Vec<DVec3> {
-    direct::opening_points(l, k)
+    direct::centred_opening_points(l, k)
 }
 
 /// Direct illuminance averaged over each patch (`patch_direct_points` area samples).
