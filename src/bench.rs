@@ -3,6 +3,7 @@
 //! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
 
 pub mod patches;
+pub mod scaling;
 pub mod tradeoffs;
 
 use std::time::{Duration, Instant};

@@ -483,6 +483,24 @@ enum BenchCommand {
         #[arg(long)]
         out_dir: Option<PathBuf>,
     },
+    /// Stage times and memory against patches x rays (Ward's grey room, or --scene).
+    Scaling {
+        /// A scene directory (default: Ward's grey room, built in code).
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Base patch sizes, m.
+        #[arg(long, value_delimiter = ',', default_values_t = [0.5, 0.35, 0.25])]
+        patch_sizes: Vec<f64>,
+        /// Rays per patch.
+        #[arg(long, value_delimiter = ',', default_values_t = [300, 3000])]
+        rays: Vec<usize>,
+        /// Uniform patches (no refinement toward sensors and luminaires).
+        #[arg(long)]
+        uniform: bool,
+        /// Commissioning runs per point (the median is kept).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+    },
     /// The run-time core over an image: one dimming state, and a full re-solve.
     Runtime {
         /// The image file.
@@ -1312,6 +1330,13 @@ fn bench(command: BenchCommand) -> Result<ExitCode> {
                 plot,
             })?;
         }
+        BenchCommand::Scaling {
+            scene,
+            patch_sizes,
+            rays,
+            uniform,
+            runs,
+        } => cli::bench_scaling::run(scene.as_deref(), &patch_sizes, &rays, uniform, runs)?,
         BenchCommand::Patches { scene, out_dir } => {
             cli::tradeoffs::patches(&scene, out_dir.as_deref())?;
         }

@@ -489,9 +489,7 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
     let final_gather = settings.final_gather_rays > 0 && settings.direct == DirectModel::Exact;
     let first_bounce_sensor_lx: Vec<Vec<f64>> = if final_gather {
         timed(&mut stats, "final gather", || {
-            // Isocell: one jittered set per sensor (unbiased; the midpoint set's quadrature
-            // error has one sign, see RaySet::isocell_jittered); Monte Carlo: the seeded set.
-            let fixed = RaySet::new(settings.ray_set, settings.final_gather_rays);
+            let set = RaySet::new(settings.ray_set, settings.final_gather_rays);
             let near: Vec<Vec<DVec3>> = luminaires
                 .iter()
                 .map(|l| opening_points_for(l, k))
@@ -504,25 +502,13 @@ pub fn commission(scene: &Scene, settings: &Settings) -> Result<Model, EngineErr
                 .sensors
                 .par_iter()
                 .zip(responses.par_iter())
-                .enumerate()
-                .map(|(i, (s, resp))| {
-                    let jittered;
-                    let set = match settings.ray_set {
-                        RaySetKind::Isocell => {
-                            jittered = RaySet::isocell_jittered(
-                                settings.final_gather_rays,
-                                crate::rng::hash64(settings.seed ^ 0xF1_6A7E ^ ((i as u64) << 20)),
-                            );
-                            &jittered
-                        }
-                        RaySetKind::MonteCarlo { .. } => &fixed,
-                    };
+                .map(|(s, resp)| {
                     first_bounce(
                         s.position_m,
                         s.normal,
                         resp,
                         &caster,
-                        set,
+                        &set,
                         &patches,
                         &luminaires,
                         &near,

@@ -77,35 +77,6 @@ impl RaySet {
         Self { dirs }
     }
 
-    /// The Isocell set for `target` rays with one uniformly random point in each cell (in
-    /// area, i.e. uniform in r² and in angle within the cell), from `seed`: the stratified but
-    /// *unbiased* version of [`RaySet::isocell`]. The fixed midpoint set is a midpoint
-    /// quadrature: its error has one sign for a given integrand shape. Near the rim, where
-    /// `cos θ = √(1 − r²)` varies fastest, an integrand that fades toward grazing (light on a
-    /// wall right next to a ceiling point) is concave in r², so the midpoint overestimates
-    /// it: +0.7 % on the first bounce at Ward's ceiling points with 1083 rays (docs/accuracy.md).
-    /// One jittered set per sensor turns that bias into zero-mean noise.
-    pub fn isocell_jittered(target: usize, seed: u64) -> Self {
-        let n0 = 3usize;
-        let n = isocell_rings(target);
-        let mut rng = SplitMix64::new(seed);
-        let mut dirs = Vec::with_capacity(n0 * n * n);
-        let nn = (n * n) as f64;
-        for i in 1..=n {
-            let cells = n0 * (2 * i - 1);
-            let fi = i as f64;
-            let (r2_lo, r2_hi) = ((fi - 1.0).powi(2) / nn, fi * fi / nn);
-            let phase = GOLDEN_ANGLE_RAD * fi;
-            let dtheta = std::f64::consts::TAU / cells as f64;
-            for k in 0..cells {
-                let r = (r2_lo + rng.next_f64() * (r2_hi - r2_lo)).sqrt();
-                let theta = phase + (k as f64 + rng.next_f64()) * dtheta;
-                dirs.push(disc_to_hemisphere(r * theta.cos(), r * theta.sin()));
-            }
-        }
-        Self { dirs }
-    }
-
     /// `n` cosine-weighted random directions (uniform points on the disc, projected up).
     pub fn monte_carlo(n: usize, seed: u64) -> Self {
         let mut rng = SplitMix64::new(seed);
