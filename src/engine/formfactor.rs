@@ -361,17 +361,35 @@ pub fn rectify(
             std::iter::repeat_n(i as u32, (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize)
         })
         .collect();
+    // Partners without searching: rows are visited in order, so the entries (j, i) that row j
+    // holds for its partners i are met in increasing i, i.e. in the order of row j's sorted
+    // columns; one cursor per row walks them. O(nnz) with one step into row j per entry (a
+    // binary search per entry costs log(row length) cache misses once the matrix outgrows
+    // the cache: the superlinear part of the old rectification).
     let mut partner = vec![u32::MAX; nnz];
-    partner.par_iter_mut().enumerate().for_each(|(k, p)| {
-        let i = row_of[k] as usize;
-        let j = ff.f.col[k] as usize;
-        if takes_part[i] && takes_part[j] {
-            let (a, b) = (ff.f.row_ptr[j] as usize, ff.f.row_ptr[j + 1] as usize);
-            if let Ok(q) = ff.f.col[a..b].binary_search(&(i as u32)) {
-                *p = (a + q) as u32;
+    let mut cursor: Vec<u32> = ff.f.row_ptr[..n].to_vec();
+    for i in 0..n {
+        if !takes_part[i] {
+            continue;
+        }
+        let (a, b) = (ff.f.row_ptr[i] as usize, ff.f.row_ptr[i + 1] as usize);
+        for (p, &j) in partner[a..b].iter_mut().zip(&ff.f.col[a..b]) {
+            let j = j as usize;
+            if !takes_part[j] {
+                continue;
+            }
+            let end = ff.f.row_ptr[j + 1] as usize;
+            let mut q = cursor[j] as usize;
+            while q < end && (ff.f.col[q] as usize) < i {
+                q += 1;
+            }
+            cursor[j] = q as u32;
+            if q < end && ff.f.col[q] as usize == i {
+                *p = q as u32;
             }
         }
-    });
+    }
+    drop(cursor);
 
     // 2. Exchange areas: ML common value for partnered pairs, A_i F_ij for one-sided entries.
     let n_rays = ff.rays_per_patch as f64;
@@ -468,8 +486,11 @@ pub fn rectify(
         }
     }
     report.rows_capped = capped.len();
-    let capped_set: std::collections::HashSet<usize> = capped.into_iter().collect();
-    report.reciprocity_error = reciprocity_error(&ff.f, &partner, area, &capped_set);
+    let mut is_capped = vec![false; n];
+    for &i in &capped {
+        is_capped[i] = true;
+    }
+    report.reciprocity_error = reciprocity_error(&ff.f, &partner, area, &is_capped);
     report.closure_error = (0..n)
         .filter(|&i| rows_in_play(i) && ff.f.row_sum(i) > 0.0)
         .map(|i| (ff.f.row_sum(i) - target[i]).abs())
@@ -478,15 +499,10 @@ pub fn rectify(
 }
 
 /// The largest relative reciprocity error over partnered pairs, leaving out capped rows.
-fn reciprocity_error(
-    f: &Csr,
-    partner: &[u32],
-    area_m2: &[f64],
-    capped: &std::collections::HashSet<usize>,
-) -> f64 {
+fn reciprocity_error(f: &Csr, partner: &[u32], area_m2: &[f64], capped: &[bool]) -> f64 {
     let mut worst: f64 = 0.0;
     for i in 0..f.rows() {
-        if capped.contains(&i) {
+        if capped[i] {
             continue;
         }
         let range = f.row_ptr[i] as usize..f.row_ptr[i + 1] as usize;
@@ -495,7 +511,7 @@ fn reciprocity_error(
                 continue;
             }
             let j = f.col[k] as usize;
-            if capped.contains(&j) {
+            if capped[j] {
                 continue;
             }
             let a = area_m2[i] * f.val[k];
