@@ -489,7 +489,7 @@ enum BenchCommand {
         #[arg(long)]
         scene: Option<PathBuf>,
         /// Base patch sizes, m.
-        #[arg(long, value_delimiter = ',', default_values_t = [0.5, 0.35, 0.25])]
+        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 0.7, 0.5])]
         patch_sizes: Vec<f64>,
         /// Rays per patch.
         #[arg(long, value_delimiter = ',', default_values_t = [300, 3000])]
