@@ -5,6 +5,7 @@
 pub mod control;
 pub mod patches;
 pub mod radiance;
+pub mod scaling;
 pub mod table1;
 pub mod tradeoffs;
 

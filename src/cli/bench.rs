@@ -80,6 +80,24 @@ pub enum Command {
         #[arg(long)]
         out_dir: Option<PathBuf>,
     },
+    /// Commissioning stage times and memory against patches x rays (default: Ward's grey room).
+    Scaling {
+        /// A scene directory (default: Ward's grey room, built in code).
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Base patch sizes, m.
+        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 0.7, 0.5])]
+        patch_sizes: Vec<f64>,
+        /// Rays per patch.
+        #[arg(long, value_delimiter = ',', default_values_t = [300, 3000])]
+        rays: Vec<usize>,
+        /// Uniform patches (no refinement toward sensors and luminaires).
+        #[arg(long)]
+        uniform: bool,
+        /// Commissioning runs per point (the median is kept).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+    },
     /// The run-time core over an image: one dimming state, and a full re-solve.
     Runtime {
         /// The image file.
@@ -268,6 +286,13 @@ pub fn run(command: Command) -> Result<()> {
                 plot,
             })?;
         }
+        Command::Scaling {
+            scene,
+            patch_sizes,
+            rays,
+            uniform,
+            runs,
+        } => super::bench_scaling::run(scene.as_deref(), &patch_sizes, &rays, uniform, runs)?,
         Command::Patches { scene, out_dir } => {
             super::tradeoffs::patches(&scene, out_dir.as_deref())?;
         }

@@ -3,6 +3,8 @@
 
 #[cfg(feature = "bench")]
 pub mod bench;
+#[cfg(feature = "bench")]
+pub mod bench_scaling;
 pub mod commission;
 pub mod control;
 pub mod image;

@@ -22,6 +22,7 @@
 
 pub mod direct;
 pub mod formfactor;
+pub mod multisolve;
 pub mod patches;
 pub mod points;
 pub mod raycast;
@@ -46,6 +47,10 @@ use rayset::{frame, to_world};
 
 /// Fewest points over a luminaire's opening for a sensor's direct light.
 pub const SENSOR_OPENING_POINTS: usize = 256;
+
+/// Points over a luminaire's opening for the direct light at final-gather hit points farther
+/// than four opening diagonals from it (centred: [`direct::centred_opening_points`]).
+pub const FAR_OPENING_POINTS: usize = 4;
 
 /// How direct light reaches patches and sensors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -369,7 +374,9 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
             DirectModel::Exact => luminaires
                 .iter()
                 .map(|l| {
-                    direct_on_patches(l, &opening_points_for(l, k), &patches, &caster, settings)
+                    let near = opening_points_for(l, k);
+                    let far = opening_points_for(l, FAR_OPENING_POINTS.min(k));
+                    direct_on_patches(l, &near, &far, &patches, &caster, settings)
                 })
                 .collect(),
             DirectModel::Paper => luminaires
@@ -455,30 +462,16 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
         }
     }
 
-    // One solve per luminaire at 100 %.
-    let system = CsrSystem {
-        f: ff.f.view(),
-        rho: &patches.rho,
-    };
-    let solved: Vec<Result<(Vec<f64>, SolveReport), EngineError>> =
-        timed(&mut stats, "solve", || {
-            direct_patch_lx
-                .par_iter()
-                .zip(&luminaires)
-                .map(|(e, l)| {
-                    let mut b = vec![0.0; patches.len()];
-                    solver::gauss_seidel(&system, e, &mut b, settings.solve)
-                        .map(|r| (b, r))
-                        .map_err(|source| EngineError::Solve {
-                            what: format!("luminaire {}", l.id),
-                            source,
-                        })
-                })
-                .collect()
-        });
+    // One solve per luminaire at 100 %, all luminaires in the same sweeps (multisolve).
+    let solved = timed(&mut stats, "solve", || {
+        multisolve::solve_all(&ff.f, &patches.rho, &direct_patch_lx, settings.solve)
+    });
+    let solved = solved.map_err(|source| EngineError::Solve {
+        what: format!("{} luminaires at 100 %", luminaires.len()),
+        source,
+    })?;
     let mut basis_b = Vec::with_capacity(luminaires.len());
-    for r in solved {
-        let (b, report) = r?;
+    for (b, report) in solved {
         stats.iterations.push(report.iterations);
         basis_b.push(b);
     }
@@ -492,7 +485,7 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
                 .collect();
             let far: Vec<Vec<DVec3>> = luminaires
                 .iter()
-                .map(|l| opening_points_for(l, 4))
+                .map(|l| opening_points_for(l, FAR_OPENING_POINTS))
                 .collect();
             scene
                 .sensors
@@ -622,13 +615,16 @@ fn gather_dot(g: &Csr, s: usize, b: &[f64]) -> f64 {
 }
 
 fn opening_points_for(l: &Luminaire, k: usize) -> Vec<DVec3> {
-    direct::opening_points(l, k)
+    direct::centred_opening_points(l, k)
 }
 
-/// Direct illuminance averaged over each patch (`patch_direct_points` area samples).
+/// Direct illuminance averaged over each patch (`patch_direct_points` area samples). Patches
+/// farther from the luminaire than four opening diagonals use the `far` opening points (fewer:
+/// centred, they give the far field to second order), as the final gather does.
 fn direct_on_patches(
     l: &Luminaire,
-    points: &[DVec3],
+    near: &[DVec3],
+    far: &[DVec3],
     patches: &Patches,
     caster: &RayCaster,
     settings: &Settings,
@@ -644,6 +640,12 @@ fn direct_on_patches(
             if !sees {
                 return 0.0;
             }
+            let size = l.opening_m[0].hypot(l.opening_m[1]);
+            let points = if (l.position_m - patches.centroid_m(i)).length() < 4.0 * size {
+                near
+            } else {
+                far
+            };
             let (shift, _) = formfactor::patch_jitter(i, settings.seed ^ 0xD1EC7);
             let mut sum = 0.0;
             let mut uncovered = 0usize;

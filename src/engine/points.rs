@@ -42,7 +42,7 @@ pub fn evaluate(
     let openings: Vec<Vec<DVec3>> = scene
         .luminaires
         .iter()
-        .map(|l| direct::opening_points(l, model.settings.opening_samples))
+        .map(|l| direct::centred_opening_points(l, model.settings.opening_samples))
         .collect();
     let cosine = AngularResponse::Cosine;
     let per_luminaire_lx = points
