@@ -33,6 +33,21 @@ pub fn load_average() -> Option<String> {
         .map(str::to_owned)
 }
 
+/// CPU time this thread has used so far (not wall time: a busy machine does not inflate it).
+/// `None` where the system does not say.
+pub fn thread_cpu_time() -> Option<std::time::Duration> {
+    #[cfg(target_os = "linux")]
+    {
+        let t = nix::time::clock_gettime(nix::time::ClockId::CLOCK_THREAD_CPUTIME_ID).ok()?;
+        Some(std::time::Duration::new(
+            u64::try_from(t.tv_sec()).ok()?,
+            u32::try_from(t.tv_nsec()).ok()?,
+        ))
+    }
+    #[cfg(not(target_os = "linux"))]
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::parse_status_kib;
@@ -44,6 +59,22 @@ mod tests {
         assert_eq!(parse_status_kib(s, "VmRSS"), Some(2048));
         assert_eq!(parse_status_kib(s, "VmSwap"), None);
         assert_eq!(parse_status_kib("VmRSS: lots kB\n", "VmRSS"), None);
+    }
+
+    #[test]
+    fn thread_cpu_time_advances_with_work_not_with_sleep() {
+        if let Some(t0) = super::thread_cpu_time() {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            let slept = super::thread_cpu_time().unwrap() - t0;
+            let mut x = 0u64;
+            for i in 0..20_000_000u64 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(i);
+            }
+            std::hint::black_box(x);
+            let worked = super::thread_cpu_time().unwrap() - t0 - slept;
+            assert!(slept < std::time::Duration::from_millis(20), "{slept:?}");
+            assert!(worked > std::time::Duration::from_millis(1), "{worked:?}");
+        }
     }
 
     #[test]

@@ -162,6 +162,28 @@ pub enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Energy over a day of daylight: the least-power controller against all on and against one
+    /// photocell dimming every luminaire together, over the occupied hours.
+    ControlDay {
+        /// The commissioned image (its response matrix and luminaire fluxes).
+        #[arg(long)]
+        image: PathBuf,
+        /// Daylight alone per desk over the day: CSV time_h,sensor_id,lux.
+        #[arg(long)]
+        daylight: PathBuf,
+        /// Target of every desk, lx.
+        #[arg(long, default_value_t = luxnode::control::DEFAULT_TARGET_LX)]
+        target: f64,
+        /// Occupied from this hour.
+        #[arg(long, default_value_t = 8.0)]
+        from_h: f64,
+        /// Occupied until this hour.
+        #[arg(long, default_value_t = 18.0)]
+        to_h: f64,
+        /// Write the power over the day as a PNG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -372,15 +394,16 @@ pub fn run(command: Command) -> Result<()> {
                 luxnode::host::load_average().unwrap_or_else(|| "?".into())
             );
             println!(
-                "| luminaires x desks | median time | worst time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
+                "| luminaires x desks | median CPU time | median wall time | worst wall time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
             );
-            println!("|---|---:|---:|---:|---:|---:|");
+            println!("|---|---:|---:|---:|---:|---:|---:|");
             let sizes = [(8, 8), (16, 24), (32, 50), (64, 100)];
             for r in bench::control::run(&sizes, instances, seed) {
                 println!(
-                    "| {} x {} | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
+                    "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
                     r.luminaires,
                     r.desks,
+                    r.median_cpu.as_secs_f64() * 1e6,
                     r.median.as_secs_f64() * 1e6,
                     r.worst.as_secs_f64() * 1e6,
                     r.lp_rel_diff,
@@ -390,6 +413,14 @@ pub fn run(command: Command) -> Result<()> {
                 );
             }
         }
+        Command::ControlDay {
+            image,
+            daylight,
+            target,
+            from_h,
+            to_h,
+            plot,
+        } => control_day(&image, &daylight, target, (from_h, to_h), plot.as_deref())?,
         Command::Table1 { scene } => {
             println!(
                 "# the paper's Table 1, CAD vs RGBD rows, on {} (error = mean |error| / mean truth)",
@@ -592,5 +623,116 @@ fn fuzz(frames: u64, seed: u64) -> Result<()> {
         r.rtu_answered,
         r.rtu_silent
     );
+    Ok(())
+}
+
+/// `luxnode bench control-day`.
+fn control_day(
+    image: &Path,
+    daylight: &Path,
+    target: f64,
+    occupied_h: (f64, f64),
+    plot: Option<&Path>,
+) -> Result<()> {
+    use luxnode::bench::control_day::{read_series, run};
+    if !(target.is_finite() && (0.0..=1e5).contains(&target)) {
+        bail!("--target {target}: lux within 0..=1e5");
+    }
+    if !(0.0..24.0).contains(&occupied_h.0)
+        || !(occupied_h.0 < occupied_h.1 && occupied_h.1 <= 24.0)
+    {
+        bail!("occupied hours {occupied_h:?}: 0 <= from < to <= 24");
+    }
+    let bytes = read_image_file(image)?;
+    let img = Image::parse(&bytes)?;
+    let ids: Vec<u32> = (0..img.sensors()).map(|k| img.sensor_id(k)).collect();
+    let series = read_series(daylight, &ids)?;
+    let power: Vec<luxnode::control::LuminairePower> = (0..img.luminaires())
+        .map(|j| {
+            luxnode::control::LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j))
+        })
+        .collect();
+    let targets = vec![target; ids.len()];
+    let (rows, t) = run(&img, &power, &targets, &series, occupied_h)?;
+    println!(
+        "# energy over a day: {} ({} desks, {} luminaires), target {target} lx, occupied {:.1}-{:.1} h, daylight {}",
+        img.payload.scene_name,
+        ids.len(),
+        img.luminaires(),
+        occupied_h.0,
+        occupied_h.1,
+        daylight.display()
+    );
+    println!(
+        "| time (h) | mean daylight (lx) | all on (W) | one photocell (W) | least power (W) | desks short (photocell / least power) |"
+    );
+    println!("|---:|---:|---:|---:|---:|---|");
+    for r in &rows {
+        println!(
+            "| {:.2} | {:.0} | {:.0} | {:.0} | {:.0} | {} / {} |",
+            r.time_h,
+            r.mean_daylight_lx,
+            r.all_on_w,
+            r.photocell_w,
+            r.optimised_w,
+            r.short.0,
+            r.short.1
+        );
+    }
+    let saved = |kwh: f64| 100.0 * (1.0 - kwh / t.all_on_kwh.max(1e-12));
+    println!();
+    println!(
+        "| controller | energy over {:.1} h (kWh) | saved against all on |",
+        t.hours
+    );
+    println!("|---|---:|---:|");
+    println!("| all on | {:.3} | 0 % |", t.all_on_kwh);
+    println!(
+        "| one photocell | {:.3} | {:.1} % |",
+        t.photocell_kwh,
+        saved(t.photocell_kwh)
+    );
+    println!(
+        "| least power | {:.3} | {:.1} % |",
+        t.optimised_kwh,
+        saved(t.optimised_kwh)
+    );
+    if let Some(path) = plot {
+        use luxnode::render::plot::{Plot, Series};
+        let series = [
+            (
+                "ALL ON",
+                rows.iter()
+                    .map(|r| (r.time_h, r.all_on_w))
+                    .collect::<Vec<_>>(),
+            ),
+            (
+                "ONE PHOTOCELL",
+                rows.iter().map(|r| (r.time_h, r.photocell_w)).collect(),
+            ),
+            (
+                "LEAST POWER",
+                rows.iter().map(|r| (r.time_h, r.optimised_w)).collect(),
+            ),
+        ]
+        .into_iter()
+        .map(|(name, points)| Series {
+            name: name.into(),
+            points,
+        })
+        .collect();
+        Plot {
+            title: "POWER OVER THE DAY".into(),
+            x_label: "TIME (H)".into(),
+            y_label: "POWER (W)".into(),
+            log_x: false,
+            log_y: false,
+            series,
+        }
+        .draw(900, 560)
+        .save_png(path)
+        .with_context(|| format!("writing {}", path.display()))?;
+        println!("\nplot: {}", path.display());
+    }
     Ok(())
 }
