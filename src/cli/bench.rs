@@ -411,10 +411,13 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
             node.clone(),
             TcpOptions {
                 max_connections: clients + 8,
+                max_per_source: clients + 8,
                 idle_timeout: Duration::from_secs(60),
+                ..TcpOptions::default()
             },
             counters.clone(),
             stop_rx,
+            None,
         ));
         let deadline = tokio::time::Instant::now() + run_for;
         let mut tasks = Vec::with_capacity(clients);
