@@ -134,6 +134,7 @@ impl CommissionSource for CadSource {
     }
 
     fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        check_served(self.scene.sensors.len(), self.scene.luminaires.len())?;
         let model = crate::engine::compute_model(&self.scene, &self.settings)?;
         let mut options = self.image.clone();
         if options.scene_name.is_empty() {
@@ -144,6 +145,16 @@ impl CommissionSource for CadSource {
             &options,
             crate::image_build::formfactors_region_bytes(),
         )?)
+    }
+}
+
+/// Refuses, before any work, a room the node could not serve.
+pub fn check_served(desks: usize, luminaires: usize) -> Result<(), SourceError> {
+    let limits = crate::image_build::served_limits(desks, luminaires);
+    if limits.is_empty() {
+        Ok(())
+    } else {
+        Err(SourceError::Build(BuildError::Served(limits.join("; "))))
     }
 }
 
