@@ -28,7 +28,7 @@ pub use files::{
     LoadOptions, PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
     load_sensors_file,
 };
-pub use obj::ObjReport;
+pub use obj::{ObjReport, load_obj};
 pub use states::{Scenario, TruthRow, UnknownLuminaire, check_scenarios, read_states, read_truth};
 pub use summary::SceneSummary;
 
