@@ -10,8 +10,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+/// A target's body.
+pub type Body = fn(&[u8]);
+
 /// Every target by name, for the smoke test and `scripts/fuzz.sh`.
-pub const TARGETS: &[(&str, fn(&[u8]))] = &[
+pub const TARGETS: &[(&str, Body)] = &[
     ("modbus_pdu", modbus_pdu),
     ("modbus_rtu", modbus_rtu),
     ("eulumdat", eulumdat),
