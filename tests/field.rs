@@ -879,3 +879,96 @@ fn modbus_tcp_security_with_mutual_tls_and_roles() {
         );
     });
 }
+
+/// Runs `luxnode run` on `board` and `flash` and SIGKILLs it as soon as a log line contains
+/// `marker`; true if it was killed there (false: it ended before).
+fn kill_at(board: &Path, flash: &Path, extra: &[&str], marker: &str) -> bool {
+    use std::io::BufRead;
+    let mut child = Command::new(LUXNODE)
+        .args([
+            "run",
+            "--no-controller",
+            "--seconds",
+            "30",
+            "--bind",
+            "127.0.0.1:0",
+        ])
+        .arg("--board")
+        .arg(board)
+        .arg("--flash")
+        .arg(flash)
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let mut killed = false;
+    for line in std::io::BufReader::new(stderr).lines() {
+        let Ok(line) = line else { break };
+        if line.contains(marker) {
+            let _ = child.kill();
+            killed = true;
+            break;
+        }
+    }
+    let _ = child.wait();
+    killed
+}
+
+/// What a boot would find on `flash`: the generation of the image that passes the whole load
+/// path, if any.
+fn bootable_generation(flash: &Path) -> Option<u64> {
+    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    let dev = FileFlash::open(flash, flash_bytes()).unwrap();
+    read_bootable(&mut Slots::new(dev), |img, g| {
+        Node::new(NodeModel::from_image(img, g), NodeOptions::default())
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    })
+    .image
+    .map(|(_, _, g)| g)
+}
+
+#[test]
+fn a_kill_at_every_stage_of_commissioning_and_write_loses_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.bin");
+    let b = board(dir.path(), "").display().to_string();
+    let b = Path::new(&b);
+    // the fast preset keeps each run short; the stages are the same
+    let sim = std::fs::read_to_string(b).unwrap();
+    std::fs::write(b, sim.replace("preset = \"balanced\"", "preset = \"fast\"")).unwrap();
+    let stages = [
+        "commissioning from",
+        "capture: depth frame",
+        "capture: luminance frame",
+        "commission: planes",
+        "commissioned in",
+        "flash: image written",
+    ];
+    let mut table = Vec::new();
+    // first boot, empty flash: killed at each stage, the flash holds nothing or a whole image
+    for s in stages {
+        let killed = kill_at(b, &flash, &[], s);
+        let found = bootable_generation(&flash);
+        table.push(format!("first boot | {s} | {killed} | {found:?}"));
+        if s == "flash: image written" {
+            assert_eq!(found, Some(1), "{s}");
+        } else {
+            assert!(found.is_none() || found == Some(1), "{s}: {found:?}");
+        }
+    }
+    // re-commissioning over generation 1: killed at each stage, generation 1 or 2 boots
+    for s in stages {
+        let killed = kill_at(b, &flash, &["--recommission"], s);
+        let found = bootable_generation(&flash);
+        table.push(format!("re-commissioning | {s} | {killed} | {found:?}"));
+        assert!(killed, "never reached {s}");
+        assert!(found.is_some(), "{s}: the last good image was lost");
+    }
+    eprintln!(
+        "run | killed at | killed | bootable generation after\n{}",
+        table.join("\n")
+    );
+}
