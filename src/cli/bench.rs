@@ -438,6 +438,7 @@ fn modbus_load(
     let rss_before = luxnode::host::rss_kib();
     let options = TcpOptions::default();
     let caps = (options.max_connections, options.max_per_source);
+    let options_evictable = options.evictable_after;
     let (lat, errors, counters, parked) = rt.block_on(async {
         let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
         let listener = tcp::bind("127.0.0.1:0".parse()?).await?;
@@ -458,7 +459,10 @@ fn modbus_load(
                 parked.push(s);
             }
         }
-        tokio::time::sleep(Duration::from_millis(200)).await;
+        // the attacker parked its sockets before the BMS came (long enough to be idle)
+        if idle_attack > 0 {
+            tokio::time::sleep(options_evictable + Duration::from_millis(500)).await;
+        }
         let deadline = tokio::time::Instant::now() + run_for;
         let mut tasks = Vec::with_capacity(clients);
         for k in 0..clients {

@@ -109,6 +109,8 @@ struct Registry {
     start: Instant,
     conns: Mutex<Vec<Conn>>,
     next: AtomicU64,
+    /// When a refusal or eviction was last logged, ms.
+    last_refusal_log_ms: AtomicU64,
 }
 
 impl Registry {
@@ -174,6 +176,18 @@ impl Registry {
         Some((id, last_ms, kill))
     }
 
+    /// True at most once a second: an attack must not flood the journal.
+    fn may_log(&self) -> bool {
+        let now = self.now_ms().max(1);
+        let last = self.last_refusal_log_ms.load(Ordering::Relaxed);
+        if last == 0 || now.saturating_sub(last) >= 1000 {
+            self.last_refusal_log_ms.store(now, Ordering::Relaxed);
+            true
+        } else {
+            false
+        }
+    }
+
     fn remove(&self, id: u64) {
         lock(&self.conns).retain(|c| c.id != id);
     }
@@ -206,6 +220,7 @@ pub async fn serve<H: PduHandler + 'static>(
         start: Instant::now(),
         conns: Mutex::new(Vec::new()),
         next: AtomicU64::new(0),
+        last_refusal_log_ms: AtomicU64::new(0),
     });
     let mut tick = tokio::time::interval(Duration::from_secs(1));
     loop {
@@ -231,13 +246,17 @@ pub async fn serve<H: PduHandler + 'static>(
             return Ok(());
         }
         let Some((id, last_ms, kill)) = registry.admit(peer.ip(), &options, &counters) else {
-            tracing::warn!(
-                "modbus tcp: {peer} refused: caps of {} connections, {} per address reached and \
-                 none silent for {:?}",
-                options.max_connections,
-                options.max_per_source,
-                options.evictable_after
-            );
+            // at most one line a second, with the running count
+            if registry.may_log() {
+                tracing::warn!(
+                    "modbus tcp: {peer} refused: caps of {} connections, {} per address reached \
+                     and none silent for {:?} ({} refused so far)",
+                    options.max_connections,
+                    options.max_per_source,
+                    options.evictable_after,
+                    counters.refused.load(Ordering::Relaxed)
+                );
+            }
             drop(stream);
             continue;
         };
