@@ -138,6 +138,55 @@ mod tests {
     }
 
     #[test]
+    fn the_watchdog_is_not_petted_while_a_part_is_late() {
+        use crate::modbus::health::Health;
+        use crate::modbus::node::{Node, NodeModel, NodeOptions};
+        use std::sync::{Arc, Mutex};
+        let health = Arc::new(Health::default());
+        let model = NodeModel {
+            response_lx: vec![1.0],
+            sensor_ids: vec![1],
+            luminaire_ids: vec![1],
+            sensor_flags: vec![0],
+            generation: 1,
+        };
+        let node = Arc::new(Mutex::new(
+            Node::new(
+                model,
+                NodeOptions {
+                    health: Some(health.clone()),
+                    ..NodeOptions::default()
+                },
+            )
+            .unwrap(),
+        ));
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let rtu = health.register("modbus rtu", Duration::from_millis(50));
+            assert_eq!(super::unhealthy(&health, &node).await, None);
+            tokio::time::sleep(Duration::from_millis(120)).await;
+            let why = super::unhealthy(&health, &node).await.expect("late");
+            assert!(why.contains("modbus rtu silent"), "{why}");
+            rtu.beat();
+            assert_eq!(super::unhealthy(&health, &node).await, None);
+            // a node whose state stays locked: not petted either
+            let held = node.clone();
+            let guard = std::thread::spawn(move || {
+                let _g = held.lock().unwrap();
+                std::thread::sleep(Duration::from_millis(1500));
+            });
+            tokio::time::sleep(Duration::from_millis(100)).await;
+            rtu.beat();
+            let why = super::unhealthy(&health, &node).await.expect("locked");
+            assert!(why.contains("locked"), "{why}");
+            guard.join().unwrap();
+        });
+    }
+
+    #[test]
     fn watchdog_period_is_for_this_process_only() {
         use super::watchdog_period_from as w;
         assert_eq!(w(Some("2000000"), None, 7), Some(Duration::from_secs(2)));
