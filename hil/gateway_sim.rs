@@ -190,6 +190,7 @@ fn main() -> Result<()> {
             TcpOptions::default(),
             Arc::new(TcpCounters::default()),
             stop_rx,
+            None,
         ));
         if let Some((l, base, stride, period)) = demo {
             let bank = bank.clone();

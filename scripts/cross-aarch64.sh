@@ -25,7 +25,7 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
           | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
           | (binary(control) & (test(every_desk) | test(a_day_of)))
           | (binary(modbus) & not test(fuzzed))
-          | binary(hil) | binary(commission)
+          | binary(hil) | binary(field) | binary(fuzz_smoke) | binary(commission)
           | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)))
           | (binary(office_a) & not test(default_settings))
           | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

@@ -65,6 +65,28 @@ pub enum BuildError {
     /// The image does not fit the flash region; the message names the knobs that shrink it.
     #[error("{0}")]
     TooLarge(String),
+    /// The node could not serve the image (more desks or luminaires than the register map).
+    #[error("the node cannot serve this image: {0}")]
+    Served(String),
+}
+
+/// What the node's register map refuses, as messages (empty: servable): more than
+/// [`crate::modbus::regmap::MAX_DESKS`] desks or [`crate::modbus::regmap::MAX_LUMINAIRES`]
+/// luminaires. `image build`, `scene check`, commissioning and the node agree on it.
+pub fn served_limits(desks: usize, luminaires: usize) -> Vec<String> {
+    use crate::modbus::regmap::{MAX_DESKS, MAX_LUMINAIRES};
+    let mut v = Vec::new();
+    if desks > MAX_DESKS {
+        v.push(format!(
+            "{desks} desk sensors: the Modbus register map serves at most {MAX_DESKS}"
+        ));
+    }
+    if luminaires > MAX_LUMINAIRES {
+        v.push(format!(
+            "{luminaires} luminaires: the Modbus register map serves at most {MAX_LUMINAIRES}"
+        ));
+    }
+    v
 }
 
 /// Sizes of the parts of an image, bytes.
@@ -385,7 +407,8 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
     Ok(bytes)
 }
 
-/// Builds the image of a model and checks that it fits a flash region of `region_bytes`
+/// Builds the image of a model, checks that the node can serve it ([`served_limits`]) and that
+/// it fits a flash region of `region_bytes`
 /// (the `FORMFACTORS` region: [`crate::layout::FORMFACTORS_LEN_BYTES`]). An image that does not
 /// fit is an error naming the knobs that would shrink it, with their estimated savings.
 pub fn build_for_region(
@@ -393,6 +416,10 @@ pub fn build_for_region(
     options: &ImageOptions,
     region_bytes: usize,
 ) -> Result<Vec<u8>, BuildError> {
+    let limits = served_limits(model.sensors(), model.luminaires());
+    if !limits.is_empty() {
+        return Err(BuildError::Served(limits.join("; ")));
+    }
     let bytes = build_image(model, options)?;
     if bytes.len() > region_bytes {
         let image = Image::parse(&bytes).map_err(BuildError::Parse)?;

@@ -29,7 +29,7 @@
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control` | no_std | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop |
-//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/RTU servers, DALI gateway link (std) |
+//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/TLS/RTU servers, who may write and how each client reads (access), health, DALI gateway link (std) |
 //! | 5 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
 //! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |

@@ -133,6 +133,14 @@ pub enum Command {
         /// Each client's poll interval, ms (0: back to back).
         #[arg(long, default_value_t = 0)]
         interval_ms: u64,
+        /// The pollers come from this many BMS hosts (loopback addresses 127.0.1.1, ...), so
+        /// the server's default caps apply as in a building (128 connections, 64 per host).
+        #[arg(long, default_value_t = 4)]
+        hosts: u8,
+        /// An attacker at 127.0.0.2 first opens this many sockets and never speaks (the
+        /// idle-socket attack); the pollers must still all be served.
+        #[arg(long, default_value_t = 0)]
+        idle_attack: usize,
     },
     /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
     Fuzz {
@@ -379,8 +387,10 @@ pub fn run(command: Command) -> Result<()> {
             clients,
             seconds,
             interval_ms,
+            hosts,
+            idle_attack,
         } => {
-            modbus_load(&image, clients, seconds, interval_ms)?;
+            modbus_load(&image, clients, seconds, interval_ms, hosts, idle_attack)?;
         }
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
@@ -486,15 +496,40 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
     .draw(900, 560)
 }
 
-/// `luxnode bench modbus-load`: many TCP clients polling the desk lux at once.
-fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> Result<()> {
+/// Connects from `local` to `addr`.
+async fn connect_from(
+    local: std::net::IpAddr,
+    addr: std::net::SocketAddr,
+) -> std::io::Result<tokio::net::TcpStream> {
+    let sock = tokio::net::TcpSocket::new_v4()?;
+    sock.bind(std::net::SocketAddr::new(local, 0))?;
+    sock.connect(addr).await
+}
+
+/// `luxnode bench modbus-load`: many TCP clients polling the desk lux at once, from several
+/// BMS hosts, with the server's default caps; optionally while an attacker parks idle sockets.
+fn modbus_load(
+    image: &Path,
+    clients: usize,
+    seconds: f64,
+    interval_ms: u64,
+    hosts: u8,
+    idle_attack: usize,
+) -> Result<()> {
     use luxnode::modbus::node::{NodeOptions, lock};
     use luxnode::modbus::tcp::{self, TcpCounters};
+    use std::sync::atomic::Ordering;
     use std::sync::{Arc, Mutex};
     use tokio_modbus::client::Reader;
 
     if clients == 0 || clients > 10_000 {
         bail!("--clients {clients}: 1..=10000");
+    }
+    if hosts == 0 || hosts > 200 {
+        bail!("--hosts {hosts}: 1..=200");
+    }
+    if idle_attack > 10_000 {
+        bail!("--idle-attack {idle_attack}: at most 10000");
     }
     let run_for = duration_s("--seconds", seconds)?;
     let node = luxnode::serve::load_node(
@@ -511,7 +546,10 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         .enable_all()
         .build()?;
     let rss_before = luxnode::host::rss_kib();
-    let (lat, errors, counters) = rt.block_on(async {
+    let options = TcpOptions::default();
+    let caps = (options.max_connections, options.max_per_source);
+    let options_evictable = options.evictable_after;
+    let (lat, errors, counters, parked) = rt.block_on(async {
         let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
         let listener = tcp::bind("127.0.0.1:0".parse()?).await?;
         let addr = listener.local_addr()?;
@@ -519,22 +557,33 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         let server = tokio::spawn(tcp::serve(
             listener,
             node.clone(),
-            TcpOptions {
-                max_connections: clients + 8,
-                idle_timeout: Duration::from_secs(60),
-            },
+            options,
             counters.clone(),
             stop_rx,
+            None,
         ));
+        // the attacker: sockets that connect and never speak
+        let mut parked = Vec::new();
+        for _ in 0..idle_attack {
+            if let Ok(s) = connect_from([127, 0, 0, 2].into(), addr).await {
+                parked.push(s);
+            }
+        }
+        // the attacker parked its sockets before the BMS came (long enough to be idle)
+        if idle_attack > 0 {
+            tokio::time::sleep(options_evictable + Duration::from_millis(500)).await;
+        }
         let deadline = tokio::time::Instant::now() + run_for;
         let mut tasks = Vec::with_capacity(clients);
         for k in 0..clients {
+            let host = std::net::IpAddr::from([127, 0, 1, 1 + (k % usize::from(hosts)) as u8]);
             tasks.push(tokio::spawn(async move {
                 let mut lat_us: Vec<u32> = Vec::new();
                 let mut errors = 0u64;
-                let Ok(mut c) = tokio_modbus::client::tcp::connect(addr).await else {
+                let Ok(stream) = connect_from(host, addr).await else {
                     return (lat_us, 1);
                 };
+                let mut c = tokio_modbus::client::tcp::attach(stream);
                 // spread the clients' phases over the interval
                 if interval_ms > 0 {
                     let phase = interval_ms * k as u64 / clients as u64;
@@ -564,9 +613,10 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
             all.extend(l);
             errors += e;
         }
+        let parked = parked.len();
         let _ = stop_tx.send(true);
         let _ = server.await;
-        anyhow::Ok((all, errors, counters))
+        anyhow::Ok((all, errors, counters, parked))
     })?;
     let rss_after = luxnode::host::rss_kib();
     let mut lat = lat;
@@ -578,13 +628,15 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         let i = ((lat.len() as f64 - 1.0) * p).round() as usize;
         f64::from(lat[i]) / 1000.0
     };
-    let accepted = counters.accepted.load(std::sync::atomic::Ordering::Relaxed);
+    let accepted = counters.accepted.load(Ordering::Relaxed);
     println!(
-        "| clients | poll interval | duration | requests | requests/s | p50 | p99 | p99.9 | max | errors | connections | RSS |"
+        "| clients (hosts) | idle sockets opened by the attacker | caps | poll interval | duration | requests | requests/s | p50 | p99 | p99.9 | max | errors | refused | evicted | RSS |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     println!(
-        "| {clients} | {} | {seconds:.0} s | {} | {:.0} | {:.2} ms | {:.2} ms | {:.2} ms | {:.2} ms | {errors} | {accepted} | {} → {} KiB |",
+        "| {clients} ({hosts}) | {parked} | {} / {} per host | {} | {seconds:.0} s | {} | {:.0} | {:.2} ms | {:.2} ms | {:.2} ms | {:.2} ms | {errors} | {} | {} | {} → {} KiB |",
+        caps.0,
+        caps.1,
         if interval_ms == 0 {
             "back to back".to_string()
         } else {
@@ -596,10 +648,12 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         pct(0.99),
         pct(0.999),
         pct(1.0),
+        counters.refused.load(Ordering::Relaxed),
+        counters.evicted.load(Ordering::Relaxed),
         rss_before.map_or("?".into(), |v| v.to_string()),
         rss_after.map_or("?".into(), |v| v.to_string()),
     );
-    let _ = lock(&node).desks();
+    let _ = (accepted, lock(&node).desks());
     Ok(())
 }
 
@@ -638,8 +692,7 @@ fn control_day(
     if !(target.is_finite() && (0.0..=1e5).contains(&target)) {
         bail!("--target {target}: lux within 0..=1e5");
     }
-    if !(0.0..24.0).contains(&occupied_h.0)
-        || !(occupied_h.0 < occupied_h.1 && occupied_h.1 <= 24.0)
+    if !((0.0..24.0).contains(&occupied_h.0) && occupied_h.0 < occupied_h.1 && occupied_h.1 <= 24.0)
     {
         bail!("occupied hours {occupied_h:?}: 0 <= from < to <= 24");
     }

@@ -83,6 +83,15 @@ fn build(
     } else {
         load_scene(scene, &load.options())?
     };
+    // refused before any work: what the node could not serve
+    let limits = luxnode::image_build::served_limits(sc.sensors.len(), sc.luminaires.len());
+    if !limits.is_empty() {
+        anyhow::bail!(
+            "scene {}: the node cannot serve it: {}",
+            sc.name,
+            limits.join("; ")
+        );
+    }
     let t0 = std::time::Instant::now();
     let model = luxnode::engine::compute_model(&sc, &engine.settings())?;
     let st = store.store(engine.preset);

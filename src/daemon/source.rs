@@ -63,6 +63,7 @@ impl CommissionSource for CameraSource {
     }
 
     fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        super::check_served(self.sensors.len(), self.luminaires.len())?;
         let ids: Vec<u32> = self.luminaires.iter().map(|l| l.id).collect();
         let t0 = Instant::now();
         let mut last = String::new();

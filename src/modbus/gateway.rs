@@ -413,12 +413,23 @@ async fn poll_once(
     Ok(())
 }
 
-/// Runs the link until `shutdown` turns true.
+impl GatewayConfig {
+    /// The longest a healthy link loop goes without a beat: a poll period plus every attempt
+    /// timing out, plus a margin.
+    pub fn beat_limit(&self) -> Duration {
+        let attempts = u64::from(self.retries) + 1;
+        Duration::from_millis(self.poll_interval_ms + attempts * 2 * self.timeout_ms)
+            + Duration::from_secs(10)
+    }
+}
+
+/// Runs the link until `shutdown` turns true; beats `beat` at every poll.
 pub async fn run(
     config: GatewayConfig,
     node: SharedNode,
     counters: Arc<GatewayCounters>,
     mut shutdown: watch::Receiver<bool>,
+    beat: Option<crate::modbus::health::Beat>,
 ) -> Result<(), GatewayError> {
     config.validate()?;
     let addr = config.socket_addr()?;
@@ -430,6 +441,9 @@ pub async fn run(
         tokio::select! {
             _ = interval.tick() => {}
             _ = shutdown.changed() => return Ok(()),
+        }
+        if let Some(b) = &beat {
+            b.beat();
         }
         let mut attempt = 0;
         loop {
@@ -445,6 +459,9 @@ pub async fn run(
                     counters.failures.fetch_add(1, Ordering::Relaxed);
                     ctx = None; // reconnect: the stream may be out of step after a timeout
                     attempt += 1;
+                    if let Some(b) = &beat {
+                        b.beat();
+                    }
                     if attempt > config.retries {
                         if up {
                             tracing::warn!(

@@ -7,21 +7,39 @@
 //! can read next to them. The servers (TCP, RTU) share one node behind a mutex held only for
 //! the few microseconds a request takes.
 
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use super::pdu::MAX_PDU;
+use super::access::{AccessPolicy, Settings, Source, write_span};
+use super::health::Health;
+use super::pdu::{Exception, MAX_PDU, encode_exception};
 use super::regmap::{
-    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, Quality, RegisterMap, status,
+    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, Quality, RegisterMap, WordOrder, addr,
+    status,
 };
 use crate::dali::{ArcLevel, DimmingCurve};
 use crate::runtime::superpose;
-use crate::store::{Image, sensor_flags};
+use crate::store::{Image, MAX_LUX, sensor_flags};
 
 /// What a request handler needs: a PDU in, a response PDU out (`None`: no answer).
 pub trait PduHandler: Send {
     /// Handles one request PDU addressed to `unit`; writes the response into `out`.
     fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize>;
+
+    /// Handles one request PDU from `source` (the servers call this: the node decides per
+    /// source what it may write and how it reads floats). By default the source is ignored.
+    fn handle_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<usize> {
+        let _ = source;
+        self.handle_pdu(unit, pdu, out)
+    }
 }
 
 /// The part of an image the server needs, copied out (the image itself can be dropped).
@@ -104,8 +122,15 @@ pub struct NodeOptions {
     pub identity: Identity,
     /// A DALI gateway link is configured (the arc levels follow it).
     pub gateway_configured: bool,
-    /// Initial arc level of every luminaire (`None`: off).
+    /// Initial arc level of every luminaire (`None`: off, and the dimming state unknown:
+    /// values are flagged stale until every luminaire's level has been set).
     pub initial_arc: Option<u8>,
+    /// Who may write, and the word orders (default: read-only, ABCD).
+    pub policy: AccessPolicy,
+    /// Where the settings clients write are persisted (`None`: not persisted).
+    pub settings_path: Option<PathBuf>,
+    /// The servers' health, for the registers (`None`: a private one).
+    pub health: Option<Arc<Health>>,
 }
 
 /// The served state.
@@ -121,6 +146,13 @@ pub struct Node {
     gateway_up: bool,
     store_ok: bool,
     sensors_ok: bool,
+    /// Per luminaire: its level is known (set since start, or given at start).
+    arc_known: Vec<bool>,
+    policy: AccessPolicy,
+    settings: Settings,
+    settings_path: Option<PathBuf>,
+    health: Arc<Health>,
+    last_refusal_log: Option<Instant>,
 }
 
 impl Node {
@@ -138,6 +170,17 @@ impl Node {
             ..RegisterMap::default()
         };
         let arc0 = options.initial_arc.unwrap_or(0).min(254);
+        let settings = match &options.settings_path {
+            None => Settings::default(),
+            Some(p) => Settings::load(p).unwrap_or_else(|e| {
+                // a bad settings file must not keep the node from serving: the defaults
+                tracing::warn!("{e}; using the board's defaults");
+                Settings::default()
+            }),
+        };
+        if let Some(c) = settings.curve() {
+            map.curve = c;
+        }
         for (k, &id) in model.sensor_ids.iter().enumerate() {
             // capacity checked above
             let _ = map.desks.push(Desk {
@@ -151,6 +194,7 @@ impl Node {
             let _ = map.arc.push(arc0);
         }
         let now = Instant::now();
+        let model_luminaires = model.luminaire_ids.len();
         let mut node = Self {
             levels: vec![0.0; model.luminaire_ids.len()],
             // differs from every arc register, so the first computation reads them all
@@ -163,6 +207,12 @@ impl Node {
             gateway_up: !options.gateway_configured,
             store_ok: true,
             sensors_ok: true,
+            arc_known: vec![options.initial_arc.is_some(); model_luminaires],
+            policy: options.policy,
+            settings,
+            settings_path: options.settings_path,
+            health: options.health.unwrap_or_default(),
+            last_refusal_log: None,
         };
         if options.gateway_configured {
             node.map.status |= status::GATEWAY_CONFIGURED;
@@ -203,9 +253,10 @@ impl Node {
                 found: arc.len(),
             });
         }
-        for (slot, &a) in self.map.arc.iter_mut().zip(arc) {
+        for ((slot, known), &a) in self.map.arc.iter_mut().zip(&mut self.arc_known).zip(arc) {
             if a != ArcLevel::MASK.0 {
                 *slot = a;
+                *known = true;
             }
         }
         self.recompute();
@@ -229,8 +280,41 @@ impl Node {
 
     /// Sensor health (status bit).
     pub fn set_sensors_ok(&mut self, ok: bool) {
+        if self.sensors_ok != ok {
+            if ok {
+                tracing::info!("sensors: healthy again");
+            } else {
+                tracing::warn!("sensors: not healthy (status bit 2 cleared)");
+            }
+        }
         self.sensors_ok = ok;
         self.refresh_flags();
+    }
+
+    /// Replaces the access policy (configuration reload).
+    pub fn set_policy(&mut self, policy: AccessPolicy) {
+        self.policy = policy;
+        self.refresh_flags();
+    }
+
+    /// The access policy in force.
+    pub fn policy(&self) -> &AccessPolicy {
+        &self.policy
+    }
+
+    /// The settings clients wrote.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The shared health.
+    pub fn health(&self) -> &Arc<Health> {
+        &self.health
+    }
+
+    /// True when every luminaire's level is known.
+    pub fn dimming_known(&self) -> bool {
+        self.arc_known.iter().all(|&k| k)
     }
 
     fn curve(&self) -> DimmingCurve {
@@ -287,6 +371,7 @@ impl Node {
                 self.levels[j] = *x;
                 self.map.arc[j] = a.0;
                 self.arc_seen[j] = a.0;
+                self.arc_known[j] = true;
             }
         }
         self.compute();
@@ -304,6 +389,11 @@ impl Node {
             &mut out,
         )
         .is_ok();
+        // a checked image cannot produce these; never publish them as values
+        let ok = ok
+            && out
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=MAX_LUX).contains(v));
         if ok {
             for (d, v) in self.map.desks.iter_mut().zip(out) {
                 d.lux = v;
@@ -312,6 +402,9 @@ impl Node {
             self.map.heartbeat = self.map.heartbeat.wrapping_add(1);
             self.map.status &= !status::COMPUTE_ERROR;
         } else {
+            for d in self.map.desks.iter_mut() {
+                d.lux = f64::NAN;
+            }
             self.map.status |= status::COMPUTE_ERROR;
         }
         self.refresh_flags();
@@ -329,7 +422,15 @@ impl Node {
         if self.gateway_up && s & status::GATEWAY_CONFIGURED != 0 {
             s |= status::GATEWAY_LINK_UP;
         }
-        let stale = !self.gateway_up;
+        if self.health.comm_ok() {
+            s |= status::COMM_OK;
+        }
+        if self.policy.writable() {
+            s |= status::WRITES_ENABLED;
+        }
+        // the dimming state is unknown while the gateway is lost, and after a start until
+        // every luminaire's level was set (by the gateway or a write)
+        let stale = !self.gateway_up || !self.dimming_known();
         if stale {
             s |= status::VALUES_STALE;
         }
@@ -353,6 +454,126 @@ impl Node {
             .duration_since(self.computed)
             .as_secs()
             .min(u64::from(u16::MAX)) as u16;
+        self.map.comm = self.health.snapshot();
+        self.refresh_flags();
+    }
+
+    /// Handles a request PDU from `source` addressed to `unit`: writes only from the
+    /// allowlist (others: exception 0x01, counted, logged), floats in the client's word order,
+    /// every executed write logged and its settings persisted.
+    pub fn process_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<(usize, Effect)> {
+        let span = write_span(pdu);
+        if let Some((address, count)) = span
+            && !self.policy.may_write(source, address, count)
+        {
+            self.tick();
+            self.health.writes_refused.fetch_add(1, Ordering::Relaxed);
+            let now = Instant::now();
+            if self
+                .last_refusal_log
+                .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+            {
+                self.last_refusal_log = Some(now);
+                tracing::warn!(
+                    target: "luxnode::audit",
+                    %source,
+                    address,
+                    count,
+                    "modbus write refused: {source} is not in the write allowlist \
+                     ({count} registers at {address}; {} refused so far)",
+                    self.health.writes_refused.load(Ordering::Relaxed)
+                );
+            }
+            let n = encode_exception(pdu[0], Exception::IllegalFunction, out);
+            return Some((n, Effect::default()));
+        }
+        let order = self.policy.word_order(&self.settings, source, unit);
+        self.map.word_order = order;
+        let curve = self.map.curve;
+        let r = self.process(pdu, out);
+        if let (Some((address, count)), Some((n, _))) = (span, r)
+            && n > 0
+            && out[0] == pdu[0]
+        {
+            self.executed_write(source, address, count, pdu, order, curve);
+        }
+        r
+    }
+
+    /// Logs an executed write, marks the levels it set as known and persists settings.
+    fn executed_write(
+        &mut self,
+        source: &Source,
+        address: u16,
+        count: u16,
+        pdu: &[u8],
+        order: WordOrder,
+        curve: DimmingCurve,
+    ) {
+        self.health.writes_accepted.fetch_add(1, Ordering::Relaxed);
+        let values: Vec<u16> = if pdu[0] == super::pdu::function::WRITE_SINGLE {
+            pdu.get(3..5)
+                .map(|b| vec![u16::from_be_bytes([b[0], b[1]])])
+                .unwrap_or_default()
+        } else {
+            pdu.get(6..)
+                .unwrap_or(&[])
+                .chunks_exact(2)
+                .take(usize::from(count))
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                .collect()
+        };
+        tracing::info!(
+            target: "luxnode::audit",
+            %source,
+            address,
+            count,
+            "modbus write by {source}: {count} registers at {address} = {values:?}"
+        );
+        for (k, v) in values.iter().enumerate() {
+            let a = usize::from(address) + k;
+            if let Some(j) = a.checked_sub(usize::from(addr::ARC_LEVEL))
+                && *v != u16::from(ArcLevel::MASK.0)
+                && let Some(known) = self.arc_known.get_mut(j)
+            {
+                *known = true;
+            }
+        }
+        let mut changed = false;
+        if self.map.word_order != order {
+            let key = source.client_key();
+            if self.settings.word_orders.len() < super::access::MAX_CLIENT_SETTINGS
+                || self.settings.word_orders.contains_key(&key)
+            {
+                self.settings
+                    .word_orders
+                    .insert(key, self.map.word_order as u16);
+                changed = true;
+            } else {
+                tracing::warn!("word order of {source} not kept: too many clients with one");
+            }
+        }
+        if self.map.curve != curve {
+            self.settings.dimming_curve = Some(self.map.curve as u16);
+            changed = true;
+        }
+        if changed && let Some(path) = &self.settings_path {
+            match self.settings.save(path) {
+                Ok(()) => tracing::info!(
+                    target: "luxnode::audit",
+                    "settings saved to {}",
+                    path.display()
+                ),
+                Err(e) => tracing::error!("{e}: the setting holds until the node restarts"),
+            }
+        }
+        self.refresh_flags();
     }
 
     /// Handles a request PDU: clocks updated, request handled, desk values recomputed when the
@@ -370,8 +591,19 @@ impl Node {
 }
 
 impl PduHandler for Node {
-    fn handle_pdu(&mut self, _unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize> {
-        self.process(pdu, out).map(|(n, _)| n)
+    fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize> {
+        self.process_from(&Source::Internal, unit, pdu, out)
+            .map(|(n, _)| n)
+    }
+
+    fn handle_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<usize> {
+        self.process_from(source, unit, pdu, out).map(|(n, _)| n)
     }
 }
 
@@ -418,7 +650,8 @@ mod tests {
         // write all three arc levels: 254 (100 %), 0 (off), 1 (0.1 %)
         let mut out = [0u8; MAX_PDU];
         let req = [0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 0, 0, 1];
-        node.process(&req, &mut out).unwrap();
+        node.process_from(&Source::Internal, 1, &req, &mut out)
+            .unwrap();
         let expect0 = 100.0 + 300.0 * 0.001;
         let d = node.desks();
         assert!((d[0].1 - expect0).abs() < 1e-12, "{d:?}");
@@ -435,6 +668,176 @@ mod tests {
         assert_eq!(node.map().arc[0], 229);
         assert!(node.set_levels(&[Some(1.5), None, None]).is_err());
         assert!((node.desks()[0].1 - 250.0).abs() < 1e-9, "unchanged");
+    }
+
+    fn ask(node: &mut Node, src: &Source, unit: u8, pdu: &[u8]) -> Vec<u8> {
+        let mut out = [0u8; MAX_PDU];
+        let (n, _) = node.process_from(src, unit, pdu, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    fn tcp(a: &str) -> Source {
+        Source::Tcp(format!("{a}:1234").parse().unwrap())
+    }
+
+    #[test]
+    fn read_only_by_default_and_writes_only_from_the_allowlist() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        let stranger = tcp("10.9.9.9");
+        // every write function, every writable register: exception 0x01, nothing changes
+        for pdu in [
+            vec![6, 0x03, 0xE8, 0, 0],
+            vec![6, 0x07, 0xD0, 0, 1],
+            vec![6, 0x07, 0xD1, 0, 1],
+            vec![0x10, 0x03, 0xE8, 0, 3, 6, 0, 0, 0, 0, 0, 0],
+        ] {
+            assert_eq!(ask(&mut node, &stranger, 1, &pdu), vec![pdu[0] | 0x80, 1]);
+        }
+        assert_eq!(node.map().arc[..], [0, 0, 0]);
+        assert_eq!(node.health().writes_refused.load(Ordering::Relaxed), 4);
+        let st = read_input(&mut node, addr::STATUS, 1)[0];
+        assert_eq!(st & status::WRITES_ENABLED, 0);
+        // RTU broadcast and master: refused too
+        let rtu = Source::Rtu("/dev/ttyS1".into());
+        assert_eq!(
+            ask(&mut node, &rtu, 0, &[6, 0x03, 0xE8, 0, 0]),
+            vec![0x86, 1]
+        );
+        // reads are open to all
+        assert_eq!(
+            ask(&mut node, &stranger, 1, &[4, 0, 1, 0, 1]),
+            vec![4, 2, 0, 2]
+        );
+        let policy = AccessPolicy::default()
+            .with_writers(&["10.0.0.0/8".into()])
+            .unwrap();
+        node.set_policy(policy);
+        assert_eq!(
+            ask(&mut node, &stranger, 1, &[6, 0x03, 0xE8, 0, 254]),
+            vec![6, 0x03, 0xE8, 0, 254]
+        );
+        assert_eq!(node.map().arc[0], 254);
+        assert_eq!(node.health().writes_accepted.load(Ordering::Relaxed), 1);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::WRITES_ENABLED,
+            0
+        );
+        assert_eq!(
+            ask(&mut node, &tcp("192.168.1.1"), 1, &[6, 0x03, 0xE8, 0, 0]),
+            vec![0x86, 1]
+        );
+    }
+
+    #[test]
+    fn word_order_is_per_client_and_persists() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("settings.json");
+        let mut policy = AccessPolicy::default()
+            .with_writers(&["10.0.0.1".into(), "10.0.0.2".into()])
+            .unwrap();
+        policy.word_orders.units.insert(9, WordOrder::Dcba);
+        let options = NodeOptions {
+            initial_arc: Some(254),
+            policy,
+            settings_path: Some(path.clone()),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(model(), options.clone()).unwrap();
+        let (a, b) = (tcp("10.0.0.1"), tcp("10.0.0.2"));
+        // desk 0 at full output: 600 lx = 0x44160000
+        let float = |node: &mut Node, src: &Source, unit: u8| {
+            ask(node, src, unit, &[4, 0, 100, 0, 2])[2..].to_vec()
+        };
+        assert_eq!(float(&mut node, &a, 1), [0x44, 0x16, 0, 0]);
+        // client a asks for CDAB: only a reads CDAB
+        ask(&mut node, &a, 1, &[6, 0x07, 0xD0, 0, 1]);
+        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
+        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
+        assert_eq!(
+            ask(&mut node, &b, 1, &[3, 0x07, 0xD0, 0, 1]),
+            vec![3, 2, 0, 0]
+        );
+        assert_eq!(ask(&mut node, &a, 1, &[4, 0, 12, 0, 1]), vec![4, 2, 0, 1]);
+        // unit 9 reads DCBA (board table) unless the client set its own
+        assert_eq!(float(&mut node, &b, 9), [0, 0, 0x16, 0x44]);
+        assert_eq!(float(&mut node, &a, 9), [0, 0, 0x44, 0x16]);
+        // the dimming curve is global, and persisted with the word order
+        ask(&mut node, &b, 1, &[6, 0x07, 0xD1, 0, 1]);
+        drop(node);
+        let mut node = Node::new(model(), options).unwrap();
+        assert_eq!(node.map().curve, DimmingCurve::Linear);
+        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
+        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
+        let saved = std::fs::read_to_string(&path).unwrap();
+        assert!(saved.contains("\"10.0.0.1\": 1"), "{saved}");
+    }
+
+    #[test]
+    fn values_are_stale_until_every_level_is_known() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        let me = Source::Internal;
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
+            0
+        );
+        // two of three set, the third masked: still unknown
+        ask(
+            &mut node,
+            &me,
+            1,
+            &[0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 10, 0, 255],
+        );
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        ask(&mut node, &me, 1, &[6, 0x03, 0xEA, 0, 0]);
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
+        assert_eq!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
+            0
+        );
+        // given at start: known
+        let known = NodeOptions {
+            initial_arc: Some(0),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(model(), known).unwrap();
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
+    }
+
+    #[test]
+    fn out_of_range_values_are_never_published() {
+        let mut m = model();
+        m.response_lx[0] = -8000.0;
+        let options = NodeOptions {
+            initial_arc: Some(254),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(m, options).unwrap();
+        assert_eq!(read_input(&mut node, addr::DESK_FLOAT, 2), vec![0x7FC0, 0]);
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 1), vec![0xFFFF]);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::COMPUTE_ERROR,
+            0
+        );
+    }
+
+    #[test]
+    fn the_sensors_bit_is_cleared_and_set_again() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
+        node.set_sensors_ok(false);
+        assert_eq!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
+        node.set_sensors_ok(true);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
     }
 
     #[test]

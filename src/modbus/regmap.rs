@@ -21,7 +21,7 @@ use super::pdu::{
 
 /// Version of this map (input register 0). Bumped when registers are added; existing ones never
 /// move.
-pub const MAP_VERSION: u16 = 1;
+pub const MAP_VERSION: u16 = 2;
 /// Desks the map has room for.
 pub const MAX_DESKS: usize = 100;
 /// Luminaires the map has room for.
@@ -67,7 +67,12 @@ pub mod addr {
     pub const LUMINAIRE_ID: u16 = 600;
     /// Luminaire j's DALI arc level, read and write: 1000 + j.
     pub const ARC_LEVEL: u16 = 1000;
-    /// Float word order of the desk floats: 0 ABCD (big-endian words), 1 CDAB.
+    /// Communication health, first register (40..=51, [`super::CommHealth`]).
+    pub const COMM_FIRST: u16 = 40;
+    /// Communication health, last register.
+    pub const COMM_LAST: u16 = 51;
+    /// Float word order of the desk floats for the reading client: 0 ABCD (big-endian words),
+    /// 1 CDAB, 2 BADC, 3 DCBA.
     pub const WORD_ORDER: u16 = 2000;
     /// Dimming curve of the arc levels: 0 logarithmic (IEC 62386-102), 1 linear (IEC 62386-207).
     pub const DIMMING_CURVE: u16 = 2001;
@@ -89,6 +94,59 @@ pub mod status {
     pub const VALUES_STALE: u16 = 1 << 5;
     /// The last evaluation failed: desk values are not available.
     pub const COMPUTE_ERROR: u16 = 1 << 6;
+    /// Every configured server (TCP, TLS, RTU) is up (details at input 40..=51).
+    pub const COMM_OK: u16 = 1 << 7;
+    /// Writes are enabled for some sources (the board's allowlist is not empty).
+    pub const WRITES_ENABLED: u16 = 1 << 8;
+}
+
+/// Communication health (input 40..=51): what the servers and links are doing, so a BMS sees a
+/// dead serial line or an attack without reading logs. Counters wrap at 65536.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CommHealth {
+    /// 40: TCP (and TLS) connections open.
+    pub tcp_open: u16,
+    /// 41: connections refused at a cap (wraps).
+    pub tcp_refused: u16,
+    /// 42: idle connections evicted for a new one (wraps).
+    pub tcp_evicted: u16,
+    /// 43: RTU line: 0 not configured, 1 up, 2 down (being reopened).
+    pub rtu_state: u16,
+    /// 44: times the RTU line was reopened (wraps).
+    pub rtu_reopens: u16,
+    /// 45: RTU frames answered (wraps).
+    pub rtu_answered: u16,
+    /// 46: RTU frames discarded: CRC, short, overlong (wraps).
+    pub rtu_discarded: u16,
+    /// 47: DALI gateway poll failures (wraps).
+    pub gateway_failures: u16,
+    /// 48: writes executed (wraps).
+    pub writes_accepted: u16,
+    /// 49: writes refused: source not allowed (wraps).
+    pub writes_refused: u16,
+    /// 50: TLS: 0 not configured, 1 listening, 2 down.
+    pub tls_state: u16,
+    /// 51: TLS handshakes failed (wraps).
+    pub tls_failed: u16,
+}
+
+impl CommHealth {
+    fn get(&self, a: u16) -> u16 {
+        match a - addr::COMM_FIRST {
+            0 => self.tcp_open,
+            1 => self.tcp_refused,
+            2 => self.tcp_evicted,
+            3 => self.rtu_state,
+            4 => self.rtu_reopens,
+            5 => self.rtu_answered,
+            6 => self.rtu_discarded,
+            7 => self.gateway_failures,
+            8 => self.writes_accepted,
+            9 => self.writes_refused,
+            10 => self.tls_state,
+            _ => self.tls_failed,
+        }
+    }
 }
 
 /// A desk value's quality (input 400 + k).
@@ -113,14 +171,60 @@ pub const NOT_AVAILABLE_F32: u32 = 0x7FC0_0000;
 /// The largest lux the u16 block shows (65535 is "not available").
 pub const U16_LUX_MAX: u16 = 65534;
 
-/// Word order of 32-bit values.
+/// Byte order of 32-bit values over two registers (A = most significant byte).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum WordOrder {
-    /// High word first (ABCD), the default.
+    /// High word first, big-endian words (ABCD), the default.
     #[default]
-    Abcd,
-    /// Low word first (CDAB).
-    Cdab,
+    Abcd = 0,
+    /// Low word first (CDAB, "word swap").
+    Cdab = 1,
+    /// High word first, bytes swapped in each word (BADC, "byte swap").
+    Badc = 2,
+    /// Low word first, bytes swapped (DCBA, little-endian).
+    Dcba = 3,
+}
+
+impl WordOrder {
+    /// From the register value (holding 2000).
+    pub fn from_code(c: u16) -> Option<Self> {
+        Some(match c {
+            0 => Self::Abcd,
+            1 => Self::Cdab,
+            2 => Self::Badc,
+            3 => Self::Dcba,
+            _ => return None,
+        })
+    }
+
+    /// From its name, `abcd`, `cdab`, `badc` or `dcba` (any case).
+    pub fn from_name(s: &str) -> Option<Self> {
+        let mut b = [0u8; 4];
+        if s.len() != 4 {
+            return None;
+        }
+        for (d, c) in b.iter_mut().zip(s.bytes()) {
+            *d = c.to_ascii_lowercase();
+        }
+        Some(match &b {
+            b"abcd" => Self::Abcd,
+            b"cdab" => Self::Cdab,
+            b"badc" => Self::Badc,
+            b"dcba" => Self::Dcba,
+            _ => return None,
+        })
+    }
+
+    /// The two registers of `bits`, first then second.
+    pub fn words(self, bits: u32) -> [u16; 2] {
+        let (hi, lo) = ((bits >> 16) as u16, bits as u16);
+        match self {
+            Self::Abcd => [hi, lo],
+            Self::Cdab => [lo, hi],
+            Self::Badc => [hi.swap_bytes(), lo.swap_bytes()],
+            Self::Dcba => [lo.swap_bytes(), hi.swap_bytes()],
+        }
+    }
 }
 
 /// One desk.
@@ -168,6 +272,8 @@ pub struct RegisterMap {
     pub curve: DimmingCurve,
     /// Identification strings.
     pub identity: Identity,
+    /// Communication health (input 40..=51).
+    pub comm: CommHealth,
 }
 
 /// What a request changed.
@@ -241,15 +347,12 @@ impl RegisterMap {
                 addr::WORD_ORDER_IN_EFFECT => self.word_order as u16,
                 _ => self.curve as u16,
             }
+        } else if (addr::COMM_FIRST..=addr::COMM_LAST).contains(&a) {
+            self.comm.get(a)
         } else if in_block(addr::DESK_FLOAT, 2 * d) {
             let off = a - addr::DESK_FLOAT;
             let bits = self.float_bits(usize::from(off / 2));
-            let (hi, lo) = ((bits >> 16) as u16, bits as u16);
-            let first = off.is_multiple_of(2);
-            match (self.word_order, first) {
-                (WordOrder::Abcd, true) | (WordOrder::Cdab, false) => hi,
-                _ => lo,
-            }
+            self.word_order.words(bits)[usize::from(off % 2)]
         } else if in_block(addr::DESK_U16, d) {
             let lux = self.desks[usize::from(a - addr::DESK_U16)].lux;
             if lux.is_finite() {
@@ -297,23 +400,21 @@ impl RegisterMap {
                 Err(Exception::IllegalDataValue)
             };
         }
-        if address == addr::WORD_ORDER || address == addr::DIMMING_CURVE {
-            return if value <= 1 {
-                Ok(())
-            } else {
-                Err(Exception::IllegalDataValue)
-            };
+        let max = match address {
+            addr::WORD_ORDER => 3,
+            addr::DIMMING_CURVE => 1,
+            _ => return Err(Exception::IllegalDataAddress),
+        };
+        if value <= max {
+            Ok(())
+        } else {
+            Err(Exception::IllegalDataValue)
         }
-        Err(Exception::IllegalDataAddress)
     }
 
     fn apply_write(&mut self, address: u16, value: u16, effect: &mut Effect) {
         if address == addr::WORD_ORDER {
-            self.word_order = if value == 0 {
-                WordOrder::Abcd
-            } else {
-                WordOrder::Cdab
-            };
+            self.word_order = WordOrder::from_code(value).unwrap_or_default();
             effect.config_changed = true;
         } else if address == addr::DIMMING_CURVE {
             self.curve = if value == 0 {
@@ -518,7 +619,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale, 6 compute error"
+        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources"
     ),
     row!(
         Input,
@@ -595,7 +696,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "0 ABCD, 1 CDAB (set at holding 2000)"
+        "for this client: 0 ABCD, 1 CDAB, 2 BADC, 3 DCBA (holding 2000)"
     ),
     row!(
         Input,
@@ -610,10 +711,21 @@ pub const TABLE: &[RegisterDoc] = &[
     ),
     row!(
         Input,
+        addr::COMM_FIRST,
+        "12",
+        "communication health",
+        "u16 × 12",
+        "",
+        "1",
+        "R",
+        "40 TCP+TLS connections open, 41 refused at a cap, 42 idle connections evicted, 43 RTU line (0 none, 1 up, 2 down: reopening), 44 RTU reopens, 45 RTU frames answered, 46 RTU frames discarded, 47 gateway poll failures, 48 writes executed, 49 writes refused (source not allowed), 50 TLS (0 none, 1 listening, 2 down), 51 TLS handshakes failed; counters wrap at 65536"
+    ),
+    row!(
+        Input,
         addr::DESK_FLOAT,
         "2 × D",
         "desk lux (float)",
-        "float32, word order per 2000 (ABCD default)",
+        "float32, word order per client (holding 2000; ABCD default)",
         "lx",
         "1",
         "R",
@@ -681,9 +793,9 @@ pub const TABLE: &[RegisterDoc] = &[
         "float word order",
         "u16",
         "",
-        "0 ABCD, 1 CDAB",
+        "0 ABCD, 1 CDAB, 2 BADC, 3 DCBA",
         "R/W",
-        "word order of the desk floats; other values are exception 0x03"
+        "word order of the desk floats as this client reads them (its own setting, persisted; the board file sets defaults per client and per unit id); other values are exception 0x03"
     ),
     row!(
         Holding,
@@ -734,9 +846,11 @@ pub fn markdown() -> std::string::String {
          0x2B/0x0E read device identification (objects 0x00 VendorName `luxnode`, 0x01 ProductCode\n\
          `LXN-1`, 0x02 MajorMinorRevision, 0x03 VendorUrl, 0x04 ProductName, 0x05 ModelName (the\n\
          board), 0x06 UserApplicationName (the commissioned scene)). Exceptions: 0x01 unsupported\n\
-         function, 0x02 address not in the map or not writable, 0x03 value or quantity out of range.\n\
+         function, or a write from a source outside the board's write allowlist (the node is\n\
+         read-only by default), 0x02 address not in the map or not writable, 0x03 value or quantity\n\
+         out of range.\n\
          Over RTU the node answers only its own unit id and never a broadcast (unit 0), whose writes\n\
-         it still executes."
+         it still executes when the allowlist admits \"rtu\"."
     );
     s
 }
@@ -772,7 +886,7 @@ mod tests {
     #[test]
     fn fixed_core_and_float_word_orders() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 1, 0, 3, 0, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 2, 0, 3, 0, 2, 0, 1]);
         // 523.25 = 0x4402D000: ABCD
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x44, 0x02, 0xD0, 0x00]);
         // the same through function 0x03
@@ -790,12 +904,28 @@ mod tests {
         let (_, e) = m.process(&[6, 0x07, 0xD0, 0, 1], &mut out).unwrap();
         assert!(e.config_changed);
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0xD0, 0x00, 0x44, 0x02]);
+        // BADC and DCBA; 5 is not an order
+        m.process(&[6, 0x07, 0xD0, 0, 2], &mut out).unwrap();
+        assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x02, 0x44, 0x00, 0xD0]);
+        m.process(&[6, 0x07, 0xD0, 0, 3], &mut out).unwrap();
+        assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x00, 0xD0, 0x02, 0x44]);
+        let (n, _) = m.process(&[6, 0x07, 0xD0, 0, 4], &mut out).unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        assert_eq!(read(&mut m, 4, 12, 1), vec![4, 2, 0, 3]);
+        // communication health block
+        m.comm.rtu_state = 2;
+        m.comm.writes_refused = 9;
+        assert_eq!(
+            read(&mut m, 4, addr::COMM_FIRST + 3, 7),
+            vec![4, 14, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9]
+        );
+        assert_eq!(read(&mut m, 4, addr::COMM_LAST + 1, 1), vec![0x84, 2]);
     }
 
     #[test]
     fn exceptions() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 50, 1), vec![0x84, 2]); // gap
+        assert_eq!(read(&mut m, 4, 60, 1), vec![0x84, 2]); // gap
         assert_eq!(read(&mut m, 4, 104, 3), vec![0x84, 2]); // past the float block (D = 3)
         assert_eq!(read(&mut m, 4, 1000, 1), vec![0x84, 2]); // arc levels are holding only
         assert_eq!(read(&mut m, 4, 0xFFFF, 2), vec![0x84, 2]); // wraps past 65535

@@ -15,8 +15,10 @@
 //!
 //! Parsing checks, in order: header length, magic, header CRC, format version (another
 //! version is an error, never a misread), payload length, payload CRC, postcard decoding, then
-//! every array's length, index and value range. After [`Image::parse`] succeeds no accessor can
-//! panic and no value is non-finite.
+//! every array's length, index and value range (illuminance and flux finite, non-negative and
+//! at most [`MAX_LUX`] / [`MAX_FLUX_LM`]), with checked length arithmetic so that a crafted
+//! image cannot wrap a length on a 32-bit target. After [`Image::parse`] succeeds no accessor
+//! can panic and no value is non-finite or negative.
 
 mod crc32;
 mod header;
@@ -200,6 +202,17 @@ fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
     }
 }
 
+/// The largest illuminance an image may hold, lx (direct sunlight is about 1e5 lx; a desk
+/// reading above this is a corrupt or crafted image, never a room).
+pub const MAX_LUX: f64 = 1.0e6;
+/// The largest luminaire flux an image may hold, lm.
+pub const MAX_FLUX_LM: f64 = 1.0e7;
+
+/// `a * b` or an inconsistency (lengths from a crafted image must not wrap on 32-bit targets).
+fn mul(a: usize, b: usize, what: &'static str) -> Result<usize, ImageError> {
+    a.checked_mul(b).ok_or(ImageError::Inconsistent(what))
+}
+
 fn check_values(
     v: &Values<'_>,
     rows: usize,
@@ -231,7 +244,8 @@ fn check_sparse(
     what: &'static str,
 ) -> Result<(), ImageError> {
     check(s.rows as usize == rows, what)?;
-    check(s.row_ptr.count(4) == Some(rows + 1), what)?;
+    let ptrs = rows.checked_add(1).ok_or(ImageError::Inconsistent(what))?;
+    check(s.row_ptr.count(4) == Some(ptrs), what)?;
     check(s.col_width == 2 || s.col_width == 4, what)?;
     check(s.row_ptr.u32_at(0) == 0, what)?;
     for i in 0..rows {
@@ -245,10 +259,13 @@ fn check_sparse(
     check_values(&s.values, rows, nnz, what)
 }
 
-fn check_f64s(b: &Bytes<'_>, len: usize, what: &'static str) -> Result<(), ImageError> {
+/// `len` f64 values, each finite and within `[0, max]` (illuminance and flux are never
+/// negative: a crafted image must not publish −8000 lx or +inf with quality OK).
+fn check_f64s(b: &Bytes<'_>, len: usize, max: f64, what: &'static str) -> Result<(), ImageError> {
     check(b.count(8) == Some(len), what)?;
     for i in 0..len {
-        check(b.f64_at(i).is_finite(), what)?;
+        let x = b.f64_at(i);
+        check(x.is_finite() && (0.0..=max).contains(&x), what)?;
     }
     Ok(())
 }
@@ -257,9 +274,9 @@ impl<'a> Image<'a> {
     /// Parses and checks an image (header, CRCs, version, every array).
     pub fn parse(bytes: &'a [u8]) -> Result<Self, ImageError> {
         let header = Header::parse(bytes)?;
-        let len = header.payload_len as usize;
-        let end = HEADER_LEN
-            .checked_add(len)
+        let end = usize::try_from(header.payload_len)
+            .ok()
+            .and_then(|len| HEADER_LEN.checked_add(len))
             .ok_or(ImageError::Inconsistent("payload length"))?;
         if bytes.len() < end {
             return Err(ImageError::Truncated {
@@ -293,7 +310,7 @@ impl<'a> Image<'a> {
         check(p.luminaire_ids.count(4) == Some(l), "luminaire ids")?;
         check(p.sensor_ids.count(4) == Some(s), "sensor ids")?;
         check(p.sensor_flags.count(1) == Some(s), "sensor flags")?;
-        check_f64s(&p.luminaire_flux_lm, l, "luminaire flux")?;
+        check_f64s(&p.luminaire_flux_lm, l, MAX_FLUX_LM, "luminaire flux")?;
         check(
             p.rho.precision == Precision::F32 as u8,
             "reflectance precision",
@@ -306,12 +323,31 @@ impl<'a> Image<'a> {
         check_values(
             &p.direct_patch_lx,
             l,
-            l * n,
+            mul(l, n, "direct illuminance on patches")?,
             "direct illuminance on patches",
         )?;
-        check_f64s(&p.direct_sensor_lx, s * l, "direct illuminance at sensors")?;
-        check_f64s(&p.first_bounce_sensor_lx, s * l, "first bounce at sensors")?;
-        check_f64s(&p.response_lx, s * l, "response matrix")?;
+        let sl = mul(s, l, "sensors × luminaires")?;
+        check_f64s(
+            &p.direct_sensor_lx,
+            sl,
+            MAX_LUX,
+            "direct illuminance at sensors",
+        )?;
+        check_f64s(
+            &p.first_bounce_sensor_lx,
+            sl,
+            MAX_LUX,
+            "first bounce at sensors",
+        )?;
+        check_f64s(&p.response_lx, sl, MAX_LUX, "response matrix")?;
+        // every dimming state sums the responses of all luminaires: the sum must stay in range
+        for si in 0..s {
+            let total: f64 = (0..l).map(|li| p.response_lx.f64_at(si * l + li)).sum();
+            check(
+                total <= MAX_LUX,
+                "a desk's response at full output exceeds 1e6 lx",
+            )?;
+        }
         check_sparse(&p.gather, s, n, "gather rows")?;
         check(
             p.solve_tolerance.is_finite() && p.solve_tolerance > 0.0 && p.solve_max_iterations > 0,
