@@ -67,6 +67,7 @@ pub fn modbus_rtu(data: &[u8]) {
         luminaire_ids: vec![1, 2],
         sensor_flags: vec![0, 1],
         generation: 1,
+        luminaire_flux_lm: vec![3000.0, 3000.0],
     };
     let Ok(mut node) = Node::new(model, NodeOptions::default()) else {
         panic!("the node refused a valid model");

@@ -86,6 +86,8 @@ pub struct ServeOptions {
     pub access: AccessPolicy,
     /// Where client settings persist.
     pub settings_path: Option<PathBuf>,
+    /// Lighting control: mode, targets, power model, loop knobs (the board's `[control]`).
+    pub control: crate::modbus::node::ControlOptions,
 }
 
 /// Re-reads the configuration (SIGHUP): new options, or why they are refused.
@@ -143,6 +145,7 @@ pub fn serve(image: &Path, options: ServeOptions) -> Result<(), ServeError> {
             policy: options.access.clone(),
             settings_path: options.settings_path.clone(),
             health: Some(health),
+            control: options.control.clone(),
         },
     )?;
     let node: SharedNode = Arc::new(Mutex::new(node));
@@ -321,6 +324,13 @@ fn start_parts(
             }
             beat.retire();
         }));
+    }
+    {
+        // lighting control: always running, commanding nothing while the mode is off
+        let (node, gateway, stop_rx) = (node.clone(), options.gateway.clone(), stop_rx.clone());
+        tasks.push(tokio::spawn(crate::modbus::lighting::run(
+            node, gateway, stop_rx,
+        )));
     }
     Parts {
         stop_tx,

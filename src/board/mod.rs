@@ -2,6 +2,7 @@
 //! binary turns them into typed settings. Unknown keys are errors so a typo fails loudly.
 
 pub mod camera;
+pub mod control;
 pub mod hardware;
 
 use std::path::{Path, PathBuf};
@@ -39,6 +40,8 @@ pub struct Board {
     /// How often the sensors are checked while serving (`[health] sensor_check_s`, default
     /// 300 s).
     pub sensor_check: std::time::Duration,
+    /// Lighting control (`[control]`).
+    pub control: crate::modbus::node::ControlOptions,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -250,6 +253,8 @@ struct BoardToml {
     i2c: Option<crate::board::camera::I2cBoard>,
     #[serde(default)]
     health: HealthToml,
+    #[serde(default)]
+    control: Option<crate::board::control::ControlToml>,
 }
 
 #[derive(Deserialize)]
@@ -407,7 +412,9 @@ impl Board {
         if let Some(i) = &t.i2c {
             i.validate().map_err(|e| bad(e.0))?;
         }
+        let control = crate::board::control::control(t.control).map_err(|e| bad(e.0))?;
         Ok(Board {
+            control,
             preset,
             name: t.name,
             description: t.description,

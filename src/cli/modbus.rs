@@ -163,6 +163,10 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
             gateway,
             access,
             settings_path: args.settings.clone(),
+            control: board
+                .as_ref()
+                .map(|b| b.control.clone())
+                .unwrap_or_default(),
             model_name: board.map_or("luxnode serve".into(), |b| b.name),
             initial_arc: args.arc,
             run_for: args

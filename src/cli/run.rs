@@ -357,6 +357,7 @@ fn serve_options(
         run_for: seconds,
         access: m.access.clone(),
         settings_path,
+        control: board.control.clone(),
     }
 }
 

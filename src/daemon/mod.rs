@@ -420,6 +420,7 @@ where
         policy: config.serve.access.clone(),
         settings_path: config.serve.settings_path.clone(),
         health: Some(health.clone()),
+        control: config.serve.control.clone(),
     };
     let mut accept = |image: &Image<'_>, generation: u64| -> Result<(), String> {
         let probe = NodeOptions {

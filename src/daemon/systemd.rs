@@ -149,6 +149,7 @@ mod tests {
             luminaire_ids: vec![1],
             sensor_flags: vec![0],
             generation: 1,
+            luminaire_flux_lm: vec![1000.0],
         };
         let node = Arc::new(Mutex::new(
             Node::new(

@@ -257,6 +257,12 @@ pub struct Settings {
     /// Word order codes (holding 2000) written by clients, by client key.
     #[serde(default)]
     pub word_orders: BTreeMap<String, u16>,
+    /// Lighting control mode (holding 2002), if written.
+    #[serde(default)]
+    pub control_mode: Option<u16>,
+    /// Desk targets written (holding 2100 + k), lx, by desk id.
+    #[serde(default)]
+    pub targets_lx: BTreeMap<u32, u16>,
 }
 
 /// Why the settings file could not be read or written.
@@ -311,6 +317,21 @@ impl Settings {
         }
         if let Some((k, c)) = s.word_orders.iter().find(|(_, c)| **c > 3) {
             return Err(bad(format!("word order {c} of {k} is not 0..=3")));
+        }
+        if let Some(m) = s.control_mode
+            && m > 2
+        {
+            return Err(bad(format!("control_mode {m} is not 0..=2")));
+        }
+        if let Some((id, t)) = s
+            .targets_lx
+            .iter()
+            .find(|(_, t)| **t > super::regmap::MAX_TARGET_LX)
+        {
+            return Err(bad(format!("target {t} lx of desk {id} is over 10000")));
+        }
+        if s.targets_lx.len() > super::regmap::MAX_DESKS {
+            return Err(bad(format!("{} desk targets", s.targets_lx.len())));
         }
         if s.word_orders.len() > MAX_CLIENT_SETTINGS {
             return Err(bad(format!(

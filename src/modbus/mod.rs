@@ -22,6 +22,8 @@ pub mod gateway;
 #[cfg(feature = "std")]
 pub mod health;
 #[cfg(feature = "std")]
+pub mod lighting;
+#[cfg(feature = "std")]
 pub mod node;
 #[cfg(feature = "std")]
 pub mod rtu;

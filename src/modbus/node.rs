@@ -16,9 +16,11 @@ use super::access::{AccessPolicy, Settings, Source, write_span};
 use super::health::Health;
 use super::pdu::{Exception, MAX_PDU, encode_exception};
 use super::regmap::{
-    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, Quality, RegisterMap, WordOrder, addr,
-    status,
+    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, MAX_TARGET_LX, NOT_AVAILABLE_U16, Quality,
+    RegisterMap, WordOrder, addr, status,
 };
+use crate::control::LuminairePower;
+use crate::control::regulator::{Mode, Settings as RegulatorSettings};
 use crate::dali::{ArcLevel, DimmingCurve};
 use crate::runtime::superpose;
 use crate::store::{Image, MAX_LUX, sensor_flags};
@@ -55,6 +57,8 @@ pub struct NodeModel {
     pub sensor_flags: Vec<u8>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
+    /// Rated flux per luminaire, lm (the power model's default).
+    pub luminaire_flux_lm: Vec<f64>,
 }
 
 /// Why a node cannot serve a model.
@@ -100,6 +104,9 @@ impl NodeModel {
             luminaire_ids: (0..l).map(|j| image.luminaire_id(j)).collect(),
             sensor_flags: (0..s).map(|k| image.sensor_flags(k)).collect(),
             generation,
+            luminaire_flux_lm: (0..l)
+                .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
+                .collect(),
         }
     }
 
@@ -131,6 +138,48 @@ pub struct NodeOptions {
     pub settings_path: Option<PathBuf>,
     /// The servers' health, for the registers (`None`: a private one).
     pub health: Option<Arc<Health>>,
+    /// Lighting control: the board's mode, targets and power model.
+    pub control: ControlOptions,
+}
+
+/// The board's lighting-control settings (what clients write over Modbus wins, persisted).
+#[derive(Debug, Clone)]
+pub struct ControlOptions {
+    /// Mode at start when no client has set one.
+    pub mode: Mode,
+    /// Target of every desk, lx, unless `desk_targets_lx` names it.
+    pub target_lx: f64,
+    /// Targets of named desks (desk id, lx).
+    pub desk_targets_lx: Vec<(u32, f64)>,
+    /// Rated power of every luminaire at full, W (`None`: its flux over
+    /// [`crate::control::DEFAULT_EFFICACY_LM_PER_W`]).
+    pub rated_power_w: Option<f64>,
+    /// Standby power of a luminaire that is off, W.
+    pub standby_power_w: f64,
+    /// The lowest arc level a luminaire can be on at (DALI physical minimum level).
+    pub min_arc: u8,
+    /// The loop's knobs.
+    pub loop_settings: RegulatorSettings,
+    /// Daylight estimates older than this are stale, s.
+    pub daylight_max_age_s: f64,
+    /// Seconds between control ticks.
+    pub tick_s: f64,
+}
+
+impl Default for ControlOptions {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Off,
+            target_lx: crate::control::DEFAULT_TARGET_LX,
+            desk_targets_lx: Vec::new(),
+            rated_power_w: None,
+            standby_power_w: crate::control::DEFAULT_STANDBY_W,
+            min_arc: crate::control::DEFAULT_MIN_ARC,
+            loop_settings: RegulatorSettings::default(),
+            daylight_max_age_s: 60.0,
+            tick_s: 1.0,
+        }
+    }
 }
 
 /// The served state.
@@ -153,6 +202,12 @@ pub struct Node {
     settings_path: Option<PathBuf>,
     health: Arc<Health>,
     last_refusal_log: Option<Instant>,
+    control: ControlOptions,
+    power: Vec<LuminairePower>,
+    /// Per luminaire: the ratio of its measured output to the model's (lamp ageing), 1 new.
+    ageing: Vec<f64>,
+    /// The latest daylight estimate per desk (lx) and when it was made.
+    daylight: Option<(Instant, Vec<f64>)>,
 }
 
 impl Node {
@@ -193,6 +248,40 @@ impl Node {
             let _ = map.luminaire_ids.push(id);
             let _ = map.arc.push(arc0);
         }
+        // control: the board's mode and targets, what clients wrote over them
+        let mode = settings
+            .control_mode
+            .and_then(Mode::from_code)
+            .unwrap_or(options.control.mode);
+        map.control.mode = mode.code();
+        for &id in &model.sensor_ids {
+            let board = options
+                .control
+                .desk_targets_lx
+                .iter()
+                .find(|(d, _)| *d == id)
+                .map_or(options.control.target_lx, |t| t.1);
+            let t =
+                settings.targets_lx.get(&id).copied().unwrap_or_else(|| {
+                    libm::round(board.clamp(0.0, f64::from(MAX_TARGET_LX))) as u16
+                });
+            let _ = map.control.targets_lx.push(t);
+            let _ = map.control.met.push(NOT_AVAILABLE_U16);
+        }
+        let power: Vec<LuminairePower> = model
+            .luminaire_flux_lm
+            .iter()
+            .map(|&f| {
+                let mut p = LuminairePower::for_flux(f);
+                if let Some(w) = options.control.rated_power_w {
+                    p.full_w = w;
+                }
+                p.standby_w = options.control.standby_power_w.min(p.full_w);
+                p.min_arc = options.control.min_arc.clamp(1, 254);
+                p
+            })
+            .collect();
+        map.control.all_on_w = power.iter().map(|p| p.full_w).sum();
         let now = Instant::now();
         let model_luminaires = model.luminaire_ids.len();
         let mut node = Self {
@@ -213,6 +302,10 @@ impl Node {
             settings_path: options.settings_path,
             health: options.health.unwrap_or_default(),
             last_refusal_log: None,
+            control: options.control,
+            power,
+            ageing: vec![1.0; model_luminaires],
+            daylight: None,
         };
         if options.gateway_configured {
             node.map.status |= status::GATEWAY_CONFIGURED;
@@ -312,6 +405,94 @@ impl Node {
         &self.health
     }
 
+    /// The lighting-control mode in effect.
+    pub fn control_mode(&self) -> Mode {
+        Mode::from_code(self.map.control.mode).unwrap_or_default()
+    }
+
+    /// The board's control settings.
+    pub fn control_options(&self) -> &ControlOptions {
+        &self.control
+    }
+
+    /// Target per desk, lx.
+    pub fn targets_lx(&self) -> Vec<f64> {
+        self.map
+            .control
+            .targets_lx
+            .iter()
+            .map(|&t| f64::from(t))
+            .collect()
+    }
+
+    /// The power model per luminaire.
+    pub fn power(&self) -> &[LuminairePower] {
+        &self.power
+    }
+
+    /// The response matrix the controller plans with: the image's, each luminaire's column
+    /// scaled by its ageing factor (row-major desks × luminaires).
+    pub fn control_response_lx(&self) -> Vec<f64> {
+        let l = self.ageing.len().max(1);
+        self.model
+            .response_lx
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * self.ageing.get(i % l).copied().unwrap_or(1.0))
+            .collect()
+    }
+
+    /// Sets the ageing factor of every luminaire (measured output over the model's, in
+    /// (0, 2]; anything else is ignored for that luminaire).
+    pub fn set_ageing(&mut self, factors: &[f64]) {
+        for (a, &f) in self.ageing.iter_mut().zip(factors) {
+            if f.is_finite() && f > 0.0 && f <= 2.0 {
+                *a = f;
+            }
+        }
+    }
+
+    /// Publishes a daylight estimate per desk, lx (desk order); one of the wrong length or with a
+    /// value that is not a finite lux >= 0 is refused and the last one kept.
+    pub fn set_daylight(&mut self, daylight_lx: &[f64]) -> bool {
+        let ok = daylight_lx.len() == self.map.desks.len()
+            && daylight_lx
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=MAX_LUX).contains(v));
+        if ok {
+            self.daylight = Some((Instant::now(), daylight_lx.to_vec()));
+        }
+        ok
+    }
+
+    /// The daylight estimate if it is younger than the board's limit.
+    pub fn fresh_daylight(&self) -> Option<&[f64]> {
+        let (t, v) = self.daylight.as_ref()?;
+        (t.elapsed().as_secs_f64() <= self.control.daylight_max_age_s).then_some(v.as_slice())
+    }
+
+    /// Publishes what the control loop decided: per desk met or not (`None`: control off),
+    /// and its flags ([`super::regmap::control_flags`]).
+    pub fn set_control_status(&mut self, met: Option<&[bool]>, flags: u16) {
+        match met {
+            Some(m) => {
+                for (slot, &ok) in self.map.control.met.iter_mut().zip(m) {
+                    *slot = u16::from(ok);
+                }
+                self.map.control.short = m.iter().filter(|&&ok| !ok).count() as u16;
+            }
+            None => {
+                self.map
+                    .control
+                    .met
+                    .iter_mut()
+                    .for_each(|v| *v = NOT_AVAILABLE_U16);
+                self.map.control.short = 0;
+            }
+        }
+        self.map.control.flags = flags;
+    }
+
     /// True when every luminaire's level is known.
     pub fn dimming_known(&self) -> bool {
         self.arc_known.iter().all(|&k| k)
@@ -394,6 +575,12 @@ impl Node {
             && out
                 .iter()
                 .all(|v| v.is_finite() && (0.0..=MAX_LUX).contains(v));
+        self.map.control.power_w = self
+            .power
+            .iter()
+            .zip(&self.levels)
+            .map(|(p, &x)| p.power_w(x))
+            .sum();
         if ok {
             for (d, v) in self.map.desks.iter_mut().zip(out) {
                 d.lux = v;
@@ -563,6 +750,26 @@ impl Node {
             self.settings.dimming_curve = Some(self.map.curve as u16);
             changed = true;
         }
+        let touches = |first: u16, n: usize| {
+            let end = usize::from(address) + usize::from(count);
+            usize::from(address) < usize::from(first) + n && end > usize::from(first)
+        };
+        if touches(addr::CONTROL_MODE, 1) {
+            self.settings.control_mode = Some(self.map.control.mode);
+            changed = true;
+        }
+        let d = self.map.control.targets_lx.len();
+        if touches(addr::DESK_TARGET, d) {
+            for (k, id) in self.model.sensor_ids.iter().enumerate() {
+                let a = usize::from(addr::DESK_TARGET) + k;
+                if a >= usize::from(address) && a < usize::from(address) + usize::from(count) {
+                    self.settings
+                        .targets_lx
+                        .insert(*id, self.map.control.targets_lx[k]);
+                }
+            }
+            changed = true;
+        }
         if changed && let Some(path) = &self.settings_path {
             match self.settings.save(path) {
                 Ok(()) => tracing::info!(
@@ -629,6 +836,7 @@ mod tests {
             luminaire_ids: vec![1, 2, 3],
             sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
             generation: 5,
+            luminaire_flux_lm: vec![1200.0; 3],
         }
     }
 

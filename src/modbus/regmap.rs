@@ -21,7 +21,7 @@ use super::pdu::{
 
 /// Version of this map (input register 0). Bumped when registers are added; existing ones never
 /// move.
-pub const MAP_VERSION: u16 = 2;
+pub const MAP_VERSION: u16 = 3;
 /// Desks the map has room for.
 pub const MAX_DESKS: usize = 100;
 /// Luminaires the map has room for.
@@ -76,6 +76,59 @@ pub mod addr {
     pub const WORD_ORDER: u16 = 2000;
     /// Dimming curve of the arc levels: 0 logarithmic (IEC 62386-102), 1 linear (IEC 62386-207).
     pub const DIMMING_CURVE: u16 = 2001;
+    /// Lighting control mode: 0 off, 1 constant light, 2 daylight harvesting.
+    pub const CONTROL_MODE: u16 = 2002;
+    /// Desk k's target (maintained) illuminance, lx: 2100 + k.
+    pub const DESK_TARGET: u16 = 2100;
+    /// Lighting control mode in effect (mirror of holding 2002).
+    pub const CONTROL_MODE_IN_EFFECT: u16 = 60;
+    /// Desks short of their target under the control plan.
+    pub const CONTROL_SHORT: u16 = 61;
+    /// Control flags ([`super::control_flags`]).
+    pub const CONTROL_FLAGS: u16 = 62;
+    /// Electric power of the luminaires now, W, float32 (63, 64).
+    pub const POWER_NOW: u16 = 63;
+    /// Electric power with every luminaire at full, W, float32 (65, 66).
+    pub const POWER_ALL_ON: u16 = 65;
+    /// Power saved against all at full, 0.1 %.
+    pub const POWER_SAVED: u16 = 67;
+    /// Last register of the control block.
+    pub const CONTROL_LAST: u16 = 67;
+    /// Desk k meets its target under the control plan: 700 + k.
+    pub const DESK_MET: u16 = 700;
+}
+
+/// Control flags (input register 62).
+pub mod control_flags {
+    /// The plan assumes no daylight: the daylight estimate is stale or missing (safe side).
+    pub const SAFE: u16 = 1 << 0;
+    /// The planned levels could not be delivered (the gateway is lost).
+    pub const NOT_DELIVERED: u16 = 1 << 1;
+    /// A plan that only saves power is waiting out the dim hold.
+    pub const HOLDING: u16 = 1 << 2;
+}
+
+/// Largest target a desk may be given, lx.
+pub const MAX_TARGET_LX: u16 = 10_000;
+
+/// The lighting-control registers (`crate::control`): mode and targets (written by the BMS or
+/// the board file), what the plan achieves, and the power.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ControlRegisters {
+    /// Mode code (holding 2002): 0 off, 1 constant light, 2 daylight harvesting.
+    pub mode: u16,
+    /// Target per desk, lx (holding 2100 + k).
+    pub targets_lx: heapless::Vec<u16, MAX_DESKS>,
+    /// Per desk: 1 meets its target under the plan, 0 short, 65535 control off.
+    pub met: heapless::Vec<u16, MAX_DESKS>,
+    /// Desks short (input 61).
+    pub short: u16,
+    /// Flags (input 62).
+    pub flags: u16,
+    /// Power now, W.
+    pub power_w: f64,
+    /// Power with every luminaire at full, W.
+    pub all_on_w: f64,
 }
 
 /// Status bits (input register 3).
@@ -274,6 +327,8 @@ pub struct RegisterMap {
     pub identity: Identity,
     /// Communication health (input 40..=51).
     pub comm: CommHealth,
+    /// Lighting control.
+    pub control: ControlRegisters,
 }
 
 /// What a request changed.
@@ -283,6 +338,8 @@ pub struct Effect {
     pub arc_changed: bool,
     /// Configuration (word order, curve) was written.
     pub config_changed: bool,
+    /// The control mode or a desk target was written.
+    pub control_changed: bool,
 }
 
 /// The two register spaces.
@@ -349,6 +406,33 @@ impl RegisterMap {
             }
         } else if (addr::COMM_FIRST..=addr::COMM_LAST).contains(&a) {
             self.comm.get(a)
+        } else if (addr::CONTROL_MODE_IN_EFFECT..=addr::CONTROL_LAST).contains(&a) {
+            let c = &self.control;
+            let float = |v: f64, word: u16| {
+                let bits = if v.is_finite() {
+                    (v as f32).to_bits()
+                } else {
+                    NOT_AVAILABLE_F32
+                };
+                self.word_order.words(bits)[usize::from(word)]
+            };
+            match a {
+                addr::CONTROL_MODE_IN_EFFECT => c.mode,
+                addr::CONTROL_SHORT => c.short,
+                addr::CONTROL_FLAGS => c.flags,
+                63 | 64 => float(c.power_w, a - addr::POWER_NOW),
+                65 | 66 => float(c.all_on_w, a - addr::POWER_ALL_ON),
+                _ => {
+                    if c.all_on_w > 0.0 && c.power_w.is_finite() {
+                        let saved = 1000.0 * (1.0 - c.power_w / c.all_on_w);
+                        libm::round(saved.clamp(0.0, 1000.0)) as u16
+                    } else {
+                        NOT_AVAILABLE_U16
+                    }
+                }
+            }
+        } else if in_block(addr::DESK_MET, self.control.met.len() as u16) {
+            self.control.met[usize::from(a - addr::DESK_MET)]
         } else if in_block(addr::DESK_FLOAT, 2 * d) {
             let off = a - addr::DESK_FLOAT;
             let bits = self.float_bits(usize::from(off / 2));
@@ -384,6 +468,12 @@ impl RegisterMap {
             self.word_order as u16
         } else if space == Space::Holding && a == addr::DIMMING_CURVE {
             self.curve as u16
+        } else if space == Space::Holding && a == addr::CONTROL_MODE {
+            self.control.mode
+        } else if space == Space::Holding
+            && in_block(addr::DESK_TARGET, self.control.targets_lx.len() as u16)
+        {
+            self.control.targets_lx[usize::from(a - addr::DESK_TARGET)]
         } else {
             return None;
         };
@@ -400,9 +490,12 @@ impl RegisterMap {
                 Err(Exception::IllegalDataValue)
             };
         }
+        let targets = self.control.targets_lx.len() as u16;
         let max = match address {
             addr::WORD_ORDER => 3,
             addr::DIMMING_CURVE => 1,
+            addr::CONTROL_MODE => 2,
+            a if a >= addr::DESK_TARGET && a < addr::DESK_TARGET + targets => MAX_TARGET_LX,
             _ => return Err(Exception::IllegalDataAddress),
         };
         if value <= max {
@@ -423,6 +516,18 @@ impl RegisterMap {
                 DimmingCurve::Linear
             };
             effect.config_changed = true;
+        } else if address == addr::CONTROL_MODE {
+            self.control.mode = value;
+            effect.control_changed = true;
+        } else if address >= addr::DESK_TARGET {
+            if let Some(t) = self
+                .control
+                .targets_lx
+                .get_mut(usize::from(address - addr::DESK_TARGET))
+            {
+                *t = value;
+                effect.control_changed = true;
+            }
         } else if let Some(level) = self.arc.get_mut(usize::from(address - addr::ARC_LEVEL)) {
             // 255 is MASK: no change
             if value != 255 {
@@ -808,6 +913,105 @@ pub const TABLE: &[RegisterDoc] = &[
         "R/W",
         "how arc levels map to light output; other values are exception 0x03"
     ),
+    row!(
+        Holding,
+        addr::CONTROL_MODE,
+        "1",
+        "lighting control mode",
+        "u16",
+        "",
+        "0 off, 1 constant light, 2 daylight harvesting",
+        "R/W",
+        "off: the node commands nothing (the lights follow the arc levels written here or the gateway); constant light: every desk at its target from the luminaires alone, least power; daylight harvesting: the same with each desk's measured daylight; persisted; other values are exception 0x03"
+    ),
+    row!(
+        Holding,
+        addr::DESK_TARGET,
+        "D",
+        "desk target",
+        "u16",
+        "lx",
+        "1, 0..=10000",
+        "R/W",
+        "desk k at 2100 + k: its maintained illuminance target (board default, EN 12464-1 office: 500 lx); persisted; above 10000 is exception 0x03"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_MODE_IN_EFFECT,
+        "1",
+        "control mode in effect",
+        "u16",
+        "",
+        "",
+        "R",
+        "mirror of holding 2002"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_SHORT,
+        "1",
+        "desks short",
+        "u16",
+        "",
+        "1",
+        "R",
+        "desks the control plan cannot bring to their target (the closest state is applied)"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_FLAGS,
+        "1",
+        "control flags",
+        "bits",
+        "",
+        "",
+        "R",
+        "bit 0 safe plan (no daylight estimate: planned without daylight), 1 levels not delivered (gateway lost), 2 a power-saving plan waits out the dim hold"
+    ),
+    row!(
+        Input,
+        addr::POWER_NOW,
+        "2",
+        "power now",
+        "float32, word order per client",
+        "W",
+        "1",
+        "R",
+        "electric power of the luminaires at the current levels (standby of those off included)"
+    ),
+    row!(
+        Input,
+        addr::POWER_ALL_ON,
+        "2",
+        "power all on",
+        "float32, word order per client",
+        "W",
+        "1",
+        "R",
+        "electric power with every luminaire at full"
+    ),
+    row!(
+        Input,
+        addr::POWER_SAVED,
+        "1",
+        "power saved",
+        "u16",
+        "%",
+        "0.1",
+        "R",
+        "power saved now against every luminaire at full; 65535 when not available"
+    ),
+    row!(
+        Input,
+        addr::DESK_MET,
+        "D",
+        "desk target met",
+        "u16",
+        "",
+        "",
+        "R",
+        "desk k at 700 + k: 1 the control plan meets its target, 0 short, 65535 control off"
+    ),
 ];
 
 #[cfg(feature = "std")]
@@ -872,6 +1076,12 @@ mod tests {
             let _ = m.luminaire_ids.push(j + 1);
             let _ = m.arc.push(254);
         }
+        for t in [500, 300, 750] {
+            let _ = m.control.targets_lx.push(t);
+            let _ = m.control.met.push(NOT_AVAILABLE_U16);
+        }
+        m.control.power_w = 120.5;
+        m.control.all_on_w = 480.0;
         m.status = status::COMMISSIONED;
         m
     }
@@ -886,7 +1096,7 @@ mod tests {
     #[test]
     fn fixed_core_and_float_word_orders() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 2, 0, 3, 0, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 3, 0, 3, 0, 2, 0, 1]);
         // 523.25 = 0x4402D000: ABCD
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x44, 0x02, 0xD0, 0x00]);
         // the same through function 0x03
@@ -925,7 +1135,7 @@ mod tests {
     #[test]
     fn exceptions() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 60, 1), vec![0x84, 2]); // gap
+        assert_eq!(read(&mut m, 4, 52, 1), vec![0x84, 2]); // gap
         assert_eq!(read(&mut m, 4, 104, 3), vec![0x84, 2]); // past the float block (D = 3)
         assert_eq!(read(&mut m, 4, 1000, 1), vec![0x84, 2]); // arc levels are holding only
         assert_eq!(read(&mut m, 4, 0xFFFF, 2), vec![0x84, 2]); // wraps past 65535
@@ -1005,5 +1215,43 @@ mod tests {
                 assert_eq!(out[0], 6, "{} is writable ({:?})", r.name, &out[..n]);
             }
         }
+    }
+
+    #[test]
+    fn control_registers_read_write_and_check() {
+        let mut m = map();
+        let mut out = [0u8; MAX_PDU];
+        // mode 2, then desk 1's target 750 -> 400; 10001 lx and mode 3 are refused
+        let (_, e) = m.process(&[6, 0x07, 0xD2, 0, 2], &mut out).unwrap();
+        assert!(e.control_changed);
+        assert_eq!(m.control.mode, 2);
+        assert_eq!(
+            read(&mut m, 4, addr::CONTROL_MODE_IN_EFFECT, 1),
+            vec![4, 2, 0, 2]
+        );
+        let a = addr::DESK_TARGET + 1;
+        m.process(&[6, (a >> 8) as u8, a as u8, 0x01, 0x90], &mut out)
+            .unwrap();
+        assert_eq!(m.control.targets_lx[1], 400);
+        let (n, _) = m
+            .process(&[6, (a >> 8) as u8, a as u8, 0x27, 0x11], &mut out)
+            .unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        let (n, _) = m.process(&[6, 0x07, 0xD2, 0, 3], &mut out).unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        assert_eq!(
+            read(&mut m, 3, addr::DESK_TARGET, 3),
+            vec![3, 6, 1, 0xF4, 1, 0x90, 2, 0xEE]
+        );
+        // power now 120.5 W = 0x42F10000, all on 480 W = 0x43F00000, saved 74.9 %
+        assert_eq!(
+            read(&mut m, 4, addr::POWER_NOW, 5),
+            vec![4, 10, 0x42, 0xF1, 0, 0, 0x43, 0xF0, 0, 0, 0x02, 0xED]
+        );
+        // met: not available until the loop says, then 1 / 0
+        assert_eq!(read(&mut m, 4, addr::DESK_MET, 1), vec![4, 2, 0xFF, 0xFF]);
+        m.control.met[0] = 1;
+        assert_eq!(read(&mut m, 4, addr::DESK_MET, 1), vec![4, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, addr::DESK_MET + 3, 1), vec![0x84, 2]);
     }
 }
