@@ -2,6 +2,7 @@
 //! against a truth table, the speed/accuracy trade of the engine's knobs, and the paper's
 //! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
 
+pub mod dense;
 pub mod patches;
 pub mod radiance;
 pub mod tradeoffs;

@@ -125,6 +125,20 @@ pub enum Command {
         #[arg(long, default_value_t = 0x6C75_786E)]
         seed: u64,
     },
+    /// Dense illuminance against Radiance: the desk grids of truth_dense.csv (mean error, U0 per
+    /// desk) and the camera-view lux image against the rendered truth (π L / ρ on desk pixels),
+    /// with their times.
+    Dense {
+        /// The scene directory (with truth_dense.csv).
+        #[arg(long)]
+        scene: PathBuf,
+        /// The capture set with the rendered truth (default: the scene's capture_clean).
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// Timed runs (the median is printed).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -144,6 +158,11 @@ pub(crate) fn scene_with_truth(dir: &Path) -> Result<(Scene, Vec<Scenario>, Vec<
 /// Runs `luxnode bench ...`.
 pub fn run(command: Command) -> Result<()> {
     match command {
+        Command::Dense {
+            scene,
+            capture,
+            runs,
+        } => dense(&scene, capture.as_deref(), runs)?,
         Command::Engine {
             scene,
             runs,
@@ -513,5 +532,125 @@ fn fuzz(frames: u64, seed: u64) -> Result<()> {
         r.rtu_answered,
         r.rtu_silent
     );
+    Ok(())
+}
+
+/// `luxnode bench dense`.
+fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
+    use luxnode::bench::dense as bd;
+    use luxnode::engine::dense::{DenseField, DenseSettings};
+    use luxnode::host::{cpu_seconds, load_average};
+    use std::time::Instant;
+    let scene = load_scene(dir, &LoadOptions::default())?;
+    let truth = bd::read_truth_dense(&dir.join("truth_dense.csv"))?;
+    let capture = capture.map_or_else(|| dir.join("capture_clean"), Path::to_path_buf);
+    let cam_truth = bd::read_camera_truth(&capture)?;
+    let model = luxnode::engine::compute_model(&scene, &Settings::default())?;
+    let cam = scene.camera.as_ref().context("the scene has no camera")?;
+    let all_on = vec![1.0; model.luminaires()];
+    println!(
+        "# dense illuminance: {} ({} patches), load average {}",
+        scene.name,
+        model.patches.len(),
+        load_average().unwrap_or_default()
+    );
+    // (wall, cpu) of a stage
+    let timed = |f: &mut dyn FnMut() -> Result<()>| -> Result<(Duration, f64)> {
+        let (t0, c0) = (Instant::now(), cpu_seconds().unwrap_or(0.0));
+        f()?;
+        Ok((t0.elapsed(), cpu_seconds().unwrap_or(0.0) - c0))
+    };
+    let mut times: Vec<[(Duration, f64); 3]> = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let mut field = None;
+        let t_field = timed(&mut || {
+            field = Some(DenseField::from_model(
+                &model,
+                &scene.luminaires,
+                DenseSettings::default(),
+            )?);
+            Ok(())
+        })?;
+        let field = field.context("no field")?;
+        let mut grid = Vec::new();
+        let t_grid = timed(&mut || {
+            let pts = bd::truth_surface_points(&field, &truth);
+            grid = field.points(&pts).lux(&all_on)?;
+            Ok(())
+        })?;
+        let mut view = None;
+        let t_image = timed(&mut || {
+            let img = field.camera_view(cam)?;
+            let lux = img.lux(&all_on)?;
+            view = Some((img, lux));
+            Ok(())
+        })?;
+        times.push([t_field, t_grid, t_image]);
+        last = Some((grid, view.context("no view")?));
+    }
+    let (grid_lux, (img, img_lux)) = last.context("no run")?;
+    let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
+    println!();
+    println!("| desk grid (truth_dense.csv, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| points | {} | |", truth.len());
+    println!(
+        "| mean abs error / mean lux | {:.2} % | ≤ 1 % |",
+        100.0 * g.mean_abs_error
+    );
+    println!(
+        "| bias (mean computed / mean true − 1) | {:+.2} % | |",
+        100.0 * g.mean_bias
+    );
+    println!("| worst point | {:.2} % | |", 100.0 * g.worst_point);
+    let worst_u0 = g
+        .desks
+        .iter()
+        .map(|(_, t, c)| (c.u0 - t.u0).abs())
+        .fold(0.0, f64::max);
+    println!("| worst ΔU0 over the desks | {worst_u0:.3} | ≤ 0.02 |");
+    println!();
+    println!("| desk | Ē truth (lx) | Ē (lx) | U0 truth | U0 | ΔU0 |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for (id, t, c) in &g.desks {
+        println!(
+            "| {id} | {:.0} | {:.0} | {:.3} | {:.3} | {:+.3} |",
+            t.e_mean_lx,
+            c.e_mean_lx,
+            t.u0,
+            c.u0,
+            c.u0 - t.u0
+        );
+    }
+    let p = bd::compare_pixels(&cam_truth, &img, &img_lux).context("pixel comparison")?;
+    println!();
+    println!("| camera view (π L / ρ, inner desk pixels, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| pixels | {} | |", p.pixels);
+    println!("| median abs error | {:.2} % | ≤ 3 % |", 100.0 * p.median);
+    println!("| 90th percentile | {:.2} % | |", 100.0 * p.p90);
+    println!("| bias | {:+.2} % | |", 100.0 * p.bias);
+    println!();
+    println!(
+        "| stage, median of {} runs | wall (ms) | CPU (ms, both cores) |",
+        runs.max(1)
+    );
+    println!("|---|---:|---:|");
+    let names = [
+        "field (BVH, vertex interreflection)".to_string(),
+        format!("desk grid, {} points", truth.len()),
+        format!("camera view, {} pixels", img.pixels.len()),
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let wall = bench::median(times.iter().map(|t| t[k].0).collect());
+        let mut cpu: Vec<f64> = times.iter().map(|t| t[k].1).collect();
+        cpu.sort_by(f64::total_cmp);
+        println!(
+            "| {name} | {:.0} | {:.0} |",
+            wall.as_secs_f64() * 1e3,
+            cpu[cpu.len() / 2] * 1e3
+        );
+    }
     Ok(())
 }
