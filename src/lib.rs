@@ -35,7 +35,7 @@
 //! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
 //! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
-//! | 10 | `image_build`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the speed/accuracy presets |
+//! | 10 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
 //! | 11 | `render` | feature `report` | pictures: the top-view illuminance map, the camera-view report, plots |
 //! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
@@ -106,6 +106,8 @@ pub mod evaluate;
 pub mod host;
 #[cfg(feature = "std")]
 pub mod image_build;
+#[cfg(feature = "std")]
+pub mod image_geometry;
 #[cfg(feature = "std")]
 pub mod lsc;
 #[cfg(feature = "std")]

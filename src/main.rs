@@ -52,6 +52,9 @@ enum Command {
     },
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
+    /// The commissioning report of an image: report.html (self-contained) and results.json.
+    #[cfg(feature = "report")]
+    Report(Box<cli::report::Args>),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +71,8 @@ fn main() -> ExitCode {
         #[cfg(feature = "bench")]
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
+        #[cfg(feature = "report")]
+        Command::Report(a) => cli::report::run(&a).map(|()| ExitCode::SUCCESS),
     };
     match done {
         Ok(code) => code,

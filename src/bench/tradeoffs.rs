@@ -321,6 +321,7 @@ pub fn measure_model(
             prune_below: variant.store.prune_below,
             scene_name: "tradeoffs".into(),
             sensor_flags,
+            geometry: None,
         },
     )?;
     let image = Image::parse(&bytes)?;

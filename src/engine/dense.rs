@@ -50,6 +50,9 @@ impl Default for DenseSettings {
     }
 }
 
+/// A corner's identity for welding: quantised position, normal, group.
+type WeldKey = (i64, i64, i64, i32, i32, i32, u32);
+
 /// Vertices of the patch mesh, welded per surface: corners at the same place (to 10⁻⁶ of the
 /// scene's size) of patches of the same group and plane are one vertex.
 #[derive(Debug, Clone)]
@@ -79,7 +82,7 @@ impl VertexMesh {
         } else {
             1e6
         };
-        let key = |p: DVec3, n: DVec3, g: u32| -> (i64, i64, i64, i32, i32, i32, u32) {
+        let key = |p: DVec3, n: DVec3, g: u32| -> WeldKey {
             (
                 ((p.x - lo.x) * q).round() as i64,
                 ((p.y - lo.y) * q).round() as i64,
@@ -90,7 +93,7 @@ impl VertexMesh {
                 g,
             )
         };
-        let mut ids: HashMap<(i64, i64, i64, i32, i32, i32, u32), u32> = HashMap::new();
+        let mut ids: HashMap<WeldKey, u32> = HashMap::new();
         let mut corner_vertex = Vec::with_capacity(patches.len());
         let mut adjacency: Vec<Vec<(u32, f64)>> = Vec::new();
         for i in 0..patches.len() {
@@ -138,7 +141,7 @@ pub fn barycentric(t: &[DVec3; 3], x: DVec3) -> [f64; 3] {
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (d1, d2) = (d.dot(e1), d.dot(e2));
     let den = d11 * d22 - d12 * d12;
-    if !(den.abs() > 0.0) {
+    if den.is_nan() || den.abs() <= 0.0 {
         return [1.0 / 3.0; 3];
     }
     let v = ((d22 * d1 - d12 * d2) / den).clamp(0.0, 1.0);
@@ -368,6 +371,112 @@ impl<'a> DenseField<'a> {
         self.evaluate(points, self.settings.grid_opening_points)
     }
 
+    /// Readings at many points for a picture (a plan view's cells): a pixel's number of opening
+    /// points.
+    pub fn map_readings(&self, points: &[SurfacePoint]) -> Readings {
+        let openings = self.openings();
+        let l = self.luminaires.len();
+        let rows: Vec<(Vec<f64>, Vec<f64>)> = points
+            .par_iter()
+            .map(|p| {
+                let mut i = vec![0.0; l];
+                if (p.patch as usize) < self.patches.len() {
+                    self.indirect_at(p.patch as usize, p.position_m, &mut i);
+                    (self.pixel_direct(&Pixel::Surface(*p), &openings), i)
+                } else {
+                    (vec![0.0; l], i)
+                }
+            })
+            .collect();
+        let mut out = Readings {
+            luminaires: l,
+            direct_lx: Vec::with_capacity(points.len() * l),
+            indirect_lx: Vec::with_capacity(points.len() * l),
+        };
+        for (d, i) in rows {
+            out.direct_lx.extend(d);
+            out.indirect_lx.extend(i);
+        }
+        out
+    }
+
+    /// Readings at points in the air (a calculation plane above the floor, the immediate
+    /// surroundings of a desk): exact direct light as at grid points, and the interreflection
+    /// gathered from the patches' exitance with `rays` cosine-distributed rays (there is no
+    /// patch to interpolate on).
+    pub fn air_points(
+        &self,
+        points: &[(DVec3, DVec3)],
+        basis_b: &[Vec<f64>],
+        rays: usize,
+    ) -> Readings {
+        let l = self.luminaires.len();
+        let openings: Vec<Vec<DVec3>> = self
+            .luminaires
+            .iter()
+            .map(|lum| direct::opening_points(lum, self.settings.grid_opening_points))
+            .collect();
+        let set = super::RaySet::new(super::RaySetKind::Isocell, rays.clamp(1, 100_000));
+        let cosine = crate::lsc::AngularResponse::Cosine;
+        let rows: Vec<(Vec<f64>, Vec<f64>)> = points
+            .par_iter()
+            .map(|&(p, n)| {
+                let row = super::gather_row(
+                    p,
+                    n,
+                    &cosine,
+                    &self.caster,
+                    &set,
+                    super::GatherWeighting::Consistent,
+                );
+                let d = self
+                    .luminaires
+                    .iter()
+                    .zip(&openings)
+                    .map(|(lum, pts)| {
+                        direct::illuminance_lx(lum, pts, p, n, Receiver::Surface, &self.caster)
+                    })
+                    .collect();
+                let i = basis_b
+                    .iter()
+                    .map(|b| {
+                        row.iter()
+                            .map(|(j, w)| w * b.get(*j as usize).copied().unwrap_or(0.0))
+                            .sum()
+                    })
+                    .collect();
+                (d, i)
+            })
+            .collect();
+        let mut out = Readings {
+            luminaires: l,
+            direct_lx: Vec::with_capacity(points.len() * l),
+            indirect_lx: Vec::with_capacity(points.len() * l),
+        };
+        for (d, i) in rows {
+            out.direct_lx.extend(d);
+            out.indirect_lx.extend(i);
+        }
+        out
+    }
+
+    fn openings(&self) -> Openings {
+        Openings {
+            near: self
+                .luminaires
+                .iter()
+                .map(|lum| direct::opening_points(lum, self.settings.pixel_opening_points))
+                .collect(),
+            far: self
+                .luminaires
+                .iter()
+                .map(|lum| {
+                    direct::opening_points(lum, (self.settings.pixel_opening_points / 4).max(1))
+                })
+                .collect(),
+        }
+    }
+
     /// The surface point on the first upward-facing surface below (x, y): a desk top, the floor
     /// (ceilings seen from above are passed through).
     pub fn surface_below(&self, x: f64, y: f64, top_z_m: f64) -> Option<SurfacePoint> {
@@ -543,20 +652,7 @@ impl<'a> DenseField<'a> {
             })
             .collect();
         let l = self.luminaires.len();
-        let openings = Openings {
-            near: self
-                .luminaires
-                .iter()
-                .map(|lum| direct::opening_points(lum, self.settings.pixel_opening_points))
-                .collect(),
-            far: self
-                .luminaires
-                .iter()
-                .map(|lum| {
-                    direct::opening_points(lum, (self.settings.pixel_opening_points / 4).max(1))
-                })
-                .collect(),
-        };
+        let openings = self.openings();
         // indirect: every pixel
         let mut indirect_lx = vec![0.0; w * h * l];
         indirect_lx
