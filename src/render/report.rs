@@ -324,6 +324,50 @@ fn area_result(values: &[f64], mf: f64) -> Option<AreaResult> {
     })
 }
 
+/// Readings at points of a horizontal calculation plane: on the surface there when there is one
+/// (a desk top), in the air otherwise (a desk the model has no top for).
+fn plane_points(
+    field: &DenseField<'_>,
+    pts: &[DVec3],
+    basis_b: &[Vec<f64>],
+    rays: usize,
+) -> Readings {
+    let on: Vec<Option<SurfacePoint>> = pts
+        .iter()
+        .map(|p| field.surface_at(p.x, p.y, p.z))
+        .collect();
+    let surf: Vec<SurfacePoint> = on.iter().flatten().copied().collect();
+    let air: Vec<(DVec3, DVec3)> = pts
+        .iter()
+        .zip(&on)
+        .filter(|(_, s)| s.is_none())
+        .map(|(p, _)| (*p + DVec3::Z * 0.001, DVec3::Z))
+        .collect();
+    let rs = field.points(&surf);
+    let ra = field.air_points(&air, basis_b, rays);
+    let l = rs.luminaires.max(ra.luminaires);
+    let mut out = Readings {
+        luminaires: l,
+        direct_lx: Vec::with_capacity(pts.len() * l),
+        indirect_lx: Vec::with_capacity(pts.len() * l),
+    };
+    let (mut i, mut j) = (0, 0);
+    for s in &on {
+        let (src, k) = if s.is_some() {
+            i += 1;
+            (&rs, i - 1)
+        } else {
+            j += 1;
+            (&ra, j - 1)
+        };
+        out.direct_lx
+            .extend_from_slice(&src.direct_lx[k * l..(k + 1) * l]);
+        out.indirect_lx
+            .extend_from_slice(&src.indirect_lx[k * l..(k + 1) * l]);
+    }
+    out
+}
+
 /// True when a point on a surface lies inside a solid standing on it (looking up it sees the
 /// inside of a surface).
 fn covered(field: &DenseField<'_>, p: DVec3) -> bool {
@@ -387,24 +431,15 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     let mut desk_grids = Vec::new();
     for (d, rect) in room.desks.iter().zip(&desk_rects) {
         let g = en12464::grid(rect)?;
-        let pts: Vec<SurfacePoint> = g
-            .points_m
-            .iter()
-            .map(|p| {
-                field.surface_at(p[0], p[1], d.z_m).unwrap_or(SurfacePoint {
-                    position_m: DVec3::new(p[0], p[1], d.z_m),
-                    normal: DVec3::Z,
-                    patch: u32::MAX,
-                })
-            })
-            .collect();
         // points under an object standing on the desk (a monitor's foot) are inside a solid:
         // no luxmeter goes there
-        let pts: Vec<SurfacePoint> = pts
-            .into_iter()
-            .filter(|p| !covered(&field, p.position_m))
+        let pts: Vec<DVec3> = g
+            .points_m
+            .iter()
+            .map(|p| DVec3::new(p[0], p[1], d.z_m))
+            .filter(|p| !covered(&field, *p + DVec3::Z * 0.001))
             .collect();
-        let task = field.points(&pts);
+        let task = plane_points(&field, &pts, &room.basis_b, opts.air_rays);
         let sg = en12464::immediate_surrounding_grid(
             rect,
             en12464::IMMEDIATE_SURROUNDING_BAND_M,
