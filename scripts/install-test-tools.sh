@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# The real client programs the Modbus tests run: mbpoll and socat (Debian), pymodbus (PyPI).
+# The real client programs the tests run: mbpoll and socat (Debian) and pymodbus (PyPI) for the
+# Modbus tests, chromium (Debian) for the report test (tests/report.rs opens report.html in it).
 # Installs only what is missing; scripts/test.sh calls it.
 set -euo pipefail
 
 missing=()
 command -v mbpoll >/dev/null 2>&1 || missing+=(mbpoll)
 command -v socat >/dev/null 2>&1 || missing+=(socat)
+command -v chromium >/dev/null 2>&1 || missing+=(chromium)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "== installing ${missing[*]} (apt)"
   apt-get install -y -q "${missing[@]}" >/dev/null \
