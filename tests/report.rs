@@ -111,7 +111,7 @@ fn camera_view_matches_the_rendered_truth() {
     );
 }
 
-/// The geometry section: old images (without it) parse as before; an image with it gives the
+/// The geometry section (docs/report.md): old images (without it) parse as before; an image with it gives the
 /// room back: the same patches, reflectances, luminaires, and a basis that reproduces the
 /// model's exitance.
 #[test]
@@ -126,6 +126,9 @@ fn geometry_section_round_trips_and_old_images_still_parse() {
     ));
     let new = image_with_geometry(&scene, &model);
     let image = Image::parse(&new).unwrap();
+    // docs/report.md: 77 kB for office_a's 1903 patches
+    let section = image.geometry_bytes().unwrap().len();
+    assert!((60_000..100_000).contains(&section), "{section} bytes");
     // the run-time part is unchanged: same response matrix as the image without the section
     for s in 0..image.sensors() {
         for l in 0..image.luminaires() {

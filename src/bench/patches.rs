@@ -178,8 +178,11 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
         .collect();
     let z = |i: &usize| p.centroid_m(*i).z;
     up.sort_by(|a, b| z(a).total_cmp(&z(b)));
-    // seen from below: the lowest surfaces (luminaire openings under the ceiling) on top
-    down.sort_by(|a, b| z(b).total_cmp(&z(a)));
+    // seen through the roof: the ceiling first, the luminaire openings on top of everything
+    down.sort_by(|a, b| {
+        let opening = |i: &usize| p.rho[*i] <= 0.0;
+        opening(a).cmp(&opening(b)).then(z(a).total_cmp(&z(b)))
+    });
     side.sort_by(|a, b| {
         let (da, db) = (
             dist_to_wall(p.normal[*a], p.centroid_m(*a)),

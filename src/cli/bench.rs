@@ -97,7 +97,7 @@ pub enum Command {
         /// Plot title.
         #[arg(
             long,
-            default_value = "OFFICE_A: COMMISSIONING TIME VS ERROR (RAYS 100..10000)"
+            default_value = "office_a: commissioning time against error (rays 100..10000)"
         )]
         title: String,
     },
@@ -376,7 +376,7 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
     let series = sizes
         .iter()
         .map(|size| luxnode::render::plot::Series {
-            name: format!("PATCH {size} M"),
+            name: format!("patch {size} m"),
             points: rows
                 .iter()
                 .filter(|r| r.0 == *size)
@@ -386,8 +386,8 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
         .collect();
     luxnode::render::plot::Plot {
         title: title.to_owned(),
-        x_label: "COMMISSIONING TIME (S, LOG)".into(),
-        y_label: "ERROR VS RADIANCE (%)".into(),
+        x_label: "commissioning time (s, log)".into(),
+        y_label: "error against Radiance (%)".into(),
         log_x: true,
         log_y: false,
         series,
@@ -590,6 +590,49 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         last = Some((grid, view.context("no view")?));
     }
     let (grid_lux, (img, img_lux)) = last.context("no run")?;
+    // the whole report of the image of this model
+    let bytes = luxnode::image_build::build_image(
+        &model,
+        &luxnode::image_build::ImageOptions {
+            scene_name: scene.name.clone(),
+            geometry: Some(luxnode::image_geometry::section_of(
+                &scene,
+                &model,
+                &luxnode::image_geometry::CommissionRecord::default(),
+            )),
+            ..Default::default()
+        },
+    )?;
+    let image = Image::parse(&bytes)?;
+    let ids: Vec<u32> = model.luminaire_ids.clone();
+    let states: Vec<luxnode::render::report::NamedState> =
+        std::iter::once(luxnode::render::report::NamedState {
+            name: "all on".into(),
+            levels: vec![1.0; ids.len()],
+        })
+        .chain((0..ids.len()).map(|j| {
+            luxnode::render::report::NamedState {
+                name: format!("luminaire {} alone", ids[j]),
+                levels: (0..ids.len())
+                    .map(|k| if k == j { 1.0 } else { 0.0 })
+                    .collect(),
+            }
+        }))
+        .collect();
+    let mut t_report = Vec::new();
+    for _ in 0..runs.max(1) {
+        t_report.push(timed(&mut || {
+            let r = luxnode::render::report::compute(
+                &image,
+                &luxnode::render::report::ReportOptions {
+                    states: states.clone(),
+                    ..Default::default()
+                },
+            )?;
+            let _ = luxnode::render::report::html(&r);
+            Ok(())
+        })?);
+    }
     let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
     println!();
     println!("| desk grid (truth_dense.csv, all on) | value | target |");
@@ -652,5 +695,14 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
             cpu[cpu.len() / 2] * 1e3
         );
     }
+    let wall = bench::median(t_report.iter().map(|t| t.0).collect());
+    let mut cpu: Vec<f64> = t_report.iter().map(|t| t.1).collect();
+    cpu.sort_by(f64::total_cmp);
+    println!(
+        "| report of the image ({} states: rebuild, grids, plan, camera views, HTML) | {:.0} | {:.0} |",
+        states.len(),
+        wall.as_secs_f64() * 1e3,
+        cpu[cpu.len() / 2] * 1e3
+    );
     Ok(())
 }
