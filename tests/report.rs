@@ -274,12 +274,10 @@ fn report_opens_in_a_browser_with_every_picture() {
     assert_eq!(desks.len(), 5);
     let states = json["states"].as_array().unwrap();
     let e = |s: usize, d: usize| states[s]["desks"][d][1]["e_mean_lx"].as_f64().unwrap();
-    for d in 0..5 {
+    for (d, desk) in desks.iter().enumerate() {
         assert!((e(1, d) / e(0, d) - 0.5).abs() < 1e-9);
-        let m = desks[d]["task"]["maintained"]["e_mean_lx"]
-            .as_f64()
-            .unwrap();
-        let n = desks[d]["task"]["new"]["e_mean_lx"].as_f64().unwrap();
+        let m = desk["task"]["maintained"]["e_mean_lx"].as_f64().unwrap();
+        let n = desk["task"]["new"]["e_mean_lx"].as_f64().unwrap();
         assert!((m / n - 0.8).abs() < 1e-9, "maintained = 0.8 × new");
         assert!(html.contains(&format!("{m:.0}")));
     }
