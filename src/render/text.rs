@@ -40,17 +40,8 @@ pub fn width(text: &str, size_px: f32, weight: Weight) -> f32 {
         return 0.0;
     };
     let sf = f.as_scaled(PxScale::from(size_px));
-    let mut x = 0.0;
-    let mut prev = None;
-    for c in text.chars() {
-        let g = sf.glyph_id(c);
-        if let Some(p) = prev {
-            x += sf.kern(p, g);
-        }
-        x += sf.h_advance(g);
-        prev = Some(g);
-    }
-    x
+    // no kerning: with it, gaps opened inside some words ("Camer a")
+    text.chars().map(|c| sf.h_advance(sf.glyph_id(c))).sum()
 }
 
 /// Ascent (above the baseline) at a size, pixels.
@@ -76,12 +67,8 @@ pub fn draw(
     let sf = f.as_scaled(PxScale::from(size_px));
     let baseline = y + sf.ascent();
     let mut pen = x;
-    let mut prev = None;
     for c in text.chars() {
         let id = sf.glyph_id(c);
-        if let Some(p) = prev {
-            pen += sf.kern(p, id);
-        }
         let glyph =
             id.with_scale_and_position(PxScale::from(size_px), ab_glyph::point(pen, baseline));
         if let Some(outline) = f.outline_glyph(glyph) {
@@ -97,7 +84,6 @@ pub fn draw(
             });
         }
         pen += sf.h_advance(id);
-        prev = Some(id);
     }
 }
 
