@@ -340,3 +340,56 @@ fn report_opens_in_a_browser_with_every_picture() {
     assert!(dark > n / 200, "{dark} dark pixels: no text");
     assert!(white > n / 10, "{white} white pixels");
 }
+
+/// The node's first boot writes the report next to its flash (here commissioning from the sim
+/// board's CAD scene, the quick path), and the report's image is the one in flash: its
+/// sensors are what the node publishes.
+#[test]
+fn first_boot_writes_the_report_next_to_the_flash() {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.img");
+    let board = Path::new(env!("CARGO_MANIFEST_DIR")).join("boards/sim/board.toml");
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args([
+            "run",
+            "--board",
+            board.to_str().unwrap(),
+            "--flash",
+            flash.to_str().unwrap(),
+            "--bind",
+            "127.0.0.1:0",
+            "--cad",
+            "--seconds",
+            "2",
+        ])
+        .output()
+        .expect("luxnode runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rep = dir.path().join("commissioning-report");
+    let html = std::fs::read_to_string(rep.join("report.html")).expect("report.html");
+    assert!(html.contains("EN 12464-1"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(rep.join("results.json")).unwrap()).unwrap();
+    assert!(!json["desks"].as_array().unwrap().is_empty());
+    assert_eq!(json["maintenance_factor"], 0.8);
+    // the same numbers from the flash afterwards
+    let out = dir.path().join("again");
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args([
+            "report",
+            "--image",
+            flash.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(again["desks"], json["desks"]);
+    assert_eq!(
+        again["states"][0]["sensors_lx"],
+        json["states"][0]["sensors_lx"]
+    );
+}
