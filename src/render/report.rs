@@ -635,9 +635,15 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         desk_mean_lx: Vec::new(),
         surface,
     };
+    // the floor grid's values, except under a desk (the plan shows the desk top there)
     let room_values: Vec<([f64; 2], f64)> = room_points
         .iter()
         .zip(room_readings.lux(design)?)
+        .filter(|(p, _)| {
+            !desk_rects
+                .iter()
+                .any(|r| r.contains(p.position_m.x, p.position_m.y))
+        })
         .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
         .collect();
     let scale_max = nice_ceiling(top.max_lx());
@@ -646,7 +652,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             "{}: maintained illuminance, {} (MF {:.2})",
             room.section.scene_name, design_name, mf
         ),
-        subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx); red: sensors."
+        subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors."
             .into(),
         bounds_m: floor_ext,
         map: top,
