@@ -4,6 +4,7 @@
 
 pub mod control;
 pub mod control_day;
+pub mod dense;
 pub mod patches;
 pub mod radiance;
 pub mod scaling;

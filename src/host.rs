@@ -48,6 +48,23 @@ pub fn thread_cpu_time() -> Option<std::time::Duration> {
     None
 }
 
+/// CPU time of this process so far (user + system, all threads), s: on a shared machine the
+/// measure of work that the wall clock is not.
+pub fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    parse_stat_cpu_ticks(&s).map(|t| t as f64 / 100.0)
+}
+
+/// utime + stime (fields 14 and 15) of a `/proc/PID/stat` line, clock ticks (USER_HZ = 100).
+fn parse_stat_cpu_ticks(stat: &str) -> Option<u64> {
+    // the command name (field 2) may hold spaces: count from the closing parenthesis
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: u64 = f.get(11)?.parse().ok()?;
+    let stime: u64 = f.get(12)?.parse().ok()?;
+    Some(utime + stime)
+}
+
 #[cfg(test)]
 mod tests {
     use super::parse_status_kib;
@@ -75,6 +92,13 @@ mod tests {
             assert!(slept < std::time::Duration::from_millis(20), "{slept:?}");
             assert!(worked > std::time::Duration::from_millis(1), "{worked:?}");
         }
+    }
+
+    #[test]
+    fn cpu_ticks_are_fields_14_and_15() {
+        let line = "42 (lux node) R 1 2 3 4 5 6 7 8 9 10 250 30 0 0 20 0 4 0";
+        assert_eq!(super::parse_stat_cpu_ticks(line), Some(280));
+        assert_eq!(super::parse_stat_cpu_ticks("garbage"), None);
     }
 
     #[test]

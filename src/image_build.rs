@@ -12,6 +12,7 @@ use std::fmt;
 
 use crate::engine::{Csr, Model};
 use crate::solver;
+use crate::store::geometry::GeometrySection;
 use crate::store::values::{Bytes, Precision, Sparse, Values};
 use crate::store::{FORMAT_VERSION, HEADER_LEN, Header, Image, PayloadV1, SettingsRecord, crc32};
 
@@ -26,6 +27,9 @@ pub struct ImageOptions {
     pub scene_name: String,
     /// Per-sensor flags ([`crate::store::sensor_flags`]); empty means none set.
     pub sensor_flags: Vec<u8>,
+    /// The geometry section for reports ([`crate::image_geometry::section_of`]); `None` leaves
+    /// it out (the image then holds only what the run time needs).
+    pub geometry: Option<GeometrySection>,
 }
 
 impl Default for ImageOptions {
@@ -35,6 +39,7 @@ impl Default for ImageOptions {
             prune_below: 0.0,
             scene_name: String::new(),
             sensor_flags: Vec::new(),
+            geometry: None,
         }
     }
 }
@@ -117,6 +122,9 @@ pub fn sections(image: &Image<'_>) -> Sections {
     let sparse = |s: &Sparse<'_>| {
         s.row_ptr.0.len() + s.col.0.len() + s.values.data.0.len() + s.values.scales.0.len()
     };
+    let geometry = image
+        .geometry_bytes()
+        .map_or(0, |g| g.len() + crate::store::SECTION_FRAME_LEN);
     let parts = vec![
         ("header", HEADER_LEN),
         ("form factors (row starts, columns, values)", sparse(&p.ff)),
@@ -130,10 +138,12 @@ pub fn sections(image: &Image<'_>) -> Sections {
             "sensor direct, first bounce, response",
             p.direct_sensor_lx.0.len() + p.first_bounce_sensor_lx.0.len() + p.response_lx.0.len(),
         ),
+        ("geometry section (for reports)", geometry),
         (
             "ids, flux, settings, names, framing",
             image.len()
                 - HEADER_LEN
+                - geometry
                 - sparse(&p.ff)
                 - p.direct_patch_lx.data.0.len()
                 - p.direct_patch_lx.scales.0.len()
@@ -276,8 +286,14 @@ fn u32_bytes(v: &[u32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-fn serialise(header_precision: u8, payload: &PayloadV1<'_>) -> Result<Vec<u8>, BuildError> {
-    let body = postcard::to_stdvec(payload).map_err(|e| BuildError::Serialise(e.to_string()))?;
+fn serialise(
+    header_precision: u8,
+    payload: &PayloadV1<'_>,
+    section: &[u8],
+) -> Result<Vec<u8>, BuildError> {
+    let mut body =
+        postcard::to_stdvec(payload).map_err(|e| BuildError::Serialise(e.to_string()))?;
+    body.extend_from_slice(section);
     let header = Header {
         format_version: FORMAT_VERSION,
         generation: 0,
@@ -378,7 +394,13 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
         solve_max_iterations: st.solve.max_iterations,
     };
     // The response of the *stored* system: one solve per luminaire on the image itself.
-    let provisional = serialise(options.precision as u8, &payload)?;
+    let section = match &options.geometry {
+        Some(g) => g
+            .encode()
+            .map_err(|e| BuildError::Serialise(format!("geometry section: {e}")))?,
+        None => Vec::new(),
+    };
+    let provisional = serialise(options.precision as u8, &payload, &section)?;
     let image = Image::parse(&provisional).map_err(BuildError::Parse)?;
     let runtime = crate::runtime::Runtime::new(&image);
     let mut response = vec![vec![0.0; l]; s];
@@ -402,7 +424,7 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
     }
     let response_bytes = f64_bytes(&response);
     payload.response_lx = Bytes(&response_bytes);
-    let bytes = serialise(options.precision as u8, &payload)?;
+    let bytes = serialise(options.precision as u8, &payload, &section)?;
     Image::parse(&bytes).map_err(BuildError::Parse)?;
     Ok(bytes)
 }

@@ -31,6 +31,9 @@ pub struct Board {
     pub modbus: ModbusBoard,
     /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
     pub preset: crate::preset::Preset,
+    /// The installation's maintenance factor for the commissioning report's maintained values
+    /// (`[engine] maintenance_factor`, EN 12464-1; 0.8 when absent).
+    pub maintenance_factor: f64,
     /// The cameras (`[camera]`; simulated when absent).
     pub camera: crate::board::camera::CameraBoard,
     /// Where the flash image lives (`[flash]`; a file next to the board file when absent).
@@ -50,6 +53,8 @@ pub struct Board {
 struct EngineToml {
     #[serde(default)]
     preset: Option<String>,
+    #[serde(default)]
+    maintenance_factor: Option<f64>,
 }
 
 /// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[modbus.tls]`,
@@ -406,6 +411,12 @@ impl Board {
                 .parse()
                 .map_err(|e| bad(format!("engine.preset: {e}")))?,
         };
+        let maintenance_factor = crate::en12464::check_maintenance_factor(
+            t.engine
+                .maintenance_factor
+                .unwrap_or(crate::en12464::DEFAULT_MAINTENANCE_FACTOR),
+        )
+        .map_err(|e| bad(format!("engine.maintenance_factor: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
         let camera = crate::board::camera::camera(t.camera, base).map_err(|e| bad(e.0))?;
         let flash = crate::board::camera::flash(t.flash, base).map_err(|e| bad(e.0))?;
@@ -416,6 +427,7 @@ impl Board {
         Ok(Board {
             control,
             preset,
+            maintenance_factor,
             name: t.name,
             description: t.description,
             scene,

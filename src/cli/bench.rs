@@ -115,7 +115,7 @@ pub enum Command {
         /// Plot title.
         #[arg(
             long,
-            default_value = "OFFICE_A: COMMISSIONING TIME VS ERROR (RAYS 100..10000)"
+            default_value = "office_a: commissioning time against error (rays 100..10000)"
         )]
         title: String,
     },
@@ -192,6 +192,20 @@ pub enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Dense illuminance against Radiance: the desk grids of truth_dense.csv (mean error, U0 per
+    /// desk) and the camera-view lux image against the rendered truth (π L / ρ on desk pixels),
+    /// with their times.
+    Dense {
+        /// The scene directory (with truth_dense.csv).
+        #[arg(long)]
+        scene: PathBuf,
+        /// The capture set with the rendered truth (default: the scene's capture_clean).
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// Timed runs (the median is printed).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -211,6 +225,11 @@ pub(crate) fn scene_with_truth(dir: &Path) -> Result<(Scene, Vec<Scenario>, Vec<
 /// Runs `luxnode bench ...`.
 pub fn run(command: Command) -> Result<()> {
     match command {
+        Command::Dense {
+            scene,
+            capture,
+            runs,
+        } => dense(&scene, capture.as_deref(), runs)?,
         Command::Engine {
             scene,
             runs,
@@ -477,7 +496,7 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
     let series = sizes
         .iter()
         .map(|size| luxnode::render::plot::Series {
-            name: format!("PATCH {size} M"),
+            name: format!("patch {size} m"),
             points: rows
                 .iter()
                 .filter(|r| r.0 == *size)
@@ -487,8 +506,8 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
         .collect();
     luxnode::render::plot::Plot {
         title: title.to_owned(),
-        x_label: "COMMISSIONING TIME (S, LOG)".into(),
-        y_label: "ERROR VS RADIANCE (%)".into(),
+        x_label: "commissioning time (s, log)".into(),
+        y_label: "error against Radiance (%)".into(),
         log_x: true,
         log_y: false,
         series,
@@ -754,17 +773,17 @@ fn control_day(
         use luxnode::render::plot::{Plot, Series};
         let series = [
             (
-                "ALL ON",
+                "all on",
                 rows.iter()
                     .map(|r| (r.time_h, r.all_on_w))
                     .collect::<Vec<_>>(),
             ),
             (
-                "ONE PHOTOCELL",
+                "one photocell",
                 rows.iter().map(|r| (r.time_h, r.photocell_w)).collect(),
             ),
             (
-                "LEAST POWER",
+                "least power",
                 rows.iter().map(|r| (r.time_h, r.optimised_w)).collect(),
             ),
         ]
@@ -775,9 +794,9 @@ fn control_day(
         })
         .collect();
         Plot {
-            title: "POWER OVER THE DAY".into(),
-            x_label: "TIME (H)".into(),
-            y_label: "POWER (W)".into(),
+            title: "Power over the day".into(),
+            x_label: "time (h)".into(),
+            y_label: "power (W)".into(),
             log_x: false,
             log_y: false,
             series,
@@ -787,5 +806,177 @@ fn control_day(
         .with_context(|| format!("writing {}", path.display()))?;
         println!("\nplot: {}", path.display());
     }
+    Ok(())
+}
+
+/// `luxnode bench dense`.
+fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
+    use luxnode::bench::dense as bd;
+    use luxnode::engine::dense::{DenseField, DenseSettings};
+    use luxnode::host::{cpu_seconds, load_average};
+    use std::time::Instant;
+    let scene = load_scene(dir, &LoadOptions::default())?;
+    let truth = bd::read_truth_dense(&dir.join("truth_dense.csv"))?;
+    let capture = capture.map_or_else(|| dir.join("capture_clean"), Path::to_path_buf);
+    let cam_truth = bd::read_camera_truth(&capture)?;
+    let model = luxnode::engine::compute_model(&scene, &Settings::default())?;
+    let cam = scene.camera.as_ref().context("the scene has no camera")?;
+    let all_on = vec![1.0; model.luminaires()];
+    println!(
+        "# dense illuminance: {} ({} patches), load average {}",
+        scene.name,
+        model.patches.len(),
+        load_average().unwrap_or_default()
+    );
+    // (wall, cpu) of a stage
+    let timed = |f: &mut dyn FnMut() -> Result<()>| -> Result<(Duration, f64)> {
+        let (t0, c0) = (Instant::now(), cpu_seconds().unwrap_or(0.0));
+        f()?;
+        Ok((t0.elapsed(), cpu_seconds().unwrap_or(0.0) - c0))
+    };
+    let mut times: Vec<[(Duration, f64); 3]> = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let mut field = None;
+        let t_field = timed(&mut || {
+            field = Some(DenseField::from_model(
+                &model,
+                &scene.luminaires,
+                DenseSettings::default(),
+            )?);
+            Ok(())
+        })?;
+        let field = field.context("no field")?;
+        let mut grid = Vec::new();
+        let t_grid = timed(&mut || {
+            let pts = bd::truth_surface_points(&field, &truth);
+            grid = field.points(&pts).lux(&all_on)?;
+            Ok(())
+        })?;
+        let mut view = None;
+        let t_image = timed(&mut || {
+            let img = field.camera_view(cam)?;
+            let lux = img.lux(&all_on)?;
+            view = Some((img, lux));
+            Ok(())
+        })?;
+        times.push([t_field, t_grid, t_image]);
+        last = Some((grid, view.context("no view")?));
+    }
+    let (grid_lux, (img, img_lux)) = last.context("no run")?;
+    // the whole report of the image of this model
+    let bytes = luxnode::image_build::build_image(
+        &model,
+        &luxnode::image_build::ImageOptions {
+            scene_name: scene.name.clone(),
+            geometry: Some(luxnode::image_geometry::section_of(
+                &scene,
+                &model,
+                &luxnode::image_geometry::CommissionRecord::default(),
+            )),
+            ..Default::default()
+        },
+    )?;
+    let image = Image::parse(&bytes)?;
+    let ids: Vec<u32> = model.luminaire_ids.clone();
+    let states: Vec<luxnode::render::report::NamedState> =
+        std::iter::once(luxnode::render::report::NamedState {
+            name: "all on".into(),
+            levels: vec![1.0; ids.len()],
+        })
+        .chain((0..ids.len()).map(|j| {
+            luxnode::render::report::NamedState {
+                name: format!("luminaire {} alone", ids[j]),
+                levels: (0..ids.len())
+                    .map(|k| if k == j { 1.0 } else { 0.0 })
+                    .collect(),
+            }
+        }))
+        .collect();
+    let mut t_report = Vec::new();
+    for _ in 0..runs.max(1) {
+        t_report.push(timed(&mut || {
+            let r = luxnode::render::report::compute(
+                &image,
+                &luxnode::render::report::ReportOptions {
+                    states: states.clone(),
+                    ..Default::default()
+                },
+            )?;
+            let _ = luxnode::render::report::html(&r);
+            Ok(())
+        })?);
+    }
+    let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
+    println!();
+    println!("| desk grid (truth_dense.csv, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| points | {} | |", truth.len());
+    println!(
+        "| mean abs error / mean lux | {:.2} % | ≤ 1 % |",
+        100.0 * g.mean_abs_error
+    );
+    println!(
+        "| bias (mean computed / mean true − 1) | {:+.2} % | |",
+        100.0 * g.mean_bias
+    );
+    println!("| worst point | {:.2} % | |", 100.0 * g.worst_point);
+    let worst_u0 = g
+        .desks
+        .iter()
+        .map(|(_, t, c)| (c.u0 - t.u0).abs())
+        .fold(0.0, f64::max);
+    println!("| worst ΔU0 over the desks | {worst_u0:.3} | ≤ 0.02 |");
+    println!();
+    println!("| desk | Ē truth (lx) | Ē (lx) | U0 truth | U0 | ΔU0 |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for (id, t, c) in &g.desks {
+        println!(
+            "| {id} | {:.0} | {:.0} | {:.3} | {:.3} | {:+.3} |",
+            t.e_mean_lx,
+            c.e_mean_lx,
+            t.u0,
+            c.u0,
+            c.u0 - t.u0
+        );
+    }
+    let p = bd::compare_pixels(&cam_truth, &img, &img_lux).context("pixel comparison")?;
+    println!();
+    println!("| camera view (π L / ρ, inner desk pixels, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| pixels | {} | |", p.pixels);
+    println!("| median abs error | {:.2} % | ≤ 3 % |", 100.0 * p.median);
+    println!("| 90th percentile | {:.2} % | |", 100.0 * p.p90);
+    println!("| bias | {:+.2} % | |", 100.0 * p.bias);
+    println!();
+    println!(
+        "| stage, median of {} runs | wall (ms) | CPU (ms, both cores) |",
+        runs.max(1)
+    );
+    println!("|---|---:|---:|");
+    let names = [
+        "field (BVH, vertex interreflection)".to_string(),
+        format!("desk grid, {} points", truth.len()),
+        format!("camera view, {} pixels", img.pixels.len()),
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let wall = bench::median(times.iter().map(|t| t[k].0).collect());
+        let mut cpu: Vec<f64> = times.iter().map(|t| t[k].1).collect();
+        cpu.sort_by(f64::total_cmp);
+        println!(
+            "| {name} | {:.0} | {:.0} |",
+            wall.as_secs_f64() * 1e3,
+            cpu[cpu.len() / 2] * 1e3
+        );
+    }
+    let wall = bench::median(t_report.iter().map(|t| t.0).collect());
+    let mut cpu: Vec<f64> = t_report.iter().map(|t| t.1).collect();
+    cpu.sort_by(f64::total_cmp);
+    println!(
+        "| report of the image ({} states: rebuild, grids, plan, camera views, HTML) | {:.0} | {:.0} |",
+        states.len(),
+        wall.as_secs_f64() * 1e3,
+        cpu[cpu.len() / 2] * 1e3
+    );
     Ok(())
 }

@@ -160,7 +160,7 @@ fn commission_source(
     scene: Scene,
     image: ImageOptions,
     cad: bool,
-    report_png: PathBuf,
+    report: luxnode::daemon::source::ReportTarget,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
     if cad {
@@ -168,6 +168,7 @@ fn commission_source(
             scene,
             settings: preset.engine(),
             image,
+            report,
         }));
     }
     let commission = CommissionOptions {
@@ -251,7 +252,7 @@ fn commission_source(
         },
         commission,
         image,
-        report_png: Some(report_png),
+        report,
     }))
 }
 
@@ -278,7 +279,12 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         }
     };
     let (flash_path, capacity) = flash_config(&board, args)?;
-    let report = flash_path.with_file_name("commissioning-report.png");
+    // the commissioning report next to the flash: <flash dir>/commissioning-report/report.html
+    let report = luxnode::daemon::source::ReportTarget {
+        dir: Some(flash_path.with_file_name("commissioning-report")),
+        preset: board.preset.name().into(),
+        maintenance_factor: board.maintenance_factor,
+    };
     let mut source = commission_source(&board, scene, image, args.cad, report)?;
     let seconds = args
         .seconds

@@ -120,6 +120,8 @@ pub struct CadSource {
     pub settings: crate::engine::Settings,
     /// Image settings.
     pub image: ImageOptions,
+    /// The commissioning record and where the report goes.
+    pub report: source::ReportTarget,
 }
 
 impl CommissionSource for CadSource {
@@ -140,11 +142,14 @@ impl CommissionSource for CadSource {
         if options.scene_name.is_empty() {
             options.scene_name = self.scene.name.clone();
         }
-        Ok(crate::image_build::build_for_region(
+        options.geometry = Some(self.report.section(&self.scene, &model));
+        let bytes = crate::image_build::build_for_region(
             &model,
             &options,
             crate::image_build::formfactors_region_bytes(),
-        )?)
+        )?;
+        self.report.write(&bytes);
+        Ok(bytes)
     }
 }
 

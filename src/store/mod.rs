@@ -7,6 +7,10 @@
 //! | header, 40 bytes (header.rs) | payload: postcard, format version 1 |
 //! ```
 //!
+//! An optional geometry section may follow the payload, inside its length and CRC (the
+//! patches' corners, the camera, desks, luminaires: what a report needs, `geometry`); builds
+//! that do not know it ignore it, and images without it parse as before.
+//!
 //! The payload ([`PayloadV1`]) holds the sparse form factors, patch reflectances, direct
 //! illuminance per luminaire on patches and at sensors, the sensors' first bounce and gather
 //! rows, the response matrix, the ids, and a record of the commissioning settings. Big arrays are
@@ -29,6 +33,8 @@ pub mod values;
 pub mod devices;
 #[cfg(feature = "std")]
 pub mod file;
+#[cfg(feature = "std")]
+pub mod geometry;
 
 use serde::{Deserialize, Serialize};
 
@@ -185,6 +191,30 @@ pub mod sensor_flags {
     pub const ESTIMATED: u8 = 2;
 }
 
+/// Magic of the optional geometry section after the payload ([`geometry`] with std).
+pub const SECTION_MAGIC: [u8; 4] = *b"LXGS";
+/// Version of the geometry section this build writes and reads.
+pub const SECTION_VERSION: u16 = 1;
+/// Frame length before the section's bytes: magic, version (u16 LE), length (u32 LE).
+pub const SECTION_FRAME_LEN: usize = 10;
+
+/// The section bytes of what follows the version-1 payload, checked: `Ok(None)` for no section
+/// (or a section version this build does not read), an error for bytes that are not a section.
+fn unframe(rest: &[u8]) -> Result<Option<&[u8]>, ImageError> {
+    if rest.is_empty() {
+        return Ok(None);
+    }
+    if rest.len() < SECTION_FRAME_LEN || rest[0..4] != SECTION_MAGIC {
+        return Err(ImageError::Inconsistent("bytes after the payload"));
+    }
+    let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
+    if rest.len() - SECTION_FRAME_LEN != len {
+        return Err(ImageError::Inconsistent("geometry section length"));
+    }
+    let version = u16::from_le_bytes([rest[4], rest[5]]);
+    Ok((version == SECTION_VERSION).then_some(&rest[SECTION_FRAME_LEN..]))
+}
+
 /// A parsed, fully checked image borrowing its bytes.
 #[derive(Debug, Clone, Copy)]
 pub struct Image<'a> {
@@ -192,6 +222,8 @@ pub struct Image<'a> {
     pub header: Header,
     /// The payload.
     pub payload: PayloadV1<'a>,
+    /// The geometry section's bytes, when the image has one this build reads.
+    geometry: Option<&'a [u8]>,
 }
 
 fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
@@ -292,9 +324,14 @@ impl<'a> Image<'a> {
                 actual,
             });
         }
-        let payload: PayloadV1<'a> =
-            postcard::from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
-        let image = Self { header, payload };
+        let (payload, rest): (PayloadV1<'a>, &'a [u8]) =
+            postcard::take_from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
+        let geometry = unframe(rest)?;
+        let image = Self {
+            header,
+            payload,
+            geometry,
+        };
         image.validate()?;
         Ok(image)
     }
@@ -368,6 +405,12 @@ impl<'a> Image<'a> {
     /// Never empty once parsed (a header is always there).
     pub fn is_empty(&self) -> bool {
         false
+    }
+
+    /// The geometry section's bytes (decoded by [`geometry::GeometrySection::decode`] with
+    /// std), when the image has one.
+    pub fn geometry_bytes(&self) -> Option<&'a [u8]> {
+        self.geometry
     }
 
     /// Patches.
