@@ -710,10 +710,12 @@ impl<'a> DenseField<'a> {
                     for u in u0..=u1 {
                         let corner = (u == u0 || u == u1) && (v == v0 || v == v1);
                         let own = (u < u1 || u1 == w - 1) && (v < v1 || v1 == h - 1);
-                        if own && !corner
-                            && let Some(vals) = block.take(u, v) {
-                                out.push((v * w + u, vals));
-                            }
+                        if own
+                            && !corner
+                            && let Some(vals) = block.take(u, v)
+                        {
+                            out.push((v * w + u, vals));
+                        }
                     }
                 }
                 out

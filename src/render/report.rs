@@ -472,9 +472,10 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     if let Some(g) = &room_grid {
         for p in &g.points_m {
             if let Some(sp) = field.surface_at(p[0], p[1], floor_z)
-                && !covered(&field, sp.position_m) {
-                    room_points.push(sp);
-                }
+                && !covered(&field, sp.position_m)
+            {
+                room_points.push(sp);
+            }
         }
     }
     let room_readings = field.points(&room_points);
