@@ -63,17 +63,28 @@ pub struct Args {
     pub power_cut_after_bytes: Option<usize>,
 }
 
-/// The flash device's path and size, from the board or `--flash`.
-fn flash_config(board: &Board, args: &Args) -> Result<(PathBuf, usize)> {
+/// Where the image's flash is: a file of a given size, or a raw MTD partition (its size is the
+/// partition's).
+enum FlashTarget {
+    File(PathBuf, usize),
+    Mtd(PathBuf),
+}
+
+impl FlashTarget {
+    fn path(&self) -> &std::path::Path {
+        match self {
+            FlashTarget::File(p, _) | FlashTarget::Mtd(p) => p,
+        }
+    }
+}
+
+/// The flash device, from the board or `--flash`.
+fn flash_config(board: &Board, args: &Args) -> Result<FlashTarget> {
     let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
     let (path, capacity) = match (&args.flash, &board.flash) {
         (Some(p), _) => (p.clone(), 2 * region),
         (None, FlashBoard::File { path, size_bytes }) => (path.clone(), *size_bytes),
-        (None, FlashBoard::Mtd { device }) => bail!(
-            "board {}: flash kind \"mtd\" ({device}): the store has no raw MTD backend yet; use \
-             the partition through mtdblock as kind = \"file\", or --flash FILE",
-            board.name
-        ),
+        (None, FlashBoard::Mtd { device }) => return Ok(FlashTarget::Mtd(PathBuf::from(device))),
     };
     if capacity < 2 * region {
         bail!(
@@ -81,11 +92,15 @@ fn flash_config(board: &Board, args: &Args) -> Result<(PathBuf, usize)> {
             board.name
         );
     }
-    Ok((path, capacity))
+    Ok(FlashTarget::File(path, capacity))
 }
 
 /// The flash device, with the simulated power cut of `--power-cut-after-bytes` (HIL) if asked.
-fn open_flash(path: &std::path::Path, capacity: usize, args: &Args) -> Result<Flash> {
+fn open_flash(target: &FlashTarget, board: &Board, args: &Args) -> Result<Flash> {
+    let (path, capacity) = match target {
+        FlashTarget::File(p, c) => (p, *c),
+        FlashTarget::Mtd(p) => return open_mtd(p, board),
+    };
     let dev = daemon::open_flash_file(path, capacity)?;
     #[cfg(feature = "sim")]
     if let Some(n) = args.power_cut_after_bytes {
@@ -100,49 +115,78 @@ fn open_flash(path: &std::path::Path, capacity: usize, args: &Args) -> Result<Fl
     Ok(Flash::File(dev))
 }
 
-/// The node's flash: the file, or (HIL) the file behind a fault injector.
+/// A raw MTD partition (`/dev/mtdN`, SPI NOR) for the A/B slots.
+#[cfg(target_os = "linux")]
+fn open_mtd(path: &std::path::Path, board: &Board) -> Result<Flash> {
+    let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
+    let dev = luxnode::store::mtd::open(path)
+        .with_context(|| format!("board {}: flash kind \"mtd\"", board.name))?;
+    let info = dev.info();
+    if dev.capacity() < 2 * region {
+        bail!(
+            "board {}: MTD partition {} holds {} bytes ({} KiB erase blocks): smaller than two \
+             {region}-byte image slots",
+            board.name,
+            path.display(),
+            info.size,
+            info.erase_size / 1024
+        );
+    }
+    tracing::info!(
+        "flash: MTD partition {}: {} bytes, {} KiB erase blocks",
+        path.display(),
+        info.size,
+        info.erase_size / 1024
+    );
+    Ok(Flash::Mtd(dev))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn open_mtd(path: &std::path::Path, board: &Board) -> Result<Flash> {
+    bail!(
+        "board {}: flash kind \"mtd\" ({}) needs Linux",
+        board.name,
+        path.display()
+    )
+}
+
+/// The node's flash: the file, an MTD partition, or (HIL) the file behind a fault injector.
 enum Flash {
     File(FileFlash),
+    #[cfg(target_os = "linux")]
+    Mtd(luxnode::store::mtd::MtdFlash<luxnode::store::mtd::MtdDevice>),
     #[cfg(feature = "sim")]
     Faulty(luxnode::store::devices::FaultyFlash<FileFlash>),
+}
+
+macro_rules! each_flash {
+    ($self:expr, $d:ident => $e:expr) => {
+        match $self {
+            Flash::File($d) => $e,
+            #[cfg(target_os = "linux")]
+            Flash::Mtd($d) => $e,
+            #[cfg(feature = "sim")]
+            Flash::Faulty($d) => $e,
+        }
+    };
 }
 
 impl FlashDevice for Flash {
     type Error = DeviceError;
     fn capacity(&self) -> usize {
-        match self {
-            Flash::File(d) => d.capacity(),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.capacity(),
-        }
+        each_flash!(self, d => d.capacity())
     }
     fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.read(offset, buf),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.read(offset, buf),
-        }
+        each_flash!(self, d => d.read(offset, buf))
     }
     fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.erase(offset, len),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.erase(offset, len),
-        }
+        each_flash!(self, d => d.erase(offset, len))
     }
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.write(offset, data),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.write(offset, data),
-        }
+        each_flash!(self, d => d.write(offset, data))
     }
     fn sync(&mut self) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.sync(),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.sync(),
-        }
+        each_flash!(self, d => d.sync())
     }
 }
 
@@ -277,8 +321,9 @@ pub fn run(args: &Args) -> Result<ExitCode> {
             ..ImageOptions::default()
         }
     };
-    let (flash_path, capacity) = flash_config(&board, args)?;
-    let report = flash_path.with_file_name("commissioning-report.png");
+    let flash_target = flash_config(&board, args)?;
+    let flash_path = flash_target.path().to_path_buf();
+    let report = state_dir(&board, &flash_target).join("commissioning-report.png");
     let mut source = commission_source(&board, scene, image, args.cad, report)?;
     let seconds = args
         .seconds
@@ -293,7 +338,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         })
         .transpose()?;
     let m = &board.modbus;
-    let flash = open_flash(&flash_path, capacity, args)?;
+    let flash = open_flash(&flash_target, &board, args)?;
     let companion = if m.gateway.is_none() && !args.no_controller {
         Some(controller(args)?)
     } else {
@@ -320,6 +365,19 @@ pub fn run(args: &Args) -> Result<ExitCode> {
     match daemon::run(config, flash, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
         Exit::PowerCut => Ok(ExitCode::from(3)),
+    }
+}
+
+/// Where the node keeps files beside its image (the commissioning report picture): the flash
+/// file's directory, or for a raw MTD partition `/var/lib/luxnode`.
+fn state_dir(board: &Board, target: &FlashTarget) -> PathBuf {
+    let _ = board;
+    match target {
+        FlashTarget::File(p, _) => p
+            .parent()
+            .map(|d| d.to_path_buf())
+            .unwrap_or_else(|| PathBuf::from(".")),
+        FlashTarget::Mtd(_) => PathBuf::from("/var/lib/luxnode"),
     }
 }
 

@@ -20,6 +20,7 @@
 
 mod crc32;
 mod header;
+pub mod nor;
 pub mod slots;
 pub mod values;
 
@@ -27,6 +28,8 @@ pub mod values;
 pub mod devices;
 #[cfg(feature = "std")]
 pub mod file;
+#[cfg(feature = "std")]
+pub mod mtd;
 
 use serde::{Deserialize, Serialize};
 
