@@ -105,8 +105,29 @@ pub enum TofBoard {
         device: String,
         /// Line speed, baud.
         baud: u32,
-        /// Module settings.
+        /// Module settings (`unit_mm` as given, or 10 until [`crate::board::hardware`] picks
+        /// it for the floor distance).
         options: A010Options,
+        /// `unit_mm` was given in the board file (else the node picks the finest that reaches
+        /// the floor).
+        unit_given: bool,
+        /// `camera.json` with its intrinsics and pose.
+        calibration: PathBuf,
+    },
+    /// A depth (ToF) camera streaming Z16 over V4L2.
+    V4l2 {
+        /// Device node.
+        device: String,
+        /// Frame width, pixels (the calibration's).
+        width: u32,
+        /// Frame height, pixels.
+        height: u32,
+        /// mm per Z16 unit.
+        depth_unit_mm: f64,
+        /// The farthest the camera measures, m (its datasheet's range at the mode used).
+        max_range_m: f64,
+        /// How long to wait for a frame.
+        timeout: Duration,
         /// `camera.json` with its intrinsics and pose.
         calibration: PathBuf,
     },
@@ -250,8 +271,8 @@ struct TofToml {
     device: String,
     #[serde(default = "default_tof_baud")]
     baud: u32,
-    #[serde(default = "default_unit_mm")]
-    unit_mm: u8,
+    #[serde(default)]
+    unit_mm: Option<u8>,
     #[serde(default = "default_fps")]
     fps: u8,
     #[serde(default = "default_disp")]
@@ -259,13 +280,21 @@ struct TofToml {
     #[serde(default = "default_timeout_s")]
     timeout_s: f64,
     calibration: String,
+    // driver = "v4l2"
+    #[serde(default)]
+    width: Option<u32>,
+    #[serde(default)]
+    height: Option<u32>,
+    #[serde(default)]
+    format: Option<String>,
+    #[serde(default)]
+    depth_unit_mm: Option<f64>,
+    #[serde(default)]
+    max_range_m: Option<f64>,
 }
 
 fn default_tof_baud() -> u32 {
     115_200
-}
-fn default_unit_mm() -> u8 {
-    10
 }
 fn default_fps() -> u8 {
     10
@@ -427,8 +456,19 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 .ok_or("camera.source = \"hardware\" needs [camera.colour]")?;
             let tof = match tof.driver.as_str() {
                 "a010" => {
+                    if tof.width.is_some()
+                        || tof.height.is_some()
+                        || tof.format.is_some()
+                        || tof.depth_unit_mm.is_some()
+                        || tof.max_range_m.is_some()
+                    {
+                        return err(
+                            "camera.tof: width, height, format, depth_unit_mm and max_range_m \
+                             are for driver = \"v4l2\" (the A010 is 100 x 100, range 2.5 m)",
+                        );
+                    }
                     let options = A010Options {
-                        unit_mm: tof.unit_mm,
+                        unit_mm: tof.unit_mm.unwrap_or(10),
                         fps: tof.fps,
                         disp: tof.disp,
                         timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
@@ -445,16 +485,60 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                             tof.baud
                         ));
                     }
+                    crate::camera::a010::check_link(&options, tof.baud)
+                        .map_err(|e| format!("camera.tof: {e}"))?;
                     TofBoard::A010 {
                         device: device("camera.tof.device", &tof.device)?,
                         baud: tof.baud,
                         options,
+                        unit_given: tof.unit_mm.is_some(),
+                        calibration: base.join(tof.calibration),
+                    }
+                }
+                "v4l2" => {
+                    let (Some(width), Some(height), Some(max_range_m)) =
+                        (tof.width, tof.height, tof.max_range_m)
+                    else {
+                        return err(
+                            "camera.tof driver = \"v4l2\" needs width, height and max_range_m \
+                             (the camera's range from its datasheet)",
+                        );
+                    };
+                    if tof.format.as_deref().unwrap_or("z16") != "z16" {
+                        return err(format!(
+                            "camera.tof.format {:?}: a V4L2 ToF camera streams \"z16\"",
+                            tof.format.unwrap_or_default()
+                        ));
+                    }
+                    if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
+                        return err(format!(
+                            "camera.tof: size {width}x{height} is outside 1..=4096"
+                        ));
+                    }
+                    let unit = tof.depth_unit_mm.unwrap_or(1.0);
+                    if !(unit.is_finite() && unit > 0.0 && unit <= 100.0) {
+                        return err(format!(
+                            "camera.tof.depth_unit_mm {unit} is outside (0, 100] mm"
+                        ));
+                    }
+                    if !(max_range_m.is_finite() && max_range_m > 0.0 && max_range_m <= 50.0) {
+                        return err(format!(
+                            "camera.tof.max_range_m {max_range_m} is outside (0, 50] m"
+                        ));
+                    }
+                    TofBoard::V4l2 {
+                        device: device("camera.tof.device", &tof.device)?,
+                        width,
+                        height,
+                        depth_unit_mm: unit,
+                        max_range_m,
+                        timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
                         calibration: base.join(tof.calibration),
                     }
                 }
                 other => {
                     return err(format!(
-                        "camera.tof.driver {other:?} is not known (known: \"a010\")"
+                        "camera.tof.driver {other:?} is not known (known: \"a010\", \"v4l2\")"
                     ));
                 }
             };

@@ -308,6 +308,19 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         board.name,
         board.description
     );
+    // a board whose ToF camera cannot reach its floor is refused before anything starts
+    if let CameraBoard::Hardware { .. } = &board.camera {
+        let pre = luxnode::board::hardware::preflight(&board.camera)
+            .with_context(|| format!("board {}", board.name))?;
+        tracing::info!(
+            "ToF camera: the floor is {:.2} m away{}",
+            pre.floor_mm / 1000.0,
+            pre.a010_unit_mm.map_or(String::new(), |u| format!(
+                "; A010 quantisation AT+UNIT={u} ({:.2} m range)",
+                luxnode::camera::a010::unit_range_mm(u) / 1000.0
+            ))
+        );
+    }
     let scene = match &board.scene {
         SceneSource::DemoOffice => demo_office()?,
         SceneSource::Directory(dir) => luxnode::scene::Scene::load(dir, &Default::default())
