@@ -323,7 +323,7 @@ fn a_stuck_bus_never_hangs_the_node() {
         delay: Box::new(SimDelay(clock)),
         name: "VEML7700 at 0x10 on sim-i2c".into(),
     };
-    let mut m = AlsMonitor::spawn(sensor, Duration::from_millis(50));
+    let mut m = AlsMonitor::spawn(Arc::new(Mutex::new(sensor)), Duration::from_millis(50));
     m.deadline = Duration::from_millis(400);
     let t0 = Instant::now();
     while m.status().readings == 0 {

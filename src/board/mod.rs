@@ -3,6 +3,7 @@
 
 pub mod camera;
 pub mod hardware;
+pub mod peripherals;
 
 use std::path::{Path, PathBuf};
 
@@ -36,6 +37,8 @@ pub struct Board {
     pub flash: crate::board::camera::FlashBoard,
     /// The I2C bus of the board's peripherals (`[i2c]`), if any.
     pub i2c: Option<crate::board::camera::I2cBoard>,
+    /// The status LED (`[led]`), if any.
+    pub led: Option<crate::board::camera::LedBoard>,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -131,6 +134,8 @@ struct BoardToml {
     flash: Option<crate::board::camera::FlashToml>,
     #[serde(default)]
     i2c: Option<crate::board::camera::I2cBoard>,
+    #[serde(default)]
+    led: Option<crate::board::camera::LedBoard>,
 }
 
 #[derive(Deserialize)]
@@ -247,6 +252,9 @@ impl Board {
         if let Some(i) = &t.i2c {
             i.validate().map_err(|e| bad(e.0))?;
         }
+        if let Some(l) = &t.led {
+            l.validate().map_err(|e| bad(e.0))?;
+        }
         Ok(Board {
             preset,
             name: t.name,
@@ -262,6 +270,7 @@ impl Board {
             camera,
             flash,
             i2c: t.i2c,
+            led: t.led,
         })
     }
 }

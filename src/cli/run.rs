@@ -3,6 +3,7 @@
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -11,7 +12,7 @@ use luxnode::board::{Board, SceneSource};
 use luxnode::camera::replay::ReplayWorld;
 use luxnode::camera::{DepthCamera, LightControl, LuminanceCamera, SequenceOptions};
 use luxnode::commission::CommissionOptions;
-use luxnode::daemon::source::CameraSource;
+use luxnode::daemon::source::{AmbientAtCommissioning, CameraSource};
 use luxnode::daemon::{
     self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, Unavailable,
 };
@@ -61,7 +62,14 @@ pub struct Args {
     #[cfg(feature = "sim")]
     #[arg(long, hide = true)]
     pub power_cut_after_bytes: Option<usize>,
+    /// Test only (HIL): the simulated status LED's edges go to this file (`ms level` lines).
+    #[cfg(feature = "sim")]
+    #[arg(long, hide = true)]
+    pub led_trace: Option<PathBuf>,
 }
+
+/// What the simulated ALS sees, set once the simulated world exists.
+type LightSlot = Arc<Mutex<Option<Box<dyn Fn() -> f64 + Send>>>>;
 
 /// Where the image's flash is: a file of a given size, or a raw MTD partition (its size is the
 /// partition's).
@@ -199,14 +207,20 @@ type Rig = (
 );
 
 /// The first boot's commissioning source: the board's cameras, or the CAD scene with `--cad`.
+// the node's whole setup passes through here once
+#[allow(clippy::too_many_arguments)]
 fn commission_source(
     board: &Board,
     scene: Scene,
     image: ImageOptions,
     cad: bool,
     report_png: PathBuf,
+    ambient: Option<AmbientAtCommissioning>,
+    light: &LightSlot,
+    levels_hook: &mut Option<luxnode::peripherals::node::LevelsHook>,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
+    let _ = (light, &levels_hook);
     if cad {
         return Ok(Box::new(CadSource {
             scene,
@@ -231,6 +245,21 @@ fn commission_source(
             // the simulated room is the scene; the node sees it only through the cameras
             let world = SimWorld::new(scene.clone(), &world_settings())
                 .with_context(|| format!("board {}: simulated cameras", board.name))?;
+            if let Some(a) = &ambient {
+                // the simulated ALS reads what the world sends up to it at the current levels
+                let (p, n) = a.pose;
+                let per = world.receiver_lx(
+                    glam::DVec3::from_array(p),
+                    glam::DVec3::from_array(n),
+                    20_000,
+                );
+                let w = world.clone();
+                *light.lock().unwrap_or_else(|p| p.into_inner()) = Some(Box::new(move || {
+                    w.levels().iter().zip(&per).map(|(x, e)| x * e).sum()
+                }));
+                let w = world.clone();
+                *levels_hook = Some(Box::new(move |l: &[f64]| w.follow_levels(l)));
+            }
             let d = world.depth_camera(depth.clone())?;
             let c = world.luminance_camera(luminance.clone())?;
             let (d, c): (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>) = match faults {
@@ -296,6 +325,7 @@ fn commission_source(
         commission,
         image,
         report_png: Some(report_png),
+        ambient,
     }))
 }
 
@@ -337,7 +367,59 @@ pub fn run(args: &Args) -> Result<ExitCode> {
     let flash_target = flash_config(&board, args)?;
     let flash_path = flash_target.path().to_path_buf();
     let report = state_dir(&board, &flash_target).join("commissioning-report.png");
-    let mut source = commission_source(&board, scene, image, args.cad, report)?;
+    let default_als_at = match &board.camera {
+        CameraBoard::Hardware { .. } => luxnode::board::hardware::preflight(&board.camera)
+            .ok()
+            .map(|p| p.tof_camera.position_m.to_array()),
+        _ => scene.camera.as_ref().map(|c| c.position_m.to_array()),
+    };
+    let light: LightSlot = Arc::new(Mutex::new(None));
+    let hooks = luxnode::board::peripherals::SimHooks {
+        light: Some(Box::new({
+            let l = light.clone();
+            move || {
+                l.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .as_ref()
+                    .map_or(0.0, |f| f())
+            }
+        })),
+        led_trace: led_trace(args),
+        eeprom_record: None,
+    };
+    let mut peripherals = luxnode::board::peripherals::open(
+        board.i2c.as_ref(),
+        board.led.as_ref(),
+        default_als_at,
+        hooks,
+    );
+    let state = state_dir(&board, &flash_target);
+    let reference = state.join("ambient-reference.json");
+    let ambient = match (&peripherals.als, peripherals.als_pose) {
+        (Some(sensor), Some(pose)) => Some(AmbientAtCommissioning {
+            sensor: sensor.clone(),
+            pose,
+            reference: reference.clone(),
+        }),
+        (Some(_), None) => {
+            tracing::warn!(
+                "ambient light sensor: no position (i2c.als.position_m, or a ToF calibration): \
+                 not used at commissioning"
+            );
+            None
+        }
+        _ => None,
+    };
+    let mut source = commission_source(
+        &board,
+        scene,
+        image,
+        args.cad,
+        report,
+        ambient,
+        &light,
+        &mut peripherals.levels_hook,
+    )?;
     let seconds = args
         .seconds
         .map(|s| {
@@ -374,11 +456,23 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         },
         companion,
         recommission: args.recommission,
+        peripherals,
+        ambient_reference: Some(reference),
     };
     match daemon::run(config, flash, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
         Exit::PowerCut => Ok(ExitCode::from(3)),
     }
+}
+
+#[cfg(feature = "sim")]
+fn led_trace(args: &Args) -> Option<PathBuf> {
+    args.led_trace.clone()
+}
+
+#[cfg(not(feature = "sim"))]
+fn led_trace(_args: &Args) -> Option<PathBuf> {
+    None
 }
 
 /// Where the node keeps files beside its image (the commissioning report picture): the flash

@@ -89,6 +89,12 @@ pub mod status {
     pub const VALUES_STALE: u16 = 1 << 5;
     /// The last evaluation failed: desk values are not available.
     pub const COMPUTE_ERROR: u16 = 1 << 6;
+    /// A peripheral of the node (ambient light sensor, calibration EEPROM, status LED) is
+    /// absent, stuck or gives bad readings (the log says which and why).
+    pub const PERIPHERAL_FAULT: u16 = 1 << 12;
+    /// The ambient light sensor disagrees with the model's prediction for the current dimming
+    /// state by more than its tolerance (daylight, a failed luminaire, a changed room).
+    pub const LIGHT_CHECK: u16 = 1 << 13;
 }
 
 /// A desk value's quality (input 400 + k).
@@ -518,7 +524,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale, 6 compute error"
+        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale, 6 compute error, 12 peripheral fault, 13 ambient light disagrees with the model"
     ),
     row!(
         Input,

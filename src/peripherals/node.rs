@@ -190,10 +190,9 @@ pub struct CalibrationEeprom {
 pub type LevelsHook = Box<dyn FnMut(&[f64]) + Send>;
 
 /// The node's peripherals (any may be absent).
-#[derive(Default)]
 pub struct Peripherals {
-    /// Ambient light sensor.
-    pub als: Option<AmbientSensor>,
+    /// Ambient light sensor (shared: commissioning reads it, then the run-time monitor).
+    pub als: Option<Arc<Mutex<AmbientSensor>>>,
     /// Calibration EEPROM of the camera module.
     pub eeprom: Option<CalibrationEeprom>,
     /// Status LED.
@@ -203,12 +202,33 @@ pub struct Peripherals {
     /// The simulated board's light model follows the node's levels through this (real boards:
     /// none; the room's light is real).
     pub levels_hook: Option<LevelsHook>,
+    /// Run-time readings of the ALS: how often, and the tolerance of the check.
+    pub als_period: Duration,
+    /// Relative tolerance of the run-time check.
+    pub als_tolerance: f64,
+    /// Peripherals the board names that could not be opened, and why.
+    pub open_faults: Vec<String>,
+}
+
+impl Default for Peripherals {
+    fn default() -> Self {
+        Self {
+            als: None,
+            eeprom: None,
+            led: None,
+            als_pose: None,
+            levels_hook: None,
+            als_period: Duration::from_secs(5),
+            als_tolerance: 0.2,
+            open_faults: Vec::new(),
+        }
+    }
 }
 
 impl std::fmt::Debug for Peripherals {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Peripherals")
-            .field("als", &self.als.as_ref().map(|a| &a.name))
+            .field("als", &self.als.as_ref().map(|a| lock(a).name.clone()))
             .field("eeprom", &self.eeprom.as_ref().map(|a| &a.name))
             .field("led", &self.led.as_ref().map(|a| &a.name))
             .finish()
@@ -257,7 +277,7 @@ pub struct AlsMonitor {
 
 impl AlsMonitor {
     /// Starts measuring.
-    pub fn spawn(mut sensor: AmbientSensor, period: Duration) -> Self {
+    pub fn spawn(sensor: Arc<Mutex<AmbientSensor>>, period: Duration) -> Self {
         let status = Arc::new(Mutex::new(AlsStatus::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let (s, st) = (status.clone(), stop.clone());
@@ -267,7 +287,7 @@ impl AlsMonitor {
                 while !st.load(Ordering::SeqCst) {
                     let t0 = Instant::now();
                     lock(&s).busy_since = Some(t0);
-                    let r = sensor.measure();
+                    let r = lock(&sensor).measure();
                     let mut g = lock(&s);
                     g.busy_since = None;
                     match r {
@@ -295,7 +315,7 @@ impl AlsMonitor {
             status,
             stop,
             thread,
-            deadline: Duration::from_secs(10),
+            deadline: Duration::from_secs(5),
         }
     }
 

@@ -497,6 +497,8 @@ pub struct SimPin {
     pub edges: Arc<Mutex<Vec<(Duration, bool)>>>,
     /// Every set fails (a GPIO line taken by another process).
     pub broken: bool,
+    /// Each edge is also appended to this file as `ms level` (the HIL rig reads it).
+    pub trace: Option<Arc<Mutex<std::fs::File>>>,
 }
 
 impl SimPin {
@@ -506,6 +508,7 @@ impl SimPin {
             clock,
             edges: Arc::new(Mutex::new(Vec::new())),
             broken: false,
+            trace: None,
         }
     }
 
@@ -515,7 +518,14 @@ impl SimPin {
         }
         let mut e = self.edges.lock().unwrap_or_else(|p| p.into_inner());
         if e.last().map(|x| x.1) != Some(level) {
-            e.push((self.clock.now(), level));
+            let t = self.clock.now();
+            e.push((t, level));
+            if let Some(f) = &self.trace {
+                use std::io::Write;
+                let mut f = f.lock().unwrap_or_else(|p| p.into_inner());
+                let _ = writeln!(f, "{} {}", t.as_millis(), u8::from(level));
+                let _ = f.flush();
+            }
         }
         Ok(())
     }
