@@ -52,6 +52,12 @@ enum Command {
     },
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
+    /// The board's peripherals: probe the ambient light sensor and the calibration EEPROM,
+    /// write a camera module's calibration record.
+    Hw {
+        #[command(subcommand)]
+        command: cli::hw::Command,
+    },
 }
 
 fn main() -> ExitCode {
@@ -68,6 +74,7 @@ fn main() -> ExitCode {
         #[cfg(feature = "bench")]
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
+        Command::Hw { command } => cli::hw::run(&command).map(|()| ExitCode::SUCCESS),
     };
     match done {
         Ok(code) => code,

@@ -240,3 +240,189 @@ fn open_sim_led(l: &LedBoard, trace: Option<std::path::PathBuf>) -> Result<Led, 
 fn open_sim_led(_l: &LedBoard, _trace: Option<std::path::PathBuf>) -> Result<Led, String> {
     Err("the simulated GPIO is part of the `sim` feature".into())
 }
+
+/// The colour camera's calibration record from its module's EEPROM applied to a hardware board:
+/// the record's intrinsics, pose and luminance calibration replace the board file's (a replaced
+/// camera module brings its own). The record's image size must be the board's `width` ×
+/// `height`.
+pub fn apply_calibration(
+    camera: &crate::board::camera::CameraBoard,
+    cal: &crate::peripherals::calibration::CameraCalibration,
+) -> Result<crate::board::camera::CameraBoard, String> {
+    use crate::board::camera::{CameraBoard, ColourBoard};
+    use crate::camera::register::{ColourFromTof, ColourIntrinsics, Registration};
+    let CameraBoard::Hardware { tof, colour } = camera else {
+        return Err("the board's cameras are not hardware".into());
+    };
+    let ColourBoard::V4l2 {
+        device, options, ..
+    } = colour;
+    if (cal.width, cal.height) != (options.width, options.height) {
+        return Err(format!(
+            "the record is for {}x{} frames, the board captures {}x{}",
+            cal.width, cal.height, options.width, options.height
+        ));
+    }
+    let registration = Registration::new(
+        ColourIntrinsics {
+            width: cal.width,
+            height: cal.height,
+            fx: cal.fx,
+            fy: cal.fy,
+            cx: cal.cx,
+            cy: cal.cy,
+            k1: cal.k1,
+            k2: cal.k2,
+        },
+        ColourFromTof {
+            rotation: cal.rotation,
+            translation_m: cal.translation_m,
+        },
+    )
+    .map_err(|e| format!("the record's registration: {e}"))?;
+    let mut options = options.clone();
+    options.calibration_cd_m2_s = cal.calibration_cd_m2_s;
+    Ok(CameraBoard::Hardware {
+        tof: tof.clone(),
+        colour: ColourBoard::V4l2 {
+            device: device.clone(),
+            options,
+            registration: Some(registration),
+        },
+    })
+}
+
+/// The board file's colour calibration as a record (to write into a module's EEPROM).
+pub fn record_from_board(
+    camera: &crate::board::camera::CameraBoard,
+    serial: &str,
+) -> Result<crate::peripherals::calibration::CameraCalibration, String> {
+    use crate::board::camera::{CameraBoard, ColourBoard};
+    let CameraBoard::Hardware {
+        colour:
+            ColourBoard::V4l2 {
+                options,
+                registration,
+                ..
+            },
+        ..
+    } = camera
+    else {
+        return Err("the board's cameras are not hardware".into());
+    };
+    let r = registration
+        .as_ref()
+        .ok_or("the board has no [camera.colour.registration] to record")?;
+    let i = r.intrinsics();
+    let p = r.colour_from_tof();
+    let mut s = [0u8; 16];
+    let b = serial.as_bytes();
+    if b.len() > 16 || !b.iter().all(|c| c.is_ascii_graphic()) {
+        return Err(format!(
+            "serial {serial:?}: at most 16 printable ASCII characters"
+        ));
+    }
+    s[..b.len()].copy_from_slice(b);
+    let cal = crate::peripherals::calibration::CameraCalibration {
+        serial: s,
+        width: i.width,
+        height: i.height,
+        fx: i.fx,
+        fy: i.fy,
+        cx: i.cx,
+        cy: i.cy,
+        k1: i.k1,
+        k2: i.k2,
+        rotation: p.rotation,
+        translation_m: p.translation_m,
+        calibration_cd_m2_s: options.calibration_cd_m2_s,
+    };
+    cal.validate().map_err(|e| e.to_string())?;
+    Ok(cal)
+}
+
+/// Reads the calibration EEPROM and, when it holds a valid record, applies it to the board's
+/// cameras; otherwise keeps the board file's calibration and says why.
+pub fn calibrated_cameras(
+    camera: &crate::board::camera::CameraBoard,
+    eeprom: Option<&mut CalibrationEeprom>,
+) -> crate::board::camera::CameraBoard {
+    let Some(e) = eeprom else {
+        return camera.clone();
+    };
+    match crate::peripherals::calibration::read(&mut e.eeprom) {
+        Ok(stored) => match stored.newest() {
+            Some((cal, generation, copy)) => match apply_calibration(camera, &cal) {
+                Ok(b) => {
+                    tracing::info!(
+                        "camera calibration: from {} (module {}, record generation {generation}, copy {})",
+                        e.name,
+                        cal.serial_str(),
+                        if copy == 0 { "A" } else { "B" }
+                    );
+                    b
+                }
+                Err(why) => {
+                    tracing::warn!(
+                        "camera calibration: {}: {why}; the board file's calibration is used",
+                        e.name
+                    );
+                    camera.clone()
+                }
+            },
+            None => {
+                let why = stored.a.err().map(|x| x.to_string()).unwrap_or_default();
+                tracing::warn!(
+                    "camera calibration: {} holds no valid record (copy A: {why}); the board \
+                     file's calibration is used",
+                    e.name
+                );
+                camera.clone()
+            }
+        },
+        Err(err) => {
+            tracing::error!(
+                "camera calibration: {}: {err}; the board file's calibration is used",
+                e.name
+            );
+            camera.clone()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::board::Board;
+    use crate::board::camera::{CameraBoard, ColourBoard};
+
+    #[test]
+    fn a_modules_record_replaces_the_board_files_calibration() {
+        let b = Board::load(std::path::Path::new("boards/rpi4/board.toml")).unwrap();
+        let mut cal = record_from_board(&b.camera, "CAM-1").unwrap();
+        assert_eq!(cal.fx, 554.3);
+        cal.fx = 600.0;
+        cal.calibration_cd_m2_s = 13.5;
+        let c = apply_calibration(&b.camera, &cal).unwrap();
+        let CameraBoard::Hardware {
+            colour:
+                ColourBoard::V4l2 {
+                    options,
+                    registration,
+                    ..
+                },
+            ..
+        } = c
+        else {
+            panic!()
+        };
+        assert_eq!(options.calibration_cd_m2_s, 13.5);
+        assert_eq!(registration.unwrap().intrinsics().fx, 600.0);
+        cal.width = 1280;
+        assert!(
+            apply_calibration(&b.camera, &cal)
+                .unwrap_err()
+                .contains("1280x480")
+        );
+    }
+}

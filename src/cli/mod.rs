@@ -4,6 +4,7 @@
 #[cfg(feature = "bench")]
 pub mod bench;
 pub mod commission;
+pub mod hw;
 pub mod image;
 pub mod logging;
 pub mod modbus;

@@ -393,6 +393,16 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         default_als_at,
         hooks,
     );
+    // a camera module's EEPROM record replaces the board file's colour calibration
+    let board = if let CameraBoard::Hardware { .. } = &board.camera {
+        let camera = luxnode::board::peripherals::calibrated_cameras(
+            &board.camera,
+            peripherals.eeprom.as_mut(),
+        );
+        Board { camera, ..board }
+    } else {
+        board
+    };
     let state = state_dir(&board, &flash_target);
     let reference = state.join("ambient-reference.json");
     let ambient = match (&peripherals.als, peripherals.als_pose) {
