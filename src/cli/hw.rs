@@ -53,6 +53,9 @@ pub fn run(command: &Command) -> Result<()> {
                         Err(e) => println!("ambient light: {e}"),
                     }
                 }
+                None if b.i2c.as_ref().is_some_and(|i| i.als.is_some()) => {
+                    println!("ambient light: not opened (the bus fault above)")
+                }
                 None => println!("ambient light: no [i2c.als]"),
             }
             match p.eeprom.as_mut() {
@@ -74,6 +77,9 @@ pub fn run(command: &Command) -> Result<()> {
                     }
                     Err(err) => println!("calibration EEPROM {}: {err}", e.name),
                 },
+                None if b.i2c.as_ref().is_some_and(|i| i.eeprom.is_some()) => {
+                    println!("calibration EEPROM: not opened (the bus fault above)")
+                }
                 None => println!("calibration EEPROM: no [i2c.eeprom]"),
             }
             Ok(())
