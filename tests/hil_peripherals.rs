@@ -43,6 +43,19 @@ fn node(board: &Path, flash: &Path, led: &Path, limit: Duration) -> Proc {
     spawn_listening_within(LUXNODE, &args, limit)
 }
 
+/// The node's output once it holds `needle`: a log line written just before a status bit is
+/// set reaches the test's reader thread a moment later on a loaded machine.
+fn output_with(n: &Proc, needle: &str) -> String {
+    let t0 = Instant::now();
+    loop {
+        let out = n.output();
+        if out.contains(needle) || t0.elapsed() > Duration::from_secs(10) {
+            return out;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 /// Reads the status register (timed).
 fn status_reg(n: &Proc) -> (u16, Duration) {
     rt().block_on(async {
@@ -148,10 +161,10 @@ fn peripherals_on_the_simulated_board() {
         "{s:#06x}\n{}",
         n.output()
     );
+    let out = output_with(&n, "ambient light check: the sensor reads");
     assert!(
-        n.output().contains("ambient light check: the sensor reads"),
-        "{}",
-        n.output()
+        out.contains("ambient light check: the sensor reads"),
+        "{out}"
     );
     assert!(
         e.iter().all(|x| x.0 <= serving_at),
@@ -173,11 +186,9 @@ fn peripherals_on_the_simulated_board() {
     let n = node(&b2, &flash, &led, Duration::from_secs(60));
     let slowest = wait_bit(&n, status::PERIPHERAL_FAULT, true, Duration::from_secs(15));
     assert!(slowest < Duration::from_secs(1), "{slowest:?}");
-    let out = n.output();
-    assert!(
-        out.contains("peripheral fault: VEML7700 at 0x10 on sim: I2C: no acknowledge"),
-        "{out}"
-    );
+    let needle = "peripheral fault: VEML7700 at 0x10 on sim: I2C: no acknowledge";
+    let out = output_with(&n, needle);
+    assert!(out.contains(needle), "{out}");
     std::thread::sleep(Duration::from_secs(5));
     let e = edges(&led);
     let iv = intervals(&e, 0, u64::MAX);
@@ -208,7 +219,8 @@ fn peripherals_on_the_simulated_board() {
         t0.elapsed().as_secs_f64()
     );
     assert!(slowest < Duration::from_secs(1), "{slowest:?}");
-    assert!(n.output().contains("no answer for"), "{}", n.output());
+    let out = output_with(&n, "no answer for");
+    assert!(out.contains("no answer for"), "{out}");
     let t1 = Instant::now();
     assert!(n.terminate().success());
     assert!(
@@ -230,11 +242,8 @@ fn peripherals_on_the_simulated_board() {
     let led = dir.path().join("led-4.txt");
     let n = node(&b4, &flash, &led, Duration::from_secs(60));
     wait_bit(&n, status::LIGHT_CHECK, true, Duration::from_secs(20));
-    assert!(
-        n.output().contains("more light than modelled"),
-        "{}",
-        n.output()
-    );
+    let out = output_with(&n, "more light than modelled");
+    assert!(out.contains("more light than modelled"), "{out}");
     let (s, _) = status_reg(&n);
     assert_eq!(s & status::PERIPHERAL_FAULT, 0);
     assert!(n.terminate().success());
