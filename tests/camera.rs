@@ -1314,12 +1314,21 @@ mod registration {
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened a sim board"),
         }
-        // the rpi4's tof_camera.json is written at installation: not in the repo
-        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        // a board whose ToF calibration (written at installation) is missing
+        let dir = tempfile::tempdir().unwrap();
+        let text = std::fs::read_to_string("boards/rpi4/board.toml").unwrap();
+        std::fs::write(dir.path().join("board.toml"), &text).unwrap();
+        let rpi = Board::load(&dir.path().join("board.toml")).unwrap();
         match luxnode::board::hardware::open(&rpi.camera) {
             Err(CameraError::Config(m)) => assert!(m.contains("ToF calibration"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened without a calibration"),
+        }
+        // with the example calibration it gets as far as the device, which is not here
+        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        match luxnode::board::hardware::open(&rpi.camera) {
+            Err(e) => assert!(e.to_string().contains("/dev/ttyUSB0"), "{e}"),
+            Ok(_) => panic!("opened a serial device that does not exist"),
         }
     }
 }

@@ -272,7 +272,8 @@ fn illegal_requests_get_exceptions_and_the_connection_survives() {
     // MEI type other than 0x0E
     assert_eq!(ask(&[0x2B, 0x0D, 1, 0]), [0xAB, 0x01]);
     // and the connection still answers
-    assert_eq!(ask(&[0x04, 0, 0, 0, 1]), [0x04, 2, 0, MAP_VERSION as u8]);
+    let [hi, lo] = MAP_VERSION.to_be_bytes();
+    assert_eq!(ask(&[0x04, 0, 0, 0, 1]), [0x04, 2, hi, lo]);
     // device identification: vendor name
     let id = ask(&[0x2B, 0x0E, 0x04, 0x00]);
     assert_eq!(id[..2], [0x2B, 0x0E]);

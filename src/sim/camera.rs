@@ -250,6 +250,28 @@ impl SimWorld {
         self.shared.scene.luminaires.iter().map(|l| l.id).collect()
     }
 
+    /// What an ideal cosine receiver at `position` facing `normal` reads from each luminaire
+    /// at 100 %, lx (the node's ambient light sensor in this world): exact direct light and a
+    /// gather of the world's exitances with `rays` rays.
+    pub fn receiver_lx(&self, position: DVec3, normal: DVec3, rays: usize) -> Vec<f64> {
+        crate::engine::points::evaluate(self.scene(), self.model(), &[(position, normal)], rays)
+            .per_luminaire_lx
+            .into_iter()
+            .next()
+            .unwrap_or_default()
+    }
+
+    /// Sets the levels (luminaire order; clamped to [0, 1], extra or missing entries ignored),
+    /// as the room's controller would: the simulated board's light model follows the node.
+    pub fn follow_levels(&self, levels: &[f64]) {
+        let mut g = self.levels.lock().unwrap_or_else(|p| p.into_inner());
+        for (l, x) in g.iter_mut().zip(levels) {
+            if x.is_finite() {
+                *l = x.clamp(0.0, 1.0);
+            }
+        }
+    }
+
     /// The current levels (luminaire order).
     pub fn levels(&self) -> Vec<f64> {
         self.levels

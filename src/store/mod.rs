@@ -26,6 +26,7 @@
 
 mod crc32;
 mod header;
+pub mod nor;
 pub mod slots;
 pub mod values;
 
@@ -35,6 +36,8 @@ pub mod devices;
 pub mod file;
 #[cfg(feature = "std")]
 pub mod geometry;
+#[cfg(feature = "std")]
+pub mod mtd;
 
 use serde::{Deserialize, Serialize};
 
