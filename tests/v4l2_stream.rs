@@ -218,6 +218,7 @@ fn a_z16_depth_stream_reads_millimetres() {
         width: w,
         height: h,
         luminance_cd_m2_per_unit: None,
+        lens: Default::default(),
     };
     let mut d = DepthStream { stream, camera };
     let f = d.capture_depth().unwrap();

@@ -9,6 +9,16 @@
 //! range_noise_rel = 0.01
 //! [camera.sim.faults]       # optional fault injection (camera::Faults)
 //! timeout_chance = 0.05
+//! [camera.sim.optics]       # optional: the installed camera's optics instead of the scene's
+//! model = "kannala_brandt"  # "pinhole" | "equidistant" | "kannala_brandt"
+//! width = 320
+//! height = 240
+//! fx = 98.0                 # pixels
+//! fy = 98.0
+//! cx = 159.5
+//! cy = 119.5
+//! k = [0.02, -0.005, 0.0, 0.0]     # Kannala-Brandt k1..k4 (fisheye only)
+//! tilt_deg = 0.0            # optional tilt of the optical axis about the camera's x axis
 //! [camera.replay]
 //! dir = "../../../shared/scenes/office_a/capture_clean"
 //! [camera.tof]              # source = "hardware"
@@ -25,6 +35,7 @@
 //! cy = 239.5
 //! k1 = -0.05                        # optional radial distortion (OpenCV k1, k2), default 0
 //! k2 = 0.01
+//! # model = "kannala_brandt"       # a fisheye colour camera: k = [k1, k2, k3, k4], no k1/k2
 //! rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # X_colour = rotation · X_tof + translation_m
 //! translation_m = [-0.03, 0.0, 0.0]
 //! ```
@@ -81,6 +92,8 @@ pub enum CameraBoard {
         luminance: SimLuminanceOptions,
         /// Injected faults (both cameras), if any.
         faults: Option<Faults>,
+        /// The installed camera's optics, replacing the scene's camera's (pose kept).
+        optics: Option<Optics>,
     },
     /// A recorded capture directory.
     Replay {
@@ -94,6 +107,41 @@ pub enum CameraBoard {
         /// The colour camera.
         colour: ColourBoard,
     },
+}
+
+/// A camera's optics from a board file: intrinsics, lens and a tilt, applied to a scene's
+/// camera (its position and orientation kept, then tilted).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Optics {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Focal lengths and principal point, pixels: fx, fy, cx, cy.
+    pub intrinsics_px: [f64; 4],
+    /// The lens.
+    pub lens: crate::scene::Lens,
+    /// Rotation of the optical axis about the camera's x axis, rad.
+    pub tilt_rad: f64,
+}
+
+impl Optics {
+    /// The camera `base` with these optics (checked when the optics were read).
+    pub fn apply(&self, base: &crate::scene::Camera) -> crate::scene::Camera {
+        let [fx, fy, cx, cy] = self.intrinsics_px;
+        let tilt = glam::DMat3::from_rotation_x(self.tilt_rad);
+        crate::scene::Camera {
+            fx,
+            fy,
+            cx,
+            cy,
+            width: self.width,
+            height: self.height,
+            lens: self.lens,
+            world_from_camera: base.world_from_camera * tilt,
+            ..base.clone()
+        }
+    }
 }
 
 /// A real ToF camera.
@@ -441,6 +489,55 @@ struct SimToml {
     cd_m2_per_unit: Option<f64>,
     luminance_noise_rel: Option<f64>,
     faults: Option<FaultsToml>,
+    optics: Option<OpticsToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+struct OpticsToml {
+    #[serde(default = "default_model")]
+    model: String,
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    #[serde(default)]
+    k: Option<[f64; 4]>,
+    #[serde(default)]
+    tilt_deg: f64,
+}
+
+fn default_model() -> String {
+    "pinhole".into()
+}
+
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
+    if o.width == 0 || o.height == 0 || o.width > 16384 || o.height > 16384 {
+        return err(format!(
+            "{what}: image size {}x{} must be 1..16384 pixels",
+            o.width, o.height
+        ));
+    }
+    crate::scene::check_intrinsics(o.fx, o.fy, o.cx, o.cy, o.width, o.height)
+        .map_err(|m| format!("{what}: {m}"))?;
+    let lens = crate::scene::Lens::from_model(&o.model, o.k).map_err(|m| format!("{what}: {m}"))?;
+    if !(o.tilt_deg.is_finite() && o.tilt_deg.abs() <= 60.0) {
+        return err(format!(
+            "{what}.tilt_deg {} must be within ±60° (a ceiling camera looks down)",
+            o.tilt_deg
+        ));
+    }
+    Ok(Optics {
+        width: o.width,
+        height: o.height,
+        intrinsics_px: [o.fx, o.fy, o.cx, o.cy],
+        lens,
+        tilt_rad: o.tilt_deg.to_radians(),
+    })
 }
 
 #[derive(Deserialize, Default)]
@@ -538,6 +635,10 @@ struct RegistrationToml {
     k2: f64,
     rotation: [[f64; 3]; 3],
     translation_m: [f64; 3],
+    #[serde(default = "default_model")]
+    model: String,
+    #[serde(default)]
+    k: Option<[f64; 4]>,
 }
 
 #[doc(hidden)]
@@ -632,10 +733,15 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 f.validate()
                     .map_err(|e| format!("camera.sim.faults: {e}"))?;
             }
+            let optics = s
+                .optics
+                .map(|o| optics(o, "camera.sim.optics"))
+                .transpose()?;
             Ok(CameraBoard::Sim {
                 depth,
                 luminance,
                 faults,
+                optics,
             })
         }
         "replay" => {
@@ -772,6 +878,8 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                                     cy: r.cy,
                                     k1: r.k1,
                                     k2: r.k2,
+                                    lens: crate::scene::Lens::from_model(&r.model, r.k)
+                                        .map_err(|m| format!("camera.colour.registration: {m}"))?,
                                 },
                                 ColourFromTof {
                                     rotation: r.rotation,

@@ -273,6 +273,8 @@ pub fn apply_calibration(
             cy: cal.cy,
             k1: cal.k1,
             k2: cal.k2,
+            // the EEPROM record holds a pinhole calibration (k1, k2)
+            lens: Default::default(),
         },
         ColourFromTof {
             rotation: cal.rotation,

@@ -346,7 +346,9 @@ pub fn floor_distance_mm(camera: &Camera) -> Option<f64> {
         (w, h / 2.0),
         (w / 2.0, h / 2.0),
     ] {
-        let r = camera.ray_world(u, v);
+        let Some(r) = camera.ray_world(u, v) else {
+            continue;
+        };
         if r.z >= -1e-6 || camera.position_m.z <= 0.0 {
             continue;
         }

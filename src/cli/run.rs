@@ -199,7 +199,7 @@ impl FlashDevice for Flash {
 }
 
 /// What a commissioning capture needs: a name, the two cameras, the lights.
-type Rig = (
+pub(crate) type Rig = (
     String,
     Box<dyn DepthCamera>,
     Box<dyn LuminanceCamera>,
@@ -220,7 +220,6 @@ fn commission_source(
     levels_hook: &mut Option<luxnode::peripherals::node::LevelsHook>,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
-    let _ = (light, &levels_hook);
     if cad {
         return Ok(Box::new(CadSource {
             scene,
@@ -234,18 +233,70 @@ fn commission_source(
         progress: true,
         ..CommissionOptions::default()
     };
-    let (what, depth, colour, lights): Rig = match &board.camera {
+    let Some((what, depth, colour, lights)) =
+        rig(board, &scene, ambient.as_ref(), light, levels_hook)?
+    else {
+        return Ok(Box::new(Unavailable(format!(
+            "board {}: commissioning with the hardware cameras switches the luminaires \
+             one at a time through the DALI gateway, and the board has no [gateway]",
+            board.name
+        ))));
+    };
+    Ok(Box::new(CameraSource {
+        what,
+        depth,
+        colour,
+        lights,
+        luminaires: scene.luminaires.clone(),
+        sensors: scene.sensors.clone(),
+        desks: scene.desks.clone(),
+        sequence: match &board.camera {
+            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
+            CameraBoard::Hardware { .. } => SequenceOptions {
+                registration: board.camera.registration().cloned(),
+                settle: Duration::from_millis(500),
+                discard_after_switch: 2,
+                ..SequenceOptions::default()
+            },
+            _ => SequenceOptions::default(),
+        },
+        commission,
+        image,
+        report,
+        ambient,
+    }))
+}
+
+/// The board's cameras and lights over `scene` (the simulated world with the board's optics, a
+/// recorded capture, or the hardware), `None` for hardware cameras without a DALI gateway to
+/// switch the luminaires.
+/// With an ambient light sensor on a simulated board, `light` and `levels_hook` are set so the
+/// simulated sensor reads what the world sends up to it.
+#[cfg_attr(not(feature = "sim"), allow(unused_variables))]
+pub(crate) fn rig(
+    board: &Board,
+    scene: &Scene,
+    ambient: Option<&AmbientAtCommissioning>,
+    light: &LightSlot,
+    levels_hook: &mut Option<luxnode::peripherals::node::LevelsHook>,
+) -> Result<Option<Rig>> {
+    let rig: Rig = match &board.camera {
         #[cfg(feature = "sim")]
         CameraBoard::Sim {
             depth,
             luminance,
             faults,
+            optics,
         } => {
             use luxnode::camera::FaultInjector;
             use luxnode::sim::camera::{SimWorld, world_settings};
             // the simulated room is the scene; the node sees it only through the cameras
-            let world = SimWorld::new(scene.clone(), &world_settings())
-                .with_context(|| format!("board {}: simulated cameras", board.name))?;
+            // (with the board's optics, when it gives them)
+            let world = SimWorld::new(
+                with_optics(scene.clone(), optics.as_ref()),
+                &world_settings(),
+            )
+            .with_context(|| format!("board {}: simulated cameras", board.name))?;
             if let Some(a) = &ambient {
                 // the simulated ALS reads what the world sends up to it at the current levels
                 let (p, n) = a.pose;
@@ -289,11 +340,7 @@ fn commission_source(
         }
         CameraBoard::Hardware { .. } => {
             let Some(gateway) = &board.modbus.gateway else {
-                return Ok(Box::new(Unavailable(format!(
-                    "board {}: commissioning with the hardware cameras switches the luminaires \
-                     one at a time through the DALI gateway, and the board has no [gateway]",
-                    board.name
-                ))));
+                return Ok(None);
             };
             let (d, c) = luxnode::board::hardware::open(&board.camera)?;
             let lights = GatewayWriter::connect(gateway)?;
@@ -305,29 +352,7 @@ fn commission_source(
             )
         }
     };
-    Ok(Box::new(CameraSource {
-        what,
-        depth,
-        colour,
-        lights,
-        luminaires: scene.luminaires.clone(),
-        sensors: scene.sensors.clone(),
-        desks: scene.desks.clone(),
-        sequence: match &board.camera {
-            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
-            CameraBoard::Hardware { .. } => SequenceOptions {
-                registration: board.camera.registration().cloned(),
-                settle: Duration::from_millis(500),
-                discard_after_switch: 2,
-                ..SequenceOptions::default()
-            },
-            _ => SequenceOptions::default(),
-        },
-        commission,
-        image,
-        report,
-        ambient,
-    }))
+    Ok(Some(rig))
 }
 
 /// Runs the node.
@@ -567,11 +592,20 @@ fn sensor_probe(board: &Board) -> Option<SensorProbe> {
     let every = board.sensor_check;
     match &board.camera {
         #[cfg(feature = "sim")]
-        CameraBoard::Sim { depth, faults, .. } => {
+        CameraBoard::Sim {
+            depth,
+            faults,
+            optics,
+            ..
+        } => {
             use luxnode::camera::FaultInjector;
             use luxnode::sim::camera::{SimWorld, world_settings};
-            let (scene_source, depth, faults) =
-                (board.scene.clone(), depth.clone(), faults.clone());
+            let (scene_source, depth, faults, optics) = (
+                board.scene.clone(),
+                depth.clone(),
+                faults.clone(),
+                optics.clone(),
+            );
             // the simulated camera is built at the first check (on the probe's thread), not
             // before the node serves
             let mut cam: Option<Box<dyn DepthCamera>> = None;
@@ -587,7 +621,8 @@ fn sensor_probe(board: &Board) -> Option<SensorProbe> {
                             }
                         };
                         let world =
-                            SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                            SimWorld::new(with_optics(scene, optics.as_ref()), &world_settings())
+                                .map_err(|e| e.to_string())?;
                         let c = world
                             .depth_camera(depth.clone())
                             .map_err(|e| e.to_string())?;
@@ -669,4 +704,16 @@ fn controller(args: &Args) -> Result<(Companion, bool)> {
 #[cfg(not(feature = "sim"))]
 fn controller(_args: &Args) -> Result<(Companion, bool)> {
     bail!("the simulated controller is part of the `sim` feature; run with --no-controller")
+}
+
+/// The scene with the board's camera optics (`[camera.sim.optics]`) on its camera.
+#[cfg(feature = "sim")]
+fn with_optics(
+    mut scene: luxnode::scene::Scene,
+    optics: Option<&luxnode::board::camera::Optics>,
+) -> luxnode::scene::Scene {
+    if let (Some(o), Some(c)) = (optics, scene.camera.as_ref()) {
+        scene.camera = Some(o.apply(c));
+    }
+    scene
 }

@@ -450,7 +450,7 @@ pub fn from_capture(
         ));
     }
     let cam = capture.camera.clone();
-    crate::scene::check_intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+    cam.check()
         .map_err(|m| CommissionError::Input(format!("camera intrinsics: {m}")))?;
     if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
         return Err(CommissionError::Input(
@@ -465,7 +465,7 @@ pub fn from_capture(
 
     let st = Stage::start("planes", o.progress);
     let grid = grid::PointGrid::new(&depth, &cam, o.grid_stride_px, o.depth.edge_rel);
-    let found = planes::detect(&grid, cam.position_m, cam.fx, cam.fy, &o.planes);
+    let found = planes::detect(&grid, &cam, &o.planes);
     st.done(&mut report);
 
     let st = Stage::start("mesh", o.progress);
@@ -502,6 +502,10 @@ pub fn from_capture(
             )));
         }
     }
+    let mesh_options = MeshOptions {
+        wide_angle: o.mesh.wide_angle || cam.lens.is_fisheye(),
+        ..o.mesh
+    };
     let mut reco = RecoMesh::default();
     let mut on_plane = vec![false; grid.points_m.len()];
     for (k, p) in found.iter().enumerate() {
@@ -512,7 +516,7 @@ pub fn from_capture(
             &grid,
             p,
             k as u32,
-            &o.mesh,
+            &mesh_options,
             room.filter(|_| is_floor).map(|r| r.xy_m),
             is_floor.then_some(Part::FloorFill),
         );
@@ -820,19 +824,10 @@ pub fn sensor_flags_for(
         .iter()
         .map(|s| {
             let mut f = 0;
-            let p_cam = cam.world_from_camera.transpose() * (s.position_m - cam.position_m);
-            let visible = p_cam.z > 0.0 && {
-                let u = cam.fx * p_cam.x / p_cam.z + cam.cx;
-                let v = cam.fy * p_cam.y / p_cam.z + cam.cy;
-                let (ur, vr) = (u.round(), v.round());
-                ur >= 0.0
-                    && vr >= 0.0
-                    && ur < f64::from(cam.width)
-                    && vr < f64::from(cam.height)
-                    && depth
-                        .at(ur as u32, vr as u32)
-                        .is_none_or(|z| z >= p_cam.z - 0.05)
-            };
+            let p_cam = cam.camera_from_world(s.position_m);
+            let visible = cam
+                .pixel_of(s.position_m)
+                .is_some_and(|(u, v)| depth.at(u, v).is_none_or(|z| z >= p_cam.z - 0.05));
             if !visible {
                 f |= sensor_flags::OUT_OF_VIEW;
             }

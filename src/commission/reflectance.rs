@@ -144,7 +144,7 @@ pub fn sample(
     let rows: Vec<Option<Row>> = pixels
         .par_iter()
         .map(|&(u, v)| {
-            let dir = cam.ray_world(f64::from(u), f64::from(v));
+            let dir = cam.ray_world(f64::from(u), f64::from(v))?;
             let Hit::Front { patch, t_m } = caster.closest(cam.position_m, dir) else {
                 return None;
             };

@@ -296,7 +296,7 @@ impl SimWorld {
                 .into_par_iter()
                 .map(|i| {
                     let (u, v) = (i % cam.width, i / cam.width);
-                    let d = cam.ray_world(f64::from(u), f64::from(v));
+                    let d = cam.ray_world(f64::from(u), f64::from(v))?;
                     let (patch, t_m, front) = match s.caster.closest(cam.position_m, d) {
                         Hit::Front { patch, t_m } => (patch, t_m, true),
                         Hit::Back { patch, t_m } => (patch, t_m, false),
@@ -331,7 +331,9 @@ impl SimWorld {
                         .map(|(i, h)| match h {
                             Some(h) if h.front => {
                                 let (u, v) = (i as u32 % cam.width, i as u32 / cam.width);
-                                let d = cam.ray_world(f64::from(u), f64::from(v));
+                                let Some(d) = cam.ray_world(f64::from(u), f64::from(v)) else {
+                                    return 0.0;
+                                };
                                 let x: DVec3 = cam.position_m + d * h.t_m;
                                 let n = s.model.patches.normal[h.patch as usize];
                                 direct_lx(l, &pts, &probes, x, n, &s.caster)
