@@ -86,12 +86,9 @@ fn sim_depth_of_the_floor_is_the_camera_height() {
             }
         }
     }
-    // the equidistant lens images 89° at f · 1.553 = 186 px from the centre: the corners
-    // (199.7 px) are outside
-    assert!(
-        outside > 0 && outside < 2_000,
-        "{outside} pixels outside the field"
-    );
+    // the demo camera is a pinhole: every pixel is inside its field (the sim-fisheye board's
+    // lens leaves the corners out: tests in `fisheye` below)
+    assert_eq!(outside, 0, "{outside} pixels outside the field");
 }
 
 #[test]
@@ -477,16 +474,9 @@ fn demo_office_commissions_from_simulated_cameras() {
         t_total.as_secs_f64() * 1e3,
         100.0 * err
     );
-    // the wide-angle demo camera sees every desk (issue 18: at least 5 of 7), so every desk is
-    // measured, not estimated; the seen room leaves the default wall and ceiling reflectances
-    // as the error (measured 2.5 %, every sensor a little low)
-    let out_of_view = c
-        .sensor_flags
-        .iter()
-        .filter(|f| **f & luxnode::store::sensor_flags::OUT_OF_VIEW != 0)
-        .count();
-    assert_eq!(out_of_view, 0, "{:?}", c.sensor_flags);
-    assert!(err < 0.05, "{err}");
+    // the pinhole demo camera sees 2 of the 7 desk sensors; the others are estimated from the
+    // room closure (issue 18 carries the wide-angle demo)
+    assert!(err < 0.15, "{err}");
 }
 
 #[test]

@@ -4,7 +4,8 @@
 //! An 8.0 × 6.0 × 2.8 m open-plan office: six desks in two rows, a cabinet, a door and a
 //! window band; six recessed 0.6 × 0.6 m luminaires of 4000 lm with a rotationally symmetric
 //! downlight distribution `I(γ) ∝ cos^1.4 γ`; a desk sensor at each desk centre and one on the
-//! floor of the walkway; a wide-angle (fisheye) ceiling camera at the room centre looking down.
+//! floor of the walkway; a ceiling camera at the room centre looking down (a pinhole: the
+//! `sim-fisheye` board gives the same room through a fisheye).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -21,8 +22,6 @@ pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];
 pub const LUMINAIRE_FLUX_LM: f64 = 4000.0;
 /// Desk top height, m.
 const DESK_Z_M: f64 = 0.75;
-/// Focal length of the demo camera's equidistant lens, pixels (r = f θ).
-pub const DEMO_FOCAL_PX: f64 = 120.0;
 
 /// The demo luminaire's distribution at 1 lm per... scaled to [`LUMINAIRE_FLUX_LM`].
 pub fn demo_photometry() -> IntensityDistribution {
@@ -172,19 +171,21 @@ pub fn demo_office() -> Scene {
         });
     }
 
-    // A wide-angle (equidistant fisheye) ToF + colour node, its long image axis along the
-    // room's: 152° × 114° across the image, so every desk and most of the walls are in view.
+    // A pinhole ToF + colour node. It sees 2 of the 7 desk sensors; the wide-angle variant is the
+    // sim-fisheye board (issue 18: the fisheye demo's camera gain from the ambient light sensor
+    // is 2.0-2.7 % off, over issue 17's 2 %, so the sim board keeps the pinhole until that is
+    // understood).
     let camera = Camera {
         position_m: p(lx / 2.0, ly / 2.0, lz - 0.02),
-        world_from_camera: DMat3::from_cols(DVec3::X, DVec3::NEG_Y, DVec3::NEG_Z),
-        fx: DEMO_FOCAL_PX,
-        fy: DEMO_FOCAL_PX,
+        world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
+        fx: 160.0,
+        fy: 160.0,
         cx: 159.5,
         cy: 119.5,
         width: 320,
         height: 240,
         luminance_cd_m2_per_unit: None,
-        lens: crate::scene::Lens::EQUIDISTANT,
+        lens: crate::scene::Lens::Pinhole,
     };
 
     Scene {
@@ -233,14 +234,5 @@ mod tests {
         let cam = s.camera.as_ref().unwrap();
         let down = cam.ray_world(159.5, 119.5).unwrap();
         assert!((down - DVec3::NEG_Z).length() < 1e-9);
-        // every desk sensor is in the image (the equidistant lens: r = f θ)
-        for sen in &s.sensors {
-            let (u, v) = cam.project_world(sen.position_m).unwrap();
-            let d = sen.position_m - cam.position_m;
-            let theta = d.truncate().length().atan2(-d.z);
-            let r = (u - 159.5).hypot(v - 119.5);
-            assert!((r - DEMO_FOCAL_PX * theta).abs() < 1e-9);
-            assert!(cam.pixel_of(sen.position_m).is_some(), "sensor {}", sen.id);
-        }
     }
 }
