@@ -16,8 +16,8 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use common::{luminaire, scene};
 use glam::DVec3;
 use luxnode::engine::{self, Settings, direct};
-use luxnode::scene::{MeshBuilder, Scene, Sensor};
 use luxnode::lsc::AngularResponse;
+use luxnode::scene::{MeshBuilder, Scene, Sensor};
 
 const LX_M: f64 = 10.0;
 const LY_M: f64 = 6.0;

@@ -13,9 +13,9 @@ use std::time::Duration;
 use glam::DVec3;
 
 use crate::engine::{self, EngineError, Model, PatchSettings, Settings};
+use crate::lsc::AngularResponse;
 use crate::photometry::IntensityDistribution;
 use crate::scene::{Luminaire, MeshBuilder, ObjReport, Scene, Sensor};
-use crate::lsc::AngularResponse;
 
 /// Greg Ward's 1990 empty grey room: 10 × 6 × 3 m, a 0.5 × 0.5 m Lambertian source of exitance
 /// 31.416 W/m² (7.854 W, written as lumens) at the centre of the ceiling, ceiling ρ 0.7, walls

@@ -127,10 +127,42 @@ impl CommissionSource for CameraSource {
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
-        Ok(build_for_region(
-            &c.model,
-            &options,
-            formfactors_region_bytes(),
-        )?)
+        let image = build_for_region(&c.model, &options, formfactors_region_bytes())?;
+        Ok(with_live_section(image, &c, &seq.capture))
+    }
+}
+
+/// The image with its live-light section (crate::live), or as it is when the section cannot be
+/// built or does not fit (the node then serves the model only, and says so).
+fn with_live_section(
+    image: Vec<u8>,
+    c: &commission::Commissioned,
+    capture: &crate::camera::capture::Capture,
+) -> Vec<u8> {
+    let o = crate::live::SectionOptions::default();
+    match crate::live::attach(
+        &image,
+        |o| crate::live::from_capture(c, capture, o),
+        &o,
+        formfactors_region_bytes(),
+    ) {
+        Ok(Some(bytes)) => {
+            tracing::info!(
+                "commission: live-light section of {} bytes added",
+                bytes.len() - image.len()
+            );
+            bytes
+        }
+        Ok(None) => {
+            tracing::warn!(
+                "commission: no room for the live-light section in the flash region; live light \
+                 is off"
+            );
+            image
+        }
+        Err(e) => {
+            tracing::warn!("commission: live-light section: {e}; live light is off");
+            image
+        }
     }
 }

@@ -7,7 +7,8 @@
 //! | header, 40 bytes (header.rs) | payload: postcard, format version 1 |
 //! ```
 //!
-//! The payload ([`PayloadV1`]) holds the sparse form factors, patch reflectances, direct
+//! The payload ([`PayloadV1`]), optionally followed by sections ([`live`]: the live-light
+//! section), holds the sparse form factors, patch reflectances, direct
 //! illuminance per luminaire on patches and at sensors, the sensors' first bounce and gather
 //! rows, the response matrix, the ids, and a record of the commissioning settings. Big arrays are
 //! little-endian byte slices decoded per element ([`values`]). The form factors and direct
@@ -20,6 +21,7 @@
 
 mod crc32;
 mod header;
+pub mod live;
 pub mod slots;
 pub mod values;
 
@@ -32,6 +34,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crc32::{Crc32, crc32};
 pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
+pub use live::{LiveV1, SECTION_LIVE, SectionFrame};
 pub use values::{Bytes, Precision, Sparse, Values};
 
 use crate::solver::RadiositySystem;
@@ -190,6 +193,8 @@ pub struct Image<'a> {
     pub header: Header,
     /// The payload.
     pub payload: PayloadV1<'a>,
+    /// The live-light section, when the image has one ([`live`]).
+    pub live: Option<LiveV1<'a>>,
 }
 
 fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
@@ -200,7 +205,7 @@ fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
     }
 }
 
-fn check_values(
+pub(crate) fn check_values(
     v: &Values<'_>,
     rows: usize,
     len: usize,
@@ -275,10 +280,29 @@ impl<'a> Image<'a> {
                 actual,
             });
         }
-        let payload: PayloadV1<'a> =
-            postcard::from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
-        let image = Self { header, payload };
+        let (payload, mut rest): (PayloadV1<'a>, &'a [u8]) =
+            postcard::take_from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
+        let mut image = Self {
+            header,
+            payload,
+            live: None,
+        };
         image.validate()?;
+        // optional sections: unknown tags are skipped, a known one must decode and check
+        while !rest.is_empty() {
+            let (frame, next): (SectionFrame<'a>, &'a [u8]) =
+                postcard::take_from_bytes(rest).map_err(|_| ImageError::Inconsistent("section"))?;
+            rest = next;
+            if frame.tag == SECTION_LIVE {
+                check(image.live.is_none(), "two live sections")?;
+                image.live = Some(LiveV1::parse(
+                    frame.body.0,
+                    image.patches(),
+                    image.luminaires(),
+                    image.sensors(),
+                )?);
+            }
+        }
         Ok(image)
     }
 
