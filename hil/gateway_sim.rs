@@ -82,11 +82,14 @@ impl Bank {
                 .map(|r| encode_registers(fc, &self.regs[r], out)),
             Request::WriteSingle { address, value } => self.range(address, 1).map(|r| {
                 self.regs[r.start] = value;
+                // the log of writes a HIL scenario reads (a controller's arc levels)
+                println!("write {address}: [{value}]");
                 encode_write_echo(fc, address, value, out)
             }),
             Request::WriteMultiple { address, values } => {
                 self.range(address, values.len()).map(|r| {
                     self.regs[r].copy_from_slice(values);
+                    println!("write {address}: {values:?}");
                     encode_write_echo(fc, address, values.len() as u16, out)
                 })
             }
@@ -190,6 +193,7 @@ fn main() -> Result<()> {
             TcpOptions::default(),
             Arc::new(TcpCounters::default()),
             stop_rx,
+            None,
         ));
         if let Some((l, base, stride, period)) = demo {
             let bank = bank.clone();

@@ -23,9 +23,10 @@ export LUXNODE_TEST_RUNNER="$CARGO_TARGET_AARCH64_UNKNOWN_LINUX_GNU_RUNNER"
 cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
   -E 'not (test(power_cut) | test(open_box) | binary(extremes) | binary(cli)
           | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
-          | (binary(control) & test(every_desk))
+          | binary(energy) | binary(ward) | binary(lighting)
+          | (binary(control) & (test(every_desk) | test(a_day_of)))
           | (binary(modbus) & not test(fuzzed))
-          | binary(hil) | binary(commission)
+          | binary(hil) | binary(field) | binary(fuzz_smoke) | binary(commission)
           | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)))
           | (binary(office_a) & not test(default_settings))
           | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

@@ -21,3 +21,11 @@ scripts/cross-aarch64.sh
 
 echo "== tests (release build: the physics tests cast millions of rays)"
 cargo nextest run --release --no-fail-fast "$@"
+
+# coverage-guided fuzz smoke: every target a few seconds (docs/fuzzing.md); the stable smoke
+# (tests/fuzz_smoke.rs) has run every target's body above in any case. LUXNODE_SKIP_FUZZ=1
+# skips this step (it builds the fuzz crate with the nightly toolchain: minutes).
+if [ "${LUXNODE_SKIP_FUZZ:-0}" != 1 ]; then
+  echo "== fuzz smoke: every cargo-fuzz target for 3 s"
+  scripts/fuzz.sh smoke 3
+fi

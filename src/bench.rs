@@ -3,6 +3,8 @@
 //! ablation. Used by `luxnode bench ...`; figures go to `docs/` with the command that made them.
 
 pub mod control;
+pub mod control_day;
+pub mod dense;
 pub mod patches;
 pub mod radiance;
 pub mod scaling;

@@ -33,6 +33,38 @@ pub fn load_average() -> Option<String> {
         .map(str::to_owned)
 }
 
+/// CPU time this thread has used so far (not wall time: a busy machine does not inflate it).
+/// `None` where the system does not say.
+pub fn thread_cpu_time() -> Option<std::time::Duration> {
+    #[cfg(target_os = "linux")]
+    {
+        let t = nix::time::clock_gettime(nix::time::ClockId::CLOCK_THREAD_CPUTIME_ID).ok()?;
+        Some(std::time::Duration::new(
+            u64::try_from(t.tv_sec()).ok()?,
+            u32::try_from(t.tv_nsec()).ok()?,
+        ))
+    }
+    #[cfg(not(target_os = "linux"))]
+    None
+}
+
+/// CPU time of this process so far (user + system, all threads), s: on a shared machine the
+/// measure of work that the wall clock is not.
+pub fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    parse_stat_cpu_ticks(&s).map(|t| t as f64 / 100.0)
+}
+
+/// utime + stime (fields 14 and 15) of a `/proc/PID/stat` line, clock ticks (USER_HZ = 100).
+fn parse_stat_cpu_ticks(stat: &str) -> Option<u64> {
+    // the command name (field 2) may hold spaces: count from the closing parenthesis
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: u64 = f.get(11)?.parse().ok()?;
+    let stime: u64 = f.get(12)?.parse().ok()?;
+    Some(utime + stime)
+}
+
 #[cfg(test)]
 mod tests {
     use super::parse_status_kib;
@@ -44,6 +76,29 @@ mod tests {
         assert_eq!(parse_status_kib(s, "VmRSS"), Some(2048));
         assert_eq!(parse_status_kib(s, "VmSwap"), None);
         assert_eq!(parse_status_kib("VmRSS: lots kB\n", "VmRSS"), None);
+    }
+
+    #[test]
+    fn thread_cpu_time_advances_with_work_not_with_sleep() {
+        if let Some(t0) = super::thread_cpu_time() {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            let slept = super::thread_cpu_time().unwrap() - t0;
+            let mut x = 0u64;
+            for i in 0..20_000_000u64 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(i);
+            }
+            std::hint::black_box(x);
+            let worked = super::thread_cpu_time().unwrap() - t0 - slept;
+            assert!(slept < std::time::Duration::from_millis(20), "{slept:?}");
+            assert!(worked > std::time::Duration::from_millis(1), "{worked:?}");
+        }
+    }
+
+    #[test]
+    fn cpu_ticks_are_fields_14_and_15() {
+        let line = "42 (lux node) R 1 2 3 4 5 6 7 8 9 10 250 30 0 0 20 0 4 0";
+        assert_eq!(super::parse_stat_cpu_ticks(line), Some(280));
+        assert_eq!(super::parse_stat_cpu_ticks("garbage"), None);
     }
 
     #[test]

@@ -12,6 +12,7 @@ use std::fmt;
 
 use crate::engine::{Csr, Model};
 use crate::solver;
+use crate::store::geometry::GeometrySection;
 use crate::store::values::{Bytes, Precision, Sparse, Values};
 use crate::store::{FORMAT_VERSION, HEADER_LEN, Header, Image, PayloadV1, SettingsRecord, crc32};
 
@@ -26,6 +27,9 @@ pub struct ImageOptions {
     pub scene_name: String,
     /// Per-sensor flags ([`crate::store::sensor_flags`]); empty means none set.
     pub sensor_flags: Vec<u8>,
+    /// The geometry section for reports ([`crate::image_geometry::section_of`]); `None` leaves
+    /// it out (the image then holds only what the run time needs).
+    pub geometry: Option<GeometrySection>,
 }
 
 impl Default for ImageOptions {
@@ -35,6 +39,7 @@ impl Default for ImageOptions {
             prune_below: 0.0,
             scene_name: String::new(),
             sensor_flags: Vec::new(),
+            geometry: None,
         }
     }
 }
@@ -65,6 +70,28 @@ pub enum BuildError {
     /// The image does not fit the flash region; the message names the knobs that shrink it.
     #[error("{0}")]
     TooLarge(String),
+    /// The node could not serve the image (more desks or luminaires than the register map).
+    #[error("the node cannot serve this image: {0}")]
+    Served(String),
+}
+
+/// What the node's register map refuses, as messages (empty: servable): more than
+/// [`crate::modbus::regmap::MAX_DESKS`] desks or [`crate::modbus::regmap::MAX_LUMINAIRES`]
+/// luminaires. `image build`, `scene check`, commissioning and the node agree on it.
+pub fn served_limits(desks: usize, luminaires: usize) -> Vec<String> {
+    use crate::modbus::regmap::{MAX_DESKS, MAX_LUMINAIRES};
+    let mut v = Vec::new();
+    if desks > MAX_DESKS {
+        v.push(format!(
+            "{desks} desk sensors: the Modbus register map serves at most {MAX_DESKS}"
+        ));
+    }
+    if luminaires > MAX_LUMINAIRES {
+        v.push(format!(
+            "{luminaires} luminaires: the Modbus register map serves at most {MAX_LUMINAIRES}"
+        ));
+    }
+    v
 }
 
 /// Sizes of the parts of an image, bytes.
@@ -106,7 +133,11 @@ pub fn sections(image: &Image<'_>) -> Sections {
             + l.window_offset_mm.0.len()
             + l.sensor_response_lx.0.len()
             + l.patch_emitter.0.len()
+            + crate::store::SECTION_FRAME_LEN
     });
+    let geometry = image
+        .geometry_bytes()
+        .map_or(0, |g| g.len() + crate::store::SECTION_FRAME_LEN);
     let mut parts = vec![
         ("header", HEADER_LEN),
         ("form factors (row starts, columns, values)", sparse(&p.ff)),
@@ -120,10 +151,12 @@ pub fn sections(image: &Image<'_>) -> Sections {
             "sensor direct, first bounce, response",
             p.direct_sensor_lx.0.len() + p.first_bounce_sensor_lx.0.len() + p.response_lx.0.len(),
         ),
+        ("geometry section (for reports)", geometry),
         (
             "ids, flux, settings, names, framing",
             image.len()
                 - HEADER_LEN
+                - geometry
                 - sparse(&p.ff)
                 - p.direct_patch_lx.data.0.len()
                 - p.direct_patch_lx.scales.0.len()
@@ -270,8 +303,14 @@ fn u32_bytes(v: &[u32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-fn serialise(header_precision: u8, payload: &PayloadV1<'_>) -> Result<Vec<u8>, BuildError> {
-    let body = postcard::to_stdvec(payload).map_err(|e| BuildError::Serialise(e.to_string()))?;
+fn serialise(
+    header_precision: u8,
+    payload: &PayloadV1<'_>,
+    section: &[u8],
+) -> Result<Vec<u8>, BuildError> {
+    let mut body =
+        postcard::to_stdvec(payload).map_err(|e| BuildError::Serialise(e.to_string()))?;
+    body.extend_from_slice(section);
     let header = Header {
         format_version: FORMAT_VERSION,
         generation: 0,
@@ -372,7 +411,13 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
         solve_max_iterations: st.solve.max_iterations,
     };
     // The response of the *stored* system: one solve per luminaire on the image itself.
-    let provisional = serialise(options.precision as u8, &payload)?;
+    let section = match &options.geometry {
+        Some(g) => g
+            .encode()
+            .map_err(|e| BuildError::Serialise(format!("geometry section: {e}")))?,
+        None => Vec::new(),
+    };
+    let provisional = serialise(options.precision as u8, &payload, &section)?;
     let image = Image::parse(&provisional).map_err(BuildError::Parse)?;
     let runtime = crate::runtime::Runtime::new(&image);
     let mut response = vec![vec![0.0; l]; s];
@@ -396,12 +441,13 @@ pub fn build_image(model: &Model, options: &ImageOptions) -> Result<Vec<u8>, Bui
     }
     let response_bytes = f64_bytes(&response);
     payload.response_lx = Bytes(&response_bytes);
-    let bytes = serialise(options.precision as u8, &payload)?;
+    let bytes = serialise(options.precision as u8, &payload, &section)?;
     Image::parse(&bytes).map_err(BuildError::Parse)?;
     Ok(bytes)
 }
 
-/// Builds the image of a model and checks that it fits a flash region of `region_bytes`
+/// Builds the image of a model, checks that the node can serve it ([`served_limits`]) and that
+/// it fits a flash region of `region_bytes`
 /// (the `FORMFACTORS` region: [`crate::layout::FORMFACTORS_LEN_BYTES`]). An image that does not
 /// fit is an error naming the knobs that would shrink it, with their estimated savings.
 pub fn build_for_region(
@@ -409,6 +455,10 @@ pub fn build_for_region(
     options: &ImageOptions,
     region_bytes: usize,
 ) -> Result<Vec<u8>, BuildError> {
+    let limits = served_limits(model.sensors(), model.luminaires());
+    if !limits.is_empty() {
+        return Err(BuildError::Served(limits.join("; ")));
+    }
     let bytes = build_image(model, options)?;
     if bytes.len() > region_bytes {
         let image = Image::parse(&bytes).map_err(BuildError::Parse)?;
@@ -580,31 +630,30 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
 }
 
 /// The image with its live section replaced by `live` (added when it has none; removed with
-/// `None`): the payload's other bytes are kept, the header's length and CRC rewritten, and the
-/// result parsed and checked.
+/// `None`): the payload and every other section are kept byte for byte, the header's length and
+/// CRC rewritten, and the result parsed and checked.
 pub fn with_live(image: &[u8], live: Option<&LiveSectionData>) -> Result<Vec<u8>, BuildError> {
+    use crate::store::{LIVE_MAGIC, SECTION_FRAME_LEN};
     let parsed = Image::parse(image).map_err(BuildError::Parse)?;
     let payload = &image[HEADER_LEN..parsed.len()];
     let (_, mut rest): (PayloadV1<'_>, &[u8]) = postcard::take_from_bytes(payload)
         .map_err(|_| BuildError::Parse(crate::store::ImageError::Decode))?;
     let mut body = payload[..payload.len() - rest.len()].to_vec();
-    // keep every other section as it is
-    while !rest.is_empty() {
-        let (frame, next): (crate::store::SectionFrame<'_>, &[u8]) =
-            postcard::take_from_bytes(rest)
-                .map_err(|_| BuildError::Parse(crate::store::ImageError::Decode))?;
-        if frame.tag != crate::store::SECTION_LIVE {
-            body.extend_from_slice(&rest[..rest.len() - next.len()]);
+    // keep every other section as it is (the frames were checked by the parse)
+    while rest.len() >= SECTION_FRAME_LEN {
+        let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
+        let end = (SECTION_FRAME_LEN + len).min(rest.len());
+        if rest[0..4] != LIVE_MAGIC {
+            body.extend_from_slice(&rest[..end]);
         }
-        rest = next;
+        rest = &rest[end..];
     }
     if let Some(live) = live {
         let encoded = encode_live(live)?;
-        let frame = crate::store::SectionFrame {
-            tag: crate::store::SECTION_LIVE,
-            body: Bytes(&encoded),
-        };
-        body.extend(postcard::to_stdvec(&frame).map_err(|e| BuildError::Serialise(e.to_string()))?);
+        let frame =
+            crate::store::frame_section(LIVE_MAGIC, crate::store::live::LIVE_VERSION, &encoded)
+                .ok_or_else(|| BuildError::Limits("live section over 4 GiB".into()))?;
+        body.extend(frame);
     }
     let header = Header {
         payload_len: u32::try_from(body.len())

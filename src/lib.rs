@@ -25,17 +25,17 @@
 //!
 //! | layer | modules | std? | owns |
 //! |---:|---|---|---|
-//! | 0 | `units`, `layout`, `rng`, `host` | no_std (`rng`, `host`: std) | physical quantities named with their unit; the `memory.x` regions; a seedable generator; facts of the host process |
+//! | 0 | `units`, `layout`, `rng`, `host`, `en12464` | no_std (`rng`, `host`, `en12464`: std) | physical quantities named with their unit; the `memory.x` regions; a seedable generator; facts of the host process; the rules of EN 12464-1 (grids, statistics, requirements) |
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control` | no_std | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop |
-//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/RTU servers, DALI gateway link (std) |
+//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/TLS/RTU servers, who may write and how each client reads (access), health, DALI gateway link (std) |
 //! | 5 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
 //! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
 //! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
-//! | 10 | `image_build`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the speed/accuracy presets |
+//! | 10 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
 //! | 11 | `render`, `live` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; live light: the cameras at run time (measured desk lux, daylight, occlusion, ageing) and the image section it needs |
 //! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
@@ -98,6 +98,8 @@ pub mod camera;
 #[cfg(feature = "std")]
 pub mod commission;
 #[cfg(feature = "std")]
+pub mod en12464;
+#[cfg(feature = "std")]
 pub mod engine;
 #[cfg(feature = "std")]
 pub mod evaluate;
@@ -105,6 +107,8 @@ pub mod evaluate;
 pub mod host;
 #[cfg(feature = "std")]
 pub mod image_build;
+#[cfg(feature = "std")]
+pub mod image_geometry;
 #[cfg(feature = "std")]
 pub mod live;
 #[cfg(feature = "std")]

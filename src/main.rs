@@ -54,6 +54,9 @@ enum Command {
     Control(Box<cli::control::Args>),
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
+    /// The commissioning report of an image: report.html (self-contained) and results.json.
+    #[cfg(feature = "report")]
+    Report(Box<cli::report::Args>),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +74,8 @@ fn main() -> ExitCode {
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),
         Command::Control(a) => cli::control::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
+        #[cfg(feature = "report")]
+        Command::Report(a) => cli::report::run(&a).map(|()| ExitCode::SUCCESS),
     };
     match done {
         Ok(code) => code,

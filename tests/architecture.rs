@@ -26,7 +26,10 @@ fn layers(lib_rs: &str) -> BTreeMap<String, u32> {
         for name in modules.split(',') {
             let name = name.trim().trim_matches('`');
             assert!(
-                !name.is_empty() && name.chars().all(|c| c.is_ascii_lowercase() || c == '_'),
+                !name.is_empty()
+                    && name
+                        .chars()
+                        .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_'),
                 "layer {layer}: {name:?} is not a module name"
             );
             assert!(

@@ -380,3 +380,89 @@ fn an_image_too_large_for_formfactors_names_the_knobs() {
     );
     assert!(!img.exists());
 }
+
+/// `luxnode report` from an image file: report.html and results.json with the desks and the
+/// states of a states file; an image without the geometry section is refused with the reason.
+#[test]
+fn report_from_an_image_and_a_states_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("office_a.img");
+    let o = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        &office_a(),
+        "--out",
+        img.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let states = dir.path().join("states.csv");
+    std::fs::write(
+        &states,
+        "scenario_id,luminaires_on\nall,1;2;3;4;5;6;7;8\nleft,1;3;5;7\n",
+    )
+    .unwrap();
+    let out = dir.path().join("report");
+    let o = luxnode(&[
+        "report",
+        "--image",
+        img.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--states",
+        states.to_str().unwrap(),
+        "--maintenance-factor",
+        "0.7",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["preset"], "fast");
+    assert_eq!(json["maintenance_factor"], 0.7);
+    assert_eq!(json["states"].as_array().unwrap().len(), 2);
+    assert_eq!(json["states"][1]["name"], "left");
+    assert_eq!(json["desks"].as_array().unwrap().len(), 5);
+    assert!(out.join("report.html").exists());
+    // a state naming a luminaire the image does not have
+    std::fs::write(&states, "scenario_id,luminaires_on\nbad,1;99\n").unwrap();
+    let o = luxnode(&[
+        "report",
+        "--image",
+        img.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--states",
+        states.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("luminaire 99"));
+    // without the geometry section
+    let bare = dir.path().join("bare.img");
+    let o = luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        &office_a(),
+        "--out",
+        bare.to_str().unwrap(),
+        "--preset",
+        "fast",
+        "--no-geometry",
+    ]);
+    assert!(o.status.success());
+    let o = luxnode(&[
+        "report",
+        "--image",
+        bare.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("no geometry section"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}

@@ -548,3 +548,117 @@ fn every_desk_meets_its_target_when_the_run_time_core_evaluates_the_plan() {
         assert!(power < all_on);
     }
 }
+
+#[test]
+fn the_photocell_baseline_is_the_lowest_common_level() {
+    use luxnode::control::photocell_plan;
+    let mut rng = SplitMix64::new(21);
+    let curve = DimmingCurve::Logarithmic;
+    for _ in 0..30 {
+        let (kd, l) = (4, 3);
+        let (r, pw) = office_like(l, kd, rng.next_u64());
+        let target: Vec<f64> = (0..kd).map(|_| 100.0 + 500.0 * rng.next_f64()).collect();
+        let daylight: Vec<f64> = (0..kd).map(|_| 200.0 * rng.next_f64()).collect();
+        let plant = Plant {
+            desks: kd,
+            luminaires: l,
+            response_lx: &r,
+            power: &pw,
+            curve,
+        };
+        let (mut arc, mut lux, mut met) = (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
+        let rep = photocell_plan(
+            &plant,
+            &Demand {
+                target_lx: &target,
+                daylight_lx: &daylight,
+                uniformity: None,
+            },
+            PlanOut {
+                arc: &mut arc,
+                lux: &mut lux,
+                met: &mut met,
+            },
+        )
+        .unwrap();
+        // brute force: the first level (0, then 85..=254) at which every desk meets its target
+        let meets = |a: u8| {
+            let x = ArcLevel(a).fraction(curve).unwrap();
+            (0..kd)
+                .all(|k| (0..l).map(|j| r[k * l + j]).sum::<f64>() * x + daylight[k] >= target[k])
+        };
+        let want = std::iter::once(0)
+            .chain(85..=254)
+            .find(|&a| meets(a))
+            .unwrap_or(254);
+        assert!(arc.iter().all(|a| a.0 == want), "{arc:?} vs {want}");
+        assert_eq!(rep.short == 0, meets(want));
+    }
+}
+
+#[test]
+fn a_day_of_daylight_is_accounted_and_the_optimiser_never_uses_more() {
+    let tmp = tempfile::tempdir().unwrap();
+    let img = tmp.path().join("office_a.img");
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        img.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    // a made-up day: dark at 8, a window-side gradient peaking at 13 h, dark again at 17
+    let mut csv = String::from("time_h,sensor_id,lux\n");
+    for step in 0..=9 {
+        let t = 8.0 + step as f64;
+        let sun = (std::f64::consts::PI * (t - 8.0) / 9.0).sin().max(0.0);
+        for s in 1..=8u32 {
+            csv += &format!("{t},{s},{:.1}\n", 900.0 * sun * f64::from(9 - s) / 8.0);
+        }
+    }
+    let series = tmp.path().join("day.csv");
+    std::fs::write(&series, csv).unwrap();
+    let out = luxnode(&[
+        "bench",
+        "control-day",
+        "--image",
+        img.to_str().unwrap(),
+        "--daylight",
+        series.to_str().unwrap(),
+    ]);
+    let rows: Vec<Vec<f64>> = out
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.chars().nth(2).is_some_and(|c| c.is_ascii_digit()))
+        .map(|l| {
+            l.split('|')
+                .skip(1)
+                .take(5)
+                .map(|c| c.trim().parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 10, "{out}");
+    let mut opt_kwh = 0.0;
+    for r in &rows {
+        let (all, pc, opt) = (r[2], r[3], r[4]);
+        assert!(opt <= pc + 0.5 && pc <= all + 0.5, "{out}");
+        opt_kwh += opt / 1000.0; // one-hour steps
+    }
+    // at noon the brightest desks need little: the optimiser saves where one photocell cannot
+    assert!(rows[5][4] < rows[5][3], "{out}");
+    let total = out
+        .lines()
+        .find(|l| l.starts_with("| least power |"))
+        .and_then(|l| l.split('|').nth(2))
+        .and_then(|c| c.trim().parse::<f64>().ok())
+        .unwrap();
+    // the table rounds each power to 1 W: ten steps of one hour, at most 5 Wh apart
+    assert!(
+        (total - opt_kwh).abs() <= 5.5e-3,
+        "{total} vs {opt_kwh}\n{out}"
+    );
+}

@@ -219,6 +219,16 @@ fn the_preset_table_holds() {
                 prune_below: store.prune_below,
                 scene_name: scene.name.clone(),
                 sensor_flags: Vec::new(),
+                // as `luxnode image build` writes it: with the geometry section for reports
+                geometry: Some(luxnode::image_geometry::section_of(
+                    &scene,
+                    &model,
+                    &luxnode::image_geometry::CommissionRecord {
+                        preset: preset.name().into(),
+                        maintenance_factor: 0.8,
+                        ..Default::default()
+                    },
+                )),
             },
         )
         .unwrap();

@@ -11,6 +11,7 @@ use luxnode::camera::{
 };
 use luxnode::commission::{self, CommissionOptions};
 use luxnode::image_build::{ImageOptions, build_image, with_live};
+use luxnode::image_geometry::{CommissionRecord, section_of};
 use luxnode::live::{
     self, Live, LiveFrame, LiveModel, LiveSettings, SectionOptions, Source, flags,
 };
@@ -20,6 +21,7 @@ use luxnode::store::{Image, sensor_flags};
 struct Rig {
     world: SimWorld,
     image: Vec<u8>,
+    section: luxnode::image_build::LiveSectionData,
     flags: Vec<u8>,
 }
 
@@ -62,15 +64,18 @@ fn rig() -> &'static Rig {
             &c.model,
             &ImageOptions {
                 sensor_flags: c.sensor_flags.clone(),
+                geometry: Some(section_of(&c.scene, &c.model, &CommissionRecord::default())),
                 ..ImageOptions::default()
             },
         )
         .unwrap();
         let section = live::from_capture(&c, &seq.capture, &SectionOptions::default()).unwrap();
         let image = with_live(&img, Some(&section)).unwrap();
+        assert!(Image::parse(&image).unwrap().geometry_bytes().is_some());
         Rig {
             world,
             image,
+            section,
             flags: c.sensor_flags.clone(),
         }
     })
@@ -122,11 +127,17 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     let image = Image::parse(bytes).unwrap();
     let live = image.live.as_ref().expect("a live section");
     assert!(live.samples() > 5000, "{}", live.samples());
+    // the geometry section (reports) is kept beside it, byte for byte
+    let geometry = image.geometry_bytes().expect("a geometry section");
     // removing the section gives an image every reader parses, with the same payload
     let old = with_live(bytes, None).unwrap();
     let o = Image::parse(&old).unwrap();
     assert!(o.live.is_none());
     assert_eq!(o.payload, image.payload);
+    assert_eq!(o.geometry_bytes(), Some(geometry));
+    // and put back, it is found again after the geometry section
+    let again = with_live(&old, Some(&rig().section)).unwrap();
+    assert_eq!(&again, bytes);
     assert!(old.len() < bytes.len());
     assert!(matches!(
         LiveModel::new(&o),

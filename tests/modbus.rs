@@ -51,6 +51,8 @@ fn office_image() -> PathBuf {
     path
 }
 
+/// `luxnode serve` on office_a's image; writes allowed from loopback and the RTU line (the
+/// tests' clients), unless `extra` starts with `--read-only` (then the default: nobody).
 fn serve(extra: &[&str]) -> Proc {
     let mut args: Vec<String> = vec![
         "serve".into(),
@@ -59,6 +61,13 @@ fn serve(extra: &[&str]) -> Proc {
         "--bind".into(),
         "127.0.0.1:0".into(),
     ];
+    let extra = match extra.split_first() {
+        Some((&"--read-only", rest)) => rest,
+        _ => {
+            args.extend(["--allow-writes-from".into(), "127.0.0.1,rtu".into()]);
+            extra
+        }
+    };
     args.extend(extra.iter().map(|s| s.to_string()));
     spawn_listening(LUXNODE, &args)
 }
@@ -137,9 +146,16 @@ fn bms_reads_the_runtime_values_and_they_match_radiance() {
     rt().block_on(async {
         let mut c = connect(server.addr).await;
         let core = c.read_input_registers(0, 4).await.unwrap().unwrap();
-        assert_eq!(core[..3], [1, 8, 8], "map version, desks, luminaires");
-        let want = status::COMMISSIONED | status::STORE_OK | status::SENSORS_OK;
-        assert_eq!(core[3], want, "status bits");
+        assert_eq!(core[..3], [2, 8, 8], "map version, desks, luminaires");
+        let want = status::COMMISSIONED
+            | status::STORE_OK
+            | status::SENSORS_OK
+            | status::COMM_OK
+            | status::WRITES_ENABLED;
+        // no dimming state given at start: the values are stale until it is written
+        assert_eq!(core[3], want | status::VALUES_STALE, "status bits");
+        let q = c.read_input_registers(400, 8).await.unwrap().unwrap();
+        assert_eq!(q, [1; 8], "quality stale");
         let lum_ids = c.read_input_registers(600, 8).await.unwrap().unwrap();
         let desk_ids = c.read_input_registers(500, 8).await.unwrap().unwrap();
         // all off at start
@@ -156,6 +172,8 @@ fn bms_reads_the_runtime_values_and_they_match_radiance() {
             let f = c.read_input_registers(100, 16).await.unwrap().unwrap();
             let lux = floats_abcd(&f);
             assert_f32_equal(&lux, &runtime_lux(&arcs));
+            let st = c.read_input_registers(3, 1).await.unwrap().unwrap()[0];
+            assert_eq!(st, want, "status once the state is known");
             let ints = c.read_input_registers(300, 8).await.unwrap().unwrap();
             for (k, (&i, &x)) in ints.iter().zip(&lux).enumerate() {
                 assert_eq!(f64::from(i), x.round(), "desk {k} u16");
@@ -250,7 +268,7 @@ fn illegal_requests_get_exceptions_and_the_connection_survives() {
     // MEI type other than 0x0E
     assert_eq!(ask(&[0x2B, 0x0D, 1, 0]), [0xAB, 0x01]);
     // and the connection still answers
-    assert_eq!(ask(&[0x04, 0, 0, 0, 1]), [0x04, 2, 0, 1]);
+    assert_eq!(ask(&[0x04, 0, 0, 0, 1]), [0x04, 2, 0, 2]);
     // device identification: vendor name
     let id = ask(&[0x2B, 0x0E, 0x04, 0x00]);
     assert_eq!(id[..2], [0x2B, 0x0E]);
@@ -292,7 +310,7 @@ fn slow_and_hostile_clients_never_block_others() {
                 .expect("answered within 1 s")
                 .unwrap()
                 .unwrap();
-            assert_eq!(v[..3], [1, 8, 8]);
+            assert_eq!(v[..3], [2, 8, 8]);
             assert!(t0.elapsed() < Duration::from_millis(500));
         }
     });

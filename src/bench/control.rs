@@ -23,6 +23,8 @@ pub struct ControlRow {
     pub instances: usize,
     /// Median time of one optimisation (LP, rounding, exchange).
     pub median: Duration,
+    /// Median CPU time of one optimisation (unaffected by other processes).
+    pub median_cpu: Duration,
     /// Worst time.
     pub worst: Duration,
     /// Worst |ours − microlp| / microlp of the continuous optimum.
@@ -99,6 +101,7 @@ pub fn run(sizes: &[(usize, usize)], instances: usize, seed: u64) -> Vec<Control
     let mut rows = Vec::new();
     for &(l, kd) in sizes {
         let mut times = Vec::new();
+        let mut cpu = Vec::new();
         let (mut lp_rel, mut excess, mut infeasible) = (0.0f64, 0.0f64, 0);
         for i in 0..instances {
             let (r, power) = room(l, kd, &mut rng);
@@ -123,6 +126,7 @@ pub fn run(sizes: &[(usize, usize)], instances: usize, seed: u64) -> Vec<Control
             let (mut arc, mut lux, mut met) =
                 (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
             let mut scratch = vec![0.0; scratch_len(kd, l, false)];
+            let c0 = crate::host::thread_cpu_time();
             let t0 = Instant::now();
             let rep = optimise(
                 &plant,
@@ -139,6 +143,9 @@ pub fn run(sizes: &[(usize, usize)], instances: usize, seed: u64) -> Vec<Control
                 &mut scratch,
             );
             times.push(t0.elapsed());
+            if let (Some(c0), Some(c1)) = (c0, crate::host::thread_cpu_time()) {
+                cpu.push(c1 - c0);
+            }
             let Ok(rep) = rep else { continue };
             infeasible += usize::from(rep.short > 0);
             // the same programme for microlp: shortfall priced as the optimiser prices it
@@ -153,11 +160,13 @@ pub fn run(sizes: &[(usize, usize)], instances: usize, seed: u64) -> Vec<Control
             }
         }
         times.sort();
+        cpu.sort();
         rows.push(ControlRow {
             luminaires: l,
             desks: kd,
             instances,
             median: times[times.len() / 2],
+            median_cpu: cpu.get(cpu.len() / 2).copied().unwrap_or_default(),
             worst: times[times.len() - 1],
             lp_rel_diff: lp_rel,
             dali_excess: excess,

@@ -65,6 +65,9 @@ pub fn uniform_size_for(scene: &Scene, target: usize) -> (f64, usize) {
     best
 }
 
+/// Colour of a luminaire opening on the layout pictures.
+const OPENING: Colour = [255, 196, 0];
+
 fn longest_edge_m(t: &[DVec3; 3]) -> f64 {
     (0..3)
         .map(|k| (t[(k + 1) % 3] - t[k]).length())
@@ -138,7 +141,7 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
     let width = (pad * 3.0 + 2.0 * panel_w).max(pad * 2.0 + strip_w) + 150.0;
     let height = top + panel_h + 40.0 + strip_h + 70.0;
     let mut c = Canvas::new(width as u32, height as u32, WHITE);
-    c.text(title, pad as i64, 12, 2, BLACK);
+    c.bold(title, pad as i64, 12, 20.0, BLACK);
     let edge_col: Colour = [60, 60, 60];
     let up_org = (pad, top);
     let down_org = (2.0 * pad + panel_w, top);
@@ -175,7 +178,11 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
         .collect();
     let z = |i: &usize| p.centroid_m(*i).z;
     up.sort_by(|a, b| z(a).total_cmp(&z(b)));
-    down.sort_by(|a, b| z(a).total_cmp(&z(b)));
+    // seen through the roof: the ceiling first, the luminaire openings on top of everything
+    down.sort_by(|a, b| {
+        let opening = |i: &usize| p.rho[*i] <= 0.0;
+        opening(a).cmp(&opening(b)).then(z(a).total_cmp(&z(b)))
+    });
     side.sort_by(|a, b| {
         let (da, db) = (
             dist_to_wall(p.normal[*a], p.centroid_m(*a)),
@@ -188,13 +195,14 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
             let t = p.corners_m[i];
             let q = [map(i, t[0]), map(i, t[1]), map(i, t[2])];
             let col = if p.rho[i] <= 0.0 {
-                BLACK
+                OPENING
             } else {
                 size_colour(longest_edge_m(&t), range_m)
             };
             fill_triangle(c, q, col);
+            let e = if p.rho[i] <= 0.0 { BLACK } else { edge_col };
             for k in 0..3 {
-                line(c, q[k], q[(k + 1) % 3], edge_col);
+                line(c, q[k], q[(k + 1) % 3], e);
             }
         }
     };
@@ -202,24 +210,24 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
     draw(&mut c, &down, &|_, v| plan(down_org, v));
     draw(&mut c, &side, &|i, v| unfold(p.normal[i], v));
     c.text(
-        "UP-FACING, FROM ABOVE",
+        "Up-facing surfaces, seen from above",
         up_org.0 as i64,
-        (top - 14.0) as i64,
-        1,
+        (top - 20.0) as i64,
+        14.0,
         BLACK,
     );
     c.text(
-        "CEILING (DOWN-FACING), FROM ABOVE",
+        "Ceiling and luminaire openings, seen from above through the roof",
         down_org.0 as i64,
-        (top - 14.0) as i64,
-        1,
+        (top - 20.0) as i64,
+        14.0,
         BLACK,
     );
     c.text(
-        "WALLS UNFOLDED: SOUTH, EAST, NORTH, WEST (FROM INSIDE)",
+        "Walls unfolded: south, east, north, west (seen from inside)",
         strip_org.0 as i64,
-        (strip_org.1 - 14.0) as i64,
-        1,
+        (strip_org.1 - 20.0) as i64,
+        14.0,
         BLACK,
     );
     for s in &scene.sensors {
@@ -230,16 +238,26 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
         c.fill(x - 3, y, 7, 1, [214, 39, 40]);
         c.fill(x, y - 3, 1, 7, [214, 39, 40]);
     }
+    let legend_y = (height - 26.0) as i64;
     c.text(
         &format!(
-            "{} PATCHES. COLOUR: LONGEST PATCH EDGE (LOG). RED CROSSES: SENSORS. BLACK: LUMINAIRE OPENINGS",
+            "{} patches. Colour: longest patch edge (log scale). Red crosses: desk sensors.",
             p.len()
         ),
         pad as i64,
-        (height - 22.0) as i64,
-        1,
+        legend_y,
+        14.0,
         BLACK,
     );
+    let lx = pad as i64
+        + i64::from(text_width(
+            "0000 patches. Colour: longest patch edge (log scale). Red crosses: desk sensors.",
+            14.0,
+        ))
+        + 20;
+    c.fill(lx, legend_y + 2, 18, 12, OPENING);
+    c.frame(lx, legend_y + 2, 18, 12, 1, BLACK);
+    c.text("luminaire openings (ρ = 0)", lx + 24, legend_y, 14.0, BLACK);
     // colour bar
     let bx = (width - 110.0) as i64;
     let (by, bh) = (top as i64, 200i64);
@@ -253,15 +271,21 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
         let t = (v / range_m.0).ln() / (range_m.1 / range_m.0).ln();
         let py = by + ((1.0 - t) * (bh - 1) as f64) as i64;
         c.fill(bx + 20, py, 5, 1, BLACK);
-        c.text(&format!("{v} M"), bx + 28, py - 3, 1, BLACK);
+        c.text(
+            &format!("{} m", crate::render::plot::label(v)),
+            bx + 28,
+            py - 8,
+            13.0,
+            BLACK,
+        );
         v *= 2.0;
     }
-    let unit = "EDGE";
+    let unit = "edge";
     c.text(
         unit,
-        bx + 10 - i64::from(text_width(unit, 1)) / 2,
-        by - 14,
-        1,
+        bx + 10 - i64::from(text_width(unit, 13.0)) / 2,
+        by - 20,
+        13.0,
         BLACK,
     );
     c

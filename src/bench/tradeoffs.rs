@@ -321,6 +321,7 @@ pub fn measure_model(
             prune_below: variant.store.prune_below,
             scene_name: "tradeoffs".into(),
             sensor_flags,
+            geometry: None,
         },
     )?;
     let image = Image::parse(&bytes)?;
@@ -535,7 +536,7 @@ pub fn pareto_plot(
                 .collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             Series {
-                name: g.to_uppercase(),
+                name: g.to_string(),
                 points: pts,
             }
         })
@@ -546,13 +547,13 @@ pub fn pareto_plot(
         .map(|m| (cost(m), 100.0 * m.accuracy.error))
         .collect();
     series.push(Series {
-        name: "PARETO FRONT".into(),
+        name: "Pareto front".into(),
         points: pareto_front(&all),
     });
     Plot {
-        title: title.to_uppercase(),
-        x_label: x_label.to_uppercase(),
-        y_label: "ERROR VS RADIANCE (%, LOG)".into(),
+        title: title.to_string(),
+        x_label: x_label.to_string(),
+        y_label: "error against Radiance (%, log)".into(),
         log_x: true,
         log_y: true,
         series,

@@ -325,6 +325,9 @@ pub struct FlashToml {
 
 /// Default flash file size: two slots of the 4 MiB `FORMFACTORS` budget plus a sector.
 pub const DEFAULT_FLASH_BYTES: usize = 2 * 4 * 1024 * 1024 + 4096;
+/// The largest flash file a board may name: two slots of 128 MiB (a plausible typo such as
+/// `1e14` is refused before any work, never padded).
+pub const MAX_FLASH_BYTES: usize = 256 * 1024 * 1024;
 
 fn timeout(name: &str, s: f64) -> Result<Duration, SectionError> {
     if s.is_finite() && s > 0.0 && s <= 60.0 {
@@ -530,9 +533,11 @@ pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, Sec
             }
             let path = t.path.ok_or("flash kind = \"file\" needs flash.path")?;
             let size_bytes = t.size_bytes.unwrap_or(DEFAULT_FLASH_BYTES);
-            if size_bytes < 64 * 1024 || size_bytes % 4096 != 0 {
+            if !(64 * 1024..=MAX_FLASH_BYTES).contains(&size_bytes) || size_bytes % 4096 != 0 {
                 return err(format!(
-                    "flash.size_bytes {size_bytes} must be whole 4 KiB sectors, at least 64 KiB"
+                    "flash.size_bytes {size_bytes} must be whole 4 KiB sectors, at least 64 KiB \
+                     and at most {} MiB (two image slots)",
+                    MAX_FLASH_BYTES >> 20
                 ));
             }
             Ok(FlashBoard::File {

@@ -2,6 +2,7 @@
 //! binary turns them into typed settings. Unknown keys are errors so a typo fails loudly.
 
 pub mod camera;
+pub mod control;
 pub mod hardware;
 
 use std::path::{Path, PathBuf};
@@ -30,12 +31,20 @@ pub struct Board {
     pub modbus: ModbusBoard,
     /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
     pub preset: crate::preset::Preset,
+    /// The installation's maintenance factor for the commissioning report's maintained values
+    /// (`[engine] maintenance_factor`, EN 12464-1; 0.8 when absent).
+    pub maintenance_factor: f64,
     /// The cameras (`[camera]`; simulated when absent).
     pub camera: crate::board::camera::CameraBoard,
     /// Where the flash image lives (`[flash]`; a file next to the board file when absent).
     pub flash: crate::board::camera::FlashBoard,
     /// The I2C bus of the board's peripherals (`[i2c]`), if any.
     pub i2c: Option<crate::board::camera::I2cBoard>,
+    /// How often the sensors are checked while serving (`[health] sensor_check_s`, default
+    /// 300 s).
+    pub sensor_check: std::time::Duration,
+    /// Lighting control (`[control]`).
+    pub control: crate::modbus::node::ControlOptions,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -44,15 +53,42 @@ pub struct Board {
 struct EngineToml {
     #[serde(default)]
     preset: Option<String>,
+    #[serde(default)]
+    maintenance_factor: Option<f64>,
 }
 
-/// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[gateway]`).
+/// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[modbus.tls]`,
+/// `[modbus.word_order]`, `[gateway]`).
+///
+/// ```toml
+/// [modbus]
+/// bind = "0.0.0.0:502"
+/// max_connections = 128          # in all (default 128: a BMS with 50 pollers and more)
+/// max_per_source = 64            # from one address (default 64)
+/// idle_timeout_s = 60
+/// write_allow = ["10.0.0.0/24", "rtu", "role:operator"]   # default: nobody (read-only)
+/// [modbus.word_order]            # float word order: abcd (default), cdab, badc, dcba
+/// default = "abcd"
+/// clients = { "10.0.0.7" = "cdab" }
+/// units = { "2" = "cdab", "3" = "dcba" }
+/// [modbus.tls]                   # Modbus/TCP Security, mutual TLS
+/// bind = "0.0.0.0:802"
+/// cert = "node.pem"
+/// key = "node.key"
+/// client_ca = "clients-ca.pem"
+/// ```
 #[derive(Debug, Clone)]
 pub struct ModbusBoard {
     /// TCP address.
     pub bind: std::net::SocketAddr,
     /// TCP connection cap.
     pub max_connections: usize,
+    /// TCP connection cap per source address.
+    pub max_per_source: usize,
+    /// Who may write; word orders.
+    pub access: crate::modbus::access::AccessPolicy,
+    /// Modbus/TCP Security: address and PEM files.
+    pub tls: Option<(std::net::SocketAddr, crate::modbus::tls::TlsFiles)>,
     /// TCP idle timeout.
     pub idle_timeout: std::time::Duration,
     /// RTU: device and line settings.
@@ -68,8 +104,16 @@ struct ModbusToml {
     bind: String,
     #[serde(default = "default_max_connections")]
     max_connections: usize,
+    #[serde(default)]
+    max_per_source: Option<usize>,
     #[serde(default = "default_idle_timeout_s")]
     idle_timeout_s: f64,
+    #[serde(default)]
+    write_allow: Vec<String>,
+    #[serde(default)]
+    word_order: Option<WordOrderToml>,
+    #[serde(default)]
+    tls: Option<TlsToml>,
     #[serde(default)]
     rtu: Option<RtuToml>,
 }
@@ -79,17 +123,98 @@ impl Default for ModbusToml {
         Self {
             bind: default_bind(),
             max_connections: default_max_connections(),
+            max_per_source: None,
             idle_timeout_s: default_idle_timeout_s(),
+            write_allow: Vec::new(),
+            word_order: None,
+            tls: None,
             rtu: None,
         }
     }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct WordOrderToml {
+    #[serde(default)]
+    default: Option<String>,
+    #[serde(default)]
+    clients: std::collections::BTreeMap<String, String>,
+    #[serde(default)]
+    units: std::collections::BTreeMap<String, String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TlsToml {
+    #[serde(default = "default_tls_bind")]
+    bind: String,
+    cert: String,
+    key: String,
+    client_ca: String,
+}
+
+fn default_tls_bind() -> String {
+    "0.0.0.0:802".into()
+}
+
+/// `[health]`: how often the sensors are checked while the node serves.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct HealthToml {
+    #[serde(default)]
+    sensor_check_s: Option<f64>,
+}
+
+fn word_order(what: &str, name: &str) -> Result<crate::modbus::regmap::WordOrder, String> {
+    crate::modbus::regmap::WordOrder::from_name(name)
+        .ok_or_else(|| format!("{what} {name:?}: use \"abcd\", \"cdab\", \"badc\" or \"dcba\""))
+}
+
+/// The access policy of `[modbus]`: the write allowlist and the word orders.
+fn access(m: &ModbusToml) -> Result<crate::modbus::access::AccessPolicy, String> {
+    use crate::modbus::access::AccessPolicy;
+    let mut p = AccessPolicy::default()
+        .with_writers(&m.write_allow)
+        .map_err(|e| format!("modbus.{e}"))?;
+    if let Some(w) = &m.word_order {
+        if let Some(d) = &w.default {
+            p.word_orders.default = word_order("modbus.word_order.default", d)?;
+        }
+        for (client, order) in &w.clients {
+            let key = if client == "rtu" {
+                client.clone()
+            } else {
+                client
+                    .parse::<std::net::IpAddr>()
+                    .map_err(|_| {
+                        format!(
+                            "modbus.word_order.clients: {client:?} is not an IP address or \"rtu\""
+                        )
+                    })?
+                    .to_string()
+            };
+            p.word_orders
+                .clients
+                .insert(key, word_order("modbus.word_order.clients", order)?);
+        }
+        for (unit, order) in &w.units {
+            let u: u8 = unit.parse().map_err(|_| {
+                format!("modbus.word_order.units: {unit:?} is not a unit id 0..=255")
+            })?;
+            p.word_orders
+                .units
+                .insert(u, word_order("modbus.word_order.units", order)?);
+        }
+    }
+    Ok(p)
 }
 
 fn default_bind() -> String {
     crate::serve::DEFAULT_BIND.into()
 }
 fn default_max_connections() -> usize {
-    16
+    crate::modbus::tcp::DEFAULT_MAX_CONNECTIONS
 }
 fn default_idle_timeout_s() -> f64 {
     60.0
@@ -131,6 +256,10 @@ struct BoardToml {
     flash: Option<crate::board::camera::FlashToml>,
     #[serde(default)]
     i2c: Option<crate::board::camera::I2cBoard>,
+    #[serde(default)]
+    health: HealthToml,
+    #[serde(default)]
+    control: Option<crate::board::control::ControlToml>,
 }
 
 #[derive(Deserialize)]
@@ -205,6 +334,47 @@ impl Board {
                 m.max_connections
             )));
         }
+        let max_per_source = m
+            .max_per_source
+            .unwrap_or(crate::modbus::tcp::DEFAULT_MAX_PER_SOURCE.min(m.max_connections));
+        if max_per_source == 0 || max_per_source > m.max_connections {
+            return Err(bad(format!(
+                "modbus.max_per_source {max_per_source} is outside 1..=max_connections ({})",
+                m.max_connections
+            )));
+        }
+        let policy = access(m).map_err(bad)?;
+        let tls = match &m.tls {
+            None => None,
+            Some(t) => {
+                let addr = t.bind.parse().map_err(|e| {
+                    bad(format!(
+                        "modbus.tls.bind {:?}: {e} (expected ADDR:PORT)",
+                        t.bind
+                    ))
+                })?;
+                let dir = path.parent().unwrap_or(Path::new("."));
+                Some((
+                    addr,
+                    crate::modbus::tls::TlsFiles {
+                        cert: dir.join(&t.cert),
+                        key: dir.join(&t.key),
+                        client_ca: dir.join(&t.client_ca),
+                    },
+                ))
+            }
+        };
+        let sensor_check = match t.health.sensor_check_s {
+            None => std::time::Duration::from_secs(300),
+            Some(s) if s.is_finite() && (0.1..=86_400.0).contains(&s) => {
+                std::time::Duration::from_secs_f64(s)
+            }
+            Some(s) => {
+                return Err(bad(format!(
+                    "health.sensor_check_s {s} is outside 0.1..=86400 s"
+                )));
+            }
+        };
         if !(m.idle_timeout_s.is_finite() && m.idle_timeout_s > 0.0 && m.idle_timeout_s < 1e6) {
             return Err(bad(format!(
                 "modbus.idle_timeout_s {} must be a positive number of seconds",
@@ -241,20 +411,33 @@ impl Board {
                 .parse()
                 .map_err(|e| bad(format!("engine.preset: {e}")))?,
         };
+        let maintenance_factor = crate::en12464::check_maintenance_factor(
+            t.engine
+                .maintenance_factor
+                .unwrap_or(crate::en12464::DEFAULT_MAINTENANCE_FACTOR),
+        )
+        .map_err(|e| bad(format!("engine.maintenance_factor: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
         let camera = crate::board::camera::camera(t.camera, base).map_err(|e| bad(e.0))?;
         let flash = crate::board::camera::flash(t.flash, base).map_err(|e| bad(e.0))?;
         if let Some(i) = &t.i2c {
             i.validate().map_err(|e| bad(e.0))?;
         }
+        let control = crate::board::control::control(t.control).map_err(|e| bad(e.0))?;
         Ok(Board {
+            control,
             preset,
+            maintenance_factor,
             name: t.name,
             description: t.description,
             scene,
+            sensor_check,
             modbus: ModbusBoard {
                 bind,
                 max_connections: m.max_connections,
+                max_per_source,
+                access: policy,
+                tls,
                 idle_timeout: std::time::Duration::from_secs_f64(m.idle_timeout_s),
                 rtu,
                 gateway: t.gateway,

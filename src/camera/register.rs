@@ -166,6 +166,9 @@ impl Registration {
                 ));
             }
         }
+        if let Err(m) = crate::scene::check_intrinsics(i.fx, i.fy, i.cx, i.cy, i.width, i.height) {
+            return bad(m);
+        }
         finite("k1", i.k1)?;
         finite("k2", i.k2)?;
         // the distortion factor r_d = r (1 + k1 r² + k2 r⁴) must grow with r up to the image

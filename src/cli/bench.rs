@@ -115,7 +115,7 @@ pub enum Command {
         /// Plot title.
         #[arg(
             long,
-            default_value = "OFFICE_A: COMMISSIONING TIME VS ERROR (RAYS 100..10000)"
+            default_value = "office_a: commissioning time against error (rays 100..10000)"
         )]
         title: String,
     },
@@ -133,6 +133,14 @@ pub enum Command {
         /// Each client's poll interval, ms (0: back to back).
         #[arg(long, default_value_t = 0)]
         interval_ms: u64,
+        /// The pollers come from this many BMS hosts (loopback addresses 127.0.1.1, ...), so
+        /// the server's default caps apply as in a building (128 connections, 64 per host).
+        #[arg(long, default_value_t = 4)]
+        hosts: u8,
+        /// An attacker at 127.0.0.2 first opens this many sockets and never speaks (the
+        /// idle-socket attack); the pollers must still all be served.
+        #[arg(long, default_value_t = 0)]
+        idle_attack: usize,
     },
     /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
     Fuzz {
@@ -162,6 +170,42 @@ pub enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+    /// Energy over a day of daylight: the least-power controller against all on and against one
+    /// photocell dimming every luminaire together, over the occupied hours.
+    ControlDay {
+        /// The commissioned image (its response matrix and luminaire fluxes).
+        #[arg(long)]
+        image: PathBuf,
+        /// Daylight alone per desk over the day: CSV time_h,sensor_id,lux.
+        #[arg(long)]
+        daylight: PathBuf,
+        /// Target of every desk, lx.
+        #[arg(long, default_value_t = luxnode::control::DEFAULT_TARGET_LX)]
+        target: f64,
+        /// Occupied from this hour.
+        #[arg(long, default_value_t = 8.0)]
+        from_h: f64,
+        /// Occupied until this hour.
+        #[arg(long, default_value_t = 18.0)]
+        to_h: f64,
+        /// Write the power over the day as a PNG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// Dense illuminance against Radiance: the desk grids of truth_dense.csv (mean error, U0 per
+    /// desk) and the camera-view lux image against the rendered truth (π L / ρ on desk pixels),
+    /// with their times.
+    Dense {
+        /// The scene directory (with truth_dense.csv).
+        #[arg(long)]
+        scene: PathBuf,
+        /// The capture set with the rendered truth (default: the scene's capture_clean).
+        #[arg(long)]
+        capture: Option<PathBuf>,
+        /// Timed runs (the median is printed).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -181,6 +225,11 @@ pub(crate) fn scene_with_truth(dir: &Path) -> Result<(Scene, Vec<Scenario>, Vec<
 /// Runs `luxnode bench ...`.
 pub fn run(command: Command) -> Result<()> {
     match command {
+        Command::Dense {
+            scene,
+            capture,
+            runs,
+        } => dense(&scene, capture.as_deref(), runs)?,
         Command::Engine {
             scene,
             runs,
@@ -357,8 +406,10 @@ pub fn run(command: Command) -> Result<()> {
             clients,
             seconds,
             interval_ms,
+            hosts,
+            idle_attack,
         } => {
-            modbus_load(&image, clients, seconds, interval_ms)?;
+            modbus_load(&image, clients, seconds, interval_ms, hosts, idle_attack)?;
         }
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
@@ -372,15 +423,16 @@ pub fn run(command: Command) -> Result<()> {
                 luxnode::host::load_average().unwrap_or_else(|| "?".into())
             );
             println!(
-                "| luminaires x desks | median time | worst time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
+                "| luminaires x desks | median CPU time | median wall time | worst wall time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
             );
-            println!("|---|---:|---:|---:|---:|---:|");
+            println!("|---|---:|---:|---:|---:|---:|---:|");
             let sizes = [(8, 8), (16, 24), (32, 50), (64, 100)];
             for r in bench::control::run(&sizes, instances, seed) {
                 println!(
-                    "| {} x {} | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
+                    "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
                     r.luminaires,
                     r.desks,
+                    r.median_cpu.as_secs_f64() * 1e6,
                     r.median.as_secs_f64() * 1e6,
                     r.worst.as_secs_f64() * 1e6,
                     r.lp_rel_diff,
@@ -390,6 +442,14 @@ pub fn run(command: Command) -> Result<()> {
                 );
             }
         }
+        Command::ControlDay {
+            image,
+            daylight,
+            target,
+            from_h,
+            to_h,
+            plot,
+        } => control_day(&image, &daylight, target, (from_h, to_h), plot.as_deref())?,
         Command::Table1 { scene } => {
             println!(
                 "# the paper's Table 1, CAD vs RGBD rows, on {} (error = mean |error| / mean truth)",
@@ -436,7 +496,7 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
     let series = sizes
         .iter()
         .map(|size| luxnode::render::plot::Series {
-            name: format!("PATCH {size} M"),
+            name: format!("patch {size} m"),
             points: rows
                 .iter()
                 .filter(|r| r.0 == *size)
@@ -446,8 +506,8 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
         .collect();
     luxnode::render::plot::Plot {
         title: title.to_owned(),
-        x_label: "COMMISSIONING TIME (S, LOG)".into(),
-        y_label: "ERROR VS RADIANCE (%)".into(),
+        x_label: "commissioning time (s, log)".into(),
+        y_label: "error against Radiance (%)".into(),
         log_x: true,
         log_y: false,
         series,
@@ -455,15 +515,40 @@ pub(crate) fn tradeoff_plot(rows: &[(f64, f64, f64)], title: &str) -> luxnode::r
     .draw(900, 560)
 }
 
-/// `luxnode bench modbus-load`: many TCP clients polling the desk lux at once.
-fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> Result<()> {
+/// Connects from `local` to `addr`.
+async fn connect_from(
+    local: std::net::IpAddr,
+    addr: std::net::SocketAddr,
+) -> std::io::Result<tokio::net::TcpStream> {
+    let sock = tokio::net::TcpSocket::new_v4()?;
+    sock.bind(std::net::SocketAddr::new(local, 0))?;
+    sock.connect(addr).await
+}
+
+/// `luxnode bench modbus-load`: many TCP clients polling the desk lux at once, from several
+/// BMS hosts, with the server's default caps; optionally while an attacker parks idle sockets.
+fn modbus_load(
+    image: &Path,
+    clients: usize,
+    seconds: f64,
+    interval_ms: u64,
+    hosts: u8,
+    idle_attack: usize,
+) -> Result<()> {
     use luxnode::modbus::node::{NodeOptions, lock};
     use luxnode::modbus::tcp::{self, TcpCounters};
+    use std::sync::atomic::Ordering;
     use std::sync::{Arc, Mutex};
     use tokio_modbus::client::Reader;
 
     if clients == 0 || clients > 10_000 {
         bail!("--clients {clients}: 1..=10000");
+    }
+    if hosts == 0 || hosts > 200 {
+        bail!("--hosts {hosts}: 1..=200");
+    }
+    if idle_attack > 10_000 {
+        bail!("--idle-attack {idle_attack}: at most 10000");
     }
     let run_for = duration_s("--seconds", seconds)?;
     let node = luxnode::serve::load_node(
@@ -480,7 +565,10 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         .enable_all()
         .build()?;
     let rss_before = luxnode::host::rss_kib();
-    let (lat, errors, counters) = rt.block_on(async {
+    let options = TcpOptions::default();
+    let caps = (options.max_connections, options.max_per_source);
+    let options_evictable = options.evictable_after;
+    let (lat, errors, counters, parked) = rt.block_on(async {
         let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
         let listener = tcp::bind("127.0.0.1:0".parse()?).await?;
         let addr = listener.local_addr()?;
@@ -488,22 +576,33 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         let server = tokio::spawn(tcp::serve(
             listener,
             node.clone(),
-            TcpOptions {
-                max_connections: clients + 8,
-                idle_timeout: Duration::from_secs(60),
-            },
+            options,
             counters.clone(),
             stop_rx,
+            None,
         ));
+        // the attacker: sockets that connect and never speak
+        let mut parked = Vec::new();
+        for _ in 0..idle_attack {
+            if let Ok(s) = connect_from([127, 0, 0, 2].into(), addr).await {
+                parked.push(s);
+            }
+        }
+        // the attacker parked its sockets before the BMS came (long enough to be idle)
+        if idle_attack > 0 {
+            tokio::time::sleep(options_evictable + Duration::from_millis(500)).await;
+        }
         let deadline = tokio::time::Instant::now() + run_for;
         let mut tasks = Vec::with_capacity(clients);
         for k in 0..clients {
+            let host = std::net::IpAddr::from([127, 0, 1, 1 + (k % usize::from(hosts)) as u8]);
             tasks.push(tokio::spawn(async move {
                 let mut lat_us: Vec<u32> = Vec::new();
                 let mut errors = 0u64;
-                let Ok(mut c) = tokio_modbus::client::tcp::connect(addr).await else {
+                let Ok(stream) = connect_from(host, addr).await else {
                     return (lat_us, 1);
                 };
+                let mut c = tokio_modbus::client::tcp::attach(stream);
                 // spread the clients' phases over the interval
                 if interval_ms > 0 {
                     let phase = interval_ms * k as u64 / clients as u64;
@@ -533,9 +632,10 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
             all.extend(l);
             errors += e;
         }
+        let parked = parked.len();
         let _ = stop_tx.send(true);
         let _ = server.await;
-        anyhow::Ok((all, errors, counters))
+        anyhow::Ok((all, errors, counters, parked))
     })?;
     let rss_after = luxnode::host::rss_kib();
     let mut lat = lat;
@@ -547,13 +647,15 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         let i = ((lat.len() as f64 - 1.0) * p).round() as usize;
         f64::from(lat[i]) / 1000.0
     };
-    let accepted = counters.accepted.load(std::sync::atomic::Ordering::Relaxed);
+    let accepted = counters.accepted.load(Ordering::Relaxed);
     println!(
-        "| clients | poll interval | duration | requests | requests/s | p50 | p99 | p99.9 | max | errors | connections | RSS |"
+        "| clients (hosts) | idle sockets opened by the attacker | caps | poll interval | duration | requests | requests/s | p50 | p99 | p99.9 | max | errors | refused | evicted | RSS |"
     );
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     println!(
-        "| {clients} | {} | {seconds:.0} s | {} | {:.0} | {:.2} ms | {:.2} ms | {:.2} ms | {:.2} ms | {errors} | {accepted} | {} → {} KiB |",
+        "| {clients} ({hosts}) | {parked} | {} / {} per host | {} | {seconds:.0} s | {} | {:.0} | {:.2} ms | {:.2} ms | {:.2} ms | {:.2} ms | {errors} | {} | {} | {} → {} KiB |",
+        caps.0,
+        caps.1,
         if interval_ms == 0 {
             "back to back".to_string()
         } else {
@@ -565,10 +667,12 @@ fn modbus_load(image: &Path, clients: usize, seconds: f64, interval_ms: u64) -> 
         pct(0.99),
         pct(0.999),
         pct(1.0),
+        counters.refused.load(Ordering::Relaxed),
+        counters.evicted.load(Ordering::Relaxed),
         rss_before.map_or("?".into(), |v| v.to_string()),
         rss_after.map_or("?".into(), |v| v.to_string()),
     );
-    let _ = lock(&node).desks();
+    let _ = (accepted, lock(&node).desks());
     Ok(())
 }
 
@@ -591,6 +695,288 @@ fn fuzz(frames: u64, seed: u64) -> Result<()> {
         r.silent,
         r.rtu_answered,
         r.rtu_silent
+    );
+    Ok(())
+}
+
+/// `luxnode bench control-day`.
+fn control_day(
+    image: &Path,
+    daylight: &Path,
+    target: f64,
+    occupied_h: (f64, f64),
+    plot: Option<&Path>,
+) -> Result<()> {
+    use luxnode::bench::control_day::{read_series, run};
+    if !(target.is_finite() && (0.0..=1e5).contains(&target)) {
+        bail!("--target {target}: lux within 0..=1e5");
+    }
+    if !((0.0..24.0).contains(&occupied_h.0) && occupied_h.0 < occupied_h.1 && occupied_h.1 <= 24.0)
+    {
+        bail!("occupied hours {occupied_h:?}: 0 <= from < to <= 24");
+    }
+    let bytes = read_image_file(image)?;
+    let img = Image::parse(&bytes)?;
+    let ids: Vec<u32> = (0..img.sensors()).map(|k| img.sensor_id(k)).collect();
+    let series = read_series(daylight, &ids)?;
+    let power: Vec<luxnode::control::LuminairePower> = (0..img.luminaires())
+        .map(|j| {
+            luxnode::control::LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j))
+        })
+        .collect();
+    let targets = vec![target; ids.len()];
+    let (rows, t) = run(&img, &power, &targets, &series, occupied_h)?;
+    println!(
+        "# energy over a day: {} ({} desks, {} luminaires), target {target} lx, occupied {:.1}-{:.1} h, daylight {}",
+        img.payload.scene_name,
+        ids.len(),
+        img.luminaires(),
+        occupied_h.0,
+        occupied_h.1,
+        daylight.display()
+    );
+    println!(
+        "| time (h) | mean daylight (lx) | all on (W) | one photocell (W) | least power (W) | desks short (photocell / least power) |"
+    );
+    println!("|---:|---:|---:|---:|---:|---|");
+    for r in &rows {
+        println!(
+            "| {:.2} | {:.0} | {:.0} | {:.0} | {:.0} | {} / {} |",
+            r.time_h,
+            r.mean_daylight_lx,
+            r.all_on_w,
+            r.photocell_w,
+            r.optimised_w,
+            r.short.0,
+            r.short.1
+        );
+    }
+    let saved = |kwh: f64| 100.0 * (1.0 - kwh / t.all_on_kwh.max(1e-12));
+    println!();
+    println!(
+        "| controller | energy over {:.1} h (kWh) | saved against all on |",
+        t.hours
+    );
+    println!("|---|---:|---:|");
+    println!("| all on | {:.3} | 0 % |", t.all_on_kwh);
+    println!(
+        "| one photocell | {:.3} | {:.1} % |",
+        t.photocell_kwh,
+        saved(t.photocell_kwh)
+    );
+    println!(
+        "| least power | {:.3} | {:.1} % |",
+        t.optimised_kwh,
+        saved(t.optimised_kwh)
+    );
+    if let Some(path) = plot {
+        use luxnode::render::plot::{Plot, Series};
+        let series = [
+            (
+                "all on",
+                rows.iter()
+                    .map(|r| (r.time_h, r.all_on_w))
+                    .collect::<Vec<_>>(),
+            ),
+            (
+                "one photocell",
+                rows.iter().map(|r| (r.time_h, r.photocell_w)).collect(),
+            ),
+            (
+                "least power",
+                rows.iter().map(|r| (r.time_h, r.optimised_w)).collect(),
+            ),
+        ]
+        .into_iter()
+        .map(|(name, points)| Series {
+            name: name.into(),
+            points,
+        })
+        .collect();
+        Plot {
+            title: "Power over the day".into(),
+            x_label: "time (h)".into(),
+            y_label: "power (W)".into(),
+            log_x: false,
+            log_y: false,
+            series,
+        }
+        .draw(900, 560)
+        .save_png(path)
+        .with_context(|| format!("writing {}", path.display()))?;
+        println!("\nplot: {}", path.display());
+    }
+    Ok(())
+}
+
+/// `luxnode bench dense`.
+fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
+    use luxnode::bench::dense as bd;
+    use luxnode::engine::dense::{DenseField, DenseSettings};
+    use luxnode::host::{cpu_seconds, load_average};
+    use std::time::Instant;
+    let scene = load_scene(dir, &LoadOptions::default())?;
+    let truth = bd::read_truth_dense(&dir.join("truth_dense.csv"))?;
+    let capture = capture.map_or_else(|| dir.join("capture_clean"), Path::to_path_buf);
+    let cam_truth = bd::read_camera_truth(&capture)?;
+    let model = luxnode::engine::compute_model(&scene, &Settings::default())?;
+    let cam = scene.camera.as_ref().context("the scene has no camera")?;
+    let all_on = vec![1.0; model.luminaires()];
+    println!(
+        "# dense illuminance: {} ({} patches), load average {}",
+        scene.name,
+        model.patches.len(),
+        load_average().unwrap_or_default()
+    );
+    // (wall, cpu) of a stage
+    let timed = |f: &mut dyn FnMut() -> Result<()>| -> Result<(Duration, f64)> {
+        let (t0, c0) = (Instant::now(), cpu_seconds().unwrap_or(0.0));
+        f()?;
+        Ok((t0.elapsed(), cpu_seconds().unwrap_or(0.0) - c0))
+    };
+    let mut times: Vec<[(Duration, f64); 3]> = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let mut field = None;
+        let t_field = timed(&mut || {
+            field = Some(DenseField::from_model(
+                &model,
+                &scene.luminaires,
+                DenseSettings::default(),
+            )?);
+            Ok(())
+        })?;
+        let field = field.context("no field")?;
+        let mut grid = Vec::new();
+        let t_grid = timed(&mut || {
+            let pts = bd::truth_surface_points(&field, &truth);
+            grid = field.points(&pts).lux(&all_on)?;
+            Ok(())
+        })?;
+        let mut view = None;
+        let t_image = timed(&mut || {
+            let img = field.camera_view(cam)?;
+            let lux = img.lux(&all_on)?;
+            view = Some((img, lux));
+            Ok(())
+        })?;
+        times.push([t_field, t_grid, t_image]);
+        last = Some((grid, view.context("no view")?));
+    }
+    let (grid_lux, (img, img_lux)) = last.context("no run")?;
+    // the whole report of the image of this model
+    let bytes = luxnode::image_build::build_image(
+        &model,
+        &luxnode::image_build::ImageOptions {
+            scene_name: scene.name.clone(),
+            geometry: Some(luxnode::image_geometry::section_of(
+                &scene,
+                &model,
+                &luxnode::image_geometry::CommissionRecord::default(),
+            )),
+            ..Default::default()
+        },
+    )?;
+    let image = Image::parse(&bytes)?;
+    let ids: Vec<u32> = model.luminaire_ids.clone();
+    let states: Vec<luxnode::render::report::NamedState> =
+        std::iter::once(luxnode::render::report::NamedState {
+            name: "all on".into(),
+            levels: vec![1.0; ids.len()],
+        })
+        .chain((0..ids.len()).map(|j| {
+            luxnode::render::report::NamedState {
+                name: format!("luminaire {} alone", ids[j]),
+                levels: (0..ids.len())
+                    .map(|k| if k == j { 1.0 } else { 0.0 })
+                    .collect(),
+            }
+        }))
+        .collect();
+    let mut t_report = Vec::new();
+    for _ in 0..runs.max(1) {
+        t_report.push(timed(&mut || {
+            let r = luxnode::render::report::compute(
+                &image,
+                &luxnode::render::report::ReportOptions {
+                    states: states.clone(),
+                    ..Default::default()
+                },
+            )?;
+            let _ = luxnode::render::report::html(&r);
+            Ok(())
+        })?);
+    }
+    let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
+    println!();
+    println!("| desk grid (truth_dense.csv, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| points | {} | |", truth.len());
+    println!(
+        "| mean abs error / mean lux | {:.2} % | ≤ 1 % |",
+        100.0 * g.mean_abs_error
+    );
+    println!(
+        "| bias (mean computed / mean true − 1) | {:+.2} % | |",
+        100.0 * g.mean_bias
+    );
+    println!("| worst point | {:.2} % | |", 100.0 * g.worst_point);
+    let worst_u0 = g
+        .desks
+        .iter()
+        .map(|(_, t, c)| (c.u0 - t.u0).abs())
+        .fold(0.0, f64::max);
+    println!("| worst ΔU0 over the desks | {worst_u0:.3} | ≤ 0.02 |");
+    println!();
+    println!("| desk | Ē truth (lx) | Ē (lx) | U0 truth | U0 | ΔU0 |");
+    println!("|---:|---:|---:|---:|---:|---:|");
+    for (id, t, c) in &g.desks {
+        println!(
+            "| {id} | {:.0} | {:.0} | {:.3} | {:.3} | {:+.3} |",
+            t.e_mean_lx,
+            c.e_mean_lx,
+            t.u0,
+            c.u0,
+            c.u0 - t.u0
+        );
+    }
+    let p = bd::compare_pixels(&cam_truth, &img, &img_lux).context("pixel comparison")?;
+    println!();
+    println!("| camera view (π L / ρ, inner desk pixels, all on) | value | target |");
+    println!("|---|---:|---:|");
+    println!("| pixels | {} | |", p.pixels);
+    println!("| median abs error | {:.2} % | ≤ 3 % |", 100.0 * p.median);
+    println!("| 90th percentile | {:.2} % | |", 100.0 * p.p90);
+    println!("| bias | {:+.2} % | |", 100.0 * p.bias);
+    println!();
+    println!(
+        "| stage, median of {} runs | wall (ms) | CPU (ms, both cores) |",
+        runs.max(1)
+    );
+    println!("|---|---:|---:|");
+    let names = [
+        "field (BVH, vertex interreflection)".to_string(),
+        format!("desk grid, {} points", truth.len()),
+        format!("camera view, {} pixels", img.pixels.len()),
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let wall = bench::median(times.iter().map(|t| t[k].0).collect());
+        let mut cpu: Vec<f64> = times.iter().map(|t| t[k].1).collect();
+        cpu.sort_by(f64::total_cmp);
+        println!(
+            "| {name} | {:.0} | {:.0} |",
+            wall.as_secs_f64() * 1e3,
+            cpu[cpu.len() / 2] * 1e3
+        );
+    }
+    let wall = bench::median(t_report.iter().map(|t| t.0).collect());
+    let mut cpu: Vec<f64> = t_report.iter().map(|t| t.1).collect();
+    cpu.sort_by(f64::total_cmp);
+    println!(
+        "| report of the image ({} states: rebuild, grids, plan, camera views, HTML) | {:.0} | {:.0} |",
+        states.len(),
+        wall.as_secs_f64() * 1e3,
+        cpu[cpu.len() / 2] * 1e3
     );
     Ok(())
 }

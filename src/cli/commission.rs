@@ -203,6 +203,7 @@ pub fn run(a: &Args) -> Result<()> {
         prune_below: st.prune_below,
         scene_name: c.scene.name.clone(),
         sensor_flags: flags.clone(),
+        geometry: None,
     };
     let bytes = build_for_region(&c.model, &options, formfactors_region_bytes())?;
     let image = Image::parse(&bytes)?;

@@ -31,6 +31,14 @@ pub enum Command {
         engine: EngineArgs,
         #[command(flatten)]
         store: StoreArgs,
+        /// Leave out the geometry section (patch corners, camera, desks, luminaires with their
+        /// photometry) that `luxnode report` needs: a smaller image for the run time only.
+        #[arg(long)]
+        no_geometry: bool,
+        /// The installation's maintenance factor, recorded for reports (EN 12464-1 maintained
+        /// values).
+        #[arg(long, default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
+        maintenance_factor: f64,
     },
     /// Print an image's header, sections and FORMFACTORS usage; verify its checksums.
     Info {
@@ -61,7 +69,16 @@ pub fn run(command: &Command) -> Result<()> {
             out,
             engine,
             store,
-        } => build(scene, load, out, engine, store),
+            no_geometry,
+            maintenance_factor,
+        } => build(
+            scene,
+            load,
+            out,
+            engine,
+            store,
+            (!*no_geometry).then_some(*maintenance_factor),
+        ),
         Command::Eval {
             file,
             arc,
@@ -77,12 +94,25 @@ fn build(
     out: &std::path::Path,
     engine: &EngineArgs,
     store: &StoreArgs,
+    geometry_mf: Option<f64>,
 ) -> Result<()> {
+    if let Some(mf) = geometry_mf {
+        luxnode::en12464::check_maintenance_factor(mf)?;
+    }
     let sc = if scene.as_os_str() == "demo-office" {
         demo_office()?
     } else {
         load_scene(scene, &load.options())?
     };
+    // refused before any work: what the node could not serve
+    let limits = luxnode::image_build::served_limits(sc.sensors.len(), sc.luminaires.len());
+    if !limits.is_empty() {
+        anyhow::bail!(
+            "scene {}: the node cannot serve it: {}",
+            sc.name,
+            limits.join("; ")
+        );
+    }
     let t0 = std::time::Instant::now();
     let model = luxnode::engine::compute_model(&sc, &engine.settings())?;
     let st = store.store(engine.preset);
@@ -91,6 +121,17 @@ fn build(
         prune_below: st.prune_below,
         scene_name: sc.name.clone(),
         sensor_flags: Vec::new(),
+        geometry: geometry_mf.map(|mf| {
+            luxnode::image_geometry::section_of(
+                &sc,
+                &model,
+                &luxnode::image_geometry::CommissionRecord {
+                    preset: engine.preset.name().into(),
+                    maintenance_factor: mf,
+                    ..Default::default()
+                },
+            )
+        }),
     };
     let region = formfactors_region_bytes();
     let bytes = build_for_region(&model, &options, region)?;

@@ -11,6 +11,8 @@ pub mod image;
 pub mod logging;
 pub mod modbus;
 pub mod photometry;
+#[cfg(feature = "report")]
+pub mod report;
 pub mod run;
 pub mod scene;
 pub mod simulate;

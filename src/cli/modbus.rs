@@ -24,9 +24,19 @@ pub struct ServeArgs {
     /// 127.0.0.1:1502].
     #[arg(long)]
     pub bind: Option<SocketAddr>,
-    /// Most TCP connections at once [default: the board's, or 16].
+    /// Most TCP connections at once [default: the board's, or 128].
     #[arg(long)]
     pub max_connections: Option<usize>,
+    /// Most TCP connections from one address [default: the board's, or 64].
+    #[arg(long)]
+    pub max_per_source: Option<usize>,
+    /// Allow writes from these sources (IP, ADDR/PREFIX, "rtu", "tls", "role:NAME"; repeat or
+    /// comma-separate) [default: the board's write_allow, or nobody: read-only].
+    #[arg(long, value_delimiter = ',')]
+    pub allow_writes_from: Vec<String>,
+    /// Persist the settings clients write (word orders, dimming curve) in this JSON file.
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
     /// Close a TCP connection silent for this long, s [default: the board's, or 60].
     #[arg(long)]
     pub idle_timeout_s: Option<f64>,
@@ -113,7 +123,18 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
     let max_connections = args
         .max_connections
         .or(bm.map(|m| m.max_connections))
-        .unwrap_or(16);
+        .unwrap_or(TcpOptions::default().max_connections);
+    let max_per_source = args
+        .max_per_source
+        .or(bm.map(|m| m.max_per_source))
+        .unwrap_or(TcpOptions::default().max_per_source)
+        .min(max_connections);
+    let mut access = bm.map(|m| m.access.clone()).unwrap_or_default();
+    if !args.allow_writes_from.is_empty() {
+        access = access
+            .with_writers(&args.allow_writes_from)
+            .context("--allow-writes-from")?;
+    }
     let idle_timeout = match (args.idle_timeout_s, bm) {
         (Some(s), _) => duration_s("--idle-timeout-s", s)?,
         (None, Some(m)) => m.idle_timeout,
@@ -124,8 +145,8 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
     {
         bail!("--arc {a}: arc levels are 0..=254");
     }
-    if max_connections == 0 {
-        bail!("--max-connections must be at least 1");
+    if max_connections == 0 || max_per_source == 0 {
+        bail!("--max-connections and --max-per-source must be at least 1");
     }
     luxnode::serve::serve(
         &args.image,
@@ -133,10 +154,19 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
             bind,
             tcp: TcpOptions {
                 max_connections,
+                max_per_source,
                 idle_timeout,
+                ..TcpOptions::default()
             },
+            tls: bm.and_then(|m| m.tls.clone()),
             rtu,
             gateway,
+            access,
+            settings_path: args.settings.clone(),
+            control: board
+                .as_ref()
+                .map(|b| b.control.clone())
+                .unwrap_or_default(),
             model_name: board.map_or("luxnode serve".into(), |b| b.name),
             initial_arc: args.arc,
             run_for: args

@@ -13,7 +13,7 @@ use luxnode::camera::{DepthCamera, LightControl, LuminanceCamera, SequenceOption
 use luxnode::commission::CommissionOptions;
 use luxnode::daemon::source::CameraSource;
 use luxnode::daemon::{
-    self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, Unavailable,
+    self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, SensorProbe, Unavailable,
 };
 use luxnode::image_build::ImageOptions;
 use luxnode::modbus::gateway::GatewayWriter;
@@ -160,7 +160,7 @@ fn commission_source(
     scene: Scene,
     image: ImageOptions,
     cad: bool,
-    report_png: PathBuf,
+    report: luxnode::daemon::source::ReportTarget,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
     if cad {
@@ -168,6 +168,7 @@ fn commission_source(
             scene,
             settings: preset.engine(),
             image,
+            report,
         }));
     }
     let commission = CommissionOptions {
@@ -251,7 +252,7 @@ fn commission_source(
         },
         commission,
         image,
-        report_png: Some(report_png),
+        report,
     }))
 }
 
@@ -278,7 +279,12 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         }
     };
     let (flash_path, capacity) = flash_config(&board, args)?;
-    let report = flash_path.with_file_name("commissioning-report.png");
+    // the commissioning report next to the flash: <flash dir>/commissioning-report/report.html
+    let report = luxnode::daemon::source::ReportTarget {
+        dir: Some(flash_path.with_file_name("commissioning-report")),
+        preset: board.preset.name().into(),
+        maintenance_factor: board.maintenance_factor,
+    };
     let mut source = commission_source(&board, scene, image, args.cad, report)?;
     let seconds = args
         .seconds
@@ -299,23 +305,29 @@ pub fn run(args: &Args) -> Result<ExitCode> {
     } else {
         None
     };
+    let settings_path = flash_path.with_extension("settings.json");
+    let serve = serve_options(&board, args.bind, seconds, Some(settings_path.clone()));
+    // SIGHUP: the board file again; its Modbus, gateway and access settings take effect
+    let board_path = args.board.clone();
+    let bind_arg = args.bind;
+    let reload: luxnode::serve::Reload = Box::new(move || {
+        let b = Board::load(&board_path).map_err(|e| e.to_string())?;
+        tracing::info!("reload: {} read", board_path.display());
+        Ok(serve_options(
+            &b,
+            bind_arg,
+            seconds,
+            Some(settings_path.clone()),
+        ))
+    });
     let config = DaemonConfig {
         board: board.name.clone(),
         flash_path,
-        serve: ServeOptions {
-            bind: bind(args.bind, m.bind),
-            tcp: TcpOptions {
-                max_connections: m.max_connections,
-                idle_timeout: m.idle_timeout,
-            },
-            rtu: m.rtu.clone(),
-            gateway: m.gateway.clone(),
-            model_name: board.name.clone(),
-            initial_arc: None,
-            run_for: seconds,
-        },
+        serve,
         companion,
         recommission: args.recommission,
+        reload: Some(reload),
+        sensor_probe: sensor_probe(&board),
     };
     match daemon::run(config, flash, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
@@ -325,6 +337,103 @@ pub fn run(args: &Args) -> Result<ExitCode> {
 
 fn bind(arg: Option<SocketAddr>, board: SocketAddr) -> SocketAddr {
     arg.unwrap_or(board)
+}
+
+/// The serving options of a board (`--bind` overrides its address).
+fn serve_options(
+    board: &Board,
+    bind_arg: Option<SocketAddr>,
+    seconds: Option<Duration>,
+    settings_path: Option<PathBuf>,
+) -> ServeOptions {
+    let m = &board.modbus;
+    ServeOptions {
+        bind: bind(bind_arg, m.bind),
+        tcp: TcpOptions {
+            max_connections: m.max_connections,
+            max_per_source: m.max_per_source,
+            idle_timeout: m.idle_timeout,
+            ..TcpOptions::default()
+        },
+        tls: m.tls.clone(),
+        rtu: m.rtu.clone(),
+        gateway: m.gateway.clone(),
+        model_name: board.name.clone(),
+        initial_arc: None,
+        run_for: seconds,
+        access: m.access.clone(),
+        settings_path,
+        control: board.control.clone(),
+    }
+}
+
+/// The sensors' health check while serving: simulated cameras take a frame (through their
+/// fault injector, so an injected disconnect shows); hardware cameras must still be there
+/// (their device nodes open); a recorded capture has nothing to check.
+fn sensor_probe(board: &Board) -> Option<SensorProbe> {
+    let every = board.sensor_check;
+    match &board.camera {
+        #[cfg(feature = "sim")]
+        CameraBoard::Sim { depth, faults, .. } => {
+            use luxnode::camera::FaultInjector;
+            use luxnode::sim::camera::{SimWorld, world_settings};
+            let (scene_source, depth, faults) =
+                (board.scene.clone(), depth.clone(), faults.clone());
+            // the simulated camera is built at the first check (on the probe's thread), not
+            // before the node serves
+            let mut cam: Option<Box<dyn DepthCamera>> = None;
+            Some(SensorProbe {
+                every,
+                probe: Box::new(move || {
+                    if cam.is_none() {
+                        let scene = match &scene_source {
+                            SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
+                            SceneSource::Directory(dir) => {
+                                luxnode::scene::Scene::load(dir, &Default::default())
+                                    .map_err(|e| e.to_string())?
+                            }
+                        };
+                        let world =
+                            SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                        let c = world
+                            .depth_camera(depth.clone())
+                            .map_err(|e| e.to_string())?;
+                        cam = Some(match &faults {
+                            Some(f) => Box::new(
+                                FaultInjector::new(c, f.clone(), "simulated ToF camera")
+                                    .map_err(|e| e.to_string())?,
+                            ),
+                            None => Box::new(c),
+                        });
+                    }
+                    let Some(c) = cam.as_mut() else {
+                        return Err("no camera".into());
+                    };
+                    c.capture_depth()
+                        .map(|_| ())
+                        .map_err(|e| format!("ToF camera: {e}"))
+                }),
+            })
+        }
+        CameraBoard::Replay { .. } => None,
+        CameraBoard::Hardware { tof, colour } => {
+            let luxnode::board::camera::TofBoard::A010 { device: tof, .. } = tof;
+            let luxnode::board::camera::ColourBoard::V4l2 { device: video, .. } = colour;
+            let devices = [tof.clone(), video.clone()];
+            Some(SensorProbe {
+                every,
+                probe: Box::new(move || {
+                    for d in &devices {
+                        std::fs::OpenOptions::new()
+                            .read(true)
+                            .open(d)
+                            .map_err(|e| format!("{d}: {e}"))?;
+                    }
+                    Ok(())
+                }),
+            })
+        }
+    }
 }
 
 #[cfg(feature = "sim")]

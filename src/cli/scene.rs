@@ -29,6 +29,18 @@ pub fn run(command: &Command) -> Result<ExitCode> {
     match Scene::load(dir, &load.options()) {
         Ok(scene) => {
             print!("{}", scene.summary());
+            let limits =
+                luxnode::image_build::served_limits(scene.sensors.len(), scene.luminaires.len());
+            if !limits.is_empty() {
+                for l in &limits {
+                    eprintln!("error: {l}");
+                }
+                eprintln!(
+                    "scene {}: valid as a scene, but the node cannot serve it",
+                    scene.name
+                );
+                return Ok(ExitCode::FAILURE);
+            }
             println!("OK: scene {} is valid", scene.name);
             Ok(ExitCode::SUCCESS)
         }

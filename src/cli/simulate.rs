@@ -157,11 +157,11 @@ fn draw_map(
     let levels = sc.levels(&model.luminaire_ids);
     let opts = luxnode::render::map::MapOptions {
         cell_m: a.map_cell,
-        title: format!("{} - SCENARIO {} - ILLUMINANCE", scene.name, sc.id),
+        title: format!("{}: scenario {}, illuminance", scene.name, sc.id),
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
-    let view = luxnode::render::map::compute(scene, model, &levels, &opts);
+    let view = luxnode::render::map::compute(scene, model, &levels, &opts)?;
     luxnode::render::map::draw(scene, &view, &opts)
         .save_png(path)
         .with_context(|| format!("writing {}", path.display()))?;

@@ -156,18 +156,18 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
         if let Some(d) = out_dir {
             let range = (0.0625, 4.0);
             for (model, name, what) in [
-                (&adaptive, format!("patches-{preset}.png"), "ADAPTIVE"),
-                (&uniform, format!("patches-{preset}-uniform.png"), "UNIFORM"),
+                (&adaptive, format!("patches-{preset}.png"), "adaptive"),
+                (&uniform, format!("patches-{preset}-uniform.png"), "uniform"),
             ] {
                 let path = d.join(name);
                 lp::layout_picture(
                     &sc,
                     model,
                     &format!(
-                        "{}: {} PATCHES, PRESET {} ({what})",
-                        sc.name.to_uppercase(),
+                        "{}: {} patches, preset {} ({what})",
+                        sc.name,
                         model.stats.patches,
-                        preset.name().to_uppercase()
+                        preset.name()
                     ),
                     range,
                 )

@@ -67,6 +67,58 @@ fn half_spacing(mut v: Vec<f64>) -> Option<f64> {
         .map(|s| 0.5 * s)
 }
 
+/// The largest room the node models: 200 m a side, 50 m floor to ceiling.
+pub const MAX_ROOM_SIDE_M: f64 = 200.0;
+/// The largest ceiling height above the floor, m.
+pub const MAX_ROOM_HEIGHT_M: f64 = 50.0;
+/// The most quads the closure may add (walls, ceiling): bounds the work of a huge box.
+pub const MAX_CLOSURE_QUADS: usize = 200_000;
+
+impl RoomBox {
+    /// Checks the box before any work is spent on it: finite, at most [`MAX_ROOM_SIDE_M`] a
+    /// side and [`MAX_ROOM_HEIGHT_M`] high, and the camera inside it (a camera outside the room,
+    /// or depth that puts the room kilometres away, is a configuration error, not a room).
+    pub fn check(&self, camera_m: DVec3) -> Result<(), String> {
+        let [x0, y0, x1, y1] = self.xy_m;
+        let (z0, z1) = (self.floor_z_m, self.ceiling_z_m);
+        if ![x0, y0, x1, y1, z0, z1].iter().all(|v| v.is_finite()) {
+            return Err("the room box is not finite".into());
+        }
+        let (dx, dy, dz) = (x1 - x0, y1 - y0, z1 - z0);
+        if dx > MAX_ROOM_SIDE_M || dy > MAX_ROOM_SIDE_M || dz > MAX_ROOM_HEIGHT_M {
+            return Err(format!(
+                "the inferred room is {dx:.0} x {dy:.0} x {dz:.0} m, more than {MAX_ROOM_SIDE_M} \
+                 m a side or {MAX_ROOM_HEIGHT_M} m high: check the camera calibration (focal \
+                 length, principal point, pose) and the luminaire positions"
+            ));
+        }
+        let margin = 1.0;
+        let inside = camera_m.x >= x0 - margin
+            && camera_m.x <= x1 + margin
+            && camera_m.y >= y0 - margin
+            && camera_m.y <= y1 + margin
+            && camera_m.z >= z0 - margin
+            && camera_m.z <= z1 + margin;
+        if !inside {
+            return Err(format!(
+                "the camera at ({:.2}, {:.2}, {:.2}) m is outside the room ({x0:.2}..{x1:.2}, \
+                 {y0:.2}..{y1:.2}, {z0:.2}..{z1:.2} m): check its pose in camera.json",
+                camera_m.x, camera_m.y, camera_m.z
+            ));
+        }
+        Ok(())
+    }
+
+    /// Quads the closure of this box adds with tiles of at most `patch_size_m`.
+    pub fn closure_quads(&self, patch_size_m: f64) -> f64 {
+        let [x0, y0, x1, y1] = self.xy_m;
+        let s = patch_size_m.max(0.05);
+        let n = |len: f64| (len / s).ceil().max(1.0);
+        let (nx, ny, nz) = (n(x1 - x0), n(y1 - y0), n(self.ceiling_z_m - self.floor_z_m));
+        2.0 * nx * nz + 2.0 * ny * nz + nx * ny
+    }
+}
+
 /// Infers the room box.
 pub fn room_box(
     seen_m: &[DVec3],

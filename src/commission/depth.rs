@@ -24,6 +24,9 @@ pub struct DepthOptions {
     pub edge_rel: f64,
     /// Fewest agreeing neighbours (of 8) a pixel needs to be kept.
     pub min_agreeing: usize,
+    /// Depths beyond this are no return (a ToF camera's saturated or overflowing pixels, such
+    /// as 65535 mm): treated as dropouts, never as a far wall.
+    pub max_depth_m: f64,
 }
 
 impl Default for DepthOptions {
@@ -31,6 +34,7 @@ impl Default for DepthOptions {
         Self {
             edge_rel: 0.03,
             min_agreeing: 3,
+            max_depth_m: 20.0,
         }
     }
 }
@@ -118,7 +122,12 @@ pub fn fuse(frames: &[Frame], options: &DepthOptions) -> Result<DepthMap, Commis
     let mut buf = Vec::with_capacity(frames.len());
     for (i, zi) in z.iter_mut().enumerate() {
         buf.clear();
-        buf.extend(frames.iter().map(|f| f.data[i]).filter(|&d| d > 0));
+        buf.extend(
+            frames
+                .iter()
+                .map(|f| f.data[i])
+                .filter(|&d| d > 0 && f64::from(d) * 1e-3 <= options.max_depth_m),
+        );
         if buf.len() < need {
             stats.dropouts += 1;
             continue;
@@ -177,8 +186,9 @@ pub fn fuse(frames: &[Frame], options: &DepthOptions) -> Result<DepthMap, Commis
     stats.valid = z.iter().filter(|v| v.is_finite()).count();
     if (stats.valid as f64) < 0.01 * n as f64 {
         return Err(CommissionError::Input(format!(
-            "depth unusable: {} of {} pixels have a depth after cleaning (all zero or noise?)",
-            stats.valid, n
+            "depth unusable: {} of {} pixels have a depth after cleaning (all zero, beyond {} m, or \
+             noise?): the cameras see nothing of the room",
+            stats.valid, n, options.max_depth_m
         )));
     }
     Ok(DepthMap {

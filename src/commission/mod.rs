@@ -38,6 +38,11 @@ pub use mesh::{MeshOptions, Part, RecoMesh};
 pub use planes::{Plane, PlaneOptions};
 pub use reflectance::{Estimate, ReflectanceMethod, ReflectanceOptions};
 
+/// The least surface the cameras must see for an image to be written, m².
+pub const MIN_SEEN_AREA_M2: f64 = 1.0;
+/// The most triangles a commissioned mesh may have (bounds the engine's work and memory).
+pub const MAX_TRIANGLES: usize = 400_000;
+
 /// Why commissioning failed.
 #[derive(Debug, thiserror::Error)]
 pub enum CommissionError {
@@ -378,6 +383,13 @@ pub fn from_capture(
         ));
     }
     let cam = capture.camera.clone();
+    crate::scene::check_intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+        .map_err(|m| CommissionError::Input(format!("camera intrinsics: {m}")))?;
+    if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
+        return Err(CommissionError::Input(
+            "camera position: not finite or more than 10 km away".into(),
+        ));
+    }
 
     let st = Stage::start("depth", o.progress);
     let depth = depth::fuse(&capture.depth_mm, &o.depth)?;
@@ -411,6 +423,18 @@ pub fn from_capture(
         .closure
         .enabled
         .then(|| closure::room_box(&seen_pts, floor_z, &luminaires, &sensors, &o.closure));
+    if let Some(r) = &room {
+        // bounded work: a wrong calibration or pose never becomes a room of kilometres
+        r.check(cam.position_m).map_err(CommissionError::Input)?;
+        let quads = r.closure_quads(o.mesh.patch_size_m);
+        if quads > closure::MAX_CLOSURE_QUADS as f64 {
+            return Err(CommissionError::Input(format!(
+                "closing the room would take {quads:.0} quads (at most {}): a larger patch size \
+                 or a smaller room box",
+                closure::MAX_CLOSURE_QUADS
+            )));
+        }
+    }
     let mut reco = RecoMesh::default();
     let mut on_plane = vec![false; grid.points_m.len()];
     for (k, p) in found.iter().enumerate() {
@@ -456,6 +480,19 @@ pub fn from_capture(
         return Err(CommissionError::Input(
             "nothing to model: the mesh is empty".into(),
         ));
+    }
+    if report.seen_area_m2 < MIN_SEEN_AREA_M2 {
+        return Err(CommissionError::Input(format!(
+            "the cameras saw {:.2} m² of the room (at least {MIN_SEEN_AREA_M2} m² needed): \
+             commissioning that sees nothing refuses to write an image",
+            report.seen_area_m2
+        )));
+    }
+    if reco.tris.len() > MAX_TRIANGLES {
+        return Err(CommissionError::Input(format!(
+            "{} triangles to model (at most {MAX_TRIANGLES}): a larger patch size",
+            reco.tris.len()
+        )));
     }
     st.done(&mut report);
 

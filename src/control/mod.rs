@@ -546,3 +546,57 @@ fn uniform_after(r: &[f64], l: usize, lux: &[f64], j: usize, dx: f64, u: f64) ->
     let mean = (0..kd).map(after).sum::<f64>() / kd.max(1) as f64;
     (0..kd).all(|k| after(k) >= u * mean - 1e-9 * mean.abs().max(1.0))
 }
+
+/// The conventional controller the optimiser is compared with: one photocell for the room,
+/// every luminaire dimmed together to the lowest common arc level at which the darkest desk
+/// meets its target (all at full when none does). Writes the levels and the desk lux; returns
+/// the plan's power.
+pub fn photocell_plan(
+    plant: &Plant<'_>,
+    demand: &Demand<'_>,
+    out: PlanOut<'_>,
+) -> Result<PlanReport, ControlError> {
+    check(plant, demand, &out)?;
+    let (kd, l) = (plant.desks, plant.luminaires);
+    let min_arc = plant.power.iter().map(|p| p.min_arc).max().unwrap_or(1);
+    let lux_at = |a: ArcLevel, k: usize| -> f64 {
+        let x = fraction(a, plant.curve);
+        plant.response_lx[k * l..(k + 1) * l].iter().sum::<f64>() * x + demand.daylight_lx[k]
+    };
+    let meets = |a: ArcLevel| (0..kd).all(|k| lux_at(a, k) >= demand.target_lx[k] * (1.0 - 1e-9));
+    // light output grows with the level: the lowest level that meets every desk, by bisection
+    let level = if meets(ArcLevel::OFF) {
+        ArcLevel::OFF
+    } else if !meets(ArcLevel::MAX) {
+        ArcLevel::MAX
+    } else {
+        // levels below the minimum cannot be on: the minimum, or bisection above it
+        let (mut lo, mut hi) = (min_arc, 254u8);
+        if meets(ArcLevel(min_arc)) {
+            lo = min_arc;
+            hi = min_arc;
+        }
+        while hi > lo + 1 {
+            let mid = lo + (hi - lo) / 2;
+            if meets(ArcLevel(mid)) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        ArcLevel(hi)
+    };
+    out.arc.iter_mut().for_each(|a| *a = level);
+    for (k, e) in out.lux.iter_mut().enumerate() {
+        *e = lux_at(level, k);
+    }
+    let short = met(out.lux, demand, 1e-6 * DEFAULT_TARGET_LX, out.met);
+    let x = fraction(level, plant.curve);
+    Ok(PlanReport {
+        power_w: plant.power.iter().map(|p| p.power_w(x)).sum(),
+        all_on_w: plant.power.iter().map(|p| p.full_w).sum(),
+        lp_power_w: f64::NAN,
+        short,
+        iterations: 0,
+    })
+}

@@ -1,12 +1,13 @@
 //! The node: `luxnode run --board FILE`.
 //!
 //! ```text
-//! boot: flash (A/B slots) ── newest valid image ──────────────────────────────┐
-//!         │ none valid                                                       ▼
-//!         └─► commission (capture, mesh, reflectances, form factors) ─► write image ─► serve
-//! serve: Modbus TCP (+ RTU) over the image; dimming from the holding registers or the DALI
-//!        gateway; every change recomputed and published at once; systemd READY / WATCHDOG;
-//!        SIGTERM or Ctrl-C: clean shutdown.
+//! boot: flash (A/B slots) ── newest image that loads ─────────────────────────────┐
+//!         │ none loads              (parse, validate, register map; else the older slot) ▼
+//!         └─► commission ─► the same load path ─► write image (keeping the running one) ─► serve
+//! serve: Modbus TCP (+ TLS, RTU) over the image; dimming from the holding registers (writes
+//!        from the allowlist only) or the DALI gateway; every part supervised; systemd READY,
+//!        WATCHDOG only while every part is alive; SIGHUP reloads the board file, SIGUSR1 logs a
+//!        status report, SIGTERM or Ctrl-C: clean shutdown.
 //! ```
 //!
 //! First boot commissions through a [`CommissionSource`] (the board decides which: cameras, a
@@ -30,11 +31,12 @@ use std::time::{Duration, Instant};
 
 use crate::engine::EngineError;
 use crate::image_build::{BuildError, ImageOptions};
+use crate::modbus::health::Health;
 use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::modbus::regmap::Identity;
-use crate::serve::{ServeError, ServeOptions, serve_node, wait_for_stop};
+use crate::serve::{Reload, ServeError, ServeOptions, Signals, serve_node, wait_for_stop};
 use crate::store::devices::{DeviceError, FileFlash};
-use crate::store::file::{FileError, read_newest};
+use crate::store::file::{FileError, read_bootable};
 use crate::store::slots::{BootStatus, FlashDevice, SlotState, Slots, WriteError};
 use crate::store::{Image, ImageError};
 
@@ -118,6 +120,8 @@ pub struct CadSource {
     pub settings: crate::engine::Settings,
     /// Image settings.
     pub image: ImageOptions,
+    /// The commissioning record and where the report goes.
+    pub report: source::ReportTarget,
 }
 
 impl CommissionSource for CadSource {
@@ -132,16 +136,30 @@ impl CommissionSource for CadSource {
     }
 
     fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        check_served(self.scene.sensors.len(), self.scene.luminaires.len())?;
         let model = crate::engine::compute_model(&self.scene, &self.settings)?;
         let mut options = self.image.clone();
         if options.scene_name.is_empty() {
             options.scene_name = self.scene.name.clone();
         }
-        Ok(crate::image_build::build_for_region(
+        options.geometry = Some(self.report.section(&self.scene, &model));
+        let bytes = crate::image_build::build_for_region(
             &model,
             &options,
             crate::image_build::formfactors_region_bytes(),
-        )?)
+        )?;
+        self.report.write(&bytes);
+        Ok(bytes)
+    }
+}
+
+/// Refuses, before any work, a room the node could not serve.
+pub fn check_served(desks: usize, luminaires: usize) -> Result<(), SourceError> {
+    let limits = crate::image_build::served_limits(desks, luminaires);
+    if limits.is_empty() {
+        Ok(())
+    } else {
+        Err(SourceError::Build(BuildError::Served(limits.join("; "))))
     }
 }
 
@@ -163,6 +181,15 @@ impl CommissionSource for Unavailable {
 /// given the bound Modbus TCP address.
 pub type Companion = Box<dyn FnOnce(SocketAddr) -> Pin<Box<dyn Future<Output = ()> + Send>> + Send>;
 
+/// A health check of the sensors (cameras), run every `every` while the node serves: an error
+/// clears the "sensors healthy" status bit (and says why in the log); the next success sets it.
+pub struct SensorProbe {
+    /// Period.
+    pub every: Duration,
+    /// The check (blocking; runs on a blocking thread).
+    pub probe: Box<dyn FnMut() -> Result<(), String> + Send>,
+}
+
 /// Everything the daemon needs, resolved from the board file.
 pub struct DaemonConfig {
     /// Board name (device identification's model name).
@@ -175,6 +202,10 @@ pub struct DaemonConfig {
     pub companion: Option<(Companion, bool)>,
     /// Re-commission even if a valid image exists.
     pub recommission: bool,
+    /// Re-reads the configuration on SIGHUP.
+    pub reload: Option<Reload>,
+    /// The sensors' health check.
+    pub sensor_probe: Option<SensorProbe>,
 }
 
 /// How the daemon ended.
@@ -205,36 +236,68 @@ pub fn open_flash_file(path: &Path, capacity: usize) -> Result<FileFlash, Daemon
     FileFlash::open(path, capacity).map_err(flash)
 }
 
+/// An image the node can run.
+#[derive(Debug)]
+pub struct BootedImage {
+    /// Its bytes.
+    pub bytes: Vec<u8>,
+    /// Its generation.
+    pub generation: u64,
+    /// The slots as the CRCs saw them.
+    pub status: BootStatus,
+    /// The store is healthy: no slot damaged, none refused by the load path.
+    pub store_ok: bool,
+    /// The sensors were healthy (false: a re-commissioning failed on a camera and the node
+    /// runs its last good image).
+    pub sensors_ok: bool,
+}
+
 /// What [`boot`] found or made.
 #[derive(Debug)]
 pub enum Booted {
-    /// An image to serve: (bytes, generation, slot status).
-    Image(Vec<u8>, u64, BootStatus),
+    /// An image to serve.
+    Image(BootedImage),
     /// The simulated power failed during the image write.
     PowerCut,
 }
 
-/// Boots from `flash`: its newest valid image, or commissions and writes one.
+/// The whole load path's last step, given by the caller: the register map takes the image.
+pub type Accept<'a> = &'a mut dyn FnMut(&Image<'_>, u64) -> Result<(), String>;
+
+/// Boots from `flash`: the newest image that passes the whole load path (parse, validation,
+/// `accept`), falling back to the older slot; or commissions, checks the new image through the
+/// same path before writing it (an image the node would refuse is never written), writes it
+/// keeping the image it runs, and loads it back.
 pub fn boot<F>(
     flash: F,
     flash_path: &Path,
     source: &mut dyn CommissionSource,
     recommission: bool,
+    accept: Accept<'_>,
 ) -> Result<Booted, DaemonError>
 where
     F: FlashDevice<Error = DeviceError>,
 {
     let mut slots = Slots::new(flash);
-    let status = slots.boot();
+    let found = read_bootable(&mut slots, &mut *accept);
+    let status = found.status;
     tracing::info!(flash = %flash_path.display(), "boot: {status}");
-    if !recommission && let Some((bytes, generation)) = read_newest(&mut slots)? {
+    let store_ok = found.refused.is_empty() && !damaged(status.a) && !damaged(status.b);
+    let running = found.image.as_ref().map(|(_, slot, g)| (*slot, *g));
+    if !recommission && let Some((bytes, slot, generation)) = found.image {
         tracing::info!(
             generation,
             bytes = bytes.len(),
-            "boot: loaded image generation {generation} ({} bytes)",
+            "boot: loaded image generation {generation} ({} bytes) from slot {slot}",
             bytes.len()
         );
-        return Ok(Booted::Image(bytes, generation, status));
+        return Ok(Booted::Image(BootedImage {
+            bytes,
+            generation,
+            status,
+            store_ok,
+            sensors_ok: true,
+        }));
     }
     let from = source.describe();
     tracing::info!(
@@ -246,21 +309,53 @@ where
         }
     );
     let t0 = Instant::now();
-    let image = source
-        .commission()
-        .map_err(|source| DaemonError::Commission { from, source })?;
+    let image = match source.commission() {
+        Ok(i) => i,
+        Err(e) => {
+            // a failed re-commissioning never costs the node its last good image
+            if let Some((bytes, slot, generation)) = found.image {
+                let camera = matches!(e, SourceError::Capture(_));
+                tracing::error!(
+                    "commissioning from {from} failed: {e}; running the last good image \
+                     (generation {generation}, slot {slot}){}",
+                    if camera { "; sensors not healthy" } else { "" }
+                );
+                return Ok(Booted::Image(BootedImage {
+                    bytes,
+                    generation,
+                    status,
+                    store_ok,
+                    sensors_ok: !camera,
+                }));
+            }
+            return Err(DaemonError::Commission { from, source: e });
+        }
+    };
     tracing::info!(
         bytes = image.len(),
         "commissioned in {:.1} s: image of {} bytes",
         t0.elapsed().as_secs_f64(),
         image.len()
     );
-    match slots.write_image(&image) {
-        Ok(report) => tracing::info!(
-            "flash: image written to slot {} as generation {}, verified",
-            report.slot,
-            report.generation
-        ),
+    // the whole load path before anything is written
+    let next = running.map_or(1, |(_, g)| g.saturating_add(1));
+    let parsed = Image::parse(&image).map_err(|e| {
+        DaemonError::NotBootable(format!("the commissioned image does not parse: {e}"))
+    })?;
+    accept(&parsed, next).map_err(|e| {
+        DaemonError::NotBootable(format!(
+            "the commissioned image would not load: {e}; nothing written"
+        ))
+    })?;
+    let report = match slots.write_image_keeping(&image, running.map(|r| r.0)) {
+        Ok(report) => {
+            tracing::info!(
+                "flash: image written to slot {} as generation {}, verified",
+                report.slot,
+                report.generation
+            );
+            report
+        }
         Err(WriteError::Device(DeviceError::PowerCut)) => {
             tracing::error!(
                 "flash: POWER CUT during the image write (simulated); the node stops here"
@@ -273,12 +368,20 @@ where
                 reason: e.to_string(),
             });
         }
-    }
-    let status = slots.boot();
-    tracing::info!("boot: {status}");
-    match read_newest(&mut slots)? {
-        Some((bytes, generation)) => Ok(Booted::Image(bytes, generation, status)),
-        None => Err(DaemonError::NotBootable(status.to_string())),
+    };
+    let again = read_bootable(&mut slots, &mut *accept);
+    tracing::info!("boot: {}", again.status);
+    match again.image {
+        Some((bytes, slot, generation)) if slot == report.slot => Ok(Booted::Image(BootedImage {
+            bytes,
+            generation,
+            status: again.status,
+            store_ok: again.refused.is_empty()
+                && !damaged(again.status.a)
+                && !damaged(again.status.b),
+            sensors_ok: true,
+        })),
+        _ => Err(DaemonError::NotBootable(again.status.to_string())),
     }
 }
 
@@ -300,13 +403,14 @@ pub fn run<F>(
 where
     F: FlashDevice<Error = DeviceError>,
 {
-    let (bytes, generation, status) =
-        match boot(flash, &config.flash_path, source, config.recommission)? {
-            Booted::Image(b, g, s) => (b, g, s),
-            Booted::PowerCut => return Ok(Exit::PowerCut),
-        };
-    let image = Image::parse(&bytes)?;
-    let model = NodeModel::from_image(&image, generation);
+    // the runtime and the signal handlers first: a SIGHUP or SIGUSR1 during commissioning
+    // must not kill the node
+    let rt = crate::serve::runtime()?;
+    let signals = {
+        let _enter = rt.enter();
+        Signals::install().map_err(ServeError::Io)?
+    };
+    let health = Arc::new(Health::default());
     let mut identity = Identity::default();
     for c in config.board.chars() {
         if identity.model.push(c).is_err() {
@@ -314,25 +418,47 @@ where
         }
     }
     let _ = identity.application.push_str("commissioned room");
-    let mut node = Node::new(
-        model,
-        NodeOptions {
-            identity,
-            gateway_configured: config.serve.gateway.is_some(),
-            initial_arc: config.serve.initial_arc,
-        },
-    )?;
-    // store health: the other slot is erased (never written) or valid; a corrupt one is
-    // reported (the next commissioning overwrites it)
-    let other_bad = damaged(status.a) || damaged(status.b);
-    if other_bad {
-        tracing::warn!("store: one slot holds a damaged image; running from the other");
+    let options = NodeOptions {
+        identity,
+        gateway_configured: config.serve.gateway.is_some(),
+        initial_arc: config.serve.initial_arc,
+        policy: config.serve.access.clone(),
+        settings_path: config.serve.settings_path.clone(),
+        health: Some(health.clone()),
+        control: config.serve.control.clone(),
+    };
+    let mut accept = |image: &Image<'_>, generation: u64| -> Result<(), String> {
+        let probe = NodeOptions {
+            settings_path: None,
+            ..options.clone()
+        };
+        Node::new(NodeModel::from_image(image, generation), probe)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
+    let booted = match boot(
+        flash,
+        &config.flash_path,
+        source,
+        config.recommission,
+        &mut accept,
+    )? {
+        Booted::Image(b) => b,
+        Booted::PowerCut => return Ok(Exit::PowerCut),
+    };
+    let image = Image::parse(&booted.bytes)?;
+    let model = NodeModel::from_image(&image, booted.generation);
+    let mut node = Node::new(model, options)?;
+    if !booted.store_ok {
+        tracing::warn!("store: a slot holds a damaged or unloadable image; running from the other");
     }
-    node.set_store_ok(!other_bad);
+    node.set_store_ok(booted.store_ok);
+    node.set_sensors_ok(booted.sensors_ok);
     let node: SharedNode = Arc::new(Mutex::new(node));
-    let rt = crate::serve::runtime()?;
     let serve = config.serve;
     let companion = config.companion;
+    let reload = config.reload;
+    let probe = config.sensor_probe;
     rt.block_on(async move {
         let listener = crate::modbus::tcp::bind(serve.bind)
             .await
@@ -348,7 +474,8 @@ where
                 }
             })
         });
-        let watchdog = tokio::spawn(systemd::watchdog_loop());
+        let probe_task = probe.map(|p| tokio::spawn(sensor_probe_loop(p, node.clone())));
+        let watchdog = tokio::spawn(systemd::watchdog_loop(health.clone(), node.clone()));
         systemd::notify("READY=1");
         let stop = async move {
             tokio::select! {
@@ -357,9 +484,12 @@ where
             }
             systemd::notify("STOPPING=1");
         };
-        let r = serve_node(node.clone(), listener, serve, stop).await;
+        let r = serve_node(node.clone(), listener, serve, stop, reload, signals).await;
         watchdog.abort();
         if let Some(t) = companion_task {
+            t.abort();
+        }
+        if let Some(t) = probe_task {
             t.abort();
         }
         let n = lock(&node);
@@ -367,6 +497,27 @@ where
         r
     })?;
     Ok(Exit::Stopped)
+}
+
+/// Runs the sensor probe every period; its outcome sets the "sensors healthy" bit.
+async fn sensor_probe_loop(p: SensorProbe, node: SharedNode) {
+    let health = lock(&node).health().clone();
+    let beat = health.register("sensor probe", p.every * 2 + Duration::from_secs(60));
+    let probe = Arc::new(Mutex::new(p.probe));
+    let mut tick = tokio::time::interval(p.every);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        let probe = probe.clone();
+        let r = tokio::task::spawn_blocking(move || (lock(&probe))())
+            .await
+            .unwrap_or_else(|e| Err(format!("the probe failed: {e}")));
+        beat.beat();
+        if let Err(e) = &r {
+            tracing::warn!("sensor probe: {e}");
+        }
+        lock(&node).set_sensors_ok(r.is_ok());
+    }
 }
 
 /// How long a sim demo step lasts by default.

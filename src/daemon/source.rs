@@ -47,9 +47,76 @@ pub struct CameraSource {
     pub commission: CommissionOptions,
     /// Image.
     pub image: ImageOptions,
-    /// Where to write the commissioning report picture (camera view, false-colour lux, desks);
-    /// only with the `report` feature.
-    pub report_png: Option<std::path::PathBuf>,
+    /// The commissioning record and where to write the report (`report.html`, `results.json`;
+    /// written only with the `report` feature).
+    pub report: ReportTarget,
+}
+
+/// What the commissioning report records, and where it goes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReportTarget {
+    /// The directory for `report.html` and `results.json` (none: no report written).
+    pub dir: Option<std::path::PathBuf>,
+    /// The preset's name.
+    pub preset: String,
+    /// The installation's maintenance factor.
+    pub maintenance_factor: f64,
+}
+
+impl ReportTarget {
+    /// The image's geometry section for a commissioned scene and model (the report's input).
+    pub fn section(
+        &self,
+        scene: &crate::scene::Scene,
+        model: &crate::engine::Model,
+    ) -> crate::store::geometry::GeometrySection {
+        crate::image_geometry::section_of(
+            scene,
+            model,
+            &crate::image_geometry::CommissionRecord {
+                preset: self.preset.clone(),
+                maintenance_factor: self.maintenance_factor,
+                ..Default::default()
+            },
+        )
+    }
+
+    /// Writes the report of a built image, if there is a directory and the `report` feature; a
+    /// failure is logged, never fatal (a report is for people; the node serves without it).
+    pub fn write(&self, image_bytes: &[u8]) {
+        let Some(dir) = &self.dir else {
+            return;
+        };
+        #[cfg(feature = "report")]
+        {
+            let done = crate::store::Image::parse(image_bytes)
+                .map_err(|e| e.to_string())
+                .and_then(|image| {
+                    let r = crate::render::report::compute(
+                        &image,
+                        &crate::render::report::ReportOptions::default(),
+                    )
+                    .map_err(|e| e.to_string())?;
+                    crate::render::report::write(&r, dir).map_err(|e| e.to_string())?;
+                    Ok(r.results.seconds)
+                });
+            match done {
+                Ok(s) => tracing::info!(
+                    "commission: report {} ({s:.1} s)",
+                    dir.join("report.html").display()
+                ),
+                Err(e) => tracing::warn!("commission: report in {}: {e}", dir.display()),
+            }
+        }
+        #[cfg(not(feature = "report"))]
+        {
+            let _ = image_bytes;
+            tracing::info!(
+                "commission: no report in {} (a build without the report feature)",
+                dir.display()
+            );
+        }
+    }
 }
 
 impl CommissionSource for CameraSource {
@@ -63,6 +130,7 @@ impl CommissionSource for CameraSource {
     }
 
     fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        super::check_served(self.sensors.len(), self.luminaires.len())?;
         let ids: Vec<u32> = self.luminaires.iter().map(|l| l.id).collect();
         let t0 = Instant::now();
         let mut last = String::new();
@@ -116,19 +184,14 @@ impl CommissionSource for CameraSource {
             r.patches,
             r.warnings.len()
         );
-        #[cfg(feature = "report")]
-        if let Some(path) = &self.report_png {
-            match crate::render::camera_view::report_png(&c, path) {
-                Ok(()) => tracing::info!("commission: report picture {}", path.display()),
-                // a picture for people: its failure never stops the node
-                Err(e) => tracing::warn!("commission: report picture {}: {e}", path.display()),
-            }
-        }
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
+        options.geometry = Some(self.report.section(&c.scene, &c.model));
         let image = build_for_region(&c.model, &options, formfactors_region_bytes())?;
-        Ok(with_live_section(image, &c, &seq.capture))
+        let bytes = with_live_section(image, &c, &seq.capture);
+        self.report.write(&bytes);
+        Ok(bytes)
     }
 }
 

@@ -62,15 +62,62 @@ pub fn watchdog_period_from(usec: Option<&str>, pid: Option<&str>, me: u32) -> O
     (usec > 0).then(|| Duration::from_micros(usec))
 }
 
-/// Pets the watchdog at half its period, forever (abort the task to stop).
-pub async fn watchdog_loop() {
+/// Why the watchdog is not petted now (`None`: every part is alive and the node answers).
+pub async fn unhealthy(
+    health: &crate::modbus::health::Health,
+    node: &crate::modbus::node::SharedNode,
+) -> Option<String> {
+    let late = health.late();
+    if !late.is_empty() {
+        let parts: Vec<String> = late
+            .iter()
+            .map(|(name, silent)| format!("{name} silent for {:.1} s", silent.as_secs_f64()))
+            .collect();
+        return Some(parts.join(", "));
+    }
+    // the node's lock is taken for microseconds per request: a second means a hang
+    let n = node.clone();
+    let locked = tokio::time::timeout(
+        Duration::from_secs(1),
+        tokio::task::spawn_blocking(move || {
+            drop(crate::modbus::node::lock(&n));
+        }),
+    )
+    .await;
+    match locked {
+        Ok(Ok(())) => None,
+        _ => Some("the node's state is locked for more than 1 s".into()),
+    }
+}
+
+/// Pets the watchdog at half its period while every part is alive ([`unhealthy`]), forever
+/// (abort the task to stop). A hung or dead part stops the petting: systemd restarts the node.
+pub async fn watchdog_loop(
+    health: std::sync::Arc<crate::modbus::health::Health>,
+    node: crate::modbus::node::SharedNode,
+) {
     let Some(period) = watchdog_period() else {
         return;
     };
     let mut tick = tokio::time::interval(period / 2);
+    let mut was_ok = true;
     loop {
         tick.tick().await;
-        notify("WATCHDOG=1");
+        match unhealthy(&health, &node).await {
+            None => {
+                if !was_ok {
+                    tracing::info!("watchdog: every part alive again; petting");
+                }
+                was_ok = true;
+                notify("WATCHDOG=1");
+            }
+            Some(why) => {
+                if was_ok {
+                    tracing::error!("watchdog: not petted: {why}");
+                }
+                was_ok = false;
+            }
+        }
     }
 }
 
@@ -88,6 +135,56 @@ mod tests {
         let mut buf = [0u8; 64];
         let n = server.recv(&mut buf).unwrap();
         assert_eq!(&buf[..n], b"READY=1");
+    }
+
+    #[test]
+    fn the_watchdog_is_not_petted_while_a_part_is_late() {
+        use crate::modbus::health::Health;
+        use crate::modbus::node::{Node, NodeModel, NodeOptions};
+        use std::sync::{Arc, Mutex};
+        let health = Arc::new(Health::default());
+        let model = NodeModel {
+            response_lx: vec![1.0],
+            sensor_ids: vec![1],
+            luminaire_ids: vec![1],
+            sensor_flags: vec![0],
+            generation: 1,
+            luminaire_flux_lm: vec![1000.0],
+        };
+        let node = Arc::new(Mutex::new(
+            Node::new(
+                model,
+                NodeOptions {
+                    health: Some(health.clone()),
+                    ..NodeOptions::default()
+                },
+            )
+            .unwrap(),
+        ));
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let rtu = health.register("modbus rtu", Duration::from_millis(50));
+            assert_eq!(super::unhealthy(&health, &node).await, None);
+            tokio::time::sleep(Duration::from_millis(120)).await;
+            let why = super::unhealthy(&health, &node).await.expect("late");
+            assert!(why.contains("modbus rtu silent"), "{why}");
+            rtu.beat();
+            assert_eq!(super::unhealthy(&health, &node).await, None);
+            // a node whose state stays locked: not petted either
+            let held = node.clone();
+            let guard = std::thread::spawn(move || {
+                let _g = held.lock().unwrap();
+                std::thread::sleep(Duration::from_millis(1500));
+            });
+            tokio::time::sleep(Duration::from_millis(100)).await;
+            rtu.beat();
+            let why = super::unhealthy(&health, &node).await.expect("locked");
+            assert!(why.contains("locked"), "{why}");
+            guard.join().unwrap();
+        });
     }
 
     #[test]

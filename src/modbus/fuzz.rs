@@ -242,7 +242,15 @@ impl Fuzzer {
         };
         let frame = &rtu[..n];
         let mut reply = [0u8; MAX_RTU_FRAME];
-        match handle_frame(&mut self.handler, 7, frame, &self.counters, &mut reply) {
+        let source = super::access::Source::Internal;
+        match handle_frame(
+            &mut self.handler,
+            &source,
+            7,
+            frame,
+            &self.counters,
+            &mut reply,
+        ) {
             None => report.rtu_silent += 1,
             Some(m) => {
                 report.rtu_answered += 1;

@@ -413,12 +413,23 @@ async fn poll_once(
     Ok(())
 }
 
-/// Runs the link until `shutdown` turns true.
+impl GatewayConfig {
+    /// The longest a healthy link loop goes without a beat: a poll period plus every attempt
+    /// timing out, plus a margin.
+    pub fn beat_limit(&self) -> Duration {
+        let attempts = u64::from(self.retries) + 1;
+        Duration::from_millis(self.poll_interval_ms + attempts * 2 * self.timeout_ms)
+            + Duration::from_secs(10)
+    }
+}
+
+/// Runs the link until `shutdown` turns true; beats `beat` at every poll.
 pub async fn run(
     config: GatewayConfig,
     node: SharedNode,
     counters: Arc<GatewayCounters>,
     mut shutdown: watch::Receiver<bool>,
+    beat: Option<crate::modbus::health::Beat>,
 ) -> Result<(), GatewayError> {
     config.validate()?;
     let addr = config.socket_addr()?;
@@ -430,6 +441,9 @@ pub async fn run(
         tokio::select! {
             _ = interval.tick() => {}
             _ = shutdown.changed() => return Ok(()),
+        }
+        if let Some(b) = &beat {
+            b.beat();
         }
         let mut attempt = 0;
         loop {
@@ -445,6 +459,9 @@ pub async fn run(
                     counters.failures.fetch_add(1, Ordering::Relaxed);
                     ctx = None; // reconnect: the stream may be out of step after a timeout
                     attempt += 1;
+                    if let Some(b) = &beat {
+                        b.beat();
+                    }
                     if attempt > config.retries {
                         if up {
                             tracing::warn!(
@@ -538,10 +555,84 @@ impl GatewayWriter {
     }
 }
 
+/// The register value of an arc level in a gateway's encoding: the level itself for DALI, its
+/// light output in whole per cent (on the logarithmic curve) for percent gateways.
+pub fn encode_arc(encoding: Encoding, arc: crate::dali::ArcLevel) -> u16 {
+    match encoding {
+        Encoding::Dali => u16::from(arc.0),
+        Encoding::Percent => arc
+            .fraction(crate::dali::DimmingCurve::Logarithmic)
+            .map_or(0, |x| (x * 100.0).round() as u16),
+    }
+}
+
+/// Writes arc levels (luminaire order) to the gateway's level registers, one request per
+/// contiguous run (write multiple registers), each within the configured timeout.
+pub async fn write_arc_levels(
+    ctx: &mut Context,
+    config: &GatewayConfig,
+    arcs: &[crate::dali::ArcLevel],
+) -> Result<(), GatewayError> {
+    if config.levels.function != RegisterKind::Holding {
+        return Err(GatewayError::Config(
+            "the gateway's levels are input registers: they cannot be written".into(),
+        ));
+    }
+    let addrs = config.level_addresses(arcs.len())?;
+    let values: Vec<u16> = arcs
+        .iter()
+        .map(|&a| encode_arc(config.levels.encoding, a))
+        .collect();
+    let timeout = Duration::from_millis(config.timeout_ms);
+    let mut start = 0;
+    while start < values.len() {
+        // the longest run of consecutive addresses, at most one request's worth
+        let mut end = start + 1;
+        while end < values.len() && end - start < MAX_WRITE && addrs[end] == addrs[end - 1] + 1 {
+            end += 1;
+        }
+        let a = addrs[start];
+        let chunk = &values[start..end];
+        let fut = async {
+            if chunk.len() == 1 {
+                ctx.write_single_register(a, chunk[0]).await
+            } else {
+                ctx.write_multiple_registers(a, chunk).await
+            }
+        };
+        tokio::time::timeout(timeout, fut)
+            .await
+            .map_err(|_| GatewayError::Timeout(format!("writing levels at {a}")))??
+            .map_err(exception(format!("writing levels at {a}")))?;
+        start = end;
+    }
+    Ok(())
+}
+
+/// Connects to the gateway within its timeout.
+pub async fn connect(config: &GatewayConfig) -> Result<Context, GatewayError> {
+    let addr = config.socket_addr()?;
+    Ok(tokio::time::timeout(
+        Duration::from_millis(config.timeout_ms),
+        tokio_modbus::client::tcp::connect_slave(addr, Slave(config.unit_id)),
+    )
+    .await
+    .map_err(|_| GatewayError::Timeout(format!("connecting to {addr}")))??)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::dali::DimmingCurve;
+
+    #[test]
+    fn arc_levels_are_encoded_per_gateway() {
+        use crate::dali::ArcLevel;
+        assert_eq!(encode_arc(Encoding::Dali, ArcLevel(229)), 229);
+        assert_eq!(encode_arc(Encoding::Percent, ArcLevel(229)), 51);
+        assert_eq!(encode_arc(Encoding::Percent, ArcLevel(254)), 100);
+        assert_eq!(encode_arc(Encoding::Percent, ArcLevel::OFF), 0);
+    }
 
     #[test]
     fn config_parses_and_is_checked() {

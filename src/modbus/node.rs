@@ -7,21 +7,41 @@
 //! can read next to them. The servers (TCP, RTU) share one node behind a mutex held only for
 //! the few microseconds a request takes.
 
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use super::pdu::MAX_PDU;
+use super::access::{AccessPolicy, Settings, Source, write_span};
+use super::health::Health;
+use super::pdu::{Exception, MAX_PDU, encode_exception};
 use super::regmap::{
-    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, Quality, RegisterMap, status,
+    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, MAX_TARGET_LX, NOT_AVAILABLE_U16, Quality,
+    RegisterMap, WordOrder, addr, status,
 };
+use crate::control::LuminairePower;
+use crate::control::regulator::{Mode, Settings as RegulatorSettings};
 use crate::dali::{ArcLevel, DimmingCurve};
 use crate::runtime::superpose;
-use crate::store::{Image, sensor_flags};
+use crate::store::{Image, MAX_LUX, sensor_flags};
 
 /// What a request handler needs: a PDU in, a response PDU out (`None`: no answer).
 pub trait PduHandler: Send {
     /// Handles one request PDU addressed to `unit`; writes the response into `out`.
     fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize>;
+
+    /// Handles one request PDU from `source` (the servers call this: the node decides per
+    /// source what it may write and how it reads floats). By default the source is ignored.
+    fn handle_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<usize> {
+        let _ = source;
+        self.handle_pdu(unit, pdu, out)
+    }
 }
 
 /// The part of an image the server needs, copied out (the image itself can be dropped).
@@ -37,6 +57,8 @@ pub struct NodeModel {
     pub sensor_flags: Vec<u8>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
+    /// Rated flux per luminaire, lm (the power model's default).
+    pub luminaire_flux_lm: Vec<f64>,
 }
 
 /// Why a node cannot serve a model.
@@ -82,6 +104,9 @@ impl NodeModel {
             luminaire_ids: (0..l).map(|j| image.luminaire_id(j)).collect(),
             sensor_flags: (0..s).map(|k| image.sensor_flags(k)).collect(),
             generation,
+            luminaire_flux_lm: (0..l)
+                .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
+                .collect(),
         }
     }
 
@@ -104,8 +129,57 @@ pub struct NodeOptions {
     pub identity: Identity,
     /// A DALI gateway link is configured (the arc levels follow it).
     pub gateway_configured: bool,
-    /// Initial arc level of every luminaire (`None`: off).
+    /// Initial arc level of every luminaire (`None`: off, and the dimming state unknown:
+    /// values are flagged stale until every luminaire's level has been set).
     pub initial_arc: Option<u8>,
+    /// Who may write, and the word orders (default: read-only, ABCD).
+    pub policy: AccessPolicy,
+    /// Where the settings clients write are persisted (`None`: not persisted).
+    pub settings_path: Option<PathBuf>,
+    /// The servers' health, for the registers (`None`: a private one).
+    pub health: Option<Arc<Health>>,
+    /// Lighting control: the board's mode, targets and power model.
+    pub control: ControlOptions,
+}
+
+/// The board's lighting-control settings (what clients write over Modbus wins, persisted).
+#[derive(Debug, Clone)]
+pub struct ControlOptions {
+    /// Mode at start when no client has set one.
+    pub mode: Mode,
+    /// Target of every desk, lx, unless `desk_targets_lx` names it.
+    pub target_lx: f64,
+    /// Targets of named desks (desk id, lx).
+    pub desk_targets_lx: Vec<(u32, f64)>,
+    /// Rated power of every luminaire at full, W (`None`: its flux over
+    /// [`crate::control::DEFAULT_EFFICACY_LM_PER_W`]).
+    pub rated_power_w: Option<f64>,
+    /// Standby power of a luminaire that is off, W.
+    pub standby_power_w: f64,
+    /// The lowest arc level a luminaire can be on at (DALI physical minimum level).
+    pub min_arc: u8,
+    /// The loop's knobs.
+    pub loop_settings: RegulatorSettings,
+    /// Daylight estimates older than this are stale, s.
+    pub daylight_max_age_s: f64,
+    /// Seconds between control ticks.
+    pub tick_s: f64,
+}
+
+impl Default for ControlOptions {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Off,
+            target_lx: crate::control::DEFAULT_TARGET_LX,
+            desk_targets_lx: Vec::new(),
+            rated_power_w: None,
+            standby_power_w: crate::control::DEFAULT_STANDBY_W,
+            min_arc: crate::control::DEFAULT_MIN_ARC,
+            loop_settings: RegulatorSettings::default(),
+            daylight_max_age_s: 60.0,
+            tick_s: 1.0,
+        }
+    }
 }
 
 /// The served state.
@@ -121,6 +195,19 @@ pub struct Node {
     gateway_up: bool,
     store_ok: bool,
     sensors_ok: bool,
+    /// Per luminaire: its level is known (set since start, or given at start).
+    arc_known: Vec<bool>,
+    policy: AccessPolicy,
+    settings: Settings,
+    settings_path: Option<PathBuf>,
+    health: Arc<Health>,
+    last_refusal_log: Option<Instant>,
+    control: ControlOptions,
+    power: Vec<LuminairePower>,
+    /// Per luminaire: the ratio of its measured output to the model's (lamp ageing), 1 new.
+    ageing: Vec<f64>,
+    /// The latest daylight estimate per desk (lx) and when it was made.
+    daylight: Option<(Instant, Vec<f64>)>,
 }
 
 impl Node {
@@ -138,6 +225,17 @@ impl Node {
             ..RegisterMap::default()
         };
         let arc0 = options.initial_arc.unwrap_or(0).min(254);
+        let settings = match &options.settings_path {
+            None => Settings::default(),
+            Some(p) => Settings::load(p).unwrap_or_else(|e| {
+                // a bad settings file must not keep the node from serving: the defaults
+                tracing::warn!("{e}; using the board's defaults");
+                Settings::default()
+            }),
+        };
+        if let Some(c) = settings.curve() {
+            map.curve = c;
+        }
         for (k, &id) in model.sensor_ids.iter().enumerate() {
             // capacity checked above
             let _ = map.desks.push(Desk {
@@ -150,7 +248,42 @@ impl Node {
             let _ = map.luminaire_ids.push(id);
             let _ = map.arc.push(arc0);
         }
+        // control: the board's mode and targets, what clients wrote over them
+        let mode = settings
+            .control_mode
+            .and_then(Mode::from_code)
+            .unwrap_or(options.control.mode);
+        map.control.mode = mode.code();
+        for &id in &model.sensor_ids {
+            let board = options
+                .control
+                .desk_targets_lx
+                .iter()
+                .find(|(d, _)| *d == id)
+                .map_or(options.control.target_lx, |t| t.1);
+            let t =
+                settings.targets_lx.get(&id).copied().unwrap_or_else(|| {
+                    libm::round(board.clamp(0.0, f64::from(MAX_TARGET_LX))) as u16
+                });
+            let _ = map.control.targets_lx.push(t);
+            let _ = map.control.met.push(NOT_AVAILABLE_U16);
+        }
+        let power: Vec<LuminairePower> = model
+            .luminaire_flux_lm
+            .iter()
+            .map(|&f| {
+                let mut p = LuminairePower::for_flux(f);
+                if let Some(w) = options.control.rated_power_w {
+                    p.full_w = w;
+                }
+                p.standby_w = options.control.standby_power_w.min(p.full_w);
+                p.min_arc = options.control.min_arc.clamp(1, 254);
+                p
+            })
+            .collect();
+        map.control.all_on_w = power.iter().map(|p| p.full_w).sum();
         let now = Instant::now();
+        let model_luminaires = model.luminaire_ids.len();
         let mut node = Self {
             levels: vec![0.0; model.luminaire_ids.len()],
             // differs from every arc register, so the first computation reads them all
@@ -163,6 +296,16 @@ impl Node {
             gateway_up: !options.gateway_configured,
             store_ok: true,
             sensors_ok: true,
+            arc_known: vec![options.initial_arc.is_some(); model_luminaires],
+            policy: options.policy,
+            settings,
+            settings_path: options.settings_path,
+            health: options.health.unwrap_or_default(),
+            last_refusal_log: None,
+            control: options.control,
+            power,
+            ageing: vec![1.0; model_luminaires],
+            daylight: None,
         };
         if options.gateway_configured {
             node.map.status |= status::GATEWAY_CONFIGURED;
@@ -203,9 +346,10 @@ impl Node {
                 found: arc.len(),
             });
         }
-        for (slot, &a) in self.map.arc.iter_mut().zip(arc) {
+        for ((slot, known), &a) in self.map.arc.iter_mut().zip(&mut self.arc_known).zip(arc) {
             if a != ArcLevel::MASK.0 {
                 *slot = a;
+                *known = true;
             }
         }
         self.recompute();
@@ -229,8 +373,129 @@ impl Node {
 
     /// Sensor health (status bit).
     pub fn set_sensors_ok(&mut self, ok: bool) {
+        if self.sensors_ok != ok {
+            if ok {
+                tracing::info!("sensors: healthy again");
+            } else {
+                tracing::warn!("sensors: not healthy (status bit 2 cleared)");
+            }
+        }
         self.sensors_ok = ok;
         self.refresh_flags();
+    }
+
+    /// Replaces the access policy (configuration reload).
+    pub fn set_policy(&mut self, policy: AccessPolicy) {
+        self.policy = policy;
+        self.refresh_flags();
+    }
+
+    /// The access policy in force.
+    pub fn policy(&self) -> &AccessPolicy {
+        &self.policy
+    }
+
+    /// The settings clients wrote.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The shared health.
+    pub fn health(&self) -> &Arc<Health> {
+        &self.health
+    }
+
+    /// The lighting-control mode in effect.
+    pub fn control_mode(&self) -> Mode {
+        Mode::from_code(self.map.control.mode).unwrap_or_default()
+    }
+
+    /// The board's control settings.
+    pub fn control_options(&self) -> &ControlOptions {
+        &self.control
+    }
+
+    /// Target per desk, lx.
+    pub fn targets_lx(&self) -> Vec<f64> {
+        self.map
+            .control
+            .targets_lx
+            .iter()
+            .map(|&t| f64::from(t))
+            .collect()
+    }
+
+    /// The power model per luminaire.
+    pub fn power(&self) -> &[LuminairePower] {
+        &self.power
+    }
+
+    /// The response matrix the controller plans with: the image's, each luminaire's column
+    /// scaled by its ageing factor (row-major desks × luminaires).
+    pub fn control_response_lx(&self) -> Vec<f64> {
+        let l = self.ageing.len().max(1);
+        self.model
+            .response_lx
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * self.ageing.get(i % l).copied().unwrap_or(1.0))
+            .collect()
+    }
+
+    /// Sets the ageing factor of every luminaire (measured output over the model's, in
+    /// (0, 2]; anything else is ignored for that luminaire).
+    pub fn set_ageing(&mut self, factors: &[f64]) {
+        for (a, &f) in self.ageing.iter_mut().zip(factors) {
+            if f.is_finite() && f > 0.0 && f <= 2.0 {
+                *a = f;
+            }
+        }
+    }
+
+    /// Publishes a daylight estimate per desk, lx (desk order); one of the wrong length or with a
+    /// value that is not a finite lux >= 0 is refused and the last one kept.
+    pub fn set_daylight(&mut self, daylight_lx: &[f64]) -> bool {
+        let ok = daylight_lx.len() == self.map.desks.len()
+            && daylight_lx
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=MAX_LUX).contains(v));
+        if ok {
+            self.daylight = Some((Instant::now(), daylight_lx.to_vec()));
+        }
+        ok
+    }
+
+    /// The daylight estimate if it is younger than the board's limit.
+    pub fn fresh_daylight(&self) -> Option<&[f64]> {
+        let (t, v) = self.daylight.as_ref()?;
+        (t.elapsed().as_secs_f64() <= self.control.daylight_max_age_s).then_some(v.as_slice())
+    }
+
+    /// Publishes what the control loop decided: per desk met or not (`None`: control off),
+    /// and its flags ([`super::regmap::control_flags`]).
+    pub fn set_control_status(&mut self, met: Option<&[bool]>, flags: u16) {
+        match met {
+            Some(m) => {
+                for (slot, &ok) in self.map.control.met.iter_mut().zip(m) {
+                    *slot = u16::from(ok);
+                }
+                self.map.control.short = m.iter().filter(|&&ok| !ok).count() as u16;
+            }
+            None => {
+                self.map
+                    .control
+                    .met
+                    .iter_mut()
+                    .for_each(|v| *v = NOT_AVAILABLE_U16);
+                self.map.control.short = 0;
+            }
+        }
+        self.map.control.flags = flags;
+    }
+
+    /// True when every luminaire's level is known.
+    pub fn dimming_known(&self) -> bool {
+        self.arc_known.iter().all(|&k| k)
     }
 
     fn curve(&self) -> DimmingCurve {
@@ -287,6 +552,7 @@ impl Node {
                 self.levels[j] = *x;
                 self.map.arc[j] = a.0;
                 self.arc_seen[j] = a.0;
+                self.arc_known[j] = true;
             }
         }
         self.compute();
@@ -304,6 +570,17 @@ impl Node {
             &mut out,
         )
         .is_ok();
+        // a checked image cannot produce these; never publish them as values
+        let ok = ok
+            && out
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=MAX_LUX).contains(v));
+        self.map.control.power_w = self
+            .power
+            .iter()
+            .zip(&self.levels)
+            .map(|(p, &x)| p.power_w(x))
+            .sum();
         if ok {
             for (d, v) in self.map.desks.iter_mut().zip(out) {
                 d.lux = v;
@@ -312,6 +589,9 @@ impl Node {
             self.map.heartbeat = self.map.heartbeat.wrapping_add(1);
             self.map.status &= !status::COMPUTE_ERROR;
         } else {
+            for d in self.map.desks.iter_mut() {
+                d.lux = f64::NAN;
+            }
             self.map.status |= status::COMPUTE_ERROR;
         }
         self.refresh_flags();
@@ -329,7 +609,15 @@ impl Node {
         if self.gateway_up && s & status::GATEWAY_CONFIGURED != 0 {
             s |= status::GATEWAY_LINK_UP;
         }
-        let stale = !self.gateway_up;
+        if self.health.comm_ok() {
+            s |= status::COMM_OK;
+        }
+        if self.policy.writable() {
+            s |= status::WRITES_ENABLED;
+        }
+        // the dimming state is unknown while the gateway is lost, and after a start until
+        // every luminaire's level was set (by the gateway or a write)
+        let stale = !self.gateway_up || !self.dimming_known();
         if stale {
             s |= status::VALUES_STALE;
         }
@@ -353,6 +641,146 @@ impl Node {
             .duration_since(self.computed)
             .as_secs()
             .min(u64::from(u16::MAX)) as u16;
+        self.map.comm = self.health.snapshot();
+        self.refresh_flags();
+    }
+
+    /// Handles a request PDU from `source` addressed to `unit`: writes only from the
+    /// allowlist (others: exception 0x01, counted, logged), floats in the client's word order,
+    /// every executed write logged and its settings persisted.
+    pub fn process_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<(usize, Effect)> {
+        let span = write_span(pdu);
+        if let Some((address, count)) = span
+            && !self.policy.may_write(source, address, count)
+        {
+            self.tick();
+            self.health.writes_refused.fetch_add(1, Ordering::Relaxed);
+            let now = Instant::now();
+            if self
+                .last_refusal_log
+                .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+            {
+                self.last_refusal_log = Some(now);
+                tracing::warn!(
+                    target: "luxnode::audit",
+                    %source,
+                    address,
+                    count,
+                    "modbus write refused: {source} is not in the write allowlist \
+                     ({count} registers at {address}; {} refused so far)",
+                    self.health.writes_refused.load(Ordering::Relaxed)
+                );
+            }
+            let n = encode_exception(pdu[0], Exception::IllegalFunction, out);
+            return Some((n, Effect::default()));
+        }
+        let order = self.policy.word_order(&self.settings, source, unit);
+        self.map.word_order = order;
+        let curve = self.map.curve;
+        let r = self.process(pdu, out);
+        if let (Some((address, count)), Some((n, _))) = (span, r)
+            && n > 0
+            && out[0] == pdu[0]
+        {
+            self.executed_write(source, address, count, pdu, order, curve);
+        }
+        r
+    }
+
+    /// Logs an executed write, marks the levels it set as known and persists settings.
+    fn executed_write(
+        &mut self,
+        source: &Source,
+        address: u16,
+        count: u16,
+        pdu: &[u8],
+        order: WordOrder,
+        curve: DimmingCurve,
+    ) {
+        self.health.writes_accepted.fetch_add(1, Ordering::Relaxed);
+        let values: Vec<u16> = if pdu[0] == super::pdu::function::WRITE_SINGLE {
+            pdu.get(3..5)
+                .map(|b| vec![u16::from_be_bytes([b[0], b[1]])])
+                .unwrap_or_default()
+        } else {
+            pdu.get(6..)
+                .unwrap_or(&[])
+                .chunks_exact(2)
+                .take(usize::from(count))
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                .collect()
+        };
+        tracing::info!(
+            target: "luxnode::audit",
+            %source,
+            address,
+            count,
+            "modbus write by {source}: {count} registers at {address} = {values:?}"
+        );
+        for (k, v) in values.iter().enumerate() {
+            let a = usize::from(address) + k;
+            if let Some(j) = a.checked_sub(usize::from(addr::ARC_LEVEL))
+                && *v != u16::from(ArcLevel::MASK.0)
+                && let Some(known) = self.arc_known.get_mut(j)
+            {
+                *known = true;
+            }
+        }
+        let mut changed = false;
+        if self.map.word_order != order {
+            let key = source.client_key();
+            if self.settings.word_orders.len() < super::access::MAX_CLIENT_SETTINGS
+                || self.settings.word_orders.contains_key(&key)
+            {
+                self.settings
+                    .word_orders
+                    .insert(key, self.map.word_order as u16);
+                changed = true;
+            } else {
+                tracing::warn!("word order of {source} not kept: too many clients with one");
+            }
+        }
+        if self.map.curve != curve {
+            self.settings.dimming_curve = Some(self.map.curve as u16);
+            changed = true;
+        }
+        let touches = |first: u16, n: usize| {
+            let end = usize::from(address) + usize::from(count);
+            usize::from(address) < usize::from(first) + n && end > usize::from(first)
+        };
+        if touches(addr::CONTROL_MODE, 1) {
+            self.settings.control_mode = Some(self.map.control.mode);
+            changed = true;
+        }
+        let d = self.map.control.targets_lx.len();
+        if touches(addr::DESK_TARGET, d) {
+            for (k, id) in self.model.sensor_ids.iter().enumerate() {
+                let a = usize::from(addr::DESK_TARGET) + k;
+                if a >= usize::from(address) && a < usize::from(address) + usize::from(count) {
+                    self.settings
+                        .targets_lx
+                        .insert(*id, self.map.control.targets_lx[k]);
+                }
+            }
+            changed = true;
+        }
+        if changed && let Some(path) = &self.settings_path {
+            match self.settings.save(path) {
+                Ok(()) => tracing::info!(
+                    target: "luxnode::audit",
+                    "settings saved to {}",
+                    path.display()
+                ),
+                Err(e) => tracing::error!("{e}: the setting holds until the node restarts"),
+            }
+        }
+        self.refresh_flags();
     }
 
     /// Handles a request PDU: clocks updated, request handled, desk values recomputed when the
@@ -370,8 +798,19 @@ impl Node {
 }
 
 impl PduHandler for Node {
-    fn handle_pdu(&mut self, _unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize> {
-        self.process(pdu, out).map(|(n, _)| n)
+    fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize> {
+        self.process_from(&Source::Internal, unit, pdu, out)
+            .map(|(n, _)| n)
+    }
+
+    fn handle_from(
+        &mut self,
+        source: &Source,
+        unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; MAX_PDU],
+    ) -> Option<usize> {
+        self.process_from(source, unit, pdu, out).map(|(n, _)| n)
     }
 }
 
@@ -397,6 +836,7 @@ mod tests {
             luminaire_ids: vec![1, 2, 3],
             sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
             generation: 5,
+            luminaire_flux_lm: vec![1200.0; 3],
         }
     }
 
@@ -418,7 +858,8 @@ mod tests {
         // write all three arc levels: 254 (100 %), 0 (off), 1 (0.1 %)
         let mut out = [0u8; MAX_PDU];
         let req = [0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 0, 0, 1];
-        node.process(&req, &mut out).unwrap();
+        node.process_from(&Source::Internal, 1, &req, &mut out)
+            .unwrap();
         let expect0 = 100.0 + 300.0 * 0.001;
         let d = node.desks();
         assert!((d[0].1 - expect0).abs() < 1e-12, "{d:?}");
@@ -435,6 +876,176 @@ mod tests {
         assert_eq!(node.map().arc[0], 229);
         assert!(node.set_levels(&[Some(1.5), None, None]).is_err());
         assert!((node.desks()[0].1 - 250.0).abs() < 1e-9, "unchanged");
+    }
+
+    fn ask(node: &mut Node, src: &Source, unit: u8, pdu: &[u8]) -> Vec<u8> {
+        let mut out = [0u8; MAX_PDU];
+        let (n, _) = node.process_from(src, unit, pdu, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    fn tcp(a: &str) -> Source {
+        Source::Tcp(format!("{a}:1234").parse().unwrap())
+    }
+
+    #[test]
+    fn read_only_by_default_and_writes_only_from_the_allowlist() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        let stranger = tcp("10.9.9.9");
+        // every write function, every writable register: exception 0x01, nothing changes
+        for pdu in [
+            vec![6, 0x03, 0xE8, 0, 0],
+            vec![6, 0x07, 0xD0, 0, 1],
+            vec![6, 0x07, 0xD1, 0, 1],
+            vec![0x10, 0x03, 0xE8, 0, 3, 6, 0, 0, 0, 0, 0, 0],
+        ] {
+            assert_eq!(ask(&mut node, &stranger, 1, &pdu), vec![pdu[0] | 0x80, 1]);
+        }
+        assert_eq!(node.map().arc[..], [0, 0, 0]);
+        assert_eq!(node.health().writes_refused.load(Ordering::Relaxed), 4);
+        let st = read_input(&mut node, addr::STATUS, 1)[0];
+        assert_eq!(st & status::WRITES_ENABLED, 0);
+        // RTU broadcast and master: refused too
+        let rtu = Source::Rtu("/dev/ttyS1".into());
+        assert_eq!(
+            ask(&mut node, &rtu, 0, &[6, 0x03, 0xE8, 0, 0]),
+            vec![0x86, 1]
+        );
+        // reads are open to all
+        assert_eq!(
+            ask(&mut node, &stranger, 1, &[4, 0, 1, 0, 1]),
+            vec![4, 2, 0, 2]
+        );
+        let policy = AccessPolicy::default()
+            .with_writers(&["10.0.0.0/8".into()])
+            .unwrap();
+        node.set_policy(policy);
+        assert_eq!(
+            ask(&mut node, &stranger, 1, &[6, 0x03, 0xE8, 0, 254]),
+            vec![6, 0x03, 0xE8, 0, 254]
+        );
+        assert_eq!(node.map().arc[0], 254);
+        assert_eq!(node.health().writes_accepted.load(Ordering::Relaxed), 1);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::WRITES_ENABLED,
+            0
+        );
+        assert_eq!(
+            ask(&mut node, &tcp("192.168.1.1"), 1, &[6, 0x03, 0xE8, 0, 0]),
+            vec![0x86, 1]
+        );
+    }
+
+    #[test]
+    fn word_order_is_per_client_and_persists() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("settings.json");
+        let mut policy = AccessPolicy::default()
+            .with_writers(&["10.0.0.1".into(), "10.0.0.2".into()])
+            .unwrap();
+        policy.word_orders.units.insert(9, WordOrder::Dcba);
+        let options = NodeOptions {
+            initial_arc: Some(254),
+            policy,
+            settings_path: Some(path.clone()),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(model(), options.clone()).unwrap();
+        let (a, b) = (tcp("10.0.0.1"), tcp("10.0.0.2"));
+        // desk 0 at full output: 600 lx = 0x44160000
+        let float = |node: &mut Node, src: &Source, unit: u8| {
+            ask(node, src, unit, &[4, 0, 100, 0, 2])[2..].to_vec()
+        };
+        assert_eq!(float(&mut node, &a, 1), [0x44, 0x16, 0, 0]);
+        // client a asks for CDAB: only a reads CDAB
+        ask(&mut node, &a, 1, &[6, 0x07, 0xD0, 0, 1]);
+        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
+        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
+        assert_eq!(
+            ask(&mut node, &b, 1, &[3, 0x07, 0xD0, 0, 1]),
+            vec![3, 2, 0, 0]
+        );
+        assert_eq!(ask(&mut node, &a, 1, &[4, 0, 12, 0, 1]), vec![4, 2, 0, 1]);
+        // unit 9 reads DCBA (board table) unless the client set its own
+        assert_eq!(float(&mut node, &b, 9), [0, 0, 0x16, 0x44]);
+        assert_eq!(float(&mut node, &a, 9), [0, 0, 0x44, 0x16]);
+        // the dimming curve is global, and persisted with the word order
+        ask(&mut node, &b, 1, &[6, 0x07, 0xD1, 0, 1]);
+        drop(node);
+        let mut node = Node::new(model(), options).unwrap();
+        assert_eq!(node.map().curve, DimmingCurve::Linear);
+        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
+        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
+        let saved = std::fs::read_to_string(&path).unwrap();
+        assert!(saved.contains("\"10.0.0.1\": 1"), "{saved}");
+    }
+
+    #[test]
+    fn values_are_stale_until_every_level_is_known() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        let me = Source::Internal;
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
+            0
+        );
+        // two of three set, the third masked: still unknown
+        ask(
+            &mut node,
+            &me,
+            1,
+            &[0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 10, 0, 255],
+        );
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        ask(&mut node, &me, 1, &[6, 0x03, 0xEA, 0, 0]);
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
+        assert_eq!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
+            0
+        );
+        // given at start: known
+        let known = NodeOptions {
+            initial_arc: Some(0),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(model(), known).unwrap();
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
+    }
+
+    #[test]
+    fn out_of_range_values_are_never_published() {
+        let mut m = model();
+        m.response_lx[0] = -8000.0;
+        let options = NodeOptions {
+            initial_arc: Some(254),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(m, options).unwrap();
+        assert_eq!(read_input(&mut node, addr::DESK_FLOAT, 2), vec![0x7FC0, 0]);
+        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 1), vec![0xFFFF]);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::COMPUTE_ERROR,
+            0
+        );
+    }
+
+    #[test]
+    fn the_sensors_bit_is_cleared_and_set_again() {
+        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
+        node.set_sensors_ok(false);
+        assert_eq!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
+        node.set_sensors_ok(true);
+        assert_ne!(
+            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
+            0
+        );
     }
 
     #[test]

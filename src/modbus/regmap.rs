@@ -21,7 +21,7 @@ use super::pdu::{
 
 /// Version of this map (input register 0). Bumped when registers are added; existing ones never
 /// move.
-pub const MAP_VERSION: u16 = 1;
+pub const MAP_VERSION: u16 = 3;
 /// Desks the map has room for.
 pub const MAX_DESKS: usize = 100;
 /// Luminaires the map has room for.
@@ -67,10 +67,68 @@ pub mod addr {
     pub const LUMINAIRE_ID: u16 = 600;
     /// Luminaire j's DALI arc level, read and write: 1000 + j.
     pub const ARC_LEVEL: u16 = 1000;
-    /// Float word order of the desk floats: 0 ABCD (big-endian words), 1 CDAB.
+    /// Communication health, first register (40..=51, [`super::CommHealth`]).
+    pub const COMM_FIRST: u16 = 40;
+    /// Communication health, last register.
+    pub const COMM_LAST: u16 = 51;
+    /// Float word order of the desk floats for the reading client: 0 ABCD (big-endian words),
+    /// 1 CDAB, 2 BADC, 3 DCBA.
     pub const WORD_ORDER: u16 = 2000;
     /// Dimming curve of the arc levels: 0 logarithmic (IEC 62386-102), 1 linear (IEC 62386-207).
     pub const DIMMING_CURVE: u16 = 2001;
+    /// Lighting control mode: 0 off, 1 constant light, 2 daylight harvesting.
+    pub const CONTROL_MODE: u16 = 2002;
+    /// Desk k's target (maintained) illuminance, lx: 2100 + k.
+    pub const DESK_TARGET: u16 = 2100;
+    /// Lighting control mode in effect (mirror of holding 2002).
+    pub const CONTROL_MODE_IN_EFFECT: u16 = 60;
+    /// Desks short of their target under the control plan.
+    pub const CONTROL_SHORT: u16 = 61;
+    /// Control flags ([`super::control_flags`]).
+    pub const CONTROL_FLAGS: u16 = 62;
+    /// Electric power of the luminaires now, W, float32 (63, 64).
+    pub const POWER_NOW: u16 = 63;
+    /// Electric power with every luminaire at full, W, float32 (65, 66).
+    pub const POWER_ALL_ON: u16 = 65;
+    /// Power saved against all at full, 0.1 %.
+    pub const POWER_SAVED: u16 = 67;
+    /// Last register of the control block.
+    pub const CONTROL_LAST: u16 = 67;
+    /// Desk k meets its target under the control plan: 700 + k.
+    pub const DESK_MET: u16 = 700;
+}
+
+/// Control flags (input register 62).
+pub mod control_flags {
+    /// The plan assumes no daylight: the daylight estimate is stale or missing (safe side).
+    pub const SAFE: u16 = 1 << 0;
+    /// The planned levels could not be delivered (the gateway is lost).
+    pub const NOT_DELIVERED: u16 = 1 << 1;
+    /// A plan that only saves power is waiting out the dim hold.
+    pub const HOLDING: u16 = 1 << 2;
+}
+
+/// Largest target a desk may be given, lx.
+pub const MAX_TARGET_LX: u16 = 10_000;
+
+/// The lighting-control registers (`crate::control`): mode and targets (written by the BMS or
+/// the board file), what the plan achieves, and the power.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ControlRegisters {
+    /// Mode code (holding 2002): 0 off, 1 constant light, 2 daylight harvesting.
+    pub mode: u16,
+    /// Target per desk, lx (holding 2100 + k).
+    pub targets_lx: heapless::Vec<u16, MAX_DESKS>,
+    /// Per desk: 1 meets its target under the plan, 0 short, 65535 control off.
+    pub met: heapless::Vec<u16, MAX_DESKS>,
+    /// Desks short (input 61).
+    pub short: u16,
+    /// Flags (input 62).
+    pub flags: u16,
+    /// Power now, W.
+    pub power_w: f64,
+    /// Power with every luminaire at full, W.
+    pub all_on_w: f64,
 }
 
 /// Status bits (input register 3).
@@ -89,6 +147,59 @@ pub mod status {
     pub const VALUES_STALE: u16 = 1 << 5;
     /// The last evaluation failed: desk values are not available.
     pub const COMPUTE_ERROR: u16 = 1 << 6;
+    /// Every configured server (TCP, TLS, RTU) is up (details at input 40..=51).
+    pub const COMM_OK: u16 = 1 << 7;
+    /// Writes are enabled for some sources (the board's allowlist is not empty).
+    pub const WRITES_ENABLED: u16 = 1 << 8;
+}
+
+/// Communication health (input 40..=51): what the servers and links are doing, so a BMS sees a
+/// dead serial line or an attack without reading logs. Counters wrap at 65536.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CommHealth {
+    /// 40: TCP (and TLS) connections open.
+    pub tcp_open: u16,
+    /// 41: connections refused at a cap (wraps).
+    pub tcp_refused: u16,
+    /// 42: idle connections evicted for a new one (wraps).
+    pub tcp_evicted: u16,
+    /// 43: RTU line: 0 not configured, 1 up, 2 down (being reopened).
+    pub rtu_state: u16,
+    /// 44: times the RTU line was reopened (wraps).
+    pub rtu_reopens: u16,
+    /// 45: RTU frames answered (wraps).
+    pub rtu_answered: u16,
+    /// 46: RTU frames discarded: CRC, short, overlong (wraps).
+    pub rtu_discarded: u16,
+    /// 47: DALI gateway poll failures (wraps).
+    pub gateway_failures: u16,
+    /// 48: writes executed (wraps).
+    pub writes_accepted: u16,
+    /// 49: writes refused: source not allowed (wraps).
+    pub writes_refused: u16,
+    /// 50: TLS: 0 not configured, 1 listening, 2 down.
+    pub tls_state: u16,
+    /// 51: TLS handshakes failed (wraps).
+    pub tls_failed: u16,
+}
+
+impl CommHealth {
+    fn get(&self, a: u16) -> u16 {
+        match a - addr::COMM_FIRST {
+            0 => self.tcp_open,
+            1 => self.tcp_refused,
+            2 => self.tcp_evicted,
+            3 => self.rtu_state,
+            4 => self.rtu_reopens,
+            5 => self.rtu_answered,
+            6 => self.rtu_discarded,
+            7 => self.gateway_failures,
+            8 => self.writes_accepted,
+            9 => self.writes_refused,
+            10 => self.tls_state,
+            _ => self.tls_failed,
+        }
+    }
 }
 
 /// A desk value's quality (input 400 + k).
@@ -113,14 +224,60 @@ pub const NOT_AVAILABLE_F32: u32 = 0x7FC0_0000;
 /// The largest lux the u16 block shows (65535 is "not available").
 pub const U16_LUX_MAX: u16 = 65534;
 
-/// Word order of 32-bit values.
+/// Byte order of 32-bit values over two registers (A = most significant byte).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum WordOrder {
-    /// High word first (ABCD), the default.
+    /// High word first, big-endian words (ABCD), the default.
     #[default]
-    Abcd,
-    /// Low word first (CDAB).
-    Cdab,
+    Abcd = 0,
+    /// Low word first (CDAB, "word swap").
+    Cdab = 1,
+    /// High word first, bytes swapped in each word (BADC, "byte swap").
+    Badc = 2,
+    /// Low word first, bytes swapped (DCBA, little-endian).
+    Dcba = 3,
+}
+
+impl WordOrder {
+    /// From the register value (holding 2000).
+    pub fn from_code(c: u16) -> Option<Self> {
+        Some(match c {
+            0 => Self::Abcd,
+            1 => Self::Cdab,
+            2 => Self::Badc,
+            3 => Self::Dcba,
+            _ => return None,
+        })
+    }
+
+    /// From its name, `abcd`, `cdab`, `badc` or `dcba` (any case).
+    pub fn from_name(s: &str) -> Option<Self> {
+        let mut b = [0u8; 4];
+        if s.len() != 4 {
+            return None;
+        }
+        for (d, c) in b.iter_mut().zip(s.bytes()) {
+            *d = c.to_ascii_lowercase();
+        }
+        Some(match &b {
+            b"abcd" => Self::Abcd,
+            b"cdab" => Self::Cdab,
+            b"badc" => Self::Badc,
+            b"dcba" => Self::Dcba,
+            _ => return None,
+        })
+    }
+
+    /// The two registers of `bits`, first then second.
+    pub fn words(self, bits: u32) -> [u16; 2] {
+        let (hi, lo) = ((bits >> 16) as u16, bits as u16);
+        match self {
+            Self::Abcd => [hi, lo],
+            Self::Cdab => [lo, hi],
+            Self::Badc => [hi.swap_bytes(), lo.swap_bytes()],
+            Self::Dcba => [lo.swap_bytes(), hi.swap_bytes()],
+        }
+    }
 }
 
 /// One desk.
@@ -168,6 +325,10 @@ pub struct RegisterMap {
     pub curve: DimmingCurve,
     /// Identification strings.
     pub identity: Identity,
+    /// Communication health (input 40..=51).
+    pub comm: CommHealth,
+    /// Lighting control.
+    pub control: ControlRegisters,
 }
 
 /// What a request changed.
@@ -177,6 +338,8 @@ pub struct Effect {
     pub arc_changed: bool,
     /// Configuration (word order, curve) was written.
     pub config_changed: bool,
+    /// The control mode or a desk target was written.
+    pub control_changed: bool,
 }
 
 /// The two register spaces.
@@ -241,15 +404,39 @@ impl RegisterMap {
                 addr::WORD_ORDER_IN_EFFECT => self.word_order as u16,
                 _ => self.curve as u16,
             }
+        } else if (addr::COMM_FIRST..=addr::COMM_LAST).contains(&a) {
+            self.comm.get(a)
+        } else if (addr::CONTROL_MODE_IN_EFFECT..=addr::CONTROL_LAST).contains(&a) {
+            let c = &self.control;
+            let float = |v: f64, word: u16| {
+                let bits = if v.is_finite() {
+                    (v as f32).to_bits()
+                } else {
+                    NOT_AVAILABLE_F32
+                };
+                self.word_order.words(bits)[usize::from(word)]
+            };
+            match a {
+                addr::CONTROL_MODE_IN_EFFECT => c.mode,
+                addr::CONTROL_SHORT => c.short,
+                addr::CONTROL_FLAGS => c.flags,
+                63 | 64 => float(c.power_w, a - addr::POWER_NOW),
+                65 | 66 => float(c.all_on_w, a - addr::POWER_ALL_ON),
+                _ => {
+                    if c.all_on_w > 0.0 && c.power_w.is_finite() {
+                        let saved = 1000.0 * (1.0 - c.power_w / c.all_on_w);
+                        libm::round(saved.clamp(0.0, 1000.0)) as u16
+                    } else {
+                        NOT_AVAILABLE_U16
+                    }
+                }
+            }
+        } else if in_block(addr::DESK_MET, self.control.met.len() as u16) {
+            self.control.met[usize::from(a - addr::DESK_MET)]
         } else if in_block(addr::DESK_FLOAT, 2 * d) {
             let off = a - addr::DESK_FLOAT;
             let bits = self.float_bits(usize::from(off / 2));
-            let (hi, lo) = ((bits >> 16) as u16, bits as u16);
-            let first = off.is_multiple_of(2);
-            match (self.word_order, first) {
-                (WordOrder::Abcd, true) | (WordOrder::Cdab, false) => hi,
-                _ => lo,
-            }
+            self.word_order.words(bits)[usize::from(off % 2)]
         } else if in_block(addr::DESK_U16, d) {
             let lux = self.desks[usize::from(a - addr::DESK_U16)].lux;
             if lux.is_finite() {
@@ -281,6 +468,12 @@ impl RegisterMap {
             self.word_order as u16
         } else if space == Space::Holding && a == addr::DIMMING_CURVE {
             self.curve as u16
+        } else if space == Space::Holding && a == addr::CONTROL_MODE {
+            self.control.mode
+        } else if space == Space::Holding
+            && in_block(addr::DESK_TARGET, self.control.targets_lx.len() as u16)
+        {
+            self.control.targets_lx[usize::from(a - addr::DESK_TARGET)]
         } else {
             return None;
         };
@@ -297,23 +490,24 @@ impl RegisterMap {
                 Err(Exception::IllegalDataValue)
             };
         }
-        if address == addr::WORD_ORDER || address == addr::DIMMING_CURVE {
-            return if value <= 1 {
-                Ok(())
-            } else {
-                Err(Exception::IllegalDataValue)
-            };
+        let targets = self.control.targets_lx.len() as u16;
+        let max = match address {
+            addr::WORD_ORDER => 3,
+            addr::DIMMING_CURVE => 1,
+            addr::CONTROL_MODE => 2,
+            a if a >= addr::DESK_TARGET && a < addr::DESK_TARGET + targets => MAX_TARGET_LX,
+            _ => return Err(Exception::IllegalDataAddress),
+        };
+        if value <= max {
+            Ok(())
+        } else {
+            Err(Exception::IllegalDataValue)
         }
-        Err(Exception::IllegalDataAddress)
     }
 
     fn apply_write(&mut self, address: u16, value: u16, effect: &mut Effect) {
         if address == addr::WORD_ORDER {
-            self.word_order = if value == 0 {
-                WordOrder::Abcd
-            } else {
-                WordOrder::Cdab
-            };
+            self.word_order = WordOrder::from_code(value).unwrap_or_default();
             effect.config_changed = true;
         } else if address == addr::DIMMING_CURVE {
             self.curve = if value == 0 {
@@ -322,6 +516,18 @@ impl RegisterMap {
                 DimmingCurve::Linear
             };
             effect.config_changed = true;
+        } else if address == addr::CONTROL_MODE {
+            self.control.mode = value;
+            effect.control_changed = true;
+        } else if address >= addr::DESK_TARGET {
+            if let Some(t) = self
+                .control
+                .targets_lx
+                .get_mut(usize::from(address - addr::DESK_TARGET))
+            {
+                *t = value;
+                effect.control_changed = true;
+            }
         } else if let Some(level) = self.arc.get_mut(usize::from(address - addr::ARC_LEVEL)) {
             // 255 is MASK: no change
             if value != 255 {
@@ -518,7 +724,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale, 6 compute error"
+        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources"
     ),
     row!(
         Input,
@@ -595,7 +801,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "0 ABCD, 1 CDAB (set at holding 2000)"
+        "for this client: 0 ABCD, 1 CDAB, 2 BADC, 3 DCBA (holding 2000)"
     ),
     row!(
         Input,
@@ -610,10 +816,21 @@ pub const TABLE: &[RegisterDoc] = &[
     ),
     row!(
         Input,
+        addr::COMM_FIRST,
+        "12",
+        "communication health",
+        "u16 × 12",
+        "",
+        "1",
+        "R",
+        "40 TCP+TLS connections open, 41 refused at a cap, 42 idle connections evicted, 43 RTU line (0 none, 1 up, 2 down: reopening), 44 RTU reopens, 45 RTU frames answered, 46 RTU frames discarded, 47 gateway poll failures, 48 writes executed, 49 writes refused (source not allowed), 50 TLS (0 none, 1 listening, 2 down), 51 TLS handshakes failed; counters wrap at 65536"
+    ),
+    row!(
+        Input,
         addr::DESK_FLOAT,
         "2 × D",
         "desk lux (float)",
-        "float32, word order per 2000 (ABCD default)",
+        "float32, word order per client (holding 2000; ABCD default)",
         "lx",
         "1",
         "R",
@@ -681,9 +898,9 @@ pub const TABLE: &[RegisterDoc] = &[
         "float word order",
         "u16",
         "",
-        "0 ABCD, 1 CDAB",
+        "0 ABCD, 1 CDAB, 2 BADC, 3 DCBA",
         "R/W",
-        "word order of the desk floats; other values are exception 0x03"
+        "word order of the desk floats as this client reads them (its own setting, persisted; the board file sets defaults per client and per unit id); other values are exception 0x03"
     ),
     row!(
         Holding,
@@ -695,6 +912,105 @@ pub const TABLE: &[RegisterDoc] = &[
         "0 logarithmic (IEC 62386-102), 1 linear (IEC 62386-207)",
         "R/W",
         "how arc levels map to light output; other values are exception 0x03"
+    ),
+    row!(
+        Holding,
+        addr::CONTROL_MODE,
+        "1",
+        "lighting control mode",
+        "u16",
+        "",
+        "0 off, 1 constant light, 2 daylight harvesting",
+        "R/W",
+        "off: the node commands nothing (the lights follow the arc levels written here or the gateway); constant light: every desk at its target from the luminaires alone, least power; daylight harvesting: the same with each desk's measured daylight; persisted; other values are exception 0x03"
+    ),
+    row!(
+        Holding,
+        addr::DESK_TARGET,
+        "D",
+        "desk target",
+        "u16",
+        "lx",
+        "1, 0..=10000",
+        "R/W",
+        "desk k at 2100 + k: its maintained illuminance target (board default, EN 12464-1 office: 500 lx); persisted; above 10000 is exception 0x03"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_MODE_IN_EFFECT,
+        "1",
+        "control mode in effect",
+        "u16",
+        "",
+        "",
+        "R",
+        "mirror of holding 2002"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_SHORT,
+        "1",
+        "desks short",
+        "u16",
+        "",
+        "1",
+        "R",
+        "desks the control plan cannot bring to their target (the closest state is applied)"
+    ),
+    row!(
+        Input,
+        addr::CONTROL_FLAGS,
+        "1",
+        "control flags",
+        "bits",
+        "",
+        "",
+        "R",
+        "bit 0 safe plan (no daylight estimate: planned without daylight), 1 levels not delivered (gateway lost), 2 a power-saving plan waits out the dim hold"
+    ),
+    row!(
+        Input,
+        addr::POWER_NOW,
+        "2",
+        "power now",
+        "float32, word order per client",
+        "W",
+        "1",
+        "R",
+        "electric power of the luminaires at the current levels (standby of those off included)"
+    ),
+    row!(
+        Input,
+        addr::POWER_ALL_ON,
+        "2",
+        "power all on",
+        "float32, word order per client",
+        "W",
+        "1",
+        "R",
+        "electric power with every luminaire at full"
+    ),
+    row!(
+        Input,
+        addr::POWER_SAVED,
+        "1",
+        "power saved",
+        "u16",
+        "%",
+        "0.1",
+        "R",
+        "power saved now against every luminaire at full; 65535 when not available"
+    ),
+    row!(
+        Input,
+        addr::DESK_MET,
+        "D",
+        "desk target met",
+        "u16",
+        "",
+        "",
+        "R",
+        "desk k at 700 + k: 1 the control plan meets its target, 0 short, 65535 control off"
     ),
 ];
 
@@ -734,9 +1050,11 @@ pub fn markdown() -> std::string::String {
          0x2B/0x0E read device identification (objects 0x00 VendorName `luxnode`, 0x01 ProductCode\n\
          `LXN-1`, 0x02 MajorMinorRevision, 0x03 VendorUrl, 0x04 ProductName, 0x05 ModelName (the\n\
          board), 0x06 UserApplicationName (the commissioned scene)). Exceptions: 0x01 unsupported\n\
-         function, 0x02 address not in the map or not writable, 0x03 value or quantity out of range.\n\
+         function, or a write from a source outside the board's write allowlist (the node is\n\
+         read-only by default), 0x02 address not in the map or not writable, 0x03 value or quantity\n\
+         out of range.\n\
          Over RTU the node answers only its own unit id and never a broadcast (unit 0), whose writes\n\
-         it still executes."
+         it still executes when the allowlist admits \"rtu\"."
     );
     s
 }
@@ -758,6 +1076,12 @@ mod tests {
             let _ = m.luminaire_ids.push(j + 1);
             let _ = m.arc.push(254);
         }
+        for t in [500, 300, 750] {
+            let _ = m.control.targets_lx.push(t);
+            let _ = m.control.met.push(NOT_AVAILABLE_U16);
+        }
+        m.control.power_w = 120.5;
+        m.control.all_on_w = 480.0;
         m.status = status::COMMISSIONED;
         m
     }
@@ -772,7 +1096,7 @@ mod tests {
     #[test]
     fn fixed_core_and_float_word_orders() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 1, 0, 3, 0, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 3, 0, 3, 0, 2, 0, 1]);
         // 523.25 = 0x4402D000: ABCD
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x44, 0x02, 0xD0, 0x00]);
         // the same through function 0x03
@@ -790,12 +1114,28 @@ mod tests {
         let (_, e) = m.process(&[6, 0x07, 0xD0, 0, 1], &mut out).unwrap();
         assert!(e.config_changed);
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0xD0, 0x00, 0x44, 0x02]);
+        // BADC and DCBA; 5 is not an order
+        m.process(&[6, 0x07, 0xD0, 0, 2], &mut out).unwrap();
+        assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x02, 0x44, 0x00, 0xD0]);
+        m.process(&[6, 0x07, 0xD0, 0, 3], &mut out).unwrap();
+        assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x00, 0xD0, 0x02, 0x44]);
+        let (n, _) = m.process(&[6, 0x07, 0xD0, 0, 4], &mut out).unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        assert_eq!(read(&mut m, 4, 12, 1), vec![4, 2, 0, 3]);
+        // communication health block
+        m.comm.rtu_state = 2;
+        m.comm.writes_refused = 9;
+        assert_eq!(
+            read(&mut m, 4, addr::COMM_FIRST + 3, 7),
+            vec![4, 14, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9]
+        );
+        assert_eq!(read(&mut m, 4, addr::COMM_LAST + 1, 1), vec![0x84, 2]);
     }
 
     #[test]
     fn exceptions() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 50, 1), vec![0x84, 2]); // gap
+        assert_eq!(read(&mut m, 4, 52, 1), vec![0x84, 2]); // gap
         assert_eq!(read(&mut m, 4, 104, 3), vec![0x84, 2]); // past the float block (D = 3)
         assert_eq!(read(&mut m, 4, 1000, 1), vec![0x84, 2]); // arc levels are holding only
         assert_eq!(read(&mut m, 4, 0xFFFF, 2), vec![0x84, 2]); // wraps past 65535
@@ -875,5 +1215,43 @@ mod tests {
                 assert_eq!(out[0], 6, "{} is writable ({:?})", r.name, &out[..n]);
             }
         }
+    }
+
+    #[test]
+    fn control_registers_read_write_and_check() {
+        let mut m = map();
+        let mut out = [0u8; MAX_PDU];
+        // mode 2, then desk 1's target 750 -> 400; 10001 lx and mode 3 are refused
+        let (_, e) = m.process(&[6, 0x07, 0xD2, 0, 2], &mut out).unwrap();
+        assert!(e.control_changed);
+        assert_eq!(m.control.mode, 2);
+        assert_eq!(
+            read(&mut m, 4, addr::CONTROL_MODE_IN_EFFECT, 1),
+            vec![4, 2, 0, 2]
+        );
+        let a = addr::DESK_TARGET + 1;
+        m.process(&[6, (a >> 8) as u8, a as u8, 0x01, 0x90], &mut out)
+            .unwrap();
+        assert_eq!(m.control.targets_lx[1], 400);
+        let (n, _) = m
+            .process(&[6, (a >> 8) as u8, a as u8, 0x27, 0x11], &mut out)
+            .unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        let (n, _) = m.process(&[6, 0x07, 0xD2, 0, 3], &mut out).unwrap();
+        assert_eq!(&out[..n], &[0x86, 3]);
+        assert_eq!(
+            read(&mut m, 3, addr::DESK_TARGET, 3),
+            vec![3, 6, 1, 0xF4, 1, 0x90, 2, 0xEE]
+        );
+        // power now 120.5 W = 0x42F10000, all on 480 W = 0x43F00000, saved 74.9 %
+        assert_eq!(
+            read(&mut m, 4, addr::POWER_NOW, 5),
+            vec![4, 10, 0x42, 0xF1, 0, 0, 0x43, 0xF0, 0, 0, 0x02, 0xED]
+        );
+        // met: not available until the loop says, then 1 / 0
+        assert_eq!(read(&mut m, 4, addr::DESK_MET, 1), vec![4, 2, 0xFF, 0xFF]);
+        m.control.met[0] = 1;
+        assert_eq!(read(&mut m, 4, addr::DESK_MET, 1), vec![4, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, addr::DESK_MET + 3, 1), vec![0x84, 2]);
     }
 }

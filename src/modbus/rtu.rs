@@ -13,13 +13,21 @@
 //! The loop runs on its own thread over any [`std::io::Read`] + [`std::io::Write`] port whose
 //! reads time out with `ErrorKind::TimedOut` (serialport's behaviour), so tests drive it with
 //! a scripted port.
+//!
+//! The line is supervised ([`spawn_supervised`]): a read or write error (a pty hang-up, a USB
+//! adapter unplugged, a write that times out on a stuck transceiver) is logged, the line state
+//! in the health registers turns "down", and the port is reopened with a growing back-off (0.5 s
+//! to 10 s) until it opens again, forever. The thread beats the watchdog's liveness check at
+//! every frame gap, also while it is reopening.
 
 use std::io::{ErrorKind, Read, Write};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use super::access::Source;
 use super::frame::{BROADCAST, MAX_RTU_FRAME, decode_rtu, encode_rtu, t35_us};
+use super::health::{Beat, Health, state};
 use super::node::{PduHandler, lock};
 use super::pdu::{MAX_PDU, function};
 
@@ -108,11 +116,14 @@ pub struct RtuCounters {
     pub broadcasts: AtomicU64,
     /// Frames discarded (short, CRC, overlong).
     pub discarded: AtomicU64,
+    /// Times the line was reopened after an error.
+    pub reopens: AtomicU64,
 }
 
 /// What to do with one received frame; the reply bytes are in `reply[..n]`.
 pub fn handle_frame<H: PduHandler + ?Sized>(
     handler: &mut H,
+    source: &Source,
     unit_id: u8,
     frame: &[u8],
     counters: &RtuCounters,
@@ -130,7 +141,7 @@ pub fn handle_frame<H: PduHandler + ?Sized>(
         );
         if is_write {
             let mut out = [0u8; MAX_PDU];
-            let _ = handler.handle_pdu(unit, pdu, &mut out);
+            let _ = handler.handle_from(source, unit, pdu, &mut out);
             counters.broadcasts.fetch_add(1, Ordering::Relaxed);
         }
         return None;
@@ -140,7 +151,7 @@ pub fn handle_frame<H: PduHandler + ?Sized>(
         return None;
     }
     let mut out = [0u8; MAX_PDU];
-    let n = handler.handle_pdu(unit, pdu, &mut out)?;
+    let n = handler.handle_from(source, unit, pdu, &mut out)?;
     counters.answered.fetch_add(1, Ordering::Relaxed);
     Some(encode_rtu(unit, &out[..n], reply))
 }
@@ -150,9 +161,11 @@ pub fn handle_frame<H: PduHandler + ?Sized>(
 pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
     port: &mut P,
     handler: &Mutex<H>,
+    source: &Source,
     unit_id: u8,
     counters: &RtuCounters,
     stop: &AtomicBool,
+    beat: Option<&Beat>,
 ) -> std::io::Result<()> {
     let mut frame = [0u8; MAX_RTU_FRAME];
     let mut len = 0usize;
@@ -160,6 +173,9 @@ pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
     let mut buf = [0u8; 64];
     let mut reply = [0u8; MAX_RTU_FRAME];
     while !stop.load(Ordering::Relaxed) {
+        if let Some(b) = beat {
+            b.beat();
+        }
         let silence = match port.read(&mut buf) {
             Ok(0) => {
                 // EOF on a pty whose other side is gone; behave as silence, but do not spin
@@ -184,7 +200,7 @@ pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
         if silence {
             let frame = &frame[..len];
             end_of_frame(
-                port, handler, unit_id, counters, frame, overlong, &mut reply,
+                port, handler, source, unit_id, counters, frame, overlong, &mut reply,
             )?;
             (len, overlong) = (0, false);
         }
@@ -192,9 +208,11 @@ pub fn serve<P: Read + Write, H: PduHandler + ?Sized>(
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn end_of_frame<P: Write, H: PduHandler + ?Sized>(
     port: &mut P,
     handler: &Mutex<H>,
+    source: &Source,
     unit_id: u8,
     counters: &RtuCounters,
     frame: &[u8],
@@ -210,7 +228,7 @@ fn end_of_frame<P: Write, H: PduHandler + ?Sized>(
     }
     let answer = {
         let mut h = lock(handler);
-        handle_frame(&mut *h, unit_id, frame, counters, reply)
+        handle_frame(&mut *h, source, unit_id, frame, counters, reply)
     };
     if let Some(n) = answer {
         port.write_all(&reply[..n])?;
@@ -249,15 +267,77 @@ pub fn open_port(
         })
 }
 
-/// Runs the RTU server on its own thread until `stop` is set.
-pub fn spawn<H: PduHandler + 'static>(
-    mut port: Box<dyn serialport::SerialPort>,
+/// Runs the RTU server on `device` on its own thread until `stop` is set, reopening the line
+/// after any error (see the module doc). `port` is the already opened line, if any (the caller
+/// opens it first to fail fast on a wrong device at start). The line's state and reopen count
+/// go to `health`; `beat` is beaten at every frame gap and every reopening attempt.
+pub fn spawn_supervised<H: PduHandler + 'static>(
+    device: String,
+    options: RtuOptions,
+    port: Option<Box<dyn serialport::SerialPort>>,
     handler: Arc<Mutex<H>>,
-    unit_id: u8,
-    counters: Arc<RtuCounters>,
+    health: Arc<Health>,
     stop: Arc<AtomicBool>,
-) -> std::thread::JoinHandle<std::io::Result<()>> {
-    std::thread::spawn(move || serve(&mut port, &*handler, unit_id, &counters, &stop))
+    beat: Beat,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let source = Source::Rtu(device.clone());
+        let counters = health.rtu.clone();
+        let mut port = port;
+        let mut backoff = Duration::from_millis(500);
+        while !stop.load(Ordering::Relaxed) {
+            beat.beat();
+            let mut p = match port.take() {
+                Some(p) => p,
+                None => match open_port(&device, &options) {
+                    Ok(p) => {
+                        counters.reopens.fetch_add(1, Ordering::Relaxed);
+                        tracing::info!("modbus rtu {device}: line reopened");
+                        p
+                    }
+                    Err(e) => {
+                        tracing::debug!("modbus rtu {device}: {e}; retrying in {backoff:?}");
+                        sleep_unless(&stop, &beat, backoff);
+                        backoff = (backoff * 2).min(Duration::from_secs(10));
+                        continue;
+                    }
+                },
+            };
+            health.rtu_state.store(state::UP, Ordering::Relaxed);
+            backoff = Duration::from_millis(500);
+            let r = serve(
+                &mut p,
+                &*handler,
+                &source,
+                options.unit_id,
+                &counters,
+                &stop,
+                Some(&beat),
+            );
+            drop(p);
+            if let Err(e) = r {
+                health.rtu_state.store(state::DOWN, Ordering::Relaxed);
+                tracing::error!(
+                    "modbus rtu {device}: line failed ({e}); reopening (status: communication \
+                     not ok, input 43 = 2)"
+                );
+                sleep_unless(&stop, &beat, backoff);
+            }
+        }
+        beat.retire();
+    })
+}
+
+/// Sleeps `d` in short steps, beating, unless `stop` is set.
+fn sleep_unless(stop: &AtomicBool, beat: &Beat, d: Duration) {
+    let step = Duration::from_millis(100);
+    let mut left = d;
+    while !stop.load(Ordering::Relaxed) && !left.is_zero() {
+        beat.beat();
+        let s = left.min(step);
+        std::thread::sleep(s);
+        left -= s;
+    }
 }
 
 #[cfg(test)]
@@ -356,7 +436,8 @@ mod tests {
         };
         let probe = Mutex::new(Probe::default());
         let counters = RtuCounters::default();
-        serve(&mut port, &probe, 7, &counters, &stop).unwrap();
+        let src = Source::Rtu("test".into());
+        serve(&mut port, &probe, &src, 7, &counters, &stop, None).unwrap();
         assert_eq!(port.written, vec![mine]);
         assert_eq!(lock(&probe).writes, 1, "the broadcast write is executed");
         assert_eq!(counters.answered.load(Ordering::Relaxed), 1);
@@ -376,7 +457,8 @@ mod tests {
         };
         let probe = Mutex::new(Probe::default());
         let counters = RtuCounters::default();
-        serve(&mut port, &probe, 7, &counters, &stop).unwrap();
+        let src = Source::Rtu("test".into());
+        serve(&mut port, &probe, &src, 7, &counters, &stop, None).unwrap();
         assert!(port.written.is_empty());
         assert_eq!(counters.discarded.load(Ordering::Relaxed), 1);
     }

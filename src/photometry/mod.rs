@@ -519,6 +519,62 @@ impl IntensityDistribution {
         }
     }
 
+    /// A distribution from its unfolded grid as [`IntensityDistribution::c_grid_deg`],
+    /// [`IntensityDistribution::gamma_grid_deg`] and [`IntensityDistribution::grid_cd`] give it
+    /// (`cd[ic * gammas + ig]`, cd): how a stored copy (the flash image's report section) comes
+    /// back exactly. The grids are checked as a file's would be.
+    pub fn from_full_grid(
+        c_deg: Vec<f64>,
+        gamma_deg: Vec<f64>,
+        cd: Vec<f64>,
+        name: &str,
+    ) -> Result<Self, PhotometryError> {
+        let ng = gamma_deg.len();
+        if ng == 0 || c_deg.is_empty() || cd.len() != c_deg.len() * ng {
+            return Err(PhotometryError::general(ErrorKind::Invalid(format!(
+                "{} intensities for {} C planes × {} gamma angles",
+                cd.len(),
+                c_deg.len(),
+                ng
+            ))));
+        }
+        if cd
+            .iter()
+            .chain(&c_deg)
+            .chain(&gamma_deg)
+            .any(|v| !v.is_finite())
+        {
+            return Err(PhotometryError::general(ErrorKind::Invalid(
+                "a stored angle or intensity is not a number".into(),
+            )));
+        }
+        check_ascending(&c_deg, "horizontal (C) angles", 0.0, 360.0)?;
+        let symmetry = if c_deg.len() == 1 {
+            Symmetry::Rotational
+        } else {
+            Symmetry::None
+        };
+        let planes = c_deg
+            .iter()
+            .enumerate()
+            .map(|(ic, c)| StoredPlane {
+                c_deg: *c,
+                cd: cd[ic * ng..(ic + 1) * ng].to_vec(),
+            })
+            .collect();
+        Self::from_stored(
+            Format::Synthetic,
+            symmetry,
+            gamma_deg,
+            planes,
+            Metadata {
+                luminaire: name.to_owned(),
+                absolute: true,
+                ..Metadata::default()
+            },
+        )
+    }
+
     /// The format the data came from.
     pub fn format(&self) -> Format {
         self.format

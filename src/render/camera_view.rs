@@ -1,14 +1,16 @@
-//! The commissioning report picture: the camera's view with a false-colour overlay of the
-//! all-on illuminance on the modelled surfaces, desk outlines and each desk's mean lux.
+//! Pictures through the ceiling camera: the dense illuminance of every pixel (false colour, desk
+//! outlines and means, a colour bar in lux), the reflectance the model uses at every pixel, and
+//! the patch mesh as the camera sees it (drawn by plotters, DejaVu Sans).
 
 use std::path::Path;
 
 use glam::DVec3;
 
-use super::{BLACK, Canvas, WHITE, nice_ceiling, viridis};
+use super::{Anchor, Canvas, Colour, Label, WHITE, nice_ceiling, viridis};
 use crate::commission::Commissioned;
-use crate::engine::raycast::{Hit, RayCaster};
-use crate::scene::Camera;
+use crate::engine::Patches;
+use crate::engine::dense::{DenseField, DenseImage, DenseSettings, Pixel};
+use crate::scene::{Camera, Desk};
 
 /// Why a picture was not drawn.
 #[derive(Debug, thiserror::Error)]
@@ -24,135 +26,309 @@ pub enum RenderError {
     Png(#[from] image::ImageError),
 }
 
-fn project(cam: &Camera, p: DVec3) -> Option<(f64, f64)> {
+/// Pixel coordinates of a world point, if in front of the camera.
+pub fn project(cam: &Camera, p: DVec3) -> Option<(f64, f64)> {
     let q = cam.world_from_camera.transpose() * (p - cam.position_m);
     (q.z > 1e-6).then(|| (cam.fx * q.x / q.z + cam.cx, cam.fy * q.y / q.z + cam.cy))
 }
 
-/// Mean all-on illuminance per desk (its grid points, or its centre), lx: (desk id, centre, lux).
-pub fn desk_lux(c: &Commissioned) -> Vec<(u32, DVec3, f64)> {
-    let Some(desks) = &c.scene.desks else {
-        return Vec::new();
-    };
-    let levels = vec![1.0; c.model.luminaires()];
-    desks
-        .desks
-        .iter()
-        .map(|d| {
-            let mut pts: Vec<(DVec3, DVec3)> = desks
-                .grid_points
-                .iter()
-                .filter(|(id, _)| *id == d.id)
-                .map(|(_, p)| (*p + DVec3::Z * 0.001, DVec3::Z))
-                .collect();
-            let centre = DVec3::new(
-                0.5 * (d.x_m[0] + d.x_m[1]),
-                0.5 * (d.y_m[0] + d.y_m[1]),
-                d.z_m + 0.001,
-            );
-            if pts.is_empty() {
-                pts.push((centre, DVec3::Z));
-            }
-            let r = crate::engine::points::evaluate(&c.scene, &c.model, &pts, 1000);
-            let lux = r.lux(&levels);
-            (
-                d.id,
-                centre,
-                lux.iter().sum::<f64>() / lux.len().max(1) as f64,
-            )
-        })
-        .collect()
+/// A desk to mark on a camera view: its outline and label lines.
+#[derive(Debug, Clone)]
+pub struct ViewDesk {
+    /// The desk.
+    pub desk: Desk,
+    /// Label lines.
+    pub label: Vec<String>,
 }
 
-/// Draws the report picture.
+/// What to draw on a camera view.
+#[derive(Debug, Clone)]
+pub struct ViewOptions {
+    /// Title.
+    pub title: String,
+    /// A line under the picture.
+    pub subtitle: String,
+    /// Upscaling of the camera's pixels.
+    pub zoom: u32,
+}
+
+const TITLE_H: u32 = 40;
+const FOOT_H: u32 = 30;
+const BAR_W: u32 = 110;
+const LEFT: u32 = 10;
+
+fn frame_size(img: &DenseImage, zoom: u32, bar: bool) -> (u32, u32) {
+    (
+        img.width * zoom + LEFT + if bar { BAR_W } else { 10 },
+        img.height * zoom + TITLE_H + FOOT_H,
+    )
+}
+
+/// A colour bar: top value, unit, colour map.
+type Bar<'a> = (f64, &'a str, &'a dyn Fn(f64) -> Colour);
+
+/// Draws a picture with one colour per camera pixel, its title and footnote, the desks, and a
+/// colour bar if asked.
+fn draw_view(
+    img: &DenseImage,
+    opts: &ViewOptions,
+    colour_of: &dyn Fn(usize) -> Colour,
+    desks: Option<(&Camera, &[ViewDesk])>,
+    bar: Option<Bar<'_>>,
+) -> Canvas {
+    let z = opts.zoom.max(1);
+    let (w, h) = frame_size(img, z, bar.is_some());
+    let mut c = super::with_plotters(w, h, &mut |root, labels| {
+        root.fill(&plotters::style::colors::WHITE)?;
+        labels.push(Label::new(opts.title.clone(), (f64::from(LEFT), 12.0), 19.0).bold());
+        labels.push(Label::new(
+            opts.subtitle.clone(),
+            (f64::from(LEFT), f64::from(img.height * z + TITLE_H + 8)),
+            13.0,
+        ));
+        if let Some((max, unit, map)) = bar {
+            let x = (img.width * z + LEFT + 24) as i32;
+            super::draw_colour_bar(
+                root,
+                (
+                    x,
+                    TITLE_H as i32 + 10,
+                    22,
+                    (TITLE_H + img.height * z) as i32 - 10,
+                ),
+                max,
+                unit,
+                map,
+                labels,
+            )?;
+        }
+        Ok(())
+    });
+    let wpx = img.width as usize;
+    for k in 0..img.pixels.len() {
+        let (u, v) = ((k % wpx) as i64, (k / wpx) as i64);
+        c.fill(
+            i64::from(LEFT) + u * i64::from(z),
+            i64::from(TITLE_H) + v * i64::from(z),
+            i64::from(z),
+            i64::from(z),
+            colour_of(k),
+        );
+    }
+    if let Some((cam, desks)) = desks {
+        desk_overlay(&mut c, cam, desks, z);
+    }
+    c
+}
+
+fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
+    let zf = f64::from(z);
+    let to_px = |p: DVec3| {
+        project(cam, p).map(|(u, v)| {
+            (
+                f64::from(LEFT) + (u + 0.5) * zf,
+                f64::from(TITLE_H) + (v + 0.5) * zf,
+            )
+        })
+    };
+    for d in desks {
+        let k = &d.desk;
+        let cs = [
+            DVec3::new(k.x_m[0], k.y_m[0], k.z_m),
+            DVec3::new(k.x_m[1], k.y_m[0], k.z_m),
+            DVec3::new(k.x_m[1], k.y_m[1], k.z_m),
+            DVec3::new(k.x_m[0], k.y_m[1], k.z_m),
+        ];
+        let pts: Vec<(f64, f64)> = cs.iter().filter_map(|p| to_px(*p)).collect();
+        if pts.len() == 4 {
+            for e in 0..4 {
+                c.line(pts[e], pts[(e + 1) % 4], 2, WHITE);
+            }
+        }
+        let centre = DVec3::new(
+            0.5 * (k.x_m[0] + k.x_m[1]),
+            0.5 * (k.y_m[0] + k.y_m[1]),
+            k.z_m,
+        );
+        if let Some((x, y)) = to_px(centre) {
+            let n = d.label.len() as f64;
+            for (i, line) in d.label.iter().enumerate() {
+                let yy = y + (i as f64 - 0.5 * (n - 1.0)) * 17.0;
+                let mut l = Label::new(line.clone(), (x, yy), 14.0)
+                    .anchored(Anchor::Middle, Anchor::Middle)
+                    .colour(WHITE)
+                    .halo([20, 20, 20]);
+                if i == 0 {
+                    l = l.bold();
+                }
+                l.draw(c);
+            }
+        }
+    }
+}
+
+/// Colour of a pixel that sees no reflecting surface: a luminaire opening white, nothing grey.
+fn non_surface(p: &Pixel) -> Colour {
+    match p {
+        Pixel::Emitter(_) => [255, 255, 255],
+        _ => [60, 60, 60],
+    }
+}
+
+/// The dense illuminance of every pixel in false colour, with desk outlines and labels and a
+/// colour bar in lux from 0 to `scale_max_lx` (0: from the picture).
+pub fn lux_picture(
+    img: &DenseImage,
+    lux: &[f64],
+    cam: &Camera,
+    desks: &[ViewDesk],
+    opts: &ViewOptions,
+    scale_max_lx: f64,
+) -> Canvas {
+    let max = if scale_max_lx > 0.0 {
+        scale_max_lx
+    } else {
+        nice_ceiling(
+            lux.iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(1.0, f64::max),
+        )
+    };
+    draw_view(
+        img,
+        opts,
+        &|k| {
+            let v = lux.get(k).copied().unwrap_or(f64::NAN);
+            if v.is_finite() {
+                viridis(v / max)
+            } else {
+                non_surface(&img.pixels[k])
+            }
+        },
+        Some((cam, desks)),
+        Some((max, "lx", &viridis)),
+    )
+}
+
+/// A grey ramp for reflectances: black at 0, white at 1.
+fn grey(t: f64) -> Colour {
+    let g = (255.0 * t.clamp(0.0, 1.0)).round() as u8;
+    [g, g, g]
+}
+
+/// The reflectance the model uses at every pixel (grey, 0 black to 1 white), with the desks.
+pub fn reflectance_picture(
+    img: &DenseImage,
+    patches: &Patches,
+    cam: &Camera,
+    desks: &[ViewDesk],
+    opts: &ViewOptions,
+) -> Canvas {
+    draw_view(
+        img,
+        opts,
+        &|k| match img.pixels[k] {
+            Pixel::Surface(s) => grey(patches.rho[s.patch as usize]),
+            Pixel::Emitter(_) => [255, 196, 0],
+            _ => [120, 20, 20],
+        },
+        Some((cam, desks)),
+        Some((1.0, "ρ", &grey)),
+    )
+}
+
+/// The patch mesh as the camera sees it: each patch in a light colour of its surface group,
+/// patch edges dark, luminaire openings amber.
+pub fn mesh_picture(img: &DenseImage, patches: &Patches, opts: &ViewOptions) -> Canvas {
+    let w = img.width as usize;
+    let h = img.height as usize;
+    draw_view(
+        img,
+        opts,
+        &|k| {
+            let Some(p) = img.patch(k) else {
+                return [60, 60, 60];
+            };
+            if matches!(img.pixels[k], Pixel::Emitter(_)) {
+                return [255, 196, 0];
+            }
+            let (u, v) = (k % w, k / w);
+            let edge = [(1usize, 0usize), (0, 1)].iter().any(|(du, dv)| {
+                let (uu, vv) = (u + du, v + dv);
+                uu < w && vv < h && img.patch(vv * w + uu) != Some(p)
+            });
+            if edge {
+                return [30, 30, 30];
+            }
+            let g = patches.group.get(p as usize).copied().unwrap_or(0) as usize;
+            let [r, gg, b] = super::plot::PALETTE[g % super::plot::PALETTE.len()];
+            // pastel: halfway to white
+            [
+                ((u16::from(r) + 255) / 2) as u8,
+                ((u16::from(gg) + 255) / 2) as u8,
+                ((u16::from(b) + 255) / 2) as u8,
+            ]
+        },
+        None,
+        None,
+    )
+}
+
+/// The commissioning picture of `luxnode commission --report`: the camera view of the all-on
+/// dense illuminance with each desk's mean.
 pub fn report_png(c: &Commissioned, path: &Path) -> Result<(), RenderError> {
     let Some(cam) = &c.scene.camera else {
         return Err(RenderError::NoCamera);
     };
+    let field = DenseField::from_model(&c.model, &c.scene.luminaires, DenseSettings::default())?;
+    let img = field.camera_view(cam)?;
     let levels = vec![1.0; c.model.luminaires()];
-    let patch_lx = c.model.patch_lux(&levels)?;
-    let caster = RayCaster::new(&c.model.patches);
-    let k = 2u32; // upscale
-    let (w, h) = (cam.width, cam.height);
-    let bar_h = 40;
-    let mut canvas = Canvas::new(w * k, h * k + bar_h, WHITE);
-    let mut per_px = vec![f64::NAN; (w * h) as usize];
-    for v in 0..h {
-        for u in 0..w {
-            let dir = cam.ray_world(f64::from(u), f64::from(v));
-            if let Hit::Front { patch, .. } = caster.closest(cam.position_m, dir) {
-                per_px[(v * w + u) as usize] = patch_lx[patch as usize];
-            }
-        }
-    }
-    let max = nice_ceiling(
-        per_px
-            .iter()
-            .copied()
-            .filter(|x| x.is_finite())
-            .fold(1.0, f64::max),
-    );
-    for v in 0..h {
-        for u in 0..w {
-            let x = per_px[(v * w + u) as usize];
-            let col = if x.is_finite() {
-                viridis(x / max)
-            } else {
-                [40, 40, 40]
-            };
-            canvas.fill(
-                i64::from(u * k),
-                i64::from(v * k),
-                i64::from(k),
-                i64::from(k),
-                col,
-            );
-        }
-    }
-    if let Some(desks) = &c.scene.desks {
-        for d in &desks.desks {
-            let cs = [
-                DVec3::new(d.x_m[0], d.y_m[0], d.z_m),
-                DVec3::new(d.x_m[1], d.y_m[0], d.z_m),
-                DVec3::new(d.x_m[1], d.y_m[1], d.z_m),
-                DVec3::new(d.x_m[0], d.y_m[1], d.z_m),
-            ];
-            for e in 0..4 {
-                let (a, b) = (cs[e], cs[(e + 1) % 4]);
-                for s in 0..=200 {
-                    let p = a + (b - a) * (f64::from(s) / 200.0);
-                    if let Some((u, v)) = project(cam, p) {
-                        canvas.fill(
-                            (u * f64::from(k)) as i64 - 1,
-                            (v * f64::from(k)) as i64 - 1,
-                            2,
-                            2,
-                            WHITE,
-                        );
+    let lux = img.lux(&levels)?;
+    let desks: Vec<ViewDesk> = c
+        .scene
+        .desks
+        .as_ref()
+        .map(|d| {
+            d.desks
+                .iter()
+                .map(|k| {
+                    let pts: Vec<crate::engine::dense::SurfacePoint> = d
+                        .grid_points
+                        .iter()
+                        .filter(|(id, _)| *id == k.id)
+                        .filter_map(|(_, p)| field.surface_at(p.x, p.y, p.z))
+                        .collect();
+                    let mean = field
+                        .points(&pts)
+                        .lux(&levels)
+                        .ok()
+                        .filter(|v| !v.is_empty())
+                        .map(|v| v.iter().sum::<f64>() / v.len() as f64);
+                    let mut label = vec![format!("desk {}", k.id)];
+                    if let Some(m) = mean {
+                        label.push(format!("Ē {m:.0} lx"));
                     }
-                }
-            }
-        }
-    }
-    for (id, centre, lux) in desk_lux(c) {
-        if let Some((u, v)) = project(cam, centre) {
-            canvas.label(
-                &format!("desk {id}: {lux:.0} lx"),
-                (u * f64::from(k)) as i64,
-                (v * f64::from(k)) as i64,
-                1,
-                BLACK,
-                WHITE,
-            );
-        }
-    }
-    // colour bar
-    let y0 = i64::from(h * k) + 8;
-    let bw = i64::from(w * k) - 100;
-    for x in 0..bw {
-        canvas.fill(10 + x, y0, 1, 12, viridis(x as f64 / bw as f64));
-    }
-    canvas.text("0 lx", 10, y0 + 16, 1, BLACK);
-    canvas.text(&format!("{max:.0} lx (all on)"), bw - 40, y0 + 16, 1, BLACK);
+                    ViewDesk {
+                        desk: k.clone(),
+                        label,
+                    }
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let canvas = lux_picture(
+        &img,
+        &lux,
+        cam,
+        &desks,
+        &ViewOptions {
+            title: format!("{}: illuminance, all luminaires at 100 %", c.scene.name),
+            subtitle: "dense illuminance per camera pixel, lx (new installation); luminaire openings white"
+                .into(),
+            zoom: 2,
+        },
+        0.0,
+    );
     Ok(canvas.save_png(path)?)
 }

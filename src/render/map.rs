@@ -1,17 +1,17 @@
-//! The top-view map: false-colour illuminance on every upward-facing surface (floor, desk tops,
-//! cabinet tops) for one dimming state, a colour bar in lux, desk outlines with each desk's mean
-//! illuminance written on it, and the sensors marked.
+//! The plan view: false-colour illuminance on every upward-facing surface (floor, desk tops,
+//! cabinet tops) for one dimming state, with isolines, a grid of values, desk outlines with their
+//! mean, the sensors, axes in metres and a colour bar in lux (drawn by plotters).
 //!
-//! Each map cell is a virtual sensor on the surface seen from above (exact direct light plus a
-//! gather over the patch exitances), so the picture is as accurate as a sensor reading, not a
-//! picture of the patches.
+//! Each map cell is a point on the surface seen from above with dense illuminance
+//! ([`crate::engine::dense`]): exact direct light and the interreflection interpolated over
+//! the patch mesh, so the picture shows shadows and gradients, not the patches.
 
 use glam::DVec3;
+use plotters::prelude::*;
 
-use super::{BLACK, Canvas, WHITE, nice_ceiling, text_width, viridis};
+use super::{Anchor, Canvas, Colour, Label, nice_ceiling, viridis};
 use crate::engine::Model;
-use crate::engine::points::{self, surface_below};
-use crate::engine::raycast::RayCaster;
+use crate::engine::dense::{DenseField, DenseSettings, SurfacePoint};
 use crate::scene::Scene;
 
 /// What to draw.
@@ -21,8 +21,6 @@ pub struct MapOptions {
     pub cell_m: f64,
     /// Pixels per metre.
     pub pixels_per_m: f64,
-    /// Gather rays per cell.
-    pub rays: usize,
     /// Title line.
     pub title: String,
 }
@@ -32,7 +30,6 @@ impl Default for MapOptions {
         Self {
             cell_m: 0.1,
             pixels_per_m: 100.0,
-            rays: 300,
             title: String::new(),
         }
     }
@@ -45,38 +42,65 @@ pub struct TopView {
     pub origin_m: [f64; 2],
     /// Cells along x and y.
     pub cells: [usize; 2],
+    /// Cell size, m.
+    pub cell_m: f64,
     /// Illuminance per cell (row-major, y outer), lx; NaN where nothing faces up.
     pub lux: Vec<f64>,
     /// Each desk's mean illuminance over its grid points: (desk id, lx).
     pub desk_mean_lx: Vec<(u32, f64)>,
+    /// The surface of each cell (a patch group and height bucket): isolines join cells of one
+    /// surface only (empty: all one surface).
+    pub surface: Vec<u64>,
 }
 
-/// Computes the map values for a dimming state.
-pub fn compute(scene: &Scene, model: &Model, levels: &[f64], opts: &MapOptions) -> TopView {
-    let (lo, hi) = scene.mesh.bounds_m();
-    let cell = opts.cell_m.max(1e-3);
-    let nx = (((hi.x - lo.x) / cell).ceil() as usize).clamp(1, 4000);
-    let ny = (((hi.y - lo.y) / cell).ceil() as usize).clamp(1, 4000);
-    let caster = RayCaster::new(&model.patches);
-    let top = hi.z + 1.0;
-    let mut where_: Vec<Option<(DVec3, DVec3)>> = Vec::with_capacity(nx * ny);
+/// The surface key of a map cell's point: its patch group and its height to the centimetre.
+pub fn surface_key(group: u32, z_m: f64) -> u64 {
+    (u64::from(group) << 32) | ((z_m * 100.0).round() as i64 as u32 as u64)
+}
+
+/// The surface points of a map over `bounds` (x0, x1, y0, y1) with cells of `cell_m`: the first
+/// upward-facing surface below each cell centre (None where there is none).
+pub fn map_points(
+    field: &DenseField<'_>,
+    bounds: [f64; 4],
+    top_z_m: f64,
+    cell_m: f64,
+) -> ([f64; 2], [usize; 2], Vec<Option<SurfacePoint>>) {
+    let cell = cell_m.max(1e-3);
+    let nx = (((bounds[1] - bounds[0]) / cell).ceil() as usize).clamp(1, 2000);
+    let ny = (((bounds[3] - bounds[2]) / cell).ceil() as usize).clamp(1, 2000);
+    let mut pts = Vec::with_capacity(nx * ny);
     for iy in 0..ny {
         for ix in 0..nx {
-            let x = lo.x + (ix as f64 + 0.5) * cell;
-            let y = lo.y + (iy as f64 + 0.5) * cell;
-            where_.push(
-                surface_below(&caster, x, y, top)
-                    .map(|(p, patch)| (p, model.patches.normal[patch as usize])),
-            );
+            let x = bounds[0] + (ix as f64 + 0.5) * cell;
+            let y = bounds[2] + (iy as f64 + 0.5) * cell;
+            pts.push(field.surface_below(x, y, top_z_m));
         }
     }
-    let found: Vec<(DVec3, DVec3)> = where_.iter().flatten().copied().collect();
-    let readings = points::evaluate(scene, model, &found, opts.rays);
-    let values = readings.lux(levels);
+    (
+        [bounds[0] + 0.5 * cell, bounds[2] + 0.5 * cell],
+        [nx, ny],
+        pts,
+    )
+}
+
+/// Computes the map values for a dimming state (`simulate --map`).
+pub fn compute(
+    scene: &Scene,
+    model: &Model,
+    levels: &[f64],
+    opts: &MapOptions,
+) -> Result<TopView, crate::engine::EngineError> {
+    let field = DenseField::from_model(model, &scene.luminaires, DenseSettings::default())?;
+    let (lo, hi) = scene.mesh.bounds_m();
+    let (origin_m, cells, pts) =
+        map_points(&field, [lo.x, hi.x, lo.y, hi.y], hi.z + 1.0, opts.cell_m);
+    let found: Vec<SurfacePoint> = pts.iter().flatten().copied().collect();
+    let values = field.map_readings(&found).lux(levels)?;
     let mut k = 0;
-    let lux = where_
+    let lux = pts
         .iter()
-        .map(|w| match w {
+        .map(|p| match p {
             Some(_) => {
                 k += 1;
                 values[k - 1]
@@ -86,13 +110,18 @@ pub fn compute(scene: &Scene, model: &Model, levels: &[f64], opts: &MapOptions) 
         .collect();
     let mut desk_mean_lx = Vec::new();
     if let Some(desks) = &scene.desks {
-        let pts: Vec<(DVec3, DVec3)> = desks
+        let sp: Vec<SurfacePoint> = desks
             .grid_points
             .iter()
-            .map(|(_, p)| (*p, DVec3::Z))
+            .map(|(_, p)| {
+                field.surface_at(p.x, p.y, p.z).unwrap_or(SurfacePoint {
+                    position_m: *p,
+                    normal: DVec3::Z,
+                    patch: u32::MAX,
+                })
+            })
             .collect();
-        let r = points::evaluate(scene, model, &pts, model.settings.sensor_rays);
-        let v = r.lux(levels);
+        let v = field.points(&sp).lux(levels)?;
         for d in &desks.desks {
             let own: Vec<f64> = desks
                 .grid_points
@@ -106,18 +135,29 @@ pub fn compute(scene: &Scene, model: &Model, levels: &[f64], opts: &MapOptions) 
             }
         }
     }
-    TopView {
-        origin_m: [lo.x + 0.5 * cell, lo.y + 0.5 * cell],
-        cells: [nx, ny],
+    let surface = pts
+        .iter()
+        .map(|p| {
+            p.map_or(u64::MAX, |p| {
+                surface_key(field.patches().group[p.patch as usize], p.position_m.z)
+            })
+        })
+        .collect();
+    Ok(TopView {
+        origin_m,
+        cells,
+        cell_m: opts.cell_m.max(1e-3),
         lux,
         desk_mean_lx,
-    }
+        surface,
+    })
 }
 
 impl TopView {
     /// Bilinear value at a world point (NaN cells ignored); NaN where no cell has a value.
-    fn sample(&self, x: f64, y: f64, cell: f64) -> f64 {
+    pub fn sample(&self, x: f64, y: f64) -> f64 {
         let [nx, ny] = self.cells;
+        let cell = self.cell_m;
         let fx = ((x - self.origin_m[0]) / cell).clamp(0.0, (nx - 1) as f64);
         let fy = ((y - self.origin_m[1]) / cell).clamp(0.0, (ny - 1) as f64);
         let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
@@ -148,104 +188,364 @@ impl TopView {
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max)
     }
-}
 
-/// Draws the map.
-pub fn draw(scene: &Scene, view: &TopView, opts: &MapOptions) -> Canvas {
-    let (lo, hi) = scene.mesh.bounds_m();
-    let ppm = opts.pixels_per_m;
-    let map_w = ((hi.x - lo.x) * ppm).ceil() as i64;
-    let map_h = ((hi.y - lo.y) * ppm).ceil() as i64;
-    let (left, top, right, bottom) = (30i64, 50i64, 140i64, 40i64);
-    let mut c = Canvas::new(
-        (left + map_w + right) as u32,
-        (top + map_h + bottom) as u32,
-        WHITE,
-    );
-    let scale_max = nice_ceiling(view.max_lx());
-    let to_px = |x: f64, y: f64| -> (i64, i64) {
-        (
-            left + ((x - lo.x) * ppm) as i64,
-            top + ((hi.y - y) * ppm) as i64,
-        )
-    };
-    for py in 0..map_h {
-        for px in 0..map_w {
-            let x = lo.x + (px as f64 + 0.5) / ppm;
-            let y = hi.y - (py as f64 + 0.5) / ppm;
-            let v = view.sample(x, y, opts.cell_m);
-            let col = if v.is_finite() {
-                viridis(v / scale_max)
-            } else {
-                [200, 200, 200]
-            };
-            c.put(left + px, top + py, col);
+    /// Isolines at `level`: segments ((x, y), (x, y)) in metres, by marching squares over the
+    /// cell centres (squares with a cell that has no value are skipped; the saddle case is
+    /// decided by the square's mean).
+    pub fn isoline(&self, level: f64) -> Vec<[(f64, f64); 2]> {
+        let [nx, ny] = self.cells;
+        let mut out = Vec::new();
+        if nx < 2 || ny < 2 {
+            return out;
         }
-    }
-    c.frame(left - 1, top - 1, map_w + 2, map_h + 2, 1, BLACK);
-    c.text(&opts.title, left, 14, 2, BLACK);
-    c.text("NORTH UP, 1 M GRID TICKS", left, top + map_h + 14, 1, BLACK);
-    let mut x = lo.x.ceil();
-    while x <= hi.x {
-        let (px, py) = to_px(x, lo.y);
-        c.fill(px, py, 1, 6, BLACK);
-        x += 1.0;
-    }
-    let mut y = lo.y.ceil();
-    while y <= hi.y {
-        let (px, py) = to_px(lo.x, y);
-        c.fill(px - 6, py, 6, 1, BLACK);
-        y += 1.0;
-    }
-    if let Some(desks) = &scene.desks {
-        for d in &desks.desks {
-            let (x0, y0) = to_px(d.x_m[0], d.y_m[1]);
-            let (x1, y1) = to_px(d.x_m[1], d.y_m[0]);
-            c.frame(x0, y0, x1 - x0, y1 - y0, 2, WHITE);
-            if let Some((_, m)) = view.desk_mean_lx.iter().find(|(id, _)| *id == d.id) {
-                let (cx, cy) = to_px(0.5 * (d.x_m[0] + d.x_m[1]), 0.5 * (d.y_m[0] + d.y_m[1]));
-                let (name, value) = (format!("DESK {}", d.id), format!("{m:.0} LX"));
-                let room = x1 - x0 - 8;
-                let scale = if i64::from(text_width(&name, 2).max(text_width(&value, 2))) <= room {
-                    2
-                } else {
-                    1
-                };
-                let line = 9 * i64::from(scale);
-                c.label(&name, cx, cy - line / 2 - 1, scale, WHITE, BLACK);
-                c.label(&value, cx, cy + line / 2 + 1, scale, WHITE, BLACK);
+        let at = |ix: usize, iy: usize| self.lux[iy * nx + ix];
+        let pos = |ix: f64, iy: f64| {
+            (
+                self.origin_m[0] + ix * self.cell_m,
+                self.origin_m[1] + iy * self.cell_m,
+            )
+        };
+        for iy in 0..ny - 1 {
+            for ix in 0..nx - 1 {
+                // corners counter-clockwise: (0,0) (1,0) (1,1) (0,1)
+                let c = [
+                    at(ix, iy),
+                    at(ix + 1, iy),
+                    at(ix + 1, iy + 1),
+                    at(ix, iy + 1),
+                ];
+                if c.iter().any(|v| !v.is_finite()) {
+                    continue;
+                }
+                if !self.surface.is_empty() {
+                    let k = [
+                        iy * nx + ix,
+                        iy * nx + ix + 1,
+                        (iy + 1) * nx + ix + 1,
+                        (iy + 1) * nx + ix,
+                    ];
+                    if k.iter().any(|&j| self.surface[j] != self.surface[k[0]]) {
+                        continue;
+                    }
+                }
+                let offs = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)];
+                // crossing points on each edge k (corner k to k+1)
+                let mut cross: Vec<(usize, (f64, f64))> = Vec::new();
+                for k in 0..4 {
+                    let (a, b) = (c[k], c[(k + 1) % 4]);
+                    if (a < level) != (b < level) {
+                        let t = (level - a) / (b - a);
+                        let (ox, oy) = offs[k];
+                        let (px, py) = offs[(k + 1) % 4];
+                        cross.push((
+                            k,
+                            pos(
+                                ix as f64 + ox + t * (px - ox),
+                                iy as f64 + oy + t * (py - oy),
+                            ),
+                        ));
+                    }
+                }
+                match cross.len() {
+                    2 => out.push([cross[0].1, cross[1].1]),
+                    4 => {
+                        let mean = c.iter().sum::<f64>() / 4.0;
+                        // corner 0 above and the centre with it: join 0-1 with 1-2? pair so the
+                        // centre's side stays connected
+                        if (mean >= level) == (c[0] >= level) {
+                            out.push([cross[0].1, cross[3].1]);
+                            out.push([cross[1].1, cross[2].1]);
+                        } else {
+                            out.push([cross[0].1, cross[1].1]);
+                            out.push([cross[2].1, cross[3].1]);
+                        }
+                    }
+                    _ => {}
+                }
             }
         }
+        out
     }
-    for s in &scene.sensors {
-        let (px, py) = to_px(s.position_m.x, s.position_m.y);
-        c.fill(px - 4, py - 1, 9, 3, WHITE);
-        c.fill(px - 1, py - 4, 3, 9, WHITE);
-        c.fill(px - 3, py, 7, 1, BLACK);
-        c.fill(px, py - 3, 1, 7, BLACK);
-        c.text(&format!("S{}", s.id), px + 6, py - 3, 1, BLACK);
+}
+
+/// A desk on a plan: outline (x0, x1, y0, y1), and the lines of its label.
+#[derive(Debug, Clone)]
+pub struct PlanDesk {
+    /// Outline, m: x0, x1, y0, y1.
+    pub extent_m: [f64; 4],
+    /// Label lines ("desk 1", "Ē 520 lx").
+    pub label: Vec<String>,
+}
+
+/// Everything a plan view shows.
+#[derive(Debug, Clone)]
+pub struct PlanView {
+    /// Title.
+    pub title: String,
+    /// A line under the title (state, maintenance factor).
+    pub subtitle: String,
+    /// Plan bounds, m: x0, x1, y0, y1.
+    pub bounds_m: [f64; 4],
+    /// The false-colour map.
+    pub map: TopView,
+    /// Desks.
+    pub desks: Vec<PlanDesk>,
+    /// Sensors: (id, x, y).
+    pub sensors: Vec<(u32, f64, f64)>,
+    /// The grid of values printed: ((x, y), lx).
+    pub values: Vec<([f64; 2], f64)>,
+    /// Top of the colour scale, lx (0: from the map).
+    pub scale_max_lx: f64,
+    /// Pixels per metre.
+    pub pixels_per_m: f64,
+}
+
+/// Isoline levels for a scale: about six round steps.
+pub fn isoline_levels(min: f64, max: f64) -> Vec<f64> {
+    if !(max.is_finite() && max > 0.0) {
+        return Vec::new();
     }
-    // colour bar
-    let bx = left + map_w + 30;
-    let bh = map_h.max(100);
-    for k in 0..bh {
-        let t = 1.0 - k as f64 / (bh - 1).max(1) as f64;
-        c.fill(bx, top + k, 24, 1, viridis(t));
+    let step = nice_ceiling(max / 7.0);
+    let mut v = step;
+    let mut out = Vec::new();
+    while v < max {
+        if v > min {
+            out.push(v);
+        }
+        v += step;
     }
-    c.frame(bx - 1, top - 1, 26, bh + 2, 1, BLACK);
-    for k in 0..=4 {
-        let v = scale_max * f64::from(k) / 4.0;
-        let py = top + ((1.0 - f64::from(k) / 4.0) * (bh - 1) as f64) as i64;
-        c.fill(bx + 24, py, 5, 1, BLACK);
-        c.text(&format!("{v:.0}"), bx + 32, py - 3, 1, BLACK);
+    out
+}
+
+fn rgb(c: Colour) -> RGBColor {
+    RGBColor(c[0], c[1], c[2])
+}
+
+const LEFT: f64 = 72.0;
+const TOP: f64 = 58.0;
+const RIGHT: f64 = 150.0;
+const BOTTOM: f64 = 78.0;
+
+/// Size of the picture of a plan view, pixels, and its pixels per metre.
+fn plan_size(v: &PlanView) -> (u32, u32, f64) {
+    let [x0, x1, y0, y1] = v.bounds_m;
+    let mut ppm = v.pixels_per_m.clamp(10.0, 400.0);
+    let big = (x1 - x0).max(y1 - y0) * ppm;
+    if big > 2400.0 {
+        ppm *= 2400.0 / big;
     }
-    let unit = "LX";
-    c.text(
-        unit,
-        bx + 12 - i64::from(text_width(unit, 1)) / 2,
-        top - 14,
-        1,
-        BLACK,
-    );
-    c
+    let w = ((x1 - x0) * ppm).max(50.0);
+    let h = ((y1 - y0) * ppm).max(50.0);
+    ((w + LEFT + RIGHT) as u32, (h + TOP + BOTTOM) as u32, ppm)
+}
+
+/// Draws a plan view.
+pub fn draw_plan(v: &PlanView) -> Canvas {
+    let (w, h, ppm) = plan_size(v);
+    let [x0, x1, y0, y1] = v.bounds_m;
+    let scale_max = if v.scale_max_lx > 0.0 {
+        v.scale_max_lx
+    } else {
+        nice_ceiling(v.map.max_lx())
+    };
+    let map = move |x: f64, y: f64| -> (i32, i32) {
+        (
+            (LEFT + (x - x0) * ppm).round() as i32,
+            (TOP + (y1 - y) * ppm).round() as i32,
+        )
+    };
+    let fmap =
+        move |x: f64, y: f64| -> (f64, f64) { (LEFT + (x - x0) * ppm, TOP + (y1 - y) * ppm) };
+    super::with_plotters(w, h, &mut |root, labels| {
+        root.fill(&WHITE)?;
+        labels.push(Label::new(v.title.clone(), (LEFT, 12.0), 19.0).bold());
+        // the raster, pixel by pixel
+        let (pw, ph) = (((x1 - x0) * ppm) as i32, ((y1 - y0) * ppm) as i32);
+        for j in 0..ph {
+            for i in 0..pw {
+                let x = x0 + (f64::from(i) + 0.5) / ppm;
+                let y = y1 - (f64::from(j) + 0.5) / ppm;
+                let val = v.map.sample(x, y);
+                let col = if val.is_finite() {
+                    viridis(val / scale_max)
+                } else {
+                    [210, 210, 210]
+                };
+                root.draw_pixel((LEFT as i32 + i, TOP as i32 + j), &rgb(col))?;
+            }
+        }
+        super::draw_axes(
+            root,
+            &map,
+            &super::Axis {
+                lo: x0,
+                hi: x1,
+                log: false,
+                desc: "x (m)".into(),
+            },
+            &super::Axis {
+                lo: y0,
+                hi: y1,
+                log: false,
+                desc: "y (m)".into(),
+            },
+            false,
+            labels,
+        )?;
+        // isolines, labelled once each near the middle of the room
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        for level in isoline_levels(0.0, v.map.max_lx()) {
+            let segs = v.map.isoline(level);
+            for s in &segs {
+                root.draw(&PathElement::new(
+                    vec![map(s[0].0, s[0].1), map(s[1].0, s[1].1)],
+                    WHITE.stroke_width(1),
+                ))?;
+            }
+            if let Some(s) = segs.iter().min_by(|a, b| {
+                let d = |s: &[(f64, f64); 2]| (s[0].0 - cx).powi(2) + (s[0].1 - cy).powi(2);
+                d(a).total_cmp(&d(b))
+            }) {
+                labels.push(
+                    Label::new(format!("{level:.0}"), fmap(s[0].0, s[0].1), 12.0)
+                        .anchored(Anchor::Middle, Anchor::Middle)
+                        .colour(super::WHITE)
+                        .halo([40, 40, 40]),
+                );
+            }
+        }
+        // the value grid
+        for (p, val) in &v.values {
+            root.draw(&Circle::new(map(p[0], p[1]), 2, BLACK.filled()))?;
+            let (px, py) = fmap(p[0], p[1]);
+            labels.push(
+                Label::new(format!("{val:.0}"), (px, py + 3.0), 11.0)
+                    .anchored(Anchor::Middle, Anchor::Start)
+                    .halo([255, 255, 255]),
+            );
+        }
+        // desks
+        for d in &v.desks {
+            let [a, b, c, e] = d.extent_m;
+            root.draw(&Rectangle::new(
+                [map(a, e), map(b, c)],
+                WHITE.stroke_width(2),
+            ))?;
+            let (mx, my) = fmap(0.5 * (a + b), 0.5 * (c + e));
+            let n = d.label.len() as f64;
+            for (k, text) in d.label.iter().enumerate() {
+                let y = my + (k as f64 - 0.5 * (n - 1.0)) * 17.0;
+                let mut l = Label::new(text.clone(), (mx, y), 14.0)
+                    .anchored(Anchor::Middle, Anchor::Middle)
+                    .colour(super::WHITE)
+                    .halo([20, 20, 20]);
+                if k == 0 {
+                    l = l.bold();
+                }
+                labels.push(l);
+            }
+        }
+        // sensors
+        for (id, x, y) in &v.sensors {
+            root.draw(&Cross::new(
+                map(*x, *y),
+                6,
+                RGBColor(230, 30, 30).stroke_width(3),
+            ))?;
+            let (px, py) = fmap(*x, *y);
+            labels.push(
+                Label::new(format!("S{id}"), (px + 7.0, py - 4.0), 13.0)
+                    .anchored(Anchor::Start, Anchor::End)
+                    .colour(super::WHITE)
+                    .halo([20, 20, 20]),
+            );
+        }
+        if !v.subtitle.is_empty() {
+            labels.push(Label::new(
+                v.subtitle.clone(),
+                (LEFT, f64::from(h) - 22.0),
+                13.0,
+            ));
+        }
+        let bx = (LEFT + (x1 - x0) * ppm + 40.0) as i32;
+        super::draw_colour_bar(
+            root,
+            (bx, TOP as i32, 24, TOP as i32 + ph),
+            scale_max,
+            "lx",
+            &viridis,
+            labels,
+        )?;
+        Ok(())
+    })
+}
+
+/// Draws the map of `simulate --map`: desks with their mean, the sensors.
+pub fn draw(scene: &Scene, view: &TopView, opts: &MapOptions) -> Canvas {
+    let (lo, hi) = scene.mesh.bounds_m();
+    let desks = scene
+        .desks
+        .as_ref()
+        .map(|d| {
+            d.desks
+                .iter()
+                .map(|d| {
+                    let mut label = vec![format!("desk {}", d.id)];
+                    if let Some((_, m)) = view.desk_mean_lx.iter().find(|(id, _)| *id == d.id) {
+                        label.push(format!("Ē {m:.0} lx"));
+                    }
+                    PlanDesk {
+                        extent_m: [d.x_m[0], d.x_m[1], d.y_m[0], d.y_m[1]],
+                        label,
+                    }
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    draw_plan(&PlanView {
+        title: opts.title.clone(),
+        subtitle:
+            "illuminance on the upward-facing surfaces (floor, desk tops), lx; isolines white"
+                .into(),
+        bounds_m: [lo.x, hi.x, lo.y, hi.y],
+        map: view.clone(),
+        desks,
+        sensors: scene
+            .sensors
+            .iter()
+            .map(|s| (s.id, s.position_m.x, s.position_m.y))
+            .collect(),
+        values: Vec::new(),
+        scale_max_lx: 0.0,
+        pixels_per_m: opts.pixels_per_m,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn isolines_of_a_ramp_are_straight() {
+        // lux = 100 x (x in cells): the 250 lx line is at x = 2.5 cells
+        let (nx, ny) = (6, 4);
+        let view = TopView {
+            origin_m: [0.0, 0.0],
+            cells: [nx, ny],
+            cell_m: 1.0,
+            lux: (0..nx * ny).map(|k| 100.0 * (k % nx) as f64).collect(),
+            desk_mean_lx: Vec::new(),
+            surface: Vec::new(),
+        };
+        let segs = view.isoline(250.0);
+        assert_eq!(segs.len(), ny - 1);
+        for s in segs {
+            assert!((s[0].0 - 2.5).abs() < 1e-12 && (s[1].0 - 2.5).abs() < 1e-12);
+        }
+        assert!(view.isoline(1000.0).is_empty());
+        assert_eq!(
+            isoline_levels(0.0, 1400.0),
+            vec![200.0, 400.0, 600.0, 800.0, 1000.0, 1200.0]
+        );
+    }
 }

@@ -1,7 +1,10 @@
-//! Line/scatter plots for benchmark figures (time against error, Pareto fronts): axes with
-//! ticks, optional log scale on x, one colour per series, a legend.
+//! Line/scatter plots for benchmark figures (time against error, Pareto fronts), drawn by
+//! plotters: axes with numbered ticks, optional log scales, one colour per series, a legend,
+//! every text in DejaVu Sans (units in lower case: ms, lx, %, MB).
 
-use super::{BLACK, Canvas, Colour, WHITE, text_width};
+use plotters::prelude::*;
+
+use super::{Anchor, Axis, Canvas, Label, draw_axes, with_plotters};
 
 /// One series: a name and its points (x, y), drawn joined in the given order.
 #[derive(Debug, Clone)]
@@ -17,9 +20,9 @@ pub struct Series {
 pub struct Plot {
     /// Title.
     pub title: String,
-    /// x-axis label.
+    /// x-axis label (with its unit).
     pub x_label: String,
-    /// y-axis label.
+    /// y-axis label (with its unit).
     pub y_label: String,
     /// Logarithmic x axis.
     pub log_x: bool,
@@ -29,7 +32,8 @@ pub struct Plot {
     pub series: Vec<Series>,
 }
 
-const PALETTE: [Colour; 8] = [
+/// The series colours (matplotlib's tab10).
+pub const PALETTE: [[u8; 3]; 8] = [
     [31, 119, 180],
     [255, 127, 14],
     [44, 160, 44],
@@ -40,40 +44,8 @@ const PALETTE: [Colour; 8] = [
     [127, 127, 127],
 ];
 
-fn ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
-    if log {
-        let mut t = Vec::new();
-        let mut p = 10f64.powf(lo.log10().floor());
-        while p <= hi * 1.0001 {
-            for m in [1.0, 2.0, 5.0] {
-                let v = m * p;
-                if v >= lo * 0.9999 && v <= hi * 1.0001 {
-                    t.push(v);
-                }
-            }
-            p *= 10.0;
-        }
-        t
-    } else {
-        let span = (hi - lo).max(1e-12);
-        let raw = span / 5.0;
-        let p = 10f64.powf(raw.log10().floor());
-        let step = [1.0, 2.0, 2.5, 5.0, 10.0]
-            .iter()
-            .map(|m| m * p)
-            .find(|s| *s >= raw)
-            .unwrap_or(10.0 * p);
-        let mut v = (lo / step).ceil() * step;
-        let mut t = Vec::new();
-        while v <= hi + 1e-9 * span {
-            t.push(v);
-            v += step;
-        }
-        t
-    }
-}
-
-fn label(v: f64) -> String {
+/// A number for an axis label: no trailing zeros, no exponent for everyday magnitudes.
+pub fn label(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if v.abs() >= 100.0 {
@@ -87,149 +59,103 @@ fn label(v: f64) -> String {
     }
 }
 
+fn range(points: &[(f64, f64)], log: bool, get: fn(&(f64, f64)) -> f64) -> (f64, f64) {
+    let (mut lo, mut hi) = points
+        .iter()
+        .map(get)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if log {
+        lo = 10f64.powf(lo.log10().floor());
+        hi = 10f64.powf(hi.log10().ceil());
+        if hi <= lo {
+            hi = lo * 10.0;
+        }
+    } else {
+        lo = lo.min(0.0);
+        hi = if hi > lo { hi * 1.05 } else { lo + 1.0 };
+    }
+    (lo, hi)
+}
+
 impl Plot {
     /// Draws the plot on a `width × height` canvas.
     pub fn draw(&self, width: u32, height: u32) -> Canvas {
-        let mut c = Canvas::new(width, height, WHITE);
-        let (left, right, top, bottom) = (70i64, 190i64, 60i64, 50i64);
-        let pw = i64::from(width) - left - right;
-        let ph = i64::from(height) - top - bottom;
-        let pts: Vec<(f64, f64)> = self
-            .series
-            .iter()
-            .flat_map(|s| s.points.iter().copied())
-            .filter(|(x, y)| {
-                x.is_finite()
-                    && y.is_finite()
-                    && (!self.log_x || *x > 0.0)
-                    && (!self.log_y || *y > 0.0)
-            })
-            .collect();
-        c.text(&self.title, left, 12, 2, BLACK);
-        if pts.is_empty() || pw < 50 || ph < 50 {
-            return c;
-        }
-        let fold = |f: fn(f64, f64) -> f64, init: f64, get: fn(&(f64, f64)) -> f64| {
-            pts.iter().map(get).fold(init, f)
-        };
-        let (mut x0, mut x1) = (
-            fold(f64::min, f64::INFINITY, |p| p.0),
-            fold(f64::max, f64::NEG_INFINITY, |p| p.0),
-        );
-        let (mut y0, mut y1) = (
-            fold(f64::min, f64::INFINITY, |p| p.1),
-            fold(f64::max, f64::NEG_INFINITY, |p| p.1),
-        );
-        if self.log_x {
-            x0 = 10f64.powf(x0.log10().floor());
-            x1 = 10f64.powf(x1.log10().ceil());
-        } else if x1 <= x0 {
-            x1 = x0 + 1.0;
-        }
-        if self.log_y {
-            y0 = 10f64.powf(y0.log10().floor());
-            y1 = 10f64.powf(y1.log10().ceil());
-        } else {
-            y0 = y0.min(0.0);
-            y1 = if y1 > y0 { y1 * 1.05 } else { y0 + 1.0 };
-        }
-        let map = |v: f64, lo: f64, hi: f64, log: bool| -> f64 {
-            if log {
-                (v.log10() - lo.log10()) / (hi.log10() - lo.log10())
-            } else {
-                (v - lo) / (hi - lo)
-            }
-        };
-        let to_px = |x: f64, y: f64| -> (i64, i64) {
-            (
-                left + (map(x, x0, x1, self.log_x) * pw as f64).round() as i64,
-                top + ph - (map(y, y0, y1, self.log_y) * ph as f64).round() as i64,
-            )
-        };
-        for t in ticks(x0, x1, self.log_x) {
-            let (px, _) = to_px(t, y0);
-            c.fill(px, top, 1, ph, [225, 225, 225]);
-            c.fill(px, top + ph, 1, 5, BLACK);
-            let l = label(t);
-            c.text(
-                &l,
-                px - i64::from(text_width(&l, 1)) / 2,
-                top + ph + 9,
-                1,
-                BLACK,
-            );
-        }
-        for t in ticks(y0, y1, self.log_y) {
-            let (_, py) = to_px(x0, t);
-            c.fill(left, py, pw, 1, [225, 225, 225]);
-            c.fill(left - 5, py, 5, 1, BLACK);
-            let l = label(t);
-            c.text(
-                &l,
-                left - 8 - i64::from(text_width(&l, 1)),
-                py - 3,
-                1,
-                BLACK,
-            );
-        }
-        c.frame(left, top, pw + 1, ph + 1, 1, BLACK);
-        c.text(
-            &self.x_label,
-            left + pw / 2 - i64::from(text_width(&self.x_label, 1)) / 2,
-            top + ph + 28,
-            1,
-            BLACK,
-        );
-        c.text(&self.y_label, 8, top - 16, 1, BLACK);
-        for (k, s) in self.series.iter().enumerate() {
-            let col = PALETTE[k % PALETTE.len()];
-            let visible: Vec<(i64, i64)> = s
-                .points
+        let (w, h) = (width.max(200), height.max(150));
+        with_plotters(w, h, &mut |root, labels| {
+            root.fill(&WHITE)?;
+            labels.push(Label::new(self.title.clone(), (14.0, 10.0), 19.0).bold());
+            let pts: Vec<(f64, f64)> = self
+                .series
                 .iter()
+                .flat_map(|s| s.points.iter().copied())
                 .filter(|(x, y)| {
                     x.is_finite()
                         && y.is_finite()
                         && (!self.log_x || *x > 0.0)
                         && (!self.log_y || *y > 0.0)
                 })
-                .map(|&(x, y)| to_px(x, y))
                 .collect();
-            for w in visible.windows(2) {
-                line(&mut c, w[0], w[1], col);
+            if pts.is_empty() {
+                return Ok(());
             }
-            for &(px, py) in &visible {
-                c.fill(px - 3, py - 3, 7, 7, col);
+            let (x0, x1) = range(&pts, self.log_x, |p| p.0);
+            let (y0, y1) = range(&pts, self.log_y, |p| p.1);
+            let (left, top, right, bottom) = (72.0, 62.0, 200.0, 58.0);
+            let (pw, ph) = (f64::from(w) - left - right, f64::from(h) - top - bottom);
+            let t = |v: f64, lo: f64, hi: f64, log: bool| {
+                if log {
+                    (v.log10() - lo.log10()) / (hi.log10() - lo.log10())
+                } else {
+                    (v - lo) / (hi - lo)
+                }
+            };
+            let map = |x: f64, y: f64| -> (i32, i32) {
+                (
+                    (left + t(x, x0, x1, self.log_x) * pw).round() as i32,
+                    (top + ph - t(y, y0, y1, self.log_y) * ph).round() as i32,
+                )
+            };
+            let xa = Axis {
+                lo: x0,
+                hi: x1,
+                log: self.log_x,
+                desc: self.x_label.clone(),
+            };
+            let ya = Axis {
+                lo: y0,
+                hi: y1,
+                log: self.log_y,
+                desc: self.y_label.clone(),
+            };
+            draw_axes(root, &map, &xa, &ya, true, labels)?;
+            for (k, s) in self.series.iter().enumerate() {
+                let [r, g, b] = PALETTE[k % PALETTE.len()];
+                let col = RGBColor(r, g, b);
+                let visible: Vec<(i32, i32)> = s
+                    .points
+                    .iter()
+                    .filter(|p| pts.contains(p))
+                    .map(|&(x, y)| map(x, y))
+                    .collect();
+                root.draw(&PathElement::new(visible.clone(), col.stroke_width(2)))?;
+                for p in &visible {
+                    root.draw(&Circle::new(*p, 4, col.filled()))?;
+                }
+                let ly = top as i32 + 8 + 20 * k as i32;
+                let lx = (left + pw) as i32 + 18;
+                root.draw(&Rectangle::new(
+                    [(lx, ly - 5), (lx + 18, ly + 5)],
+                    col.filled(),
+                ))?;
+                labels.push(
+                    Label::new(s.name.clone(), (f64::from(lx + 24), f64::from(ly)), 13.0)
+                        .anchored(Anchor::Start, Anchor::Middle),
+                );
             }
-            let ly = top + 10 + 16 * k as i64;
-            c.fill(left + pw + 15, ly, 14, 7, col);
-            c.text(&s.name, left + pw + 34, ly, 1, BLACK);
-        }
-        c
-    }
-}
-
-/// A 2-pixel line (Bresenham).
-fn line(c: &mut Canvas, a: (i64, i64), b: (i64, i64), col: Colour) {
-    let (mut x, mut y) = a;
-    let dx = (b.0 - a.0).abs();
-    let dy = -(b.1 - a.1).abs();
-    let sx = if a.0 < b.0 { 1 } else { -1 };
-    let sy = if a.1 < b.1 { 1 } else { -1 };
-    let mut err = dx + dy;
-    loop {
-        c.fill(x, y, 2, 2, col);
-        if x == b.0 && y == b.1 {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
-        }
+            Ok(())
+        })
     }
 }
 
@@ -238,38 +164,40 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ticks_cover_the_range() {
-        assert_eq!(
-            ticks(0.1, 10.0, true),
-            vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0]
-        );
-        let t = ticks(0.0, 2.3, false);
-        assert_eq!(t.first(), Some(&0.0));
-        assert!(t.last().copied().unwrap() <= 2.3);
-    }
-
-    #[test]
-    fn draws_points_in_their_colours() {
+    fn draws_points_in_their_colours_with_text() {
         let p = Plot {
-            title: "t".into(),
-            x_label: "x".into(),
-            y_label: "y".into(),
+            title: "time against error".into(),
+            x_label: "commissioning time (s)".into(),
+            y_label: "error (%)".into(),
             log_x: true,
             log_y: false,
             series: vec![Series {
-                name: "a".into(),
+                name: "rays".into(),
                 points: vec![(0.5, 1.0), (5.0, 2.0)],
             }],
         };
-        let c = p.draw(400, 300);
-        let mut coloured = 0;
+        let c = p.draw(600, 400);
+        let (mut coloured, mut dark) = (0, 0);
         for y in 0..c.height() {
             for x in 0..c.width() {
-                if c.get(x, y) == PALETTE[0] {
+                let px = c.get(x, y);
+                if px == PALETTE[0] {
                     coloured += 1;
+                }
+                if px[0] < 60 && px[1] < 60 && px[2] < 60 {
+                    dark += 1;
                 }
             }
         }
-        assert!(coloured > 50);
+        assert!(coloured > 50, "{coloured}");
+        // axes, tick numbers, title and legend text
+        assert!(dark > 1500, "{dark}");
+    }
+
+    #[test]
+    fn labels_drop_trailing_zeros() {
+        assert_eq!(label(2.0), "2");
+        assert_eq!(label(0.25), "0.25");
+        assert_eq!(label(1500.0), "1500");
     }
 }

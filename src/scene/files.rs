@@ -589,14 +589,6 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
             "must be a rotation (orthonormal, determinant +1)".into(),
         ));
     }
-    for (name, v) in [("fx", j.fx), ("fy", j.fy)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(invalid(
-                name,
-                format!("{v} must be a focal length > 0 pixels"),
-            ));
-        }
-    }
     if j.width == 0 || j.height == 0 || j.width > 16384 || j.height > 16384 {
         return Err(invalid(
             "width",
@@ -606,8 +598,13 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
             ),
         ));
     }
-    if !(j.cx.is_finite() && j.cy.is_finite()) {
-        return Err(invalid("cx", "principal point not finite".into()));
+    super::check_intrinsics(j.fx, j.fy, j.cx, j.cy, j.width, j.height)
+        .map_err(|m| invalid("intrinsics", m))?;
+    if j.position.iter().any(|v| v.abs() * unit_to_m > 1e4) {
+        return Err(invalid(
+            "position",
+            "more than 10 km from the origin: not a camera in a room".into(),
+        ));
     }
     if let Some(s) = j.luminance_cd_m2_per_unit
         && !(s.is_finite() && s > 0.0)

@@ -28,7 +28,7 @@ pub use files::{
     LoadOptions, PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
     load_sensors_file,
 };
-pub use obj::ObjReport;
+pub use obj::{ObjReport, load_obj};
 pub use states::{Scenario, TruthRow, UnknownLuminaire, check_scenarios, read_states, read_truth};
 pub use summary::SceneSummary;
 
@@ -239,6 +239,44 @@ impl Camera {
         let d = DVec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0);
         (self.world_from_camera * d).normalize()
     }
+}
+
+/// Plausible camera intrinsics, checked before any work: a focal length that gives a field of
+/// view between about 1° and 178° (`0.02 ≤ f / size ≤ 60`, in pixels of the image's width for
+/// `fx`, height for `fy`), at most 4:1 between `fx` and `fy`, and the principal point inside
+/// the image (a focal length of 1e-9 or a principal point at 1e7 pixels would otherwise turn
+/// into a room of terabytes). The error names the value.
+pub fn check_intrinsics(
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    width: u32,
+    height: u32,
+) -> Result<(), String> {
+    let (w, h) = (f64::from(width), f64::from(height));
+    for (name, f, size) in [("fx", fx, w), ("fy", fy, h)] {
+        if !(f.is_finite() && f >= 0.02 * size && f <= 60.0 * size) {
+            return Err(format!(
+                "{name} = {f} pixels is not a focal length for {size} pixels (field of view \
+                 between 1° and 178°: {:.1}..={:.0} pixels)",
+                0.02 * size,
+                60.0 * size
+            ));
+        }
+    }
+    if !(0.25..=4.0).contains(&(fy / fx)) {
+        return Err(format!("fx = {fx} and fy = {fy} differ by more than 4:1"));
+    }
+    for (name, c, size) in [("cx", cx, w), ("cy", cy, h)] {
+        if !(c.is_finite() && (-0.5..=size - 0.5).contains(&c)) {
+            return Err(format!(
+                "{name} = {c} pixels: the principal point must lie in the image (-0.5..={})",
+                size - 0.5
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A room: geometry, luminaires, sensors, optionally desks and the camera.

@@ -141,8 +141,14 @@ impl FileFlash {
         let len = meta.len() as usize;
         if !existed || len < capacity {
             file.seek(SeekFrom::Start(len as u64)).map_err(io)?;
-            let pad = vec![0xFF; capacity - len];
-            file.write_all(&pad).map_err(io)?;
+            // erased (0xFF) padding in 64 KiB chunks: never the whole size in memory
+            let chunk = vec![0xFF; (capacity - len).min(1 << 16)];
+            let mut left = capacity - len;
+            while left > 0 {
+                let n = left.min(chunk.len());
+                file.write_all(&chunk[..n]).map_err(io)?;
+                left -= n;
+            }
             file.sync_all().map_err(io)?;
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 // make the new file's directory entry durable too

@@ -45,27 +45,74 @@ pub enum FileError {
     },
 }
 
-/// The newest valid image of a device with A/B slots and its generation; `None` when neither
-/// slot holds one.
+/// The newest image of a device with A/B slots that decodes and validates, and its generation;
+/// `None` when neither slot holds one ([`read_bootable`] without further checks).
 pub fn read_newest<F: FlashDevice>(
     slots: &mut Slots<F>,
 ) -> Result<Option<(Vec<u8>, u64)>, FileError>
 where
     WriteError<F::Error>: std::fmt::Display,
 {
-    let status = slots.boot();
-    let (Some(slot), Some(generation)) = (status.chosen, status.generation()) else {
-        return Ok(None);
-    };
+    Ok(read_bootable(slots, |_, _| Ok(()))
+        .image
+        .map(|(bytes, _, generation)| (bytes, generation)))
+}
+
+/// What [`read_bootable`] found: the image to run, and why newer slots were passed over.
+#[derive(Debug, Clone)]
+pub struct Bootable {
+    /// The image's bytes, its slot and generation; `None`: no slot loads.
+    pub image: Option<(Vec<u8>, Slot, u64)>,
+    /// Slots with intact CRCs that were refused by the load path, and why (newest first).
+    pub refused: Vec<(Slot, u64, String)>,
+    /// The slots as the CRCs see them.
+    pub status: super::slots::BootStatus,
+}
+
+/// The newest image that passes the whole load path: read, [`super::Image::parse`] (decode
+/// and validation), then `accept` (the caller's remaining checks: the register map takes it).
+/// A newer slot that fails any step is passed over (and listed in [`Bootable::refused`]), so
+/// the node falls back to its last known good image instead of stopping for good.
+pub fn read_bootable<F: FlashDevice>(
+    slots: &mut Slots<F>,
+    mut accept: impl FnMut(&super::Image<'_>, u64) -> Result<(), String>,
+) -> Bootable
+where
+    WriteError<F::Error>: std::fmt::Display,
+{
+    let (order, status) = slots.candidates();
+    let mut refused = Vec::new();
     let mut buf = vec![0u8; slots.slot_len()];
-    let n = slots
-        .read_image(slot, &mut buf)
-        .map_err(|e| FileError::Slot {
-            slot,
-            reason: e.to_string(),
-        })?;
-    buf.truncate(n);
-    Ok(Some((buf, generation)))
+    for (slot, generation) in order.into_iter().flatten() {
+        let why = match slots.read_image(slot, &mut buf) {
+            Err(e) => e.to_string(),
+            Ok(n) => match super::Image::parse(&buf[..n]) {
+                Err(e) => e.to_string(),
+                Ok(image) => match accept(&image, generation) {
+                    Err(e) => e,
+                    Ok(()) => {
+                        buf.truncate(n);
+                        return Bootable {
+                            image: Some((buf, slot, generation)),
+                            refused,
+                            status,
+                        };
+                    }
+                },
+            },
+        };
+        tracing::warn!(
+            %slot,
+            generation,
+            "store: slot {slot} (generation {generation}) does not load: {why}; trying the other slot"
+        );
+        refused.push((slot, generation, why));
+    }
+    Bootable {
+        image: None,
+        refused,
+        status,
+    }
 }
 
 /// The newest valid image of a flash file (A/B slots), without changing the file.

@@ -2,17 +2,16 @@
 //! into measured desk lux (`crate::live`), written at commissioning. `no_std`, borrowed in place
 //! like the rest of the image.
 //!
-//! ## Optional sections
+//! ## Framing
 //!
-//! The payload of format version 1 is the postcard encoding of [`super::PayloadV1`], followed
-//! by zero or more *sections*: each a postcard [`SectionFrame`] (a tag and a byte string). A
-//! reader that does not know a tag skips it; an image without sections (every image written
-//! before live light) parses exactly as before, and older readers, which decode
-//! [`super::PayloadV1`] and ignore the bytes after it, still read newer images. The header's
-//! payload length and CRC cover the sections, so a damaged section fails the payload CRC like
-//! any other byte.
+//! The section follows the payload like the geometry section, framed as
+//! `"LXLV" | version (u16 LE) | length (u32 LE) | postcard body` ([`LIVE_MAGIC`],
+//! [`LIVE_VERSION`]; [`super`] reads the frames). An image without it (every image written
+//! before live light) parses exactly as before; a build skips a live version it does not read. The
+//! header's payload length and CRC cover the sections, so a damaged section fails the payload CRC
+//! like any other byte.
 //!
-//! ## The live section ([`SECTION_LIVE`], [`LiveV1`])
+//! ## The live section ([`LiveV1`])
 //!
 //! Per *sample* (a camera pixel that sees a modelled surface of reflectance ≥ 0.02, on a grid of
 //! every `stride`-th pixel plus every pixel around an in-view desk sensor):
@@ -46,24 +45,14 @@ use serde::{Deserialize, Serialize};
 use super::values::{Bytes, Precision, Values};
 use super::{ImageError, check, check_values};
 
-/// Tag of the live-light section.
-pub const SECTION_LIVE: u16 = 1;
+/// Magic of the live-light section's frame.
+pub const LIVE_MAGIC: [u8; 4] = *b"LXLV";
 /// Version of the live section's layout.
 pub const LIVE_VERSION: u16 = 1;
 /// `patch_emitter` value of a patch that is not a candidate emitter.
 pub const NO_EMITTER: u8 = 0xFF;
 /// Most candidate emitter groups.
 pub const MAX_EMITTERS: usize = 254;
-
-/// One optional section after the payload.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SectionFrame<'a> {
-    /// What it is ([`SECTION_LIVE`], ...).
-    pub tag: u16,
-    /// Its postcard body.
-    #[serde(borrow)]
-    pub body: Bytes<'a>,
-}
 
 /// Where the per-sample artificial irradiance came from.
 pub mod live_source {

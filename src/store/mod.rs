@@ -7,8 +7,14 @@
 //! | header, 40 bytes (header.rs) | payload: postcard, format version 1 |
 //! ```
 //!
-//! The payload ([`PayloadV1`]), optionally followed by sections ([`live`]: the live-light
-//! section), holds the sparse form factors, patch reflectances, direct
+//! Optional sections may follow the payload, inside its length and CRC, each framed as
+//! `magic (4 bytes) | version (u16 LE) | length (u32 LE) | bytes`: the geometry section
+//! ([`SECTION_MAGIC`], the patches' corners, the camera, desks, luminaires: what a report needs,
+//! `geometry`) and the live-light section ([`live::LIVE_MAGIC`], [`live`]). A build skips a
+//! section version it does not read; bytes that are not a known section are an error, never a
+//! misread; images without sections parse as before.
+//!
+//! The payload ([`PayloadV1`]) holds the sparse form factors, patch reflectances, direct
 //! illuminance per luminaire on patches and at sensors, the sensors' first bounce and gather
 //! rows, the response matrix, the ids, and a record of the commissioning settings. Big arrays are
 //! little-endian byte slices decoded per element ([`values`]). The form factors and direct
@@ -16,8 +22,10 @@
 //!
 //! Parsing checks, in order: header length, magic, header CRC, format version (another
 //! version is an error, never a misread), payload length, payload CRC, postcard decoding, then
-//! every array's length, index and value range. After [`Image::parse`] succeeds no accessor can
-//! panic and no value is non-finite.
+//! every array's length, index and value range (illuminance and flux finite, non-negative and
+//! at most [`MAX_LUX`] / [`MAX_FLUX_LM`]), with checked length arithmetic so that a crafted
+//! image cannot wrap a length on a 32-bit target. After [`Image::parse`] succeeds no accessor
+//! can panic and no value is non-finite or negative.
 
 mod crc32;
 mod header;
@@ -29,12 +37,14 @@ pub mod values;
 pub mod devices;
 #[cfg(feature = "std")]
 pub mod file;
+#[cfg(feature = "std")]
+pub mod geometry;
 
 use serde::{Deserialize, Serialize};
 
 pub use crc32::{Crc32, crc32};
 pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
-pub use live::{LiveV1, SECTION_LIVE, SectionFrame};
+pub use live::{LIVE_MAGIC, LiveV1};
 pub use values::{Bytes, Precision, Sparse, Values};
 
 use crate::solver::RadiositySystem;
@@ -186,6 +196,63 @@ pub mod sensor_flags {
     pub const ESTIMATED: u8 = 2;
 }
 
+/// Magic of the optional geometry section after the payload ([`geometry`] with std).
+pub const SECTION_MAGIC: [u8; 4] = *b"LXGS";
+/// Version of the geometry section this build writes and reads.
+pub const SECTION_VERSION: u16 = 1;
+/// Frame length before the section's bytes: magic, version (u16 LE), length (u32 LE).
+pub const SECTION_FRAME_LEN: usize = 10;
+
+/// The sections found after the version-1 payload (their bodies, unframed).
+#[derive(Debug, Clone, Copy, Default)]
+struct Found<'a> {
+    geometry: Option<&'a [u8]>,
+    live: Option<&'a [u8]>,
+}
+
+/// The sections of what follows the version-1 payload, checked: none for no bytes; each frame
+/// must be whole and of a known kind (an error for bytes that are not a section, or a frame
+/// longer than what is left); a version this build does not read is skipped; a section twice is
+/// an error.
+fn unframe(mut rest: &[u8]) -> Result<Found<'_>, ImageError> {
+    let mut found = Found::default();
+    while !rest.is_empty() {
+        if rest.len() < SECTION_FRAME_LEN {
+            return Err(ImageError::Inconsistent("bytes after the payload"));
+        }
+        let magic = [rest[0], rest[1], rest[2], rest[3]];
+        let version = u16::from_le_bytes([rest[4], rest[5]]);
+        let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
+        if rest.len() - SECTION_FRAME_LEN < len {
+            return Err(ImageError::Inconsistent("section length"));
+        }
+        let body = &rest[SECTION_FRAME_LEN..SECTION_FRAME_LEN + len];
+        rest = &rest[SECTION_FRAME_LEN + len..];
+        let slot = match magic {
+            SECTION_MAGIC if version == SECTION_VERSION => &mut found.geometry,
+            live::LIVE_MAGIC if version == live::LIVE_VERSION => &mut found.live,
+            // a known section at a version this build does not read
+            SECTION_MAGIC | live::LIVE_MAGIC => continue,
+            _ => return Err(ImageError::Inconsistent("bytes after the payload")),
+        };
+        check(slot.is_none(), "a section twice")?;
+        *slot = Some(body);
+    }
+    Ok(found)
+}
+
+/// Frames a section body: `magic | version | length | body`.
+#[cfg(feature = "std")]
+pub fn frame_section(magic: [u8; 4], version: u16, body: &[u8]) -> Option<std::vec::Vec<u8>> {
+    let len = u32::try_from(body.len()).ok()?;
+    let mut out = std::vec::Vec::with_capacity(SECTION_FRAME_LEN + body.len());
+    out.extend_from_slice(&magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(body);
+    Some(out)
+}
+
 /// A parsed, fully checked image borrowing its bytes.
 #[derive(Debug, Clone, Copy)]
 pub struct Image<'a> {
@@ -193,6 +260,8 @@ pub struct Image<'a> {
     pub header: Header,
     /// The payload.
     pub payload: PayloadV1<'a>,
+    /// The geometry section's bytes, when the image has one this build reads.
+    geometry: Option<&'a [u8]>,
     /// The live-light section, when the image has one ([`live`]).
     pub live: Option<LiveV1<'a>>,
 }
@@ -203,6 +272,17 @@ fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
     } else {
         Err(ImageError::Inconsistent(what))
     }
+}
+
+/// The largest illuminance an image may hold, lx (direct sunlight is about 1e5 lx; a desk
+/// reading above this is a corrupt or crafted image, never a room).
+pub const MAX_LUX: f64 = 1.0e6;
+/// The largest luminaire flux an image may hold, lm.
+pub const MAX_FLUX_LM: f64 = 1.0e7;
+
+/// `a * b` or an inconsistency (lengths from a crafted image must not wrap on 32-bit targets).
+fn mul(a: usize, b: usize, what: &'static str) -> Result<usize, ImageError> {
+    a.checked_mul(b).ok_or(ImageError::Inconsistent(what))
 }
 
 pub(crate) fn check_values(
@@ -236,7 +316,8 @@ fn check_sparse(
     what: &'static str,
 ) -> Result<(), ImageError> {
     check(s.rows as usize == rows, what)?;
-    check(s.row_ptr.count(4) == Some(rows + 1), what)?;
+    let ptrs = rows.checked_add(1).ok_or(ImageError::Inconsistent(what))?;
+    check(s.row_ptr.count(4) == Some(ptrs), what)?;
     check(s.col_width == 2 || s.col_width == 4, what)?;
     check(s.row_ptr.u32_at(0) == 0, what)?;
     for i in 0..rows {
@@ -250,10 +331,13 @@ fn check_sparse(
     check_values(&s.values, rows, nnz, what)
 }
 
-fn check_f64s(b: &Bytes<'_>, len: usize, what: &'static str) -> Result<(), ImageError> {
+/// `len` f64 values, each finite and within `[0, max]` (illuminance and flux are never
+/// negative: a crafted image must not publish −8000 lx or +inf with quality OK).
+fn check_f64s(b: &Bytes<'_>, len: usize, max: f64, what: &'static str) -> Result<(), ImageError> {
     check(b.count(8) == Some(len), what)?;
     for i in 0..len {
-        check(b.f64_at(i).is_finite(), what)?;
+        let x = b.f64_at(i);
+        check(x.is_finite() && (0.0..=max).contains(&x), what)?;
     }
     Ok(())
 }
@@ -262,9 +346,9 @@ impl<'a> Image<'a> {
     /// Parses and checks an image (header, CRCs, version, every array).
     pub fn parse(bytes: &'a [u8]) -> Result<Self, ImageError> {
         let header = Header::parse(bytes)?;
-        let len = header.payload_len as usize;
-        let end = HEADER_LEN
-            .checked_add(len)
+        let end = usize::try_from(header.payload_len)
+            .ok()
+            .and_then(|len| HEADER_LEN.checked_add(len))
             .ok_or(ImageError::Inconsistent("payload length"))?;
         if bytes.len() < end {
             return Err(ImageError::Truncated {
@@ -280,28 +364,23 @@ impl<'a> Image<'a> {
                 actual,
             });
         }
-        let (payload, mut rest): (PayloadV1<'a>, &'a [u8]) =
+        let (payload, rest): (PayloadV1<'a>, &'a [u8]) =
             postcard::take_from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
+        let found = unframe(rest)?;
         let mut image = Self {
             header,
             payload,
+            geometry: found.geometry,
             live: None,
         };
         image.validate()?;
-        // optional sections: unknown tags are skipped, a known one must decode and check
-        while !rest.is_empty() {
-            let (frame, next): (SectionFrame<'a>, &'a [u8]) =
-                postcard::take_from_bytes(rest).map_err(|_| ImageError::Inconsistent("section"))?;
-            rest = next;
-            if frame.tag == SECTION_LIVE {
-                check(image.live.is_none(), "two live sections")?;
-                image.live = Some(LiveV1::parse(
-                    frame.body.0,
-                    image.patches(),
-                    image.luminaires(),
-                    image.sensors(),
-                )?);
-            }
+        if let Some(body) = found.live {
+            image.live = Some(LiveV1::parse(
+                body,
+                image.patches(),
+                image.luminaires(),
+                image.sensors(),
+            )?);
         }
         Ok(image)
     }
@@ -317,7 +396,7 @@ impl<'a> Image<'a> {
         check(p.luminaire_ids.count(4) == Some(l), "luminaire ids")?;
         check(p.sensor_ids.count(4) == Some(s), "sensor ids")?;
         check(p.sensor_flags.count(1) == Some(s), "sensor flags")?;
-        check_f64s(&p.luminaire_flux_lm, l, "luminaire flux")?;
+        check_f64s(&p.luminaire_flux_lm, l, MAX_FLUX_LM, "luminaire flux")?;
         check(
             p.rho.precision == Precision::F32 as u8,
             "reflectance precision",
@@ -330,12 +409,31 @@ impl<'a> Image<'a> {
         check_values(
             &p.direct_patch_lx,
             l,
-            l * n,
+            mul(l, n, "direct illuminance on patches")?,
             "direct illuminance on patches",
         )?;
-        check_f64s(&p.direct_sensor_lx, s * l, "direct illuminance at sensors")?;
-        check_f64s(&p.first_bounce_sensor_lx, s * l, "first bounce at sensors")?;
-        check_f64s(&p.response_lx, s * l, "response matrix")?;
+        let sl = mul(s, l, "sensors × luminaires")?;
+        check_f64s(
+            &p.direct_sensor_lx,
+            sl,
+            MAX_LUX,
+            "direct illuminance at sensors",
+        )?;
+        check_f64s(
+            &p.first_bounce_sensor_lx,
+            sl,
+            MAX_LUX,
+            "first bounce at sensors",
+        )?;
+        check_f64s(&p.response_lx, sl, MAX_LUX, "response matrix")?;
+        // every dimming state sums the responses of all luminaires: the sum must stay in range
+        for si in 0..s {
+            let total: f64 = (0..l).map(|li| p.response_lx.f64_at(si * l + li)).sum();
+            check(
+                total <= MAX_LUX,
+                "a desk's response at full output exceeds 1e6 lx",
+            )?;
+        }
         check_sparse(&p.gather, s, n, "gather rows")?;
         check(
             p.solve_tolerance.is_finite() && p.solve_tolerance > 0.0 && p.solve_max_iterations > 0,
@@ -356,6 +454,12 @@ impl<'a> Image<'a> {
     /// Never empty once parsed (a header is always there).
     pub fn is_empty(&self) -> bool {
         false
+    }
+
+    /// The geometry section's bytes (decoded by [`geometry::GeometrySection::decode`] with
+    /// std), when the image has one.
+    pub fn geometry_bytes(&self) -> Option<&'a [u8]> {
+        self.geometry
     }
 
     /// Patches.

@@ -11,7 +11,10 @@
 //!
 //! At boot both slots are inspected (header CRC, version, streaming payload CRC) and the valid
 //! one with the highest generation wins; [`BootStatus`] says which and why. A power cut at any
-//! point of a write leaves the previous image bootable.
+//! point of a write leaves the previous image bootable. CRCs are not the whole story: the node
+//! boots the newest image that passes its whole load path and falls back to the other one
+//! ([`Slots::candidates`], `store::file::read_bootable`), and writes keep the image it runs
+//! ([`Slots::write_image_keeping`]). Generations never wrap.
 
 use core::fmt;
 
@@ -202,10 +205,17 @@ impl<F: FlashDevice> Slots<F> {
             Ok(h) => h,
             Err(e) => return SlotState::Invalid(e),
         };
-        let len = header.payload_len as usize;
-        if HEADER_LEN + len > self.slot_len() {
+        // checked: on a 32-bit target a crafted length must not wrap
+        let Some(total) = usize::try_from(header.payload_len)
+            .ok()
+            .and_then(|len| len.checked_add(HEADER_LEN))
+        else {
+            return SlotState::Invalid(ImageError::Inconsistent("payload length"));
+        };
+        let len = total - HEADER_LEN;
+        if total > self.slot_len() {
             return SlotState::Invalid(ImageError::Truncated {
-                needed: HEADER_LEN + len,
+                needed: total,
                 available: self.slot_len(),
             });
         }
@@ -233,8 +243,27 @@ impl<F: FlashDevice> Slots<F> {
         }
         SlotState::Valid {
             generation: header.generation,
-            len: HEADER_LEN + len,
+            len: total,
         }
+    }
+
+    /// The slots holding an image with intact checksums, newest first: the boot order. The
+    /// caller tries each through its whole load path (decode, validation, the register map)
+    /// and runs the first that passes, so a newest image that checks out by CRC but does not
+    /// load falls back to the last known good one ([`super::file::read_bootable`]).
+    pub fn candidates(&mut self) -> ([Option<(Slot, u64)>; 2], BootStatus) {
+        let status = self.boot();
+        let valid = |slot: Slot, s: SlotState| match s {
+            SlotState::Valid { generation, .. } => Some((slot, generation)),
+            _ => None,
+        };
+        let (a, b) = (valid(Slot::A, status.a), valid(Slot::B, status.b));
+        let order = match (a, b) {
+            (Some(x), Some(y)) if y.1 > x.1 => [b, a],
+            (Some(_), _) => [a, b],
+            (None, _) => [b, None],
+        };
+        (order, status)
     }
 
     /// Inspects both slots and picks the newest valid one.
@@ -276,10 +305,32 @@ impl<F: FlashDevice> Slots<F> {
         }
     }
 
-    /// Writes an image into the slot that is not current, stamped with the next generation.
+    /// Writes an image into the slot that is not current (the newest by CRC), stamped with the
+    /// next generation.
     pub fn write_image(&mut self, image: &[u8]) -> Result<WriteReport, WriteError<F::Error>> {
+        let keep = self.boot().chosen;
+        self.write_image_keeping(image, keep)
+    }
+
+    /// Writes an image into the slot other than `keep` (the image the node runs: its last
+    /// known good one, which may be the older slot when the newest did not load), stamped with
+    /// `keep`'s generation + 1 so that it wins at the next boot.
+    ///
+    /// The generation never wraps: when `keep` holds `u64::MAX` the new image is stamped 1 and,
+    /// once it is verified, `keep` is erased (a power cut before that erase boots the old
+    /// image, as if this write had not happened; after it, the new one).
+    pub fn write_image_keeping(
+        &mut self,
+        image: &[u8],
+        keep: Option<Slot>,
+    ) -> Result<WriteReport, WriteError<F::Error>> {
         let mut header = Header::parse(image).map_err(WriteError::NotAnImage)?;
-        let len = HEADER_LEN + header.payload_len as usize;
+        let len = usize::try_from(header.payload_len)
+            .ok()
+            .and_then(|p| p.checked_add(HEADER_LEN))
+            .ok_or(WriteError::NotAnImage(ImageError::Inconsistent(
+                "payload length",
+            )))?;
         if image.len() < len {
             return Err(WriteError::NotAnImage(ImageError::Truncated {
                 needed: len,
@@ -292,12 +343,22 @@ impl<F: FlashDevice> Slots<F> {
                 slot_len: self.slot_len(),
             });
         }
-        let status = self.boot();
-        let target = match status.chosen {
+        let target = match keep {
             Some(Slot::A) => Slot::B,
             _ => Slot::A,
         };
-        header.generation = status.generation().map_or(1, |g| g + 1);
+        let kept_generation = keep.and_then(|k| match self.inspect(k) {
+            SlotState::Valid { generation, .. } => Some(generation),
+            _ => None,
+        });
+        let (generation, renumber) = match kept_generation {
+            None => (1, false),
+            Some(g) => match g.checked_add(1) {
+                Some(next) => (next, false),
+                None => (1, true),
+            },
+        };
+        header.generation = generation;
         let off = self.offset(target);
         let slot_len = self.slot_len();
         let dev = &mut self.dev;
@@ -308,13 +369,17 @@ impl<F: FlashDevice> Slots<F> {
         dev.write(off, &header.emit()).map_err(WriteError::Device)?;
         dev.sync().map_err(WriteError::Device)?;
         match self.inspect(target) {
-            SlotState::Valid { generation, .. } if generation == header.generation => {
-                Ok(WriteReport {
-                    slot: target,
-                    generation,
-                })
-            }
-            other => Err(WriteError::Verify(other)),
+            SlotState::Valid { generation, .. } if generation == header.generation => {}
+            other => return Err(WriteError::Verify(other)),
         }
+        if renumber && let Some(k) = keep {
+            let koff = self.offset(k);
+            self.dev.erase(koff, slot_len).map_err(WriteError::Device)?;
+            self.dev.sync().map_err(WriteError::Device)?;
+        }
+        Ok(WriteReport {
+            slot: target,
+            generation: header.generation,
+        })
     }
 }

@@ -1,0 +1,242 @@
+//! The bodies of the fuzz targets, shared by the cargo-fuzz targets (`fuzz/fuzz_targets/*.rs`,
+//! coverage-guided, nightly) and the stable smoke test (`tests/fuzz_smoke.rs`, which runs every
+//! body on its committed corpus and on deterministic mutations of it, so CI exercises every
+//! target even where nightly is missing). A body may return an error for bad input; it must
+//! never panic, hang or allocate without bound. Where a body reaches a parser only through
+//! files (the loaders read paths), it writes the input to a per-process scratch directory.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// A target's body.
+pub type Body = fn(&[u8]);
+
+/// Every target by name, for the smoke test and `scripts/fuzz.sh`.
+pub const TARGETS: &[(&str, Body)] = &[
+    ("modbus_pdu", modbus_pdu),
+    ("modbus_rtu", modbus_rtu),
+    ("eulumdat", eulumdat),
+    ("ies", ies),
+    ("obj_mtl", obj_mtl),
+    ("scene_json", scene_json),
+    ("capture_png", capture_png),
+    ("board_toml", board_toml),
+    ("flash_image", flash_image),
+];
+
+fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let d = std::env::temp_dir().join(format!("luxnode-fuzz-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&d);
+        d
+    })
+}
+
+fn text(data: &[u8]) -> String {
+    String::from_utf8_lossy(data).into_owned()
+}
+
+/// A request PDU to the register map: every answer well formed (the checks of
+/// `luxnode::modbus::fuzz`); then the same bytes as an RTU frame with the CRC fixed up and
+/// stale, for our unit, another and broadcast.
+pub fn modbus_pdu(data: &[u8]) {
+    let mut f = luxnode::modbus::fuzz::Fuzzer::default();
+    let unit = data.first().copied().unwrap_or(7);
+    if let Err(e) = f.feed(data, 7, true) {
+        panic!("{e}");
+    }
+    if let Err(e) = f.feed(data, unit, false) {
+        panic!("{e}");
+    }
+}
+
+/// Raw bytes on the RTU line: the frame decoder, then a node (read-only policy, from the RTU
+/// source) answering what decodes.
+pub fn modbus_rtu(data: &[u8]) {
+    use luxnode::modbus::access::Source;
+    use luxnode::modbus::frame::{MAX_RTU_FRAME, decode_rtu};
+    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::modbus::rtu::{RtuCounters, handle_frame};
+    let _ = decode_rtu(data);
+    let model = NodeModel {
+        response_lx: vec![100.0, 200.0, 10.0, 20.0],
+        sensor_ids: vec![1, 2],
+        luminaire_ids: vec![1, 2],
+        sensor_flags: vec![0, 1],
+        generation: 1,
+        luminaire_flux_lm: vec![3000.0, 3000.0],
+    };
+    let Ok(mut node) = Node::new(model, NodeOptions::default()) else {
+        panic!("the node refused a valid model");
+    };
+    let mut reply = [0u8; MAX_RTU_FRAME];
+    let counters = RtuCounters::default();
+    let source = Source::Rtu("fuzz".into());
+    for chunk in data.chunks(MAX_RTU_FRAME + 1) {
+        if let Some(n) = handle_frame(&mut node, &source, 7, chunk, &counters, &mut reply) {
+            assert!((4..=MAX_RTU_FRAME).contains(&n), "reply length {n}");
+            assert!(decode_rtu(&reply[..n]).is_ok(), "a reply with a bad CRC");
+        }
+    }
+    for (_, lux, _) in node.desks() {
+        assert!(
+            lux.is_nan() || (0.0..=1e6).contains(&lux),
+            "published {lux}"
+        );
+    }
+}
+
+/// EULUMDAT text.
+pub fn eulumdat(data: &[u8]) {
+    if let Ok(d) = luxnode::photometry::IntensityDistribution::from_ldt_str(&text(data)) {
+        let f = d.flux_lm();
+        assert!(f.is_finite() && f >= 0.0, "flux {f}");
+    }
+}
+
+/// IES LM-63 text.
+pub fn ies(data: &[u8]) {
+    if let Ok(d) = luxnode::photometry::IntensityDistribution::from_ies_str(&text(data)) {
+        let f = d.flux_lm();
+        assert!(f.is_finite() && f >= 0.0, "flux {f}");
+    }
+}
+
+/// An OBJ file and its MTL (the input split at its first NUL byte), through the loader.
+pub fn obj_mtl(data: &[u8]) {
+    let (obj, mtl) = match data.iter().position(|&b| b == 0) {
+        Some(k) => (&data[..k], &data[k + 1..]),
+        None => (data, &b""[..]),
+    };
+    let d = scratch().join("obj");
+    let _ = std::fs::create_dir_all(&d);
+    let mut obj = obj.to_vec();
+    if !obj.starts_with(b"mtllib") {
+        let mut with_lib = b"mtllib scene.mtl\n".to_vec();
+        with_lib.extend_from_slice(&obj);
+        obj = with_lib;
+    }
+    if std::fs::write(d.join("scene.obj"), &obj).is_err()
+        || std::fs::write(d.join("scene.mtl"), mtl).is_err()
+    {
+        return;
+    }
+    if let Ok((mesh, _)) = luxnode::scene::load_obj(&d.join("scene.obj"), 1.0) {
+        for p in &mesh.positions_m {
+            assert!(p.is_finite(), "vertex {p}");
+        }
+    }
+}
+
+/// The scene's JSON files: the first byte picks luminaires.json, sensors.json, desks.json or
+/// camera.json; the rest is the file.
+pub fn scene_json(data: &[u8]) {
+    use luxnode::scene::{
+        LoadOptions, load_camera_file, load_desks_file, load_luminaires_file, load_sensors_file,
+    };
+    let Some((&which, body)) = data.split_first() else {
+        return;
+    };
+    let d = scratch().join("scene");
+    let _ = std::fs::create_dir_all(&d);
+    let o = LoadOptions::default();
+    let name = [
+        "luminaires.json",
+        "sensors.json",
+        "desks.json",
+        "camera.json",
+    ][usize::from(which % 4)];
+    let p = d.join(name);
+    if std::fs::write(&p, body).is_err() {
+        return;
+    }
+    match which % 4 {
+        0 => {
+            let _ = load_luminaires_file(&p, &o);
+        }
+        1 => {
+            let _ = load_sensors_file(&p, &o);
+        }
+        2 => {
+            let _ = load_desks_file(&p, &o);
+        }
+        _ => {
+            if let Ok(c) = load_camera_file(&p) {
+                assert!(c.fx.is_finite() && c.fx > 0.0);
+            }
+        }
+    }
+}
+
+/// A capture's PNG frames: the input is both the depth frame and the luminance frame.
+pub fn capture_png(data: &[u8]) {
+    let d = scratch().join("capture");
+    let _ = std::fs::create_dir_all(&d);
+    let camera = r#"{"position": [1.0, 1.0, 2.5], "R_world_from_camera": [[0,1,0],[1,0,0],[0,0,-1]],
+        "width": 4, "height": 4, "fx": 4.0, "fy": 4.0, "cx": 1.5, "cy": 1.5,
+        "luminance_cd_m2_per_unit": 0.02}"#;
+    if std::fs::write(d.join("camera.json"), camera).is_err()
+        || std::fs::write(d.join("depth_000.png"), data).is_err()
+        || std::fs::write(d.join("luminance_L1.png"), data).is_err()
+    {
+        return;
+    }
+    let _ = luxnode::camera::capture::Capture::load(&d, &[1]);
+}
+
+/// A board file.
+pub fn board_toml(data: &[u8]) {
+    let _ = luxnode::board::Board::parse(&text(data), Path::new("/etc/luxnode/board.toml"));
+}
+
+/// The input as an image payload with the header's CRCs fixed up (so the postcard decoder and
+/// the validation are reached, not just the CRC check), through the whole load path: parse,
+/// the A/B slots of a flash, the register map.
+pub fn flash_image(data: &[u8]) {
+    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::store::devices::MemFlash;
+    use luxnode::store::file::read_bootable;
+    use luxnode::store::slots::Slots;
+    use luxnode::store::{FORMAT_VERSION, Header, Image, crc32};
+    let (generation, precision, payload) = match data {
+        [g, p, rest @ ..] => (u64::from(*g), *p % 6, rest),
+        _ => (1, 3, data),
+    };
+    let h = Header {
+        format_version: FORMAT_VERSION,
+        generation,
+        payload_len: payload.len() as u32,
+        payload_crc32: crc32(payload),
+        precision,
+    };
+    let mut image = h.emit().to_vec();
+    image.extend_from_slice(payload);
+    if let Ok(img) = Image::parse(&image) {
+        let model = NodeModel::from_image(&img, generation);
+        if let Ok(mut node) = Node::new(
+            model,
+            NodeOptions {
+                initial_arc: Some(254),
+                ..NodeOptions::default()
+            },
+        ) {
+            let _ = node.set_arc_levels(&vec![200; img.luminaires()]);
+            for (_, lux, _) in node.desks() {
+                assert!(
+                    lux.is_nan() || (0.0..=1e6).contains(&lux),
+                    "published {lux}"
+                );
+            }
+        }
+    }
+    let mut slots = Slots::new(MemFlash::new(2 * (image.len() + 4096)));
+    let _ = slots.write_image(&image);
+    let _ = read_bootable(&mut slots, |img, g| {
+        Node::new(NodeModel::from_image(img, g), NodeOptions::default())
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    });
+}

@@ -1,0 +1,1083 @@
+//! The commissioning report a lighting engineer signs: `report.html` (one self-contained file:
+//! pictures inlined as `data:` URIs, no script or style fetched, opens offline) and
+//! `results.json` (the same numbers), from a flash image alone (its geometry section:
+//! [`crate::image_geometry::Room`]).
+//!
+//! Contents: the scene, preset, commissioning and report dates, software version; the plan view
+//! (false colour, isolines, EN 12464-1 room grid values, desks, sensors); the camera view of dense
+//! lux; the reflectance view and the patch mesh; reflectances per surface; the luminaire schedule
+//! (photometry file, flux, power); per-desk statistics on the EN 12464-1 grids (Ē, Emin, Emax, U0,
+//! Emin/Emax, new and maintained); the immediate surroundings; the room; per-state results; and
+//! the EN 12464-1 check (office, writing and reading: Ēm ≥ 500 lx, U0 ≥ 0.60, surroundings per
+//! Table 1).
+//!
+//! Every illuminance is dense ([`crate::engine::dense`]): grid points on a desk or the floor get
+//! exact direct light and the interreflection interpolated over the patch mesh; points in the
+//! air (the immediate surroundings, at the desk's height) gather the interreflection with rays.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::Serialize;
+
+use super::camera_view::{self, ViewDesk, ViewOptions};
+use super::map::{self, PlanDesk, PlanView, TopView};
+use super::nice_ceiling;
+use crate::en12464::{self, Check, Rect, Requirement, Statistics};
+use crate::engine::dense::{DenseField, DenseSettings, Readings, SurfacePoint};
+use crate::engine::raycast::Hit;
+use crate::image_geometry::Room;
+use crate::runtime::Runtime;
+use crate::store::Image;
+
+/// A dimming state to report: a name and a level per luminaire (image order) in [0, 1].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NamedState {
+    /// Name.
+    pub name: String,
+    /// Levels.
+    pub levels: Vec<f64>,
+}
+
+/// What to report.
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// The states; the first is the design state the EN 12464-1 check uses (all on when empty).
+    pub states: Vec<NamedState>,
+    /// Overrides the maintenance factor recorded in the image.
+    pub maintenance_factor: Option<f64>,
+    /// The activity checked.
+    pub requirement: Requirement,
+    /// Gather rays for points in the air.
+    pub air_rays: usize,
+    /// Plan-view cell, m.
+    pub plan_cell_m: f64,
+    /// When the report is made, seconds since 1970.
+    pub now_unix_s: u64,
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        Self {
+            states: Vec::new(),
+            maintenance_factor: None,
+            requirement: en12464::OFFICE_WRITING_READING,
+            air_rays: 1000,
+            plan_cell_m: 0.1,
+            now_unix_s: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+        }
+    }
+}
+
+/// Why no report was made.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The image cannot be reported on.
+    #[error(transparent)]
+    Room(#[from] crate::image_geometry::RoomError),
+    /// A computation failed.
+    #[error(transparent)]
+    Engine(#[from] crate::engine::EngineError),
+    /// A grid could not be made.
+    #[error(transparent)]
+    Grid(#[from] en12464::GridError),
+    /// A bad maintenance factor.
+    #[error(transparent)]
+    MaintenanceFactor(#[from] en12464::MaintenanceFactorError),
+    /// A state does not fit the image.
+    #[error("state {0}: {1}")]
+    State(String, String),
+    /// The run-time core refused a state.
+    #[error("run-time core: {0}")]
+    Runtime(#[from] crate::runtime::RuntimeError),
+    /// A picture could not be encoded.
+    #[error("encoding a picture: {0}")]
+    Png(#[from] image::ImageError),
+    /// Writing the files.
+    #[error("writing {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Serialising results.json.
+    #[error("results.json: {0}")]
+    Json(#[from] serde_json::Error),
+}
+
+/// Reflectance of one surface (group).
+#[derive(Debug, Clone, Serialize)]
+pub struct SurfaceRow {
+    /// Group label.
+    pub surface: String,
+    /// Area, m².
+    pub area_m2: f64,
+    /// Area-weighted mean reflectance.
+    pub rho: f64,
+    /// Patches.
+    pub patches: usize,
+}
+
+/// A luminaire of the schedule.
+#[derive(Debug, Clone, Serialize)]
+pub struct LuminaireRow {
+    /// Id.
+    pub id: u32,
+    /// Name.
+    pub name: String,
+    /// Photometry file.
+    pub photometry_file: String,
+    /// Luminaire named in the file.
+    pub luminaire: String,
+    /// Flux at 100 %, lm.
+    pub flux_lm: f64,
+    /// Input power, W (null when the file gives none).
+    pub power_w: Option<f64>,
+    /// Efficacy, lm/W.
+    pub efficacy_lm_per_w: Option<f64>,
+    /// Position, m.
+    pub position_m: [f64; 3],
+    /// Luminous opening, m.
+    pub opening_m: [f64; 2],
+}
+
+/// Statistics of one area, new and maintained.
+#[derive(Debug, Clone, Serialize)]
+pub struct AreaResult {
+    /// New installation.
+    pub new: Statistics,
+    /// Maintained (× MF).
+    pub maintained: Statistics,
+}
+
+/// One desk in the design state.
+#[derive(Debug, Clone, Serialize)]
+pub struct DeskResult {
+    /// Id.
+    pub id: u32,
+    /// Outline x0, x1, y0, y1, m.
+    pub extent_m: [f64; 4],
+    /// Height, m.
+    pub z_m: f64,
+    /// Grid points along x and y, cell size (m).
+    pub grid: ([usize; 2], [f64; 2]),
+    /// Task area.
+    pub task: AreaResult,
+    /// Immediate surrounding area (band of 0.5 m at the desk's height).
+    pub surrounding: Option<AreaResult>,
+    /// The EN 12464-1 checks (maintained values).
+    pub checks: Vec<Check>,
+    /// Every check passed.
+    pub pass: bool,
+}
+
+/// One state.
+#[derive(Debug, Clone, Serialize)]
+pub struct StateResult {
+    /// Name.
+    pub name: String,
+    /// Levels per luminaire (image order).
+    pub levels: Vec<f64>,
+    /// Per desk: (id, maintained statistics on the task grid).
+    pub desks: Vec<(u32, Statistics)>,
+    /// The room grid, maintained.
+    pub room: Option<Statistics>,
+    /// Desk sensors as the node publishes them (new installation, what a luxmeter reads): (id, lx).
+    pub sensors_lx: Vec<(u32, f64)>,
+}
+
+/// Everything the report says, as `results.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Results {
+    /// Scene.
+    pub scene: String,
+    /// Preset.
+    pub preset: String,
+    /// Commissioned, ISO 8601 UTC.
+    pub commissioned: String,
+    /// Report made, ISO 8601 UTC.
+    pub reported: String,
+    /// Software that commissioned.
+    pub commissioned_by: String,
+    /// Software that reported.
+    pub reported_by: String,
+    /// Maintenance factor.
+    pub maintenance_factor: f64,
+    /// The activity checked.
+    pub requirement: Requirement,
+    /// Patches, luminaires, sensors of the image.
+    pub counts: [usize; 3],
+    /// Surfaces.
+    pub surfaces: Vec<SurfaceRow>,
+    /// Luminaires.
+    pub luminaires: Vec<LuminaireRow>,
+    /// Total flux, lm, and power, W (of the luminaires whose power is known).
+    pub totals: (f64, Option<f64>),
+    /// Room floor outline x0, x1, y0, y1, m, and floor height.
+    pub room_extent_m: ([f64; 4], f64),
+    /// Room grid (floor, less the 0.5 m wall band) in the design state.
+    pub room: Option<AreaResult>,
+    /// Desks in the design state.
+    pub desks: Vec<DeskResult>,
+    /// Every state.
+    pub states: Vec<StateResult>,
+    /// All desks pass.
+    pub pass: bool,
+    /// Seconds the report took (computing, not writing).
+    pub seconds: f64,
+}
+
+/// A finished report: the numbers and the pictures (PNG bytes).
+pub struct Report {
+    /// The numbers.
+    pub results: Results,
+    /// (file stem, caption, PNG bytes).
+    pub pictures: Vec<(String, String, Vec<u8>)>,
+}
+
+/// Seconds since 1970 as `YYYY-MM-DD hh:mm UTC`.
+pub fn iso_utc(unix_s: u64) -> String {
+    let days = (unix_s / 86_400) as i64;
+    let secs = unix_s % 86_400;
+    // civil from days (H. Hinnant)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02} UTC",
+        secs / 3600,
+        (secs % 3600) / 60
+    )
+}
+
+fn is_floor(name: &str) -> bool {
+    name.eq_ignore_ascii_case("floor") || name.starts_with("floor")
+}
+
+/// The floor: its outline in plan and its height (the `floor` group's up-facing patches, or the
+/// lowest up-facing patches).
+fn floor_of(room: &Room) -> ([f64; 4], f64) {
+    let p = &room.patches;
+    let up: Vec<usize> = (0..p.len()).filter(|&i| p.normal[i].z > 0.9).collect();
+    let named: Vec<usize> = up
+        .iter()
+        .copied()
+        .filter(|&i| {
+            room.section
+                .groups
+                .get(p.group[i] as usize)
+                .is_some_and(|g| is_floor(g))
+        })
+        .collect();
+    let chosen = if named.is_empty() {
+        let zmin = up
+            .iter()
+            .map(|&i| p.centroid_m(i).z)
+            .fold(f64::INFINITY, f64::min);
+        up.into_iter()
+            .filter(|&i| (p.centroid_m(i).z - zmin).abs() < 0.05)
+            .collect()
+    } else {
+        named
+    };
+    let mut b = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut z = 0.0;
+    let mut area = 0.0;
+    for &i in &chosen {
+        for c in &p.corners_m[i] {
+            b[0] = b[0].min(c.x);
+            b[1] = b[1].max(c.x);
+            b[2] = b[2].min(c.y);
+            b[3] = b[3].max(c.y);
+        }
+        z += p.centroid_m(i).z * p.area_m2[i];
+        area += p.area_m2[i];
+    }
+    if area > 0.0 {
+        (b, z / area)
+    } else {
+        ([0.0, 1.0, 0.0, 1.0], 0.0)
+    }
+}
+
+fn area_result(values: &[f64], mf: f64) -> Option<AreaResult> {
+    let new = Statistics::of(values)?;
+    Some(AreaResult {
+        new,
+        maintained: new.maintained(mf),
+    })
+}
+
+/// Readings at points of a horizontal calculation plane: on the surface there when there is one
+/// (a desk top), in the air otherwise (a desk the model has no top for).
+fn plane_points(
+    field: &DenseField<'_>,
+    pts: &[DVec3],
+    basis_b: &[Vec<f64>],
+    rays: usize,
+) -> Readings {
+    let on: Vec<Option<SurfacePoint>> = pts
+        .iter()
+        .map(|p| field.surface_at(p.x, p.y, p.z))
+        .collect();
+    let surf: Vec<SurfacePoint> = on.iter().flatten().copied().collect();
+    let air: Vec<(DVec3, DVec3)> = pts
+        .iter()
+        .zip(&on)
+        .filter(|(_, s)| s.is_none())
+        .map(|(p, _)| (*p + DVec3::Z * 0.001, DVec3::Z))
+        .collect();
+    let rs = field.points(&surf);
+    let ra = field.air_points(&air, basis_b, rays);
+    let l = rs.luminaires.max(ra.luminaires);
+    let mut out = Readings {
+        luminaires: l,
+        direct_lx: Vec::with_capacity(pts.len() * l),
+        indirect_lx: Vec::with_capacity(pts.len() * l),
+    };
+    let (mut i, mut j) = (0, 0);
+    for s in &on {
+        let (src, k) = if s.is_some() {
+            i += 1;
+            (&rs, i - 1)
+        } else {
+            j += 1;
+            (&ra, j - 1)
+        };
+        out.direct_lx
+            .extend_from_slice(&src.direct_lx[k * l..(k + 1) * l]);
+        out.indirect_lx
+            .extend_from_slice(&src.indirect_lx[k * l..(k + 1) * l]);
+    }
+    out
+}
+
+/// True when a point on a surface lies inside a solid standing on it (looking up it sees the
+/// inside of a surface).
+fn covered(field: &DenseField<'_>, p: DVec3) -> bool {
+    let c = field.caster();
+    matches!(c.closest(c.offset(p, DVec3::Z), DVec3::Z), Hit::Back { .. })
+}
+
+struct DeskGrids {
+    id: u32,
+    task: Readings,
+    grid: ([usize; 2], [f64; 2]),
+    surrounding: Option<Readings>,
+}
+
+/// Computes the report of an image.
+pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
+    let t0 = std::time::Instant::now();
+    let room = Room::from_image(image)?;
+    let mf = en12464::check_maintenance_factor(
+        opts.maintenance_factor
+            .unwrap_or(room.section.maintenance_factor),
+    )?;
+    let l = room.luminaires.len();
+    let mut states = opts.states.clone();
+    if states.is_empty() {
+        states.push(NamedState {
+            name: "all on".into(),
+            levels: vec![1.0; l],
+        });
+    }
+    for s in &states {
+        if s.levels.len() != l || s.levels.iter().any(|x| !(0.0..=1.0).contains(x)) {
+            return Err(ReportError::State(
+                s.name.clone(),
+                format!("{} levels in [0, 1] needed", l),
+            ));
+        }
+    }
+    let field = DenseField::new(
+        &room.patches,
+        &room.luminaires,
+        &room.ff,
+        &room.basis_b,
+        DenseSettings::default(),
+    )?;
+    let (floor_ext, floor_z) = floor_of(&room);
+    let room_rect = Rect {
+        x_m: [floor_ext[0], floor_ext[1]],
+        y_m: [floor_ext[2], floor_ext[3]],
+    };
+    let desk_rects: Vec<Rect> = room
+        .desks
+        .iter()
+        .map(|d| Rect {
+            x_m: d.x_m,
+            y_m: d.y_m,
+        })
+        .collect();
+
+    // desk grids and their immediate surroundings
+    let mut desk_grids = Vec::new();
+    for (d, rect) in room.desks.iter().zip(&desk_rects) {
+        let g = en12464::grid(rect)?;
+        // points under an object standing on the desk (a monitor's foot) are inside a solid:
+        // no luxmeter goes there
+        let pts: Vec<DVec3> = g
+            .points_m
+            .iter()
+            .map(|p| DVec3::new(p[0], p[1], d.z_m))
+            .filter(|p| !covered(&field, *p + DVec3::Z * 0.001))
+            .collect();
+        let task = plane_points(&field, &pts, &room.basis_b, opts.air_rays);
+        let sg = en12464::immediate_surrounding_grid(
+            rect,
+            en12464::IMMEDIATE_SURROUNDING_BAND_M,
+            &room_rect,
+        )?;
+        let air: Vec<(DVec3, DVec3)> = sg
+            .points_m
+            .iter()
+            .filter(|p| !desk_rects.iter().any(|r| r.contains(p[0], p[1])))
+            .map(|p| (DVec3::new(p[0], p[1], d.z_m + 0.001), DVec3::Z))
+            .collect();
+        let surrounding =
+            (!air.is_empty()).then(|| field.air_points(&air, &room.basis_b, opts.air_rays));
+        desk_grids.push(DeskGrids {
+            id: d.id,
+            task,
+            grid: (g.counts, g.cell_m),
+            surrounding,
+        });
+    }
+
+    // the room grid on the floor, less the wall band; points inside furniture left out
+    let inner = room_rect.grown(-en12464::WALL_BAND_M);
+    let room_grid = if inner.width_m() > 0.0 && inner.depth_m() > 0.0 {
+        Some(en12464::grid(&inner)?)
+    } else {
+        None
+    };
+    let mut room_points = Vec::new();
+    if let Some(g) = &room_grid {
+        for p in &g.points_m {
+            if let Some(sp) = field.surface_at(p[0], p[1], floor_z)
+                && !covered(&field, sp.position_m)
+            {
+                room_points.push(sp);
+            }
+        }
+    }
+    let room_readings = field.points(&room_points);
+
+    // the plan view's map, the camera view
+    let (origin_m, cells, map_pts) = map::map_points(
+        &field,
+        floor_ext,
+        room.patches
+            .corners_m
+            .iter()
+            .flatten()
+            .map(|c| c.z)
+            .fold(f64::NEG_INFINITY, f64::max)
+            + 1.0,
+        opts.plan_cell_m,
+    );
+    let found: Vec<SurfacePoint> = map_pts.iter().flatten().copied().collect();
+    let map_readings = field.map_readings(&found);
+    let view = match &room.camera {
+        Some(cam) => Some(field.camera_view(cam)?),
+        None => None,
+    };
+
+    // per state
+    let runtime = Runtime::new(image);
+    let mut state_results = Vec::new();
+    for s in &states {
+        let mut sensors = vec![0.0; image.sensors()];
+        runtime.sensor_lux(&s.levels, &mut sensors)?;
+        let desks = desk_grids
+            .iter()
+            .map(|g| {
+                let v = g.task.lux(&s.levels)?;
+                Ok(Statistics::of(&v).map(|st| (g.id, st.maintained(mf))))
+            })
+            .collect::<Result<Vec<_>, crate::engine::EngineError>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        let room_v = room_readings.lux(&s.levels)?;
+        state_results.push(StateResult {
+            name: s.name.clone(),
+            levels: s.levels.clone(),
+            desks,
+            room: Statistics::of(&room_v).map(|st| st.maintained(mf)),
+            sensors_lx: room.sensors.iter().map(|x| x.id).zip(sensors).collect(),
+        });
+    }
+
+    // the design state: desks with their checks, the room
+    let design = &states[0].levels;
+    let mut desks = Vec::new();
+    for (g, d) in desk_grids.iter().zip(&room.desks) {
+        let Some(task) = area_result(&g.task.lux(design)?, mf) else {
+            continue;
+        };
+        let surrounding = match &g.surrounding {
+            Some(r) => area_result(&r.lux(design)?, mf),
+            None => None,
+        };
+        let checks = en12464::check_task(
+            &opts.requirement,
+            &task.maintained,
+            surrounding.as_ref().map(|s| &s.maintained),
+        );
+        desks.push(DeskResult {
+            id: d.id,
+            extent_m: [d.x_m[0], d.x_m[1], d.y_m[0], d.y_m[1]],
+            z_m: d.z_m,
+            grid: g.grid,
+            pass: checks.iter().all(|c| c.pass),
+            task,
+            surrounding,
+            checks,
+        });
+    }
+    let room_result = area_result(&room_readings.lux(design)?, mf);
+
+    // tables
+    let mut surfaces: Vec<SurfaceRow> = room
+        .section
+        .groups
+        .iter()
+        .map(|g| SurfaceRow {
+            surface: g.clone(),
+            area_m2: 0.0,
+            rho: 0.0,
+            patches: 0,
+        })
+        .collect();
+    for i in 0..room.patches.len() {
+        if let Some(r) = surfaces.get_mut(room.patches.group[i] as usize) {
+            r.area_m2 += room.patches.area_m2[i];
+            r.rho += room.patches.rho[i] * room.patches.area_m2[i];
+            r.patches += 1;
+        }
+    }
+    surfaces.retain(|r| r.patches > 0);
+    for r in &mut surfaces {
+        r.rho /= r.area_m2.max(1e-12);
+    }
+    let luminaires: Vec<LuminaireRow> = room
+        .section
+        .luminaires
+        .iter()
+        .map(|rec| {
+            let ph = room.section.photometries.get(rec.photometry as usize);
+            let power = ph.map(|p| p.power_w).filter(|w| w.is_finite() && *w > 0.0);
+            LuminaireRow {
+                id: rec.id,
+                name: rec.name.clone(),
+                photometry_file: ph.map(|p| p.file_name.clone()).unwrap_or_default(),
+                luminaire: ph.map(|p| p.luminaire.clone()).unwrap_or_default(),
+                flux_lm: rec.flux_lm,
+                power_w: power,
+                efficacy_lm_per_w: power.map(|w| rec.flux_lm / w),
+                position_m: rec.position_m,
+                opening_m: rec.opening_m,
+            }
+        })
+        .collect();
+    let total_flux: f64 = luminaires.iter().map(|r| r.flux_lm).sum();
+    let total_power = luminaires
+        .iter()
+        .map(|r| r.power_w)
+        .collect::<Option<Vec<f64>>>()
+        .map(|v| v.iter().sum());
+
+    // pictures
+    let design_name = states[0].name.clone();
+    let map_vals = map_readings.lux(design)?;
+    let mut k = 0;
+    let map_lux: Vec<f64> = map_pts
+        .iter()
+        .map(|p| match p {
+            Some(_) => {
+                k += 1;
+                mf * map_vals[k - 1]
+            }
+            None => f64::NAN,
+        })
+        .collect();
+    let surface = map_pts
+        .iter()
+        .map(|p| {
+            p.map_or(u64::MAX, |p| {
+                map::surface_key(room.patches.group[p.patch as usize], p.position_m.z)
+            })
+        })
+        .collect();
+    let top = TopView {
+        origin_m,
+        cells,
+        cell_m: opts.plan_cell_m,
+        lux: map_lux,
+        desk_mean_lx: Vec::new(),
+        surface,
+    };
+    // the floor grid's values, except under a desk (the plan shows the desk top there)
+    let room_values: Vec<([f64; 2], f64)> = room_points
+        .iter()
+        .zip(room_readings.lux(design)?)
+        .filter(|(p, _)| {
+            !desk_rects
+                .iter()
+                .any(|r| r.contains(p.position_m.x, p.position_m.y))
+        })
+        .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
+        .collect();
+    let scale_max = nice_ceiling(top.max_lx());
+    let plan = map::draw_plan(&PlanView {
+        title: format!(
+            "{}: maintained illuminance, {} (MF {:.2})",
+            room.section.scene_name, design_name, mf
+        ),
+        subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors."
+            .into(),
+        bounds_m: floor_ext,
+        map: top,
+        desks: desks
+            .iter()
+            .map(|d| PlanDesk {
+                extent_m: d.extent_m,
+                label: vec![
+                    format!("desk {}", d.id),
+                    format!("Ēm {:.0} lx", d.task.maintained.e_mean_lx),
+                    format!("U0 {:.2}", d.task.maintained.u0),
+                ],
+            })
+            .collect(),
+        sensors: room
+            .sensors
+            .iter()
+            .map(|s| (s.id, s.position_m.x, s.position_m.y))
+            .collect(),
+        values: room_values,
+        scale_max_lx: scale_max,
+        pixels_per_m: 100.0,
+    });
+    let mut pictures = vec![(
+        "plan".to_string(),
+        "Plan view: maintained illuminance on the upward-facing surfaces (floor, desk tops) in the design state, with isolines, the values of the EN 12464-1 room grid, the desks and the desk sensors.".to_string(),
+        plan.png_bytes()?,
+    )];
+    if let (Some(view), Some(cam)) = (&view, &room.camera) {
+        let lux: Vec<f64> = view.lux(design)?.iter().map(|v| v * mf).collect();
+        let vdesks: Vec<ViewDesk> = room
+            .desks
+            .iter()
+            .map(|d| ViewDesk {
+                desk: d.clone(),
+                label: desks
+                    .iter()
+                    .find(|r| r.id == d.id)
+                    .map(|r| {
+                        vec![
+                            format!("desk {}", d.id),
+                            format!("Ēm {:.0} lx", r.task.maintained.e_mean_lx),
+                        ]
+                    })
+                    .unwrap_or_else(|| vec![format!("desk {}", d.id)]),
+            })
+            .collect();
+        let zoom = if cam.width <= 400 { 2 } else { 1 };
+        let lux_pic = camera_view::lux_picture(
+            view,
+            &lux,
+            cam,
+            &vdesks,
+            &ViewOptions {
+                title: format!("Camera view: maintained illuminance, {design_name}"),
+                subtitle: format!(
+                    "Lux at every pixel's surface point (MF {mf:.2}); luminaire openings white, nothing seen grey."
+                ),
+                zoom,
+            },
+            scale_max,
+        );
+        pictures.push((
+            "camera-lux".into(),
+            "Camera view: the illuminance of every pixel's surface point (dense: exact direct light, interreflection interpolated over the patch mesh).".into(),
+            lux_pic.png_bytes()?,
+        ));
+        let names: Vec<ViewDesk> = room
+            .desks
+            .iter()
+            .map(|d| ViewDesk {
+                desk: d.clone(),
+                label: vec![format!("desk {}", d.id)],
+            })
+            .collect();
+        let rho_pic = camera_view::reflectance_picture(
+            view,
+            &room.patches,
+            cam,
+            &names,
+            &ViewOptions {
+                title: "Camera view: reflectance ρ the model uses".into(),
+                subtitle:
+                    "Diffuse reflectance per pixel (black 0, white 1); amber: luminaire openings."
+                        .into(),
+                zoom,
+            },
+        );
+        pictures.push((
+            "camera-reflectance".into(),
+            "Reflectance view: the diffuse reflectance of every surface the camera sees, as estimated at commissioning.".into(),
+            rho_pic.png_bytes()?,
+        ));
+        let mesh_pic = camera_view::mesh_picture(
+            view,
+            &room.patches,
+            &ViewOptions {
+                title: format!("Camera view: the mesh, {} patches", room.patches.len()),
+                subtitle:
+                    "Patch edges dark, one pastel colour per surface; amber: luminaire openings."
+                        .into(),
+                zoom,
+            },
+        );
+        pictures.push((
+            "camera-mesh".into(),
+            "The mesh: the patches radiosity solves for, as the camera sees them.".into(),
+            mesh_pic.png_bytes()?,
+        ));
+    }
+    let pass = !desks.is_empty() && desks.iter().all(|d| d.pass);
+    let results = Results {
+        scene: room.section.scene_name.clone(),
+        preset: room.section.preset.clone(),
+        commissioned: iso_utc(room.section.commissioned_unix_s),
+        reported: iso_utc(opts.now_unix_s),
+        commissioned_by: room.section.software.clone(),
+        reported_by: crate::image_geometry::software(),
+        maintenance_factor: mf,
+        requirement: opts.requirement,
+        counts: [image.patches(), image.luminaires(), image.sensors()],
+        surfaces,
+        luminaires,
+        totals: (total_flux, total_power),
+        room_extent_m: (floor_ext, floor_z),
+        room: room_result,
+        desks,
+        states: state_results,
+        pass,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok(Report { results, pictures })
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Standard base64 (RFC 4648) of some bytes, for `data:` URIs.
+pub fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for c in bytes.chunks(3) {
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
+        out.push(A[(n >> 18) as usize & 63] as char);
+        out.push(A[(n >> 12) as usize & 63] as char);
+        out.push(if c.len() > 1 {
+            A[(n >> 6) as usize & 63] as char
+        } else {
+            '='
+        });
+        out.push(if c.len() > 2 {
+            A[n as usize & 63] as char
+        } else {
+            '='
+        });
+    }
+    out
+}
+
+fn stats_cells(s: &Statistics) -> String {
+    format!(
+        "<td>{:.0}</td><td>{:.0}</td><td>{:.0}</td><td>{:.2}</td><td>{:.2}</td>",
+        s.e_mean_lx, s.e_min_lx, s.e_max_lx, s.u0, s.e_min_over_e_max
+    )
+}
+
+fn verdict(pass: bool) -> &'static str {
+    if pass {
+        "<span class=\"pass\">pass</span>"
+    } else {
+        "<span class=\"fail\">fail</span>"
+    }
+}
+
+/// The HTML of a report (self-contained).
+pub fn html(r: &Report) -> String {
+    let x = &r.results;
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+<title>Lighting commissioning report: {scene}</title>\
+<style>body{{font-family:'DejaVu Sans',Verdana,sans-serif;margin:2em auto;max-width:1100px;color:#222;font-size:14px}}\
+h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1.6em}}\
+table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
+th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
+figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
+.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
+        scene = esc(&x.scene)
+    );
+    let _ = write!(
+        h,
+        "<h1>Lighting commissioning report: {}</h1>\n<p>Overall EN 12464-1 result for the desks ({}): {}</p>\n",
+        esc(&x.scene),
+        esc(x.requirement.activity),
+        verdict(x.pass)
+    );
+    let _ = write!(
+        h,
+        "<table class=\"meta\"><tr><th>scene</th><td>{}</td></tr><tr><th>preset</th><td>{}</td></tr>\
+<tr><th>commissioned</th><td>{} by {}</td></tr><tr><th>report</th><td>{} by {}</td></tr>\
+<tr><th>maintenance factor</th><td>{:.2} (maintained values = new values × MF)</td></tr>\
+<tr><th>model</th><td>{} patches, {} luminaires, {} desk sensors</td></tr>\
+<tr><th>pictures</th><td id=\"imgstatus\">loading</td></tr></table>",
+        esc(&x.scene),
+        esc(&x.preset),
+        esc(&x.commissioned),
+        esc(&x.commissioned_by),
+        esc(&x.reported),
+        esc(&x.reported_by),
+        x.maintenance_factor,
+        x.counts[0],
+        x.counts[1],
+        x.counts[2]
+    );
+    h.push_str("\n<h2>Pictures</h2>\n");
+    for (stem, caption, png) in &r.pictures {
+        let _ = writeln!(
+            h,
+            "<figure id=\"{stem}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
+            esc(caption),
+            base64(png),
+            esc(caption)
+        );
+    }
+    let _ = write!(
+        h,
+        "<h2>EN 12464-1 check</h2>\n<p>{} ({}): Ēm ≥ {:.0} lx and U0 ≥ {:.2} on each desk (task area); \
+immediate surrounding area (0.5 m band at desk height): Ēm ≥ {:.0} lx, U0 ≥ {:.2}. Maintained values.</p>\n\
+<table><tr><th>desk</th><th>check</th><th>required</th><th>achieved</th><th>result</th></tr>\n",
+        esc(x.requirement.activity),
+        esc(x.requirement.reference),
+        x.requirement.e_m_lx,
+        x.requirement.u0,
+        en12464::immediate_surrounding_lx(x.requirement.e_m_lx),
+        en12464::IMMEDIATE_SURROUNDING_U0
+    );
+    for d in &x.desks {
+        for c in &d.checks {
+            let fmt = |v: f64| {
+                if c.unit.is_empty() {
+                    format!("{v:.2}")
+                } else {
+                    format!("{v:.0} {}", c.unit)
+                }
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td>desk {}</td><td>{}</td><td>≥ {}</td><td>{}</td><td>{}</td></tr>",
+                d.id,
+                esc(&c.what),
+                fmt(c.required),
+                fmt(c.achieved),
+                verdict(c.pass)
+            );
+        }
+    }
+    h.push_str("</table>\n");
+    let _ = write!(
+        h,
+        "<h2>Desks ({})</h2>\n<p>EN 12464-1 grids: cells of at most p = 0.2 × 5<sup>log10(d)</sup> m, points at the cell centres. \
+Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>values</th><th>Ē</th><th>Emin</th><th>Emax</th><th>U0</th><th>Emin/Emax</th></tr>\n",
+        esc(&states_name(x))
+    );
+    for d in &x.desks {
+        let grid = format!(
+            "{} × {} ({:.2} × {:.2} m)",
+            d.grid.0[0], d.grid.0[1], d.grid.1[0], d.grid.1[1]
+        );
+        let _ = writeln!(
+            h,
+            "<tr><td>desk {}</td><td>{grid}</td><td>maintained</td>{}</tr><tr><td></td><td></td><td>new</td>{}</tr>",
+            d.id,
+            stats_cells(&d.task.maintained),
+            stats_cells(&d.task.new)
+        );
+        if let Some(s) = &d.surrounding {
+            let _ = writeln!(
+                h,
+                "<tr><td>desk {} surrounding</td><td>{} points</td><td>maintained</td>{}</tr>",
+                d.id,
+                s.new.points,
+                stats_cells(&s.maintained)
+            );
+        }
+    }
+    if let Some(rm) = &x.room {
+        let _ = writeln!(
+            h,
+            "<tr><td>room (floor)</td><td>{} points</td><td>maintained</td>{}</tr>",
+            rm.new.points,
+            stats_cells(&rm.maintained)
+        );
+    }
+    h.push_str("</table>\n<h2>States</h2>\n<p>Maintained Ē per desk grid and on the floor, lx; the desk sensors as the node publishes them (new installation, what a luxmeter on the desk reads), lx.</p>\n<table><tr><th>state</th><th>levels</th>");
+    if let Some(s) = x.states.first() {
+        for (id, _) in &s.desks {
+            let _ = write!(h, "<th>desk {id}</th>");
+        }
+        h.push_str("<th>floor</th>");
+        for (id, _) in &s.sensors_lx {
+            let _ = write!(h, "<th>S{id}</th>");
+        }
+    }
+    h.push_str("</tr>\n");
+    for s in &x.states {
+        let levels: Vec<String> = s
+            .levels
+            .iter()
+            .map(|v| format!("{:.0}", 100.0 * v))
+            .collect();
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{} %</td>",
+            esc(&s.name),
+            levels.join(" ")
+        );
+        for (_, st) in &s.desks {
+            let _ = write!(h, "<td>{:.0}</td>", st.e_mean_lx);
+        }
+        let _ = write!(
+            h,
+            "<td>{}</td>",
+            s.room.map_or("–".into(), |r| format!("{:.0}", r.e_mean_lx))
+        );
+        for (_, v) in &s.sensors_lx {
+            let _ = write!(h, "<td>{v:.0}</td>");
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n<h2>Surfaces</h2>\n<table><tr><th>surface</th><th>area (m²)</th><th>ρ</th><th>patches</th></tr>\n");
+    for s in &x.surfaces {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{:.2}</td><td>{:.3}</td><td>{}</td></tr>",
+            esc(&s.surface),
+            s.area_m2,
+            s.rho,
+            s.patches
+        );
+    }
+    h.push_str("</table>\n<h2>Luminaire schedule</h2>\n<table><tr><th>id</th><th>name</th><th>photometry file</th><th>luminaire</th><th>flux (lm)</th><th>power (W)</th><th>efficacy (lm/W)</th><th>position (m)</th><th>opening (m)</th></tr>\n");
+    for l in &x.luminaires {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.0}</td><td>{}</td><td>{}</td><td>{:.2}, {:.2}, {:.2}</td><td>{:.2} × {:.2}</td></tr>",
+            l.id,
+            esc(&l.name),
+            esc(&l.photometry_file),
+            esc(&l.luminaire),
+            l.flux_lm,
+            l.power_w.map_or("–".into(), |w| format!("{w:.1}")),
+            l.efficacy_lm_per_w
+                .map_or("–".into(), |e| format!("{e:.0}")),
+            l.position_m[0],
+            l.position_m[1],
+            l.position_m[2],
+            l.opening_m[0],
+            l.opening_m[1]
+        );
+    }
+    let _ = writeln!(
+        h,
+        "<tr><th>total</th><td></td><td></td><td></td><td>{:.0}</td><td>{}</td><td></td><td></td><td></td></tr></table>",
+        x.totals.0,
+        x.totals.1.map_or("–".into(), |w| format!("{w:.1}"))
+    );
+    let _ = write!(
+        h,
+        "<p>Computed in {:.2} s. The numbers are also in results.json.</p>\n\
+<script>\nfunction luxnodeCheckImages(){{var im=document.images,ok=im.length>0;\
+for(var i=0;i<im.length;i++){{if(!(im[i].complete&&im[i].naturalWidth>0)){{ok=false;}}}}\
+document.body.setAttribute('data-images',ok?'loaded':'missing');\
+document.getElementById('imgstatus').textContent=ok?('all '+im.length+' pictures loaded'):'a picture did not load';}}\n\
+window.addEventListener('load',luxnodeCheckImages);\n</script>\n</body></html>\n",
+        x.seconds
+    );
+    h
+}
+
+fn states_name(x: &Results) -> String {
+    x.states
+        .first()
+        .map_or_else(|| "all on".into(), |s| s.name.clone())
+}
+
+/// Writes `report.html`, `results.json` and the pictures as PNG files (the report does not need
+/// them: it holds its own copies) into `dir` (created if missing).
+pub fn write(r: &Report, dir: &Path) -> Result<(), ReportError> {
+    let io = |p: &Path| {
+        let path = p.display().to_string();
+        move |source| ReportError::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let html_path = dir.join("report.html");
+    std::fs::write(&html_path, html(r)).map_err(io(&html_path))?;
+    for (stem, _, png) in &r.pictures {
+        let p = dir.join(format!("{stem}.png"));
+        std::fs::write(&p, png).map_err(io(&p))?;
+    }
+    let json_path = dir.join("results.json");
+    let json = serde_json::to_string_pretty(&r.results)?;
+    std::fs::write(&json_path, json).map_err(io(&json_path))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_and_dates() {
+        assert_eq!(base64(b""), "");
+        assert_eq!(base64(b"f"), "Zg==");
+        assert_eq!(base64(b"fo"), "Zm8=");
+        assert_eq!(base64(b"foo"), "Zm9v");
+        assert_eq!(base64(b"foobar"), "Zm9vYmFy");
+        assert_eq!(iso_utc(0), "1970-01-01 00:00 UTC");
+        assert_eq!(iso_utc(951_782_400), "2000-02-29 00:00 UTC");
+        assert_eq!(iso_utc(1_700_000_000), "2023-11-14 22:13 UTC");
+    }
+}

@@ -1,0 +1,145 @@
+//! The geometry section (std): what a commissioning report needs beyond the run-time arrays
+//! (`docs/report.md` says why it lives in the image): the patches' corners and surface labels,
+//! the camera, the desk outlines, the sensors, the luminaires with their photometry as used,
+//! and the record of the commissioning (scene, preset, date, software version, maintenance
+//! factor).
+//!
+//! It follows the version-1 payload inside the payload's length and CRC, framed as
+//! `"LXGS" | section version (u16 LE) | length (u32 LE) | postcard bytes`. A build that does not
+//! know it reads the image as before (postcard ignores the bytes after the payload); this one
+//! reads images without it (an image of an older build) as images without a report section.
+//! The run-time core only checks the frame ([`super::Image::geometry_bytes`]); this module
+//! decodes it.
+
+use serde::{Deserialize, Serialize};
+
+use super::{ImageError, SECTION_FRAME_LEN, SECTION_MAGIC, SECTION_VERSION};
+
+/// The camera, as commissioning used it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraRecord {
+    /// Optical centre, m.
+    pub position_m: [f64; 3],
+    /// Rotation, columns = camera x, y, z axes in world, column-major.
+    pub world_from_camera: [f64; 9],
+    /// Focal lengths and principal point, pixels: fx, fy, cx, cy.
+    pub intrinsics_px: [f64; 4],
+    /// Width and height, pixels.
+    pub size_px: [u32; 2],
+}
+
+/// A desk top.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeskRecord {
+    /// Id.
+    pub id: u32,
+    /// Its group label.
+    pub group: String,
+    /// x0, x1, y0, y1, m.
+    pub extent_m: [f64; 4],
+    /// Height of the top, m.
+    pub z_m: f64,
+}
+
+/// A desk sensor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensorRecord {
+    /// Id.
+    pub id: u32,
+    /// Position, m.
+    pub position_m: [f64; 3],
+    /// Unit normal.
+    pub normal: [f64; 3],
+}
+
+/// An installed luminaire.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LuminaireRecord {
+    /// Id.
+    pub id: u32,
+    /// Name.
+    pub name: String,
+    /// Centre of the opening, m.
+    pub position_m: [f64; 3],
+    /// Aim (γ = 0), C0 and C90 directions, unit vectors.
+    pub axes: [[f64; 3]; 3],
+    /// Opening along C0 and C90, m.
+    pub opening_m: [f64; 2],
+    /// Circular opening.
+    pub opening_circular: bool,
+    /// Flux at 100 %, lm.
+    pub flux_lm: f64,
+    /// Index into [`GeometrySection::photometries`].
+    pub photometry: u32,
+}
+
+/// An intensity distribution as the engine used it (scaled to the luminaire's flux, tilt
+/// applied), with the file it came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhotometryRecord {
+    /// The file's name (no directory).
+    pub file_name: String,
+    /// The luminaire named in the file.
+    pub luminaire: String,
+    /// The manufacturer named in the file.
+    pub manufacturer: String,
+    /// The file's own flux before scaling, lm.
+    pub file_flux_lm: f64,
+    /// Input power from the file, W (NaN when it gives none).
+    pub power_w: f64,
+    /// Full C grid, degrees.
+    pub c_deg: Vec<f64>,
+    /// γ grid, degrees.
+    pub gamma_deg: Vec<f64>,
+    /// Intensities, cd, `[ic * gammas + ig]`.
+    pub cd: Vec<f32>,
+}
+
+/// Everything a report needs that the run-time arrays do not hold.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GeometrySection {
+    /// The scene's name.
+    pub scene_name: String,
+    /// The preset commissioning used (`balanced`...), or `custom`.
+    pub preset: String,
+    /// When it was commissioned, seconds since 1970 (UTC).
+    pub commissioned_unix_s: u64,
+    /// The software that commissioned it (`luxnode 0.1.0`).
+    pub software: String,
+    /// The maintenance factor of the installation (the board's setting).
+    pub maintenance_factor: f64,
+    /// Surface group labels.
+    pub groups: Vec<String>,
+    /// Corners of each patch, m, as x0 y0 z0 x1 ... (f32), counter-clockwise seen from the front.
+    pub patch_corners_m: Vec<[f32; 9]>,
+    /// The group of each patch.
+    pub patch_group: Vec<u32>,
+    /// The camera, if there is one.
+    pub camera: Option<CameraRecord>,
+    /// Desk tops.
+    pub desks: Vec<DeskRecord>,
+    /// Desk sensors, in the image's sensor order.
+    pub sensors: Vec<SensorRecord>,
+    /// Luminaires, in the image's luminaire order.
+    pub luminaires: Vec<LuminaireRecord>,
+    /// Distinct intensity distributions.
+    pub photometries: Vec<PhotometryRecord>,
+}
+
+impl GeometrySection {
+    /// The framed section, to append after the version-1 payload.
+    pub fn encode(&self) -> Result<Vec<u8>, postcard::Error> {
+        let body = postcard::to_stdvec(self)?;
+        let mut out = Vec::with_capacity(SECTION_FRAME_LEN + body.len());
+        out.extend_from_slice(&SECTION_MAGIC);
+        out.extend_from_slice(&SECTION_VERSION.to_le_bytes());
+        out.extend_from_slice(&(body.len() as u32).to_le_bytes());
+        out.extend_from_slice(&body);
+        Ok(out)
+    }
+
+    /// Decodes the section's bytes ([`super::Image::geometry_bytes`]).
+    pub fn decode(bytes: &[u8]) -> Result<GeometrySection, ImageError> {
+        postcard::from_bytes(bytes).map_err(|_| ImageError::Decode)
+    }
+}
