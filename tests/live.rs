@@ -209,3 +209,118 @@ fn daylight_and_dimming_measured_and_inferred() {
     assert!(mean_in < 0.05, "mean in-view error {mean_in}");
     assert!(worst_in < 0.2, "worst in-view error {worst_in}");
 }
+
+/// The node's live task, one period at a time: the live registers, the daylight handed to the
+/// control loop and a camera that stops answering.
+#[test]
+fn the_node_publishes_live_registers_and_feeds_the_control_loop() {
+    use luxnode::daemon::live::{CapturedFrame, StepState, estimator, step};
+    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::modbus::regmap::{NOT_AVAILABLE_U16, Space, addr, live_flags, live_status};
+    let image = Image::parse(&rig().image).unwrap();
+    let mut node = Node::new(NodeModel::from_image(&image, 1), NodeOptions::default()).unwrap();
+    let n = image.luminaires();
+    let desks = image.sensors() as u16;
+    let read = |node: &Node, a: u16| node.map().read(Space::Input, a);
+    // live light off: the blocks are in the map and read "not available"
+    assert_eq!(read(&node, addr::LIVE_TOTAL_U16), Some(NOT_AVAILABLE_U16));
+    assert_eq!(read(&node, addr::LIVE_TOTAL_U16 + desks), None);
+    assert_eq!(read(&node, addr::AGEING), Some(1000));
+    let mut live = estimator(&image, &LiveSettings::default()).unwrap();
+    let mut state = StepState::default();
+    let levels = vec![0.6; n];
+    node.set_levels(&levels.iter().map(|&x| Some(x)).collect::<Vec<_>>())
+        .unwrap();
+    let levels = node.levels().to_vec();
+    let extras = WorldExtras {
+        window_exitance_lm_m2: 2000.0,
+        ..WorldExtras::default()
+    };
+    let f = frame(&levels, &extras);
+    let (w, h) = live.model().frame_size();
+    let captured = CapturedFrame {
+        width: w,
+        height: h,
+        luminance: f.0.clone(),
+        cd_m2_per_unit: f.1,
+        depth_mm: Some(f.2.clone()),
+    };
+    let status = step(&mut live, &mut state, Ok(captured), 0.0, &mut node, 0.5);
+    assert_eq!(status & live_status::ON, live_status::ON);
+    assert_eq!(status & live_status::FRAME_REJECTED, 0);
+    let truth = rig().world.sensor_truth_lx(&levels, &extras);
+    let no_day = rig()
+        .world
+        .sensor_truth_lx(&levels, &WorldExtras::default());
+    for k in 0..desks {
+        let d = live.desks()[usize::from(k)];
+        // u16 block: the rounded total; split adds up
+        assert_eq!(
+            read(&node, addr::LIVE_TOTAL_U16 + k),
+            Some(d.total_lx.round() as u16)
+        );
+        assert_eq!(
+            read(&node, addr::LIVE_DAYLIGHT_U16 + k),
+            Some(d.daylight_lx.round() as u16)
+        );
+        let hi = read(&node, addr::LIVE_TOTAL_FLOAT + 2 * k).unwrap();
+        let lo = read(&node, addr::LIVE_TOTAL_FLOAT + 2 * k + 1).unwrap();
+        let v = f32::from_bits((u32::from(hi) << 16) | u32::from(lo));
+        assert!((f64::from(v) - d.total_lx).abs() < 1e-3 * d.total_lx.max(1.0));
+        assert_eq!(read(&node, addr::LIVE_SOURCE + k), Some(d.source as u16));
+        // the daylight against the world's own (see daylight_and_dimming_...: 15 %)
+        let day = truth[usize::from(k)] - no_day[usize::from(k)];
+        assert!(
+            (d.daylight_lx - day).abs() < 0.15 * truth[usize::from(k)].max(50.0),
+            "desk {k}: daylight {} vs {day}",
+            d.daylight_lx
+        );
+    }
+    // the control loop gets the daylight while it is fresh
+    let fresh = node
+        .fresh_daylight()
+        .expect("daylight for the control loop");
+    assert_eq!(fresh.len(), usize::from(desks));
+    for (a, d) in fresh.iter().zip(live.desks()) {
+        assert_eq!(*a, d.daylight_lx);
+    }
+    // the camera stops answering: values held, then stale, and the status says so
+    let before: Vec<f64> = live.desks().iter().map(|d| d.total_lx).collect();
+    let st = step(
+        &mut live,
+        &mut state,
+        Err("timeout".into()),
+        10.0,
+        &mut node,
+        10.0,
+    );
+    assert_ne!(st & live_status::FRAME_REJECTED, 0);
+    assert_eq!(st & live_status::CAMERA_STALE, 0);
+    for (k, d) in live.desks().iter().enumerate() {
+        // the held daylight with the model's artificial part: the last good total, unless the
+        // luminaires read below the model there (a negative residual is not held)
+        assert!(
+            (d.total_lx - before[k]).abs() <= 0.05 * before[k],
+            "desk {k}: held {} vs {}",
+            d.total_lx,
+            before[k]
+        );
+        assert_ne!(d.flags & live_flags::HELD, 0);
+    }
+    let st = step(
+        &mut live,
+        &mut state,
+        Err("timeout".into()),
+        60.0,
+        &mut node,
+        60.0,
+    );
+    assert_ne!(st & live_status::CAMERA_STALE, 0);
+    assert_eq!(read(&node, addr::LIVE_STATUS), Some(st));
+    assert!(
+        live.desks()
+            .iter()
+            .all(|d| d.flags & live_flags::STALE != 0 && d.total_lx.is_finite())
+    );
+    assert_eq!(read(&node, addr::LIVE_LAST_FRAME_AGE), Some(60));
+}

@@ -84,26 +84,10 @@ pub enum LiveError {
     Input(String),
 }
 
-/// Flag bits of a desk's live value (`DeskLive::flags`, Modbus input 4100 + k).
+/// Flag bits of a desk's live value (`DeskLive::flags`, Modbus input 4100 + k): the register
+/// map's own bits ([`crate::modbus::regmap::live_flags`]).
 pub mod flags {
-    /// Something covers the desk now (depth over its window differs from the commissioned mesh,
-    /// or without depth: most of it far darker than the luminaires make it).
-    pub const OCCLUDED: u16 = 1 << 0;
-    /// The daylight part is the last good one (see the frame age).
-    pub const HELD: u16 = 1 << 1;
-    /// No fresh frame for longer than the stale limit (camera not answering).
-    pub const STALE: u16 = 1 << 2;
-    /// The last frame was rejected (wrong size, dark, saturated, unusable).
-    pub const BAD_FRAME: u16 = 1 << 3;
-    /// Overexposed: the desk's window (or the frame) is saturated.
-    pub const SATURATED: u16 = 1 << 4;
-    /// A luminaire giving this desk a tenth of its light or more has aged below the maintenance
-    /// factor (0.9 by default): maintenance advised.
-    pub const AGEING: u16 = 1 << 5;
-    /// The desk's surroundings changed for good (a moved desk): recommissioning advised.
-    pub const GEOMETRY_CHANGED: u16 = 1 << 6;
-    /// No depth frame: covering was judged from the luminance alone.
-    pub const NO_DEPTH: u16 = 1 << 7;
+    pub use crate::modbus::regmap::live_flags::*;
 
     /// The flags as words, for logs and the CLI.
     pub fn describe(f: u16) -> String {
