@@ -572,7 +572,11 @@ fn a_dead_serial_line_is_reported_and_reopened() {
         ),
     );
     let n = node(&board, &flash, &[]);
-    assert_eq!(mbpoll_rtu(&b), [2.0], "map version over RTU");
+    assert_eq!(
+        mbpoll_rtu(&b),
+        [f64::from(luxnode::modbus::regmap::MAP_VERSION)],
+        "map version over RTU"
+    );
     // the line hangs up (the adapter is pulled): reported, not silent
     let _ = line.kill();
     let _ = line.wait();

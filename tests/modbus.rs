@@ -146,7 +146,11 @@ fn bms_reads_the_runtime_values_and_they_match_radiance() {
     rt().block_on(async {
         let mut c = connect(server.addr).await;
         let core = c.read_input_registers(0, 4).await.unwrap().unwrap();
-        assert_eq!(core[..3], [2, 8, 8], "map version, desks, luminaires");
+        assert_eq!(
+            core[..3],
+            [luxnode::modbus::regmap::MAP_VERSION, 8, 8],
+            "map version, desks, luminaires"
+        );
         let want = status::COMMISSIONED
             | status::STORE_OK
             | status::SENSORS_OK
