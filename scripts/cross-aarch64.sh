@@ -8,7 +8,8 @@
 # (scripts/test.sh); they exercise the same code. The Modbus tests that start servers as
 # processes and drive them with mbpoll/pymodbus, the HIL rig (processes), commissioning from
 # captures and the camera simulator (seconds of ray casting each) run natively too; the fuzzer,
-# the A010 ToF parser, V4L2 decoding and the replay camera run on both.
+# the A010 ToF parser, V4L2 decoding and streaming (recorded streams), the replay camera, the
+# sensor layer's drivers on simulated buses and the NOR/MTD flash backends run on both.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -26,7 +27,8 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
           | binary(energy) | binary(ward) | binary(lighting)
           | (binary(control) & (test(every_desk) | test(a_day_of)))
           | (binary(modbus) & not test(fuzzed))
-          | binary(hil) | binary(field) | binary(fuzz_smoke) | binary(commission)
+          | binary(hil) | binary(hil_peripherals) | binary(ambient) | binary(field) | binary(fuzz_smoke)
+          | binary(commission)
           | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)))
           | (binary(office_a) & not test(default_settings))
           | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

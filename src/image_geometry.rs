@@ -121,6 +121,7 @@ pub fn section_of(scene: &Scene, model: &Model, record: &CommissionRecord) -> Ge
         world_from_camera: c.world_from_camera.to_cols_array(),
         intrinsics_px: [c.fx, c.fy, c.cx, c.cy],
         size_px: [c.width, c.height],
+        lens_k: c.lens.is_fisheye().then(|| c.lens.k()),
     });
     let desks = scene
         .desks
@@ -356,6 +357,15 @@ impl Room {
                 if !ok {
                     return Err(bad("the camera".into()));
                 }
+                let lens = match c.lens_k {
+                    None => crate::scene::Lens::Pinhole,
+                    Some(k) => {
+                        let l = crate::scene::Lens::KannalaBrandt { k };
+                        l.check()
+                            .map_err(|m| bad(format!("the camera lens: {m}")))?;
+                        l
+                    }
+                };
                 Some(Camera {
                     position_m: DVec3::from(c.position_m),
                     world_from_camera: DMat3::from_cols_array(&c.world_from_camera),
@@ -366,6 +376,7 @@ impl Room {
                     width: c.size_px[0],
                     height: c.size_px[1],
                     luminance_cd_m2_per_unit: None,
+                    lens,
                 })
             }
         };

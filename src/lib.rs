@@ -28,7 +28,7 @@
 //! | 0 | `units`, `layout`, `rng`, `host`, `en12464` | no_std (`rng`, `host`, `en12464`: std) | physical quantities named with their unit; the `memory.x` regions; a seedable generator; facts of the host process; the rules of EN 12464-1 (grids, statistics, requirements) |
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
-//! | 3 | `runtime`, `control` | no_std | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop |
+//! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/TLS/RTU servers, who may write and how each client reads (access), health, DALI gateway link (std) |
 //! | 5 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
 //! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
@@ -89,6 +89,7 @@ pub mod layout {
 pub mod control;
 pub mod dali;
 pub mod modbus;
+pub mod peripherals;
 pub mod runtime;
 pub mod solver;
 pub mod store;

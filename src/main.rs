@@ -57,6 +57,12 @@ enum Command {
     /// The commissioning report of an image: report.html (self-contained) and results.json.
     #[cfg(feature = "report")]
     Report(Box<cli::report::Args>),
+    /// The board's peripherals: probe the ambient light sensor and the calibration EEPROM,
+    /// write a camera module's calibration record.
+    Hw {
+        #[command(subcommand)]
+        command: cli::hw::Command,
+    },
 }
 
 fn main() -> ExitCode {
@@ -76,6 +82,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cli::run::run(&a),
         #[cfg(feature = "report")]
         Command::Report(a) => cli::report::run(&a).map(|()| ExitCode::SUCCESS),
+        Command::Hw { command } => cli::hw::run(&command).map(|()| ExitCode::SUCCESS),
     };
     match done {
         Ok(code) => code,

@@ -72,8 +72,26 @@ fn sim_depth_of_the_floor_is_the_camera_height() {
         }
     }
     assert!(floor > 20_000, "{floor} floor pixels");
-    // the room is closed: every pixel has a return
-    assert!(f.depth_mm.iter().all(|&d| d > 0));
+    // the room is closed: every pixel inside the lens's field has a return, none outside
+    let mut outside = 0;
+    for v in 0..c.height {
+        for u in 0..c.width {
+            let d = f.depth_mm[(v * c.width + u) as usize];
+            match c.ray_world(f64::from(u), f64::from(v)) {
+                Some(_) => assert!(d > 0, "({u}, {v})"),
+                None => {
+                    outside += 1;
+                    assert_eq!(d, 0, "({u}, {v}) is outside the field");
+                }
+            }
+        }
+    }
+    // the equidistant lens images 89° at f · 1.553 = 186 px from the centre: the corners
+    // (199.7 px) are outside
+    assert!(
+        outside > 0 && outside < 2_000,
+        "{outside} pixels outside the field"
+    );
 }
 
 #[test]
@@ -109,7 +127,7 @@ fn sim_luminance_is_rho_e_over_pi_with_the_engines_e() {
                 continue;
             }
             let p = h.patch as usize;
-            let x = c.position_m + c.ray_world(f64::from(u), f64::from(v)) * h.t_m;
+            let x = c.position_m + c.ray_world(f64::from(u), f64::from(v)).unwrap() * h.t_m;
             let nrm = m.patches.normal[p];
             let mut e_dir = 0.0;
             let mut e_dir16 = 0.0;
@@ -182,6 +200,11 @@ fn sim_depth_noise_matches_the_model() {
     for _ in 0..4 {
         let f = cam.capture_depth().unwrap();
         for (d, z) in f.depth_mm.iter().zip(&exact) {
+            // the fisheye's corners: no ray, no return
+            if z.is_nan() {
+                assert_eq!(*d, 0);
+                continue;
+            }
             total += 1;
             if *d == 0 {
                 dropped += 1;
@@ -234,7 +257,9 @@ fn sim_depth_noise_matches_the_model() {
         }
     }
     for (i, d) in f.depth_mm.iter().enumerate() {
-        if !is_edge[i] {
+        if exact[i].is_nan() {
+            assert_eq!(*d, 0, "pixel {i} is outside the field");
+        } else if !is_edge[i] {
             assert!(
                 (f64::from(*d) / 1000.0 - exact[i]).abs() <= 0.0005 + 1e-9,
                 "pixel {i}"
@@ -456,7 +481,16 @@ fn demo_office_commissions_from_simulated_cameras() {
         t_total.as_secs_f64() * 1e3,
         100.0 * err
     );
-    assert!(err < 0.15, "{err}");
+    // the wide-angle demo camera sees every desk (issue 18: at least 5 of 7), so every desk is
+    // measured, not estimated; the seen room leaves the default wall and ceiling reflectances
+    // as the error (measured 2.5 %, every sensor a little low)
+    let out_of_view = c
+        .sensor_flags
+        .iter()
+        .filter(|f| **f & luxnode::store::sensor_flags::OUT_OF_VIEW != 0)
+        .count();
+    assert_eq!(out_of_view, 0, "{:?}", c.sensor_flags);
+    assert!(err < 0.05, "{err}");
 }
 
 #[test]
@@ -730,6 +764,7 @@ mod a010 {
         c.cy = 49.5;
         c.fx = 71.4;
         c.fy = 86.6;
+        c.lens = Default::default();
         c
     }
 
@@ -888,6 +923,7 @@ mod registration {
             width: 100,
             height: 100,
             luminance_cd_m2_per_unit: None,
+            lens: Default::default(),
         }
     }
 
@@ -920,6 +956,7 @@ mod registration {
             cy: (f64::from(h) - 1.0) / 2.0,
             k1,
             k2,
+            lens: Default::default(),
         }
     }
 
@@ -1318,12 +1355,333 @@ mod registration {
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened a sim board"),
         }
-        // the rpi4's tof_camera.json is written at installation: not in the repo
-        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        // a board whose ToF calibration (written at installation) is missing
+        let dir = tempfile::tempdir().unwrap();
+        let text = std::fs::read_to_string("boards/rpi4/board.toml").unwrap();
+        std::fs::write(dir.path().join("board.toml"), &text).unwrap();
+        let rpi = Board::load(&dir.path().join("board.toml")).unwrap();
         match luxnode::board::hardware::open(&rpi.camera) {
             Err(CameraError::Config(m)) => assert!(m.contains("ToF calibration"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("opened without a calibration"),
+        }
+        // with the example calibration it gets as far as the device, which is not here
+        let rpi = Board::load(Path::new("boards/rpi4/board.toml")).unwrap();
+        match luxnode::board::hardware::open(&rpi.camera) {
+            Err(e) => assert!(e.to_string().contains("/dev/ttyUSB0"), "{e}"),
+            Ok(_) => panic!("opened a serial device that does not exist"),
+        }
+    }
+}
+
+/// The fisheye lens (Kannala-Brandt, equidistant) against closed forms.
+mod fisheye {
+    use glam::{DMat3, DVec3};
+    use luxnode::camera::{ColourFromTof, ColourIntrinsics, Registration};
+    use luxnode::scene::{Camera, Lens};
+
+    fn cam(lens: Lens) -> Camera {
+        Camera {
+            position_m: DVec3::new(1.0, 2.0, 3.0),
+            world_from_camera: DMat3::from_cols(DVec3::X, DVec3::NEG_Y, DVec3::NEG_Z),
+            fx: 100.0,
+            fy: 100.0,
+            cx: 159.5,
+            cy: 119.5,
+            width: 320,
+            height: 240,
+            luminance_cd_m2_per_unit: None,
+            lens,
+        }
+    }
+
+    /// r(θ) written out independently of the library.
+    fn kb(theta: f64, k: [f64; 4]) -> f64 {
+        theta
+            + k[0] * theta.powi(3)
+            + k[1] * theta.powi(5)
+            + k[2] * theta.powi(7)
+            + k[3] * theta.powi(9)
+    }
+
+    #[test]
+    fn kannala_brandt_projects_known_angles_and_round_trips() {
+        let k = [0.08, -0.02, 0.004, -0.0005];
+        let c = cam(Lens::KannalaBrandt { k });
+        c.check().unwrap();
+        for (deg, az_deg) in [
+            (0.0, 0.0),
+            (5.0, 30.0),
+            (30.0, 100.0),
+            (60.0, 200.0),
+            (85.0, 300.0),
+        ] {
+            let (t, a) = (f64::to_radians(deg), f64::to_radians(az_deg));
+            // a world point 2 m from the camera at angle t off the axis, azimuth a
+            let dir_cam = DVec3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos());
+            let p = c.position_m + c.world_from_camera * dir_cam * 2.0;
+            let (u, v) = c.project_world(p).unwrap();
+            let r_px = kb(t, k) * 100.0;
+            assert!((u - (159.5 + r_px * a.cos())).abs() < 1e-9, "{deg}°: u {u}");
+            assert!((v - (119.5 + r_px * a.sin())).abs() < 1e-9, "{deg}°: v {v}");
+            // back through the pixel: the same ray, and the point at its axial depth
+            let d = c.ray_world(u, v).unwrap();
+            assert!(
+                (d - (p - c.position_m).normalize()).length() < 1e-10,
+                "{deg}°"
+            );
+            let z = 2.0 * t.cos();
+            let q = c.point_at_depth(u, v, z).unwrap();
+            assert!((q - p).length() < 1e-9, "{deg}°: {q} vs {p}");
+        }
+        // beyond 89° and behind: no pixel; beyond the image circle of 89°: no ray
+        let side = c.position_m + c.world_from_camera * DVec3::new(1.0, 0.0, 0.001);
+        assert!(c.project_world(side).is_none());
+        let r89 = kb(89f64.to_radians(), k) * 100.0;
+        assert!(c.ray_world(159.5 + r89 + 1.0, 119.5).is_none());
+        assert!(c.ray_world(159.5 + r89 - 1.0, 119.5).is_some());
+    }
+
+    #[test]
+    fn pixel_solid_angles_add_up_to_the_cone() {
+        // equidistant, f = 100 px: the pixels within r = 100 θ0 cover the cone of half-angle
+        // θ0, 2π (1 − cos θ0) sr
+        let c = cam(Lens::EQUIDISTANT);
+        let theta0: f64 = 1.0;
+        let mut sum = 0.0;
+        for v in 0..240 {
+            for u in 0..320 {
+                let (du, dv) = (f64::from(u) - 159.5, f64::from(v) - 119.5);
+                if du.hypot(dv) < 100.0 * theta0 {
+                    sum += c.pixel_solid_angle_sr(f64::from(u), f64::from(v));
+                }
+            }
+        }
+        let want = 2.0 * std::f64::consts::PI * (1.0 - theta0.cos());
+        assert!((sum - want).abs() < 0.01 * want, "{sum} sr vs {want} sr");
+        // the pinhole's pixel at 45° off the axis: cos³ 45° / f²
+        let p = cam(Lens::Pinhole);
+        let got = p.pixel_solid_angle_sr(159.5 + 100.0, 119.5);
+        assert!((got - 0.5f64.sqrt().powi(3) / 1e4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn camera_json_carries_the_lens_and_refuses_bad_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("camera.json");
+        let base = r#"{"position": [1, 2, 3], "R_world_from_camera": [[1, 0, 0], [0, -1, 0], [0, 0, -1]],
+            "width": 320, "height": 240, "fx": 100, "fy": 100, "cx": 159.5, "cy": 119.5"#;
+        let load = |extra: &str| {
+            std::fs::write(&path, format!("{base}{extra}}}")).unwrap();
+            luxnode::scene::load_camera_file(&path)
+        };
+        assert_eq!(load("").unwrap().lens, Lens::Pinhole);
+        assert_eq!(
+            load(r#", "model": "equidistant""#).unwrap().lens,
+            Lens::EQUIDISTANT
+        );
+        let k = [0.01, -0.002, 0.0, 0.0];
+        assert_eq!(
+            load(r#", "model": "kannala_brandt", "k": [0.01, -0.002, 0, 0]"#)
+                .unwrap()
+                .lens,
+            Lens::KannalaBrandt { k }
+        );
+        for (extra, says) in [
+            (r#", "model": "kannala_brandt", "k": [1e9, 0, 0, 0]"#, "k1"),
+            (
+                r#", "model": "kannala_brandt", "k": [-0.5, 0, 0, 0]"#,
+                "folds",
+            ),
+            (r#", "model": "fish""#, "not known"),
+            (r#", "model": "pinhole", "k": [0.1, 0, 0, 0]"#, "pinhole"),
+            (
+                r#", "model": "equidistant", "k": [0.1, 0, 0, 0]"#,
+                "equidistant",
+            ),
+        ] {
+            let e = load(extra).unwrap_err().to_string();
+            assert!(e.contains(says), "{extra}: {e}");
+        }
+        // a capture saved with a fisheye camera reads back with the same lens
+        let c = cam(Lens::KannalaBrandt { k });
+        let cap = luxnode::camera::capture::Capture {
+            dir: dir.path().to_path_buf(),
+            camera: c.clone(),
+            depth_mm: vec![luxnode::camera::capture::Frame {
+                width: 320,
+                height: 240,
+                data: vec![1000; 320 * 240],
+            }],
+            luminance: Vec::new(),
+            off: None,
+            warnings: Vec::new(),
+        };
+        let out = dir.path().join("cap");
+        luxnode::camera::save_capture(&out, &cap, None).unwrap();
+        let again = luxnode::scene::load_camera_file(&out.join("camera.json")).unwrap();
+        assert_eq!(again.lens, c.lens);
+    }
+
+    #[test]
+    fn a_fisheye_colour_camera_registers_by_the_closed_form() {
+        // ToF: equidistant; colour: Kannala-Brandt, twice the resolution, 2 cm to the side.
+        // A floor 2.5 m below: every ToF pixel's colour position is the closed form of its point.
+        let tof = cam(Lens::EQUIDISTANT);
+        let k = [0.05, -0.01, 0.0, 0.0];
+        let colour = ColourIntrinsics {
+            width: 640,
+            height: 480,
+            fx: 190.0,
+            fy: 190.0,
+            cx: 319.5,
+            cy: 239.5,
+            k1: 0.0,
+            k2: 0.0,
+            lens: Lens::KannalaBrandt { k },
+        };
+        let t = [0.02, 0.0, 0.0];
+        let reg = Registration::new(
+            colour.clone(),
+            ColourFromTof {
+                rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                translation_m: t,
+            },
+        )
+        .unwrap();
+        let mut checked = 0;
+        for (u, v) in [(159.5, 119.5), (60.0, 50.0), (280.0, 180.0), (10.0, 119.5)] {
+            let Some(p) = tof.point_at_depth_camera(u, v, 2.5) else {
+                continue;
+            };
+            let q = [p.x + t[0], p.y + t[1], p.z + t[2]];
+            let rho = q[0].hypot(q[1]);
+            let th = rho.atan2(q[2]);
+            let r = kb(th, k) * 190.0;
+            let (uc, vc) = (319.5 + r * q[0] / rho, 239.5 + r * q[1] / rho);
+            let (gu, gv, gz) = reg.project(p.to_array()).unwrap();
+            assert!(
+                (gu - uc).abs() < 1e-9 && (gv - vc).abs() < 1e-9,
+                "({u}, {v})"
+            );
+            assert!((gz - 2.5).abs() < 1e-12);
+            checked += 1;
+        }
+        assert_eq!(checked, 4);
+        // pinhole distortion on a fisheye is refused, as is a folding lens
+        assert!(
+            Registration::new(
+                ColourIntrinsics {
+                    k1: 0.1,
+                    ..colour.clone()
+                },
+                ColourFromTof::identity()
+            )
+            .is_err()
+        );
+        assert!(
+            Registration::new(
+                ColourIntrinsics {
+                    lens: Lens::KannalaBrandt {
+                        k: [-0.4, 0.0, 0.0, 0.0]
+                    },
+                    ..colour
+                },
+                ColourFromTof::identity()
+            )
+            .is_err()
+        );
+        // the identity registration of a fisheye ToF camera maps each pixel onto itself
+        let id = Registration::identity(&tof).unwrap();
+        let p = tof.point_at_depth_camera(37.0, 201.0, 2.0).unwrap();
+        let (a, b, _) = id.project(p.to_array()).unwrap();
+        assert!((a - 37.0).abs() < 1e-9 && (b - 201.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_image_geometry_section_carries_the_lens_and_reads_old_sections() {
+        use luxnode::store::geometry::{CameraRecord, GeometrySection};
+        let k = [0.03, -0.008, 0.0005, 0.0];
+        let section = GeometrySection {
+            scene_name: "s".into(),
+            preset: "balanced".into(),
+            commissioned_unix_s: 1,
+            software: "luxnode".into(),
+            maintenance_factor: 0.8,
+            groups: Vec::new(),
+            patch_corners_m: Vec::new(),
+            patch_group: Vec::new(),
+            camera: Some(CameraRecord {
+                position_m: [1.0, 2.0, 3.0],
+                world_from_camera: [1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0],
+                intrinsics_px: [105.0, 105.0, 159.5, 119.5],
+                size_px: [320, 240],
+                lens_k: Some(k),
+            }),
+            desks: Vec::new(),
+            sensors: Vec::new(),
+            luminaires: Vec::new(),
+            photometries: Vec::new(),
+        };
+        let framed = section.encode().unwrap();
+        let back = GeometrySection::decode(&framed[10..]).unwrap();
+        assert_eq!(back, section);
+        // a section of a build before the extension: the camera is a pinhole
+        let old = postcard::to_stdvec(&section).unwrap();
+        let back = GeometrySection::decode(&old).unwrap();
+        assert_eq!(back.camera.unwrap().lens_k, None);
+    }
+
+    #[test]
+    fn board_files_carry_checked_optics() {
+        use luxnode::board::Board;
+        use luxnode::board::camera::CameraBoard;
+        let b = Board::load(std::path::Path::new("boards/sim-fisheye/board.toml")).unwrap();
+        let CameraBoard::Sim {
+            optics: Some(o), ..
+        } = &b.camera
+        else {
+            panic!("{:?}", b.camera);
+        };
+        assert_eq!(
+            o.lens,
+            Lens::KannalaBrandt {
+                k: [0.03, -0.008, 0.0005, 0.0]
+            }
+        );
+        let c = o.apply(&luxnode::sim::demo::demo_office().camera.unwrap());
+        assert_eq!((c.fx, c.width, c.lens), (105.0, 320, o.lens));
+        // every demo desk sensor is in this camera's image
+        for s in &luxnode::sim::demo::demo_office().sensors {
+            assert!(c.pixel_of(s.position_m).is_some(), "sensor {}", s.id);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let text = std::fs::read_to_string("boards/sim-fisheye/board.toml").unwrap();
+        for (from, to, says) in [
+            ("fx = 105.0", "fx = 1e-9", "fx"),
+            (
+                "k = [0.03, -0.008, 0.0005, 0.0]",
+                "k = [-0.5, 0.0, 0.0, 0.0]",
+                "folds",
+            ),
+            (
+                "k = [0.03, -0.008, 0.0005, 0.0]",
+                "k = [1e300, 0.0, 0.0, 0.0]",
+                "k1",
+            ),
+            ("tilt_deg = 0.0", "tilt_deg = 95.0", "tilt_deg"),
+            (
+                "model = \"kannala_brandt\"",
+                "model = \"fish\"",
+                "not known",
+            ),
+            ("width = 320", "width = 100000", "image size"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let f = dir.path().join("board.toml");
+            std::fs::write(&f, text.replace(from, to)).unwrap();
+            let e = Board::load(&f).unwrap_err().to_string();
+            assert!(e.contains(says), "{to}: {e}");
         }
     }
 }

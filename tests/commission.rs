@@ -138,9 +138,10 @@ fn reflectance_errors(c: &Commissioned, capture: &str) -> Vec<f64> {
             if !wanted.contains(&lab[i]) {
                 continue;
             }
-            let Hit::Front { patch, .. } =
-                caster.closest(cam.position_m, cam.ray_world(f64::from(u), f64::from(v)))
-            else {
+            let Hit::Front { patch, .. } = caster.closest(
+                cam.position_m,
+                cam.ray_world(f64::from(u), f64::from(v)).unwrap(),
+            ) else {
                 continue;
             };
             let est = c.model.patches.rho[patch as usize];
@@ -287,6 +288,7 @@ fn down_camera(w: u32, h: u32) -> Camera {
         width: w,
         height: h,
         luminance_cd_m2_per_unit: Some(0.01),
+        lens: Default::default(),
     }
 }
 
@@ -297,7 +299,7 @@ fn synthetic_depth(cam: &Camera, noise_mm: f64, seed: u64) -> Frame {
     let mut data = Vec::new();
     for v in 0..cam.height {
         for u in 0..cam.width {
-            let d = cam.ray_world(f64::from(u), f64::from(v));
+            let d = cam.ray_world(f64::from(u), f64::from(v)).unwrap();
             let t_floor = 3.0 / -d.z;
             let t_box = 2.1 / -d.z;
             let p = cam.position_m + d * t_box;
@@ -321,13 +323,7 @@ fn planes_of_synthetic_depth_have_the_known_heights_and_areas() {
     let frames: Vec<Frame> = (0..3).map(|s| synthetic_depth(&cam, 20.0, s)).collect();
     let d = depth::fuse(&frames, &depth::DepthOptions::default()).expect("fuses");
     let g = grid::PointGrid::new(&d, &cam, 2, 0.03);
-    let found = planes::detect(
-        &g,
-        cam.position_m,
-        cam.fx,
-        cam.fy,
-        &planes::PlaneOptions::default(),
-    );
+    let found = planes::detect(&g, &cam, &planes::PlaneOptions::default());
     let horizontal: Vec<_> = found.iter().filter(|p| p.normal.z > 0.999).collect();
     assert_eq!(horizontal.len(), 2, "{found:?}");
     let top = horizontal

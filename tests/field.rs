@@ -12,7 +12,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::procs::{LUXNODE, Proc, mbpoll_values, need, rt, spawn_listening};
-use luxnode::modbus::regmap::status;
+use luxnode::modbus::regmap::{MAP_VERSION, status};
 use luxnode::store::devices::{FileFlash, MemFlash};
 use luxnode::store::file::read_bootable;
 use luxnode::store::slots::{FlashDevice, Slot, Slots};
@@ -432,7 +432,10 @@ fn writes_only_from_the_allowlist_reload_on_sighup_and_sigusr1_does_not_kill() {
         // SIGUSR1: a status report, the node lives on
         signal("-USR1");
         tokio::time::sleep(Duration::from_millis(300)).await;
-        assert_eq!(c.read_input_registers(0, 1).await.unwrap().unwrap(), [2]);
+        assert_eq!(
+            c.read_input_registers(0, 1).await.unwrap().unwrap(),
+            [MAP_VERSION]
+        );
     });
     assert!(
         n.output().contains("status: image generation 1"),
@@ -469,7 +472,10 @@ fn writes_only_from_the_allowlist_reload_on_sighup_and_sigusr1_does_not_kill() {
     std::thread::sleep(Duration::from_millis(500));
     rt().block_on(async {
         let mut c = client(n.addr).await;
-        assert_eq!(c.read_input_registers(0, 1).await.unwrap().unwrap(), [2]);
+        assert_eq!(
+            c.read_input_registers(0, 1).await.unwrap().unwrap(),
+            [MAP_VERSION]
+        );
     });
     let out = n.output();
     assert!(out.contains("the running configuration stays"), "{out}");
@@ -574,7 +580,7 @@ fn a_dead_serial_line_is_reported_and_reopened() {
     let n = node(&board, &flash, &[]);
     assert_eq!(
         mbpoll_rtu(&b),
-        [f64::from(luxnode::modbus::regmap::MAP_VERSION)],
+        [f64::from(MAP_VERSION)],
         "map version over RTU"
     );
     // the line hangs up (the adapter is pulled): reported, not silent
@@ -602,7 +608,7 @@ fn a_dead_serial_line_is_reported_and_reopened() {
     });
     assert_eq!(
         mbpoll_rtu(&b),
-        [f64::from(luxnode::modbus::regmap::MAP_VERSION)],
+        [f64::from(MAP_VERSION)],
         "answers after the reopen"
     );
     assert!(n.output().contains("line failed"), "{}", n.output());
@@ -859,7 +865,7 @@ fn modbus_tcp_security_with_mutual_tls_and_roles() {
     // an operator reads and writes
     let v = tls_client(d, port, Some("operator"), Some("1000=0"));
     assert!(v["version"].as_str().unwrap().starts_with("TLSv1."), "{v}");
-    assert_eq!(v["core"][0], 2, "{v}");
+    assert_eq!(v["core"][0], MAP_VERSION, "{v}");
     assert!(v["desk0_lux"].as_f64().unwrap() > 100.0, "{v}");
     assert_eq!(v["write"], serde_json::json!([6, 3, 232, 0, 0]), "{v}");
     // a viewer and a certificate without a role read, but may not write

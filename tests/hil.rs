@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use common::procs::{
     GATEWAY_SIM, LUXNODE, Proc, floats_abcd, mbpoll_values, need, pty_pair, rt, spawn_listening,
+    spawn_listening_within,
 };
 use luxnode::modbus::regmap::status;
 use tokio_modbus::client::{Context, Reader, Writer};
@@ -25,7 +26,11 @@ async fn bms(addr: SocketAddr) -> Context {
         .expect("connect")
 }
 
-/// `luxnode run` on `board` with `flash`, no simulated controller (the rig drives it).
+/// `luxnode run` on `board` with `flash`, no simulated controller (the rig drives it). A first
+/// boot commissions the sim board before it listens, and with the board's ambient light sensor
+/// the camera gain is found by bisection (some thirty reflectance estimates and a full engine
+/// run): close to a minute on a loaded 2-core machine, so the bound is that of
+/// tests/hil_peripherals.rs (the restart's boot time is asserted on its own).
 fn node(board: &Path, flash: &Path, extra: &[&str]) -> Proc {
     let mut args: Vec<String> = vec![
         "run".into(),
@@ -38,7 +43,7 @@ fn node(board: &Path, flash: &Path, extra: &[&str]) -> Proc {
         "--no-controller".into(),
     ];
     args.extend(extra.iter().map(|s| s.to_string()));
-    spawn_listening(LUXNODE, &args)
+    spawn_listening_within(LUXNODE, &args, Duration::from_secs(300))
 }
 
 /// Runs `luxnode run` to its end (power-cut scenarios); (exit code, stdout and stderr).

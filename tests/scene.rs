@@ -78,7 +78,7 @@ fn office_a_loads_with_its_stated_contents() {
     let cam = s.camera.as_ref().unwrap();
     assert_eq!((cam.width, cam.height), (320, 240));
     // the optical axis looks straight down
-    let axis = cam.ray_world(cam.cx, cam.cy);
+    let axis = cam.ray_world(cam.cx, cam.cy).unwrap();
     assert!((axis - glam::DVec3::NEG_Z).length() < 1e-9);
 }
 

@@ -215,9 +215,10 @@ fn true_rho_model(c: &Commissioned, capture: &Path) -> Result<Model, Table1Error
     let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
     for v in 0..cam.height {
         for u in 0..cam.width {
-            let Hit::Front { patch, .. } =
-                caster.closest(cam.position_m, cam.ray_world(f64::from(u), f64::from(v)))
-            else {
+            let Some(d) = cam.ray_world(f64::from(u), f64::from(v)) else {
+                continue;
+            };
+            let Hit::Front { patch, .. } = caster.closest(cam.position_m, d) else {
                 continue;
             };
             let t = c.model.patches.source_triangle[patch as usize] as usize;

@@ -9,6 +9,16 @@
 //! range_noise_rel = 0.01
 //! [camera.sim.faults]       # optional fault injection (camera::Faults)
 //! timeout_chance = 0.05
+//! [camera.sim.optics]       # optional: the installed camera's optics instead of the scene's
+//! model = "kannala_brandt"  # "pinhole" | "equidistant" | "kannala_brandt"
+//! width = 320
+//! height = 240
+//! fx = 98.0                 # pixels
+//! fy = 98.0
+//! cx = 159.5
+//! cy = 119.5
+//! k = [0.02, -0.005, 0.0, 0.0]     # Kannala-Brandt k1..k4 (fisheye only)
+//! tilt_deg = 0.0            # optional tilt of the optical axis about the camera's x axis
 //! [camera.replay]
 //! dir = "../../../shared/scenes/office_a/capture_clean"
 //! [camera.tof]              # source = "hardware"
@@ -25,6 +35,7 @@
 //! cy = 239.5
 //! k1 = -0.05                        # optional radial distortion (OpenCV k1, k2), default 0
 //! k2 = 0.01
+//! # model = "kannala_brandt"       # a fisheye colour camera: k = [k1, k2, k3, k4], no k1/k2
 //! rotation = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # X_colour = rotation · X_tof + translation_m
 //! translation_m = [-0.03, 0.0, 0.0]
 //! ```
@@ -81,6 +92,8 @@ pub enum CameraBoard {
         luminance: SimLuminanceOptions,
         /// Injected faults (both cameras), if any.
         faults: Option<Faults>,
+        /// The installed camera's optics, replacing the scene's camera's (pose kept).
+        optics: Option<Optics>,
     },
     /// A recorded capture directory.
     Replay {
@@ -96,6 +109,41 @@ pub enum CameraBoard {
     },
 }
 
+/// A camera's optics from a board file: intrinsics, lens and a tilt, applied to a scene's
+/// camera (its position and orientation kept, then tilted).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Optics {
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// Focal lengths and principal point, pixels: fx, fy, cx, cy.
+    pub intrinsics_px: [f64; 4],
+    /// The lens.
+    pub lens: crate::scene::Lens,
+    /// Rotation of the optical axis about the camera's x axis, rad.
+    pub tilt_rad: f64,
+}
+
+impl Optics {
+    /// The camera `base` with these optics (checked when the optics were read).
+    pub fn apply(&self, base: &crate::scene::Camera) -> crate::scene::Camera {
+        let [fx, fy, cx, cy] = self.intrinsics_px;
+        let tilt = glam::DMat3::from_rotation_x(self.tilt_rad);
+        crate::scene::Camera {
+            fx,
+            fy,
+            cx,
+            cy,
+            width: self.width,
+            height: self.height,
+            lens: self.lens,
+            world_from_camera: base.world_from_camera * tilt,
+            ..base.clone()
+        }
+    }
+}
+
 /// A real ToF camera.
 #[derive(Debug, Clone, PartialEq)]
 pub enum TofBoard {
@@ -105,8 +153,29 @@ pub enum TofBoard {
         device: String,
         /// Line speed, baud.
         baud: u32,
-        /// Module settings.
+        /// Module settings (`unit_mm` as given, or 10 until [`crate::board::hardware`] picks
+        /// it for the floor distance).
         options: A010Options,
+        /// `unit_mm` was given in the board file (else the node picks the finest that reaches
+        /// the floor).
+        unit_given: bool,
+        /// `camera.json` with its intrinsics and pose.
+        calibration: PathBuf,
+    },
+    /// A depth (ToF) camera streaming Z16 over V4L2.
+    V4l2 {
+        /// Device node.
+        device: String,
+        /// Frame width, pixels (the calibration's).
+        width: u32,
+        /// Frame height, pixels.
+        height: u32,
+        /// mm per Z16 unit.
+        depth_unit_mm: f64,
+        /// The farthest the camera measures, m (its datasheet's range at the mode used).
+        max_range_m: f64,
+        /// How long to wait for a frame.
+        timeout: Duration,
         /// `camera.json` with its intrinsics and pose.
         calibration: PathBuf,
     },
@@ -158,35 +227,236 @@ pub enum FlashBoard {
     },
 }
 
-/// The board's I2C bus for its peripherals (ambient light sensor, ID EEPROM).
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+/// The board's I2C bus for its peripherals (`[i2c]`, `[i2c.als]`, `[i2c.eeprom]`,
+/// `[i2c.sim]`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct I2cBoard {
-    /// Bus device (`/dev/i2c-1`).
+    /// Bus device (`/dev/i2c-1`), or `"sim"`: the simulated bus (feature `sim`).
     pub bus: String,
     /// Bus clock, Hz.
     #[serde(default = "default_i2c_hz")]
     pub clock_hz: u32,
+    /// The ambient light sensor, if fitted.
+    #[serde(default)]
+    pub als: Option<AlsBoard>,
+    /// The camera module's calibration EEPROM, if fitted.
+    #[serde(default)]
+    pub eeprom: Option<EepromBoard>,
+    /// Faults of the simulated bus, at times after start (HIL).
+    #[serde(default)]
+    pub sim: Option<I2cSimBoard>,
+}
+
+/// `[i2c.als]`: the ambient light sensor.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AlsBoard {
+    /// `"veml7700"`.
+    pub driver: String,
+    /// 7-bit address (the VEML7700's is 0x10).
+    #[serde(default = "default_als_address")]
+    pub address: u8,
+    /// Where it is, m, in the room's frame; default: 1 cm below the ToF camera.
+    #[serde(default)]
+    pub position_m: Option<[f64; 3]>,
+    /// Which way it faces (unit vector); default straight down.
+    #[serde(default = "default_down")]
+    pub normal: [f64; 3],
+    /// Time between run-time readings, s.
+    #[serde(default = "default_als_period_s")]
+    pub period_s: f64,
+    /// Run-time check: the reading may differ from the model's prediction by this fraction
+    /// (plus 2 lx) before the status bit is raised.
+    #[serde(default = "default_als_tolerance")]
+    pub tolerance: f64,
+}
+
+/// `[i2c.eeprom]`: the calibration EEPROM on the camera module.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EepromBoard {
+    /// `"24c32"`.
+    pub driver: String,
+    /// 7-bit address, 0x50..=0x57.
+    #[serde(default = "default_eeprom_address")]
+    pub address: u8,
+}
+
+/// `[i2c.sim]`: faults of the simulated bus, seconds after the node starts.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct I2cSimBoard {
+    /// The ambient light sensor stops answering (unplugged).
+    #[serde(default)]
+    pub als_unplugged_after_s: Option<f64>,
+    /// Its output registers freeze.
+    #[serde(default)]
+    pub als_frozen_after_s: Option<f64>,
+    /// The bus jams (SDA held low).
+    #[serde(default)]
+    pub bus_stuck_after_s: Option<f64>,
+    /// How long a transfer on the jammed bus takes to fail, s.
+    #[serde(default = "default_stuck_timeout_s")]
+    pub stuck_timeout_s: f64,
+    /// Extra light (daylight) on the sensor, lx, from `daylight_after_s`.
+    #[serde(default)]
+    pub daylight_lx: f64,
+    /// When the daylight comes.
+    #[serde(default)]
+    pub daylight_after_s: f64,
+}
+
+/// `[led]`: the status LED on a GPIO line.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LedBoard {
+    /// GPIO character device (`/dev/gpiochip0`), or `"sim"` (feature `sim`).
+    pub chip: String,
+    /// Line offset.
+    #[serde(default)]
+    pub line: u32,
+    /// The line high lights the LED.
+    #[serde(default = "default_true")]
+    pub active_high: bool,
 }
 
 fn default_i2c_hz() -> u32 {
     100_000
 }
+fn default_als_address() -> u8 {
+    crate::peripherals::veml7700::ADDRESS
+}
+fn default_eeprom_address() -> u8 {
+    crate::peripherals::at24::BASE_ADDRESS
+}
+fn default_down() -> [f64; 3] {
+    [0.0, 0.0, -1.0]
+}
+fn default_als_period_s() -> f64 {
+    5.0
+}
+fn default_als_tolerance() -> f64 {
+    0.2
+}
+fn default_stuck_timeout_s() -> f64 {
+    1.0
+}
+fn default_true() -> bool {
+    true
+}
+
+fn is_sim(dev: &str) -> bool {
+    dev == "sim"
+}
 
 impl I2cBoard {
-    /// Checks the bus path and clock.
+    /// Checks the bus, the clock and the devices.
     pub fn validate(&self) -> Result<(), SectionError> {
-        if !self.bus.starts_with("/dev/") {
+        if is_sim(&self.bus) {
+            if !cfg!(feature = "sim") {
+                return err("i2c.bus = \"sim\": this build has no simulated bus (feature `sim`)");
+            }
+        } else if !self.bus.starts_with("/dev/") {
             return err(format!(
-                "i2c.bus {:?} must be a device under /dev",
+                "i2c.bus {:?} must be a device under /dev (or \"sim\")",
                 self.bus
             ));
+        }
+        if self.sim.is_some() && !is_sim(&self.bus) {
+            return err("i2c.sim (fault injection) needs i2c.bus = \"sim\"");
         }
         if !(10_000..=3_400_000).contains(&self.clock_hz) {
             return err(format!(
                 "i2c.clock_hz {} is outside 10 kHz..3.4 MHz",
                 self.clock_hz
             ));
+        }
+        if let Some(a) = &self.als {
+            if a.driver != "veml7700" {
+                return err(format!(
+                    "i2c.als.driver {:?} is not known (known: \"veml7700\")",
+                    a.driver
+                ));
+            }
+            if a.address != crate::peripherals::veml7700::ADDRESS {
+                return err(format!(
+                    "i2c.als.address {:#04x}: the VEML7700 answers at 0x10 only",
+                    a.address
+                ));
+            }
+            let finite = a
+                .position_m
+                .iter()
+                .flatten()
+                .chain(&a.normal)
+                .all(|x| x.is_finite());
+            let n = a.normal.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !finite || !(0.5..=2.0).contains(&n) {
+                return err("i2c.als: position_m and normal must be finite, normal a direction");
+            }
+            if !(a.period_s.is_finite() && (0.1..=3600.0).contains(&a.period_s)) {
+                return err(format!(
+                    "i2c.als.period_s {} is outside 0.1..=3600 s",
+                    a.period_s
+                ));
+            }
+            if !(a.tolerance.is_finite() && (0.01..=10.0).contains(&a.tolerance)) {
+                return err(format!(
+                    "i2c.als.tolerance {} is outside 0.01..=10",
+                    a.tolerance
+                ));
+            }
+        }
+        if let Some(e) = &self.eeprom {
+            if e.driver != "24c32" {
+                return err(format!(
+                    "i2c.eeprom.driver {:?} is not known (known: \"24c32\")",
+                    e.driver
+                ));
+            }
+            if !(0x50..=0x57).contains(&e.address) {
+                return err(format!(
+                    "i2c.eeprom.address {:#04x} is outside 0x50..=0x57",
+                    e.address
+                ));
+            }
+        }
+        if let Some(s) = &self.sim {
+            let ok = |x: Option<f64>| x.is_none_or(|v| v.is_finite() && (0.0..1e6).contains(&v));
+            if !(ok(s.als_unplugged_after_s)
+                && ok(s.als_frozen_after_s)
+                && ok(s.bus_stuck_after_s)
+                && ok(Some(s.daylight_after_s))
+                && s.stuck_timeout_s.is_finite()
+                && (0.0..=60.0).contains(&s.stuck_timeout_s)
+                && s.daylight_lx.is_finite()
+                && (0.0..=100_000.0).contains(&s.daylight_lx))
+            {
+                return err(
+                    "i2c.sim: times must be seconds >= 0, stuck_timeout_s <= 60 s, daylight_lx 0..=100000",
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+impl LedBoard {
+    /// Checks the chip.
+    pub fn validate(&self) -> Result<(), SectionError> {
+        if is_sim(&self.chip) {
+            if !cfg!(feature = "sim") {
+                return err("led.chip = \"sim\": this build has no simulated GPIO (feature `sim`)");
+            }
+        } else if !self.chip.starts_with("/dev/gpiochip") {
+            return err(format!(
+                "led.chip {:?} must be a GPIO character device (/dev/gpiochipN) or \"sim\"",
+                self.chip
+            ));
+        }
+        if self.line > 1023 {
+            return err(format!("led.line {} is outside 0..=1023", self.line));
         }
         Ok(())
     }
@@ -219,6 +489,55 @@ struct SimToml {
     cd_m2_per_unit: Option<f64>,
     luminance_noise_rel: Option<f64>,
     faults: Option<FaultsToml>,
+    optics: Option<OpticsToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+struct OpticsToml {
+    #[serde(default = "default_model")]
+    model: String,
+    width: u32,
+    height: u32,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    #[serde(default)]
+    k: Option<[f64; 4]>,
+    #[serde(default)]
+    tilt_deg: f64,
+}
+
+fn default_model() -> String {
+    "pinhole".into()
+}
+
+#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
+    if o.width == 0 || o.height == 0 || o.width > 16384 || o.height > 16384 {
+        return err(format!(
+            "{what}: image size {}x{} must be 1..16384 pixels",
+            o.width, o.height
+        ));
+    }
+    crate::scene::check_intrinsics(o.fx, o.fy, o.cx, o.cy, o.width, o.height)
+        .map_err(|m| format!("{what}: {m}"))?;
+    let lens = crate::scene::Lens::from_model(&o.model, o.k).map_err(|m| format!("{what}: {m}"))?;
+    if !(o.tilt_deg.is_finite() && o.tilt_deg.abs() <= 60.0) {
+        return err(format!(
+            "{what}.tilt_deg {} must be within ±60° (a ceiling camera looks down)",
+            o.tilt_deg
+        ));
+    }
+    Ok(Optics {
+        width: o.width,
+        height: o.height,
+        intrinsics_px: [o.fx, o.fy, o.cx, o.cy],
+        lens,
+        tilt_rad: o.tilt_deg.to_radians(),
+    })
 }
 
 #[derive(Deserialize, Default)]
@@ -250,8 +569,8 @@ struct TofToml {
     device: String,
     #[serde(default = "default_tof_baud")]
     baud: u32,
-    #[serde(default = "default_unit_mm")]
-    unit_mm: u8,
+    #[serde(default)]
+    unit_mm: Option<u8>,
     #[serde(default = "default_fps")]
     fps: u8,
     #[serde(default = "default_disp")]
@@ -259,13 +578,21 @@ struct TofToml {
     #[serde(default = "default_timeout_s")]
     timeout_s: f64,
     calibration: String,
+    // driver = "v4l2"
+    #[serde(default)]
+    width: Option<u32>,
+    #[serde(default)]
+    height: Option<u32>,
+    #[serde(default)]
+    format: Option<String>,
+    #[serde(default)]
+    depth_unit_mm: Option<f64>,
+    #[serde(default)]
+    max_range_m: Option<f64>,
 }
 
 fn default_tof_baud() -> u32 {
     115_200
-}
-fn default_unit_mm() -> u8 {
-    10
 }
 fn default_fps() -> u8 {
     10
@@ -308,6 +635,10 @@ struct RegistrationToml {
     k2: f64,
     rotation: [[f64; 3]; 3],
     translation_m: [f64; 3],
+    #[serde(default = "default_model")]
+    model: String,
+    #[serde(default)]
+    k: Option<[f64; 4]>,
 }
 
 #[doc(hidden)]
@@ -402,10 +733,15 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 f.validate()
                     .map_err(|e| format!("camera.sim.faults: {e}"))?;
             }
+            let optics = s
+                .optics
+                .map(|o| optics(o, "camera.sim.optics"))
+                .transpose()?;
             Ok(CameraBoard::Sim {
                 depth,
                 luminance,
                 faults,
+                optics,
             })
         }
         "replay" => {
@@ -430,8 +766,19 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 .ok_or("camera.source = \"hardware\" needs [camera.colour]")?;
             let tof = match tof.driver.as_str() {
                 "a010" => {
+                    if tof.width.is_some()
+                        || tof.height.is_some()
+                        || tof.format.is_some()
+                        || tof.depth_unit_mm.is_some()
+                        || tof.max_range_m.is_some()
+                    {
+                        return err(
+                            "camera.tof: width, height, format, depth_unit_mm and max_range_m \
+                             are for driver = \"v4l2\" (the A010 is 100 x 100, range 2.5 m)",
+                        );
+                    }
                     let options = A010Options {
-                        unit_mm: tof.unit_mm,
+                        unit_mm: tof.unit_mm.unwrap_or(10),
                         fps: tof.fps,
                         disp: tof.disp,
                         timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
@@ -448,16 +795,60 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                             tof.baud
                         ));
                     }
+                    crate::camera::a010::check_link(&options, tof.baud)
+                        .map_err(|e| format!("camera.tof: {e}"))?;
                     TofBoard::A010 {
                         device: device("camera.tof.device", &tof.device)?,
                         baud: tof.baud,
                         options,
+                        unit_given: tof.unit_mm.is_some(),
+                        calibration: base.join(tof.calibration),
+                    }
+                }
+                "v4l2" => {
+                    let (Some(width), Some(height), Some(max_range_m)) =
+                        (tof.width, tof.height, tof.max_range_m)
+                    else {
+                        return err(
+                            "camera.tof driver = \"v4l2\" needs width, height and max_range_m \
+                             (the camera's range from its datasheet)",
+                        );
+                    };
+                    if tof.format.as_deref().unwrap_or("z16") != "z16" {
+                        return err(format!(
+                            "camera.tof.format {:?}: a V4L2 ToF camera streams \"z16\"",
+                            tof.format.unwrap_or_default()
+                        ));
+                    }
+                    if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
+                        return err(format!(
+                            "camera.tof: size {width}x{height} is outside 1..=4096"
+                        ));
+                    }
+                    let unit = tof.depth_unit_mm.unwrap_or(1.0);
+                    if !(unit.is_finite() && unit > 0.0 && unit <= 100.0) {
+                        return err(format!(
+                            "camera.tof.depth_unit_mm {unit} is outside (0, 100] mm"
+                        ));
+                    }
+                    if !(max_range_m.is_finite() && max_range_m > 0.0 && max_range_m <= 50.0) {
+                        return err(format!(
+                            "camera.tof.max_range_m {max_range_m} is outside (0, 50] m"
+                        ));
+                    }
+                    TofBoard::V4l2 {
+                        device: device("camera.tof.device", &tof.device)?,
+                        width,
+                        height,
+                        depth_unit_mm: unit,
+                        max_range_m,
+                        timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
                         calibration: base.join(tof.calibration),
                     }
                 }
                 other => {
                     return err(format!(
-                        "camera.tof.driver {other:?} is not known (known: \"a010\")"
+                        "camera.tof.driver {other:?} is not known (known: \"a010\", \"v4l2\")"
                     ));
                 }
             };
@@ -487,6 +878,8 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                                     cy: r.cy,
                                     k1: r.k1,
                                     k2: r.k2,
+                                    lens: crate::scene::Lens::from_model(&r.model, r.k)
+                                        .map_err(|m| format!("camera.colour.registration: {m}"))?,
                                 },
                                 ColourFromTof {
                                     rotation: r.rotation,

@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod control;
 pub mod hardware;
+pub mod peripherals;
 
 use std::path::{Path, PathBuf};
 
@@ -47,6 +48,8 @@ pub struct Board {
     pub control: crate::modbus::node::ControlOptions,
     /// Live light (`[live]`): the cameras at run time.
     pub live: LiveBoard,
+    /// The status LED (`[led]`), if any.
+    pub led: Option<crate::board::camera::LedBoard>,
 }
 
 /// `[live]`: live light, the cameras at run time (`crate::live`).
@@ -297,6 +300,8 @@ struct BoardToml {
     control: Option<crate::board::control::ControlToml>,
     #[serde(default)]
     live: LiveToml,
+    #[serde(default)]
+    led: Option<crate::board::camera::LedBoard>,
 }
 
 #[derive(Deserialize)]
@@ -473,6 +478,9 @@ impl Board {
                 }
             },
         };
+        if let Some(l) = &t.led {
+            l.validate().map_err(|e| bad(e.0))?;
+        }
         Ok(Board {
             control,
             live,
@@ -495,6 +503,7 @@ impl Board {
             camera,
             flash,
             i2c: t.i2c,
+            led: t.led,
         })
     }
 }
@@ -643,6 +652,92 @@ mod camera_section_tests {
         let sim = Board::load(Path::new("boards/sim/board.toml")).unwrap();
         assert!(matches!(sim.camera, CameraBoard::Sim { faults: None, .. }));
         assert!(matches!(sim.flash, FlashBoard::File { .. }));
+    }
+
+    /// No board file carries a setting the node then refuses: every hardware board passes the
+    /// node's pre-flight (its ToF calibration loads and its ToF camera reaches the floor; the
+    /// A010's frame rate fits its link, checked at parse).
+    #[test]
+    fn every_board_passes_the_nodes_checks() {
+        use crate::board::camera::TofBoard;
+        for name in ["rpi4", "rock5b"] {
+            let b = Board::load(&Path::new("boards").join(name).join("board.toml")).unwrap();
+            let pre = crate::board::hardware::preflight(&b.camera)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            match &b.camera {
+                CameraBoard::Hardware {
+                    tof: TofBoard::A010 { .. },
+                    ..
+                } => {
+                    // 2.45 m: the finest unit reaching 2.45 m × 1.02 is 10 mm
+                    assert_eq!(pre.a010_unit_mm, Some(10), "{name}");
+                    assert!((pre.floor_mm - 2450.0).abs() < 1.0, "{name}");
+                }
+                CameraBoard::Hardware {
+                    tof: TofBoard::V4l2 { max_range_m, .. },
+                    ..
+                } => assert!(pre.floor_mm < max_range_m * 1000.0, "{name}"),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        let rock = Board::load(Path::new("boards/rock5b/board.toml")).unwrap();
+        assert_eq!(
+            rock.flash,
+            FlashBoard::Mtd {
+                device: "/dev/mtd2".into()
+            }
+        );
+    }
+
+    /// The A010 on a 2.8 m ceiling (the demo office, camera flush at 2.78 m) is refused with the
+    /// reason and the remedy; a unit too fine for the floor too; the UART's frame budget.
+    #[test]
+    fn a_tof_that_does_not_reach_the_floor_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let cal = |z: f64| {
+            format!(
+                "{{\"position\": [4.0, 3.0, {z}], \"R_world_from_camera\": [[0,1,0],[1,0,0],[0,0,-1]], \"width\": 100, \"height\": 100, \"fx\": 71.4, \"fy\": 86.6, \"cx\": 49.5, \"cy\": 49.5}}"
+            )
+        };
+        let board = |z: f64, extra: &str| {
+            std::fs::write(dir.path().join("tof.json"), cal(z)).unwrap();
+            let text = format!(
+                "name = \"x\"\n[scene]\nsource = \"demo-office\"\n[camera]\nsource = \"hardware\"\n[camera.tof]\ndriver = \"a010\"\ndevice = \"/dev/ttyS4\"\nbaud = 921600\ndisp = 4\nfps = 9\ncalibration = \"tof.json\"\n{extra}[camera.colour]\ndriver = \"v4l2\"\ndevice = \"/dev/video0\"\nwidth = 640\nheight = 480\nformat = \"yuyv\"\nexposure_s = 0.01\ncalibration_cd_m2_s = 10\n"
+            );
+            Board::parse(&text, &dir.path().join("board.toml"))
+        };
+        let b = board(2.78, "").unwrap();
+        let e = crate::board::hardware::preflight(&b.camera)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("2.78 m") && e.contains("2.50 m"), "{e}");
+        assert!(e.contains("v4l2"), "{e}");
+        // 1.60 m: unit 7 (1.778 m) is the finest that reaches 1.632 m
+        let b = board(1.6, "").unwrap();
+        let pre = crate::board::hardware::preflight(&b.camera).unwrap();
+        assert_eq!(pre.a010_unit_mm, Some(7));
+        let b = board(2.4, "unit_mm = 5\n").unwrap();
+        let e = crate::board::hardware::preflight(&b.camera)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unit_mm 5") && e.contains("unit_mm = 10"), "{e}");
+        // 921 600 baud carries 9.2 frames/s: 15 is refused at parse
+        let e = board(2.4, "").map(|_| ()).and_then(|_| {
+            Board::parse(
+                &std::fs::read_to_string("boards/rpi4/board.toml")
+                    .unwrap()
+                    .replace("disp = 2 ", "disp = 4 ")
+                    .replace("baud = 115200 ", "baud = 921600 ")
+                    .replace("fps = 10 ", "fps = 15 "),
+                Path::new("boards/rpi4/board.toml"),
+            )
+            .map(|_| ())
+        });
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.contains("at most 9.2 frames/s") && e.contains("fps <= 9"),
+            "{e}"
+        );
     }
 
     #[test]

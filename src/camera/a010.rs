@@ -249,13 +249,122 @@ pub fn pixel_to_mm(p: u8, unit_mm: u8) -> u16 {
     mm.round().clamp(1.0, 65535.0) as u16
 }
 
+/// Bytes of one 100 × 100 frame on the wire: 4 (header, length) + 16 (info) + 10 000 pixels +
+/// 2 (checksum, tail).
+pub const FRAME_BYTES: usize = 4 + INFO_LEN + MAX_PIXELS + 2;
+/// The farthest the A010 measures, mm (its optics and the 8-bit depth: 254 steps of the
+/// coarsest 10 mm quantisation, 2.54 m; the square-root law ends at (254 / 5.1)² = 2.48 m).
+pub const MAX_RANGE_MM: f64 = 2500.0;
+/// Headroom kept between the farthest surface expected and the quantisation's end, so a pose
+/// error of a few centimetres does not push the floor into "no return".
+pub const RANGE_MARGIN: f64 = 1.02;
+
+/// Frames per second a UART at `baud` carries (8N1: 10 bits per byte) at the A010's frame
+/// size: 921 600 baud → 9.2 frames/s.
+pub fn uart_fps(baud: u32) -> f64 {
+    f64::from(baud) / 10.0 / FRAME_BYTES as f64
+}
+
+/// The farthest depth a quantisation unit can express, mm (`p = 254`).
+pub fn unit_range_mm(unit_mm: u8) -> f64 {
+    if unit_mm == 0 {
+        (254.0f64 / 5.1).powi(2)
+    } else {
+        254.0 * f64::from(unit_mm)
+    }
+}
+
+/// The finest linear quantisation that reaches `distance_mm` (with [`RANGE_MARGIN`]), or why
+/// the A010 cannot: a floor farther than its range. Finer steps are better: from a ceiling the
+/// surfaces that matter (floor, desks) are 1.5-2.5 m away, where the square-root law
+/// (`UNIT=0`) steps 15-19 mm and a linear unit of 8-10 mm steps 8-10 mm.
+pub fn unit_for_distance(distance_mm: f64) -> Result<u8, CameraError> {
+    let need = distance_mm * RANGE_MARGIN;
+    if !(need.is_finite() && need > 0.0) || need > MAX_RANGE_MM.max(unit_range_mm(10)) {
+        return Err(CameraError::Config(format!(
+            "the floor is {:.2} m from the ToF camera and the A010 reaches {:.2} m: it cannot see \
+             the floor; use a ToF camera with a longer range (camera.tof.driver = \"v4l2\", \
+             boards/README.md)",
+            distance_mm / 1000.0,
+            MAX_RANGE_MM / 1000.0
+        )));
+    }
+    Ok((1..=10u8).find(|&u| unit_range_mm(u) >= need).unwrap_or(10))
+}
+
+/// Checks a unit against the floor distance: the floor must be within its range.
+pub fn check_unit(unit_mm: u8, distance_mm: f64) -> Result<(), CameraError> {
+    let best = unit_for_distance(distance_mm)?;
+    if unit_range_mm(unit_mm) < distance_mm * RANGE_MARGIN {
+        return Err(CameraError::Config(format!(
+            "a010: unit_mm {unit_mm} expresses at most {:.2} m and the floor is {:.2} m away: \
+             use unit_mm = {best} (or leave it out: the node picks the finest that reaches)",
+            unit_range_mm(unit_mm) / 1000.0,
+            distance_mm / 1000.0
+        )));
+    }
+    Ok(())
+}
+
+/// Checks the frame rate against the link: frames to the UART (`disp` bit 2) at `baud` must
+/// fit its bandwidth; USB (full speed, about 1 MB/s of bulk transfers) carries the A010's 19
+/// frames/s.
+pub fn check_link(options: &A010Options, baud: u32) -> Result<(), CameraError> {
+    if options.disp & 4 != 0 {
+        let max = uart_fps(baud);
+        if f64::from(options.fps) > max {
+            return Err(CameraError::Config(format!(
+                "a010: fps {} over the UART: at {baud} baud (8N1) a {FRAME_BYTES}-byte frame \
+                 takes {:.0} ms, so at most {max:.1} frames/s; use fps <= {} or a faster baud",
+                options.fps,
+                FRAME_BYTES as f64 * 10.0 / f64::from(baud) * 1000.0,
+                max.floor() as u32
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The largest depth (along the optical axis, mm) at which a camera at `camera`'s pose sees the
+/// floor plane z = 0 of the scene frame, over its image's corners, edge midpoints and centre;
+/// `None` if it does not look at the floor.
+pub fn floor_distance_mm(camera: &Camera) -> Option<f64> {
+    let (w, h) = (
+        f64::from(camera.width) - 1.0,
+        f64::from(camera.height) - 1.0,
+    );
+    let axis = camera.world_from_camera.col(2);
+    let mut best: Option<f64> = None;
+    for (u, v) in [
+        (0.0, 0.0),
+        (w, 0.0),
+        (0.0, h),
+        (w, h),
+        (w / 2.0, 0.0),
+        (w / 2.0, h),
+        (0.0, h / 2.0),
+        (w, h / 2.0),
+        (w / 2.0, h / 2.0),
+    ] {
+        let Some(r) = camera.ray_world(u, v) else {
+            continue;
+        };
+        if r.z >= -1e-6 || camera.position_m.z <= 0.0 {
+            continue;
+        }
+        let t = -camera.position_m.z / r.z;
+        let z_cam = t * r.dot(axis);
+        best = Some(best.map_or(z_cam, |b: f64| b.max(z_cam)));
+    }
+    best.map(|m| m * 1000.0)
+}
+
 /// Settings sent to the module at start.
 #[derive(Debug, Clone, PartialEq)]
 pub struct A010Options {
     /// `AT+UNIT`: 0 = square-root law (fine steps near, 2.48 m at most, 17 mm steps at 2 m),
-    /// 1..=10 mm per step (254 steps: 2.54 m at 10 mm). The default is 10 mm: from a ceiling
-    /// the interesting range is 1.5-2.5 m. The A010 does not reach the floor of a room higher
-    /// than about 2.5 m; commissioning then infers the floor (room closure).
+    /// 1..=10 mm per step (254 steps: 2.54 m at 10 mm). A board picks the finest unit that
+    /// reaches its floor ([`unit_for_distance`]); a floor beyond the A010's 2.5 m is refused.
     pub unit_mm: u8,
     /// `AT+FPS`, 1..=19.
     pub fps: u8,

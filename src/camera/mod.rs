@@ -7,7 +7,7 @@
 //! | simulated | `crate::sim::camera` (feature `sim`) | renders depth and luminance of a scene with the project's own ray caster and engine; seeded ToF noise |
 //! | replay | [`replay`] | serves a recorded capture directory (`../shared/scenes/README.md`) |
 //! | Sipeed MaixSense A010 | [`a010`] | ToF over serial / USB-CDC: AT commands, framed packets with checksum, resynchronising parser |
-//! | V4L2 | [`v4l2`] | a UVC/CSI colour camera on Linux (YUYV or GREY), sRGB decoded to linear luminance |
+//! | V4L2 | [`v4l2`], [`stream`] | a UVC/CSI colour camera on Linux (YUYV or GREY, sRGB decoded to linear luminance) or a depth camera (Z16), streaming I/O with mmap buffers; a recorded stream replayed behind the same device interface |
 //! | registration | [`register`] | resamples colour frames of another camera (size, intrinsics, baseline) onto the ToF grid |
 //! | fault injection (feature `sim`) | `FaultInjector` | wraps any camera: timeouts, garbage frames, disconnects (seeded or at given frames) |
 //!
@@ -29,6 +29,7 @@ mod faults;
 pub mod register;
 pub mod replay;
 mod sequence;
+pub mod stream;
 pub mod v4l2;
 
 use std::time::SystemTime;

@@ -3,10 +3,12 @@
 //! with its depth frames (the capture format's convention: one [`crate::scene::Camera`]).
 //!
 //! ```text
-//! ToF pixel (u, v), depth z ─► X_tof = z·((u−cx)/fx, (v−cy)/fy, 1)       (m, ToF camera frame)
+//! ToF pixel (u, v), depth z ─► X_tof = z·d/d_z, d the pixel's ray         (m, ToF camera frame)
+//!                             (pinhole: z·((u−cx)/fx, (v−cy)/fy, 1); fisheye: crate::scene::Lens)
 //!                           ─► X_col = R·X_tof + t                         (colour camera frame)
-//!                           ─► (x, y) = X_col.xy / X_col.z
-//!                           ─► radial: (x, y)·(1 + k1 r² + k2 r⁴), r² = x² + y²
+//!                           ─► pinhole: (x, y) = X_col.xy / X_col.z,
+//!                                radial: (x, y)·(1 + k1 r² + k2 r⁴), r² = x² + y²
+//!                              fisheye (Kannala-Brandt): (x, y) = r(θ)·(cos φ, sin φ)
 //!                           ─► (u_c, v_c) = (fx_c·x_d + cx_c, fy_c·y_d + cy_c)
 //! ```
 //!
@@ -32,7 +34,7 @@
 
 use super::{CameraError, LuminanceFrame};
 use crate::camera::capture::{Frame, SATURATED};
-use crate::scene::Camera;
+use crate::scene::{Camera, Lens};
 
 /// Most sub-samples per axis of one ToF pixel's footprint.
 pub const MAX_SUBSAMPLES: usize = 16;
@@ -63,6 +65,9 @@ pub struct ColourIntrinsics {
     pub k1: f64,
     /// Radial distortion, r⁴ coefficient (OpenCV's k2).
     pub k2: f64,
+    /// The lens: a pinhole (with `k1`, `k2` above) or a fisheye (then `k1 = k2 = 0`; its own
+    /// coefficients are in the [`Lens`]).
+    pub lens: Lens,
 }
 
 /// The colour camera's pose relative to the ToF camera: `X_colour = rotation · X_tof +
@@ -171,6 +176,15 @@ impl Registration {
         }
         finite("k1", i.k1)?;
         finite("k2", i.k2)?;
+        if let Err(m) = i.lens.check() {
+            return bad(m);
+        }
+        if i.lens.is_fisheye() && (i.k1 != 0.0 || i.k2 != 0.0) {
+            return bad(format!(
+                "k1 = {}, k2 = {} are pinhole distortion: a fisheye lens takes its own k",
+                i.k1, i.k2
+            ));
+        }
         // the distortion factor r_d = r (1 + k1 r² + k2 r⁴) must grow with r up to the image
         // corner, or the projection folds over
         let corner_r2 = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
@@ -245,6 +259,7 @@ impl Registration {
                 cy: tof.cy,
                 k1: 0.0,
                 k2: 0.0,
+                lens: tof.lens,
             },
             ColourFromTof::identity(),
         )
@@ -267,11 +282,15 @@ impl Registration {
         let t = &self.colour_from_tof.translation_m;
         let c: [f64; 3] =
             std::array::from_fn(|a| (0..3).map(|k| r[a][k] * p_tof_m[k]).sum::<f64>() + t[a]);
+        let i = &self.intrinsics;
+        if i.lens.is_fisheye() {
+            let m = i.lens.project(glam::DVec3::from_array(c))?;
+            return Some((i.fx * m.x + i.cx, i.fy * m.y + i.cy, c[2]));
+        }
         if c[2] <= 1e-6 {
             return None;
         }
         let (x, y) = (c[0] / c[2], c[1] / c[2]);
-        let i = &self.intrinsics;
         let r2 = x * x + y * y;
         let d = 1.0 + i.k1 * r2 + i.k2 * r2 * r2;
         Some((i.fx * x * d + i.cx, i.fy * y * d + i.cy, c[2]))
@@ -300,13 +319,8 @@ impl Registration {
             )));
         }
         let (cw, ch) = (self.intrinsics.width, self.intrinsics.height);
-        let back = |u: f64, v: f64, z_m: f64| {
-            [
-                (u - tof.cx) / tof.fx * z_m,
-                (v - tof.cy) / tof.fy * z_m,
-                z_m,
-            ]
-        };
+        let back = |u: f64, v: f64, z_m: f64| tof.point_at_depth_camera(u, v, z_m);
+        let proj = |p: Option<glam::DVec3>| p.and_then(|p| self.project(p.to_array()));
         // pass 1: per pixel, the in-view bilinear taps of its footprint and its colour depth
         struct Px {
             taps: Vec<(u32, f64)>,
@@ -323,12 +337,12 @@ impl Registration {
                 }
                 let z_m = f64::from(d) * 1e-3;
                 let (uf, vf) = (f64::from(u), f64::from(v));
-                let Some((uc, vc, zc)) = self.project(back(uf, vf, z_m)) else {
+                let Some((uc, vc, zc)) = proj(back(uf, vf, z_m)) else {
                     pass1.push(Err(Unmapped::OutOfView));
                     continue;
                 };
                 // footprint size in colour pixels: the images of the pixel's edge midpoints
-                let extent = |a: [f64; 3], b: [f64; 3]| match (self.project(a), self.project(b)) {
+                let extent = |a, b| match (proj(a), proj(b)) {
                     (Some(p), Some(q)) => (p.0 - q.0).hypot(p.1 - q.1),
                     _ => 1.0,
                 };
@@ -345,7 +359,7 @@ impl Registration {
                         } else {
                             let du = (i as f64 + 0.5) / n as f64 - 0.5;
                             let dv = (j as f64 + 0.5) / n as f64 - 0.5;
-                            match self.project(back(uf + du, vf + dv, z_m)) {
+                            match proj(back(uf + du, vf + dv, z_m)) {
                                 Some((a, b, _)) => (a, b),
                                 None => continue,
                             }

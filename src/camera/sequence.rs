@@ -467,6 +467,10 @@ pub fn save_capture(
     if let Some(s) = c.luminance_cd_m2_per_unit {
         j["luminance_cd_m2_per_unit"] = serde_json::json!(s);
     }
+    if c.lens.is_fisheye() {
+        j["model"] = serde_json::json!(c.lens.model_name());
+        j["k"] = serde_json::json!(c.lens.k());
+    }
     let text = serde_json::to_string_pretty(&j)
         .map_err(|e| CameraError::Config(format!("camera.json: {e}")))?;
     std::fs::write(dir.join("camera.json"), text).map_err(io)?;

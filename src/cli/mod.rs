@@ -7,6 +7,7 @@ pub mod bench;
 pub mod bench_scaling;
 pub mod commission;
 pub mod control;
+pub mod hw;
 pub mod image;
 pub mod logging;
 pub mod modbus;

@@ -3,6 +3,7 @@
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -11,7 +12,7 @@ use luxnode::board::{Board, SceneSource};
 use luxnode::camera::replay::ReplayWorld;
 use luxnode::camera::{DepthCamera, LightControl, LuminanceCamera, SequenceOptions};
 use luxnode::commission::CommissionOptions;
-use luxnode::daemon::source::CameraSource;
+use luxnode::daemon::source::{AmbientAtCommissioning, CameraSource};
 use luxnode::daemon::{
     self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, SensorProbe, Unavailable,
 };
@@ -61,19 +62,37 @@ pub struct Args {
     #[cfg(feature = "sim")]
     #[arg(long, hide = true)]
     pub power_cut_after_bytes: Option<usize>,
+    /// Test only (HIL): the simulated status LED's edges go to this file (`ms level` lines).
+    #[cfg(feature = "sim")]
+    #[arg(long, hide = true)]
+    pub led_trace: Option<PathBuf>,
 }
 
-/// The flash device's path and size, from the board or `--flash`.
-fn flash_config(board: &Board, args: &Args) -> Result<(PathBuf, usize)> {
+/// What the simulated ALS sees, set once the simulated world exists.
+type LightSlot = Arc<Mutex<Option<Box<dyn Fn() -> f64 + Send>>>>;
+
+/// Where the image's flash is: a file of a given size, or a raw MTD partition (its size is the
+/// partition's).
+enum FlashTarget {
+    File(PathBuf, usize),
+    Mtd(PathBuf),
+}
+
+impl FlashTarget {
+    fn path(&self) -> &std::path::Path {
+        match self {
+            FlashTarget::File(p, _) | FlashTarget::Mtd(p) => p,
+        }
+    }
+}
+
+/// The flash device, from the board or `--flash`.
+fn flash_config(board: &Board, args: &Args) -> Result<FlashTarget> {
     let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
     let (path, capacity) = match (&args.flash, &board.flash) {
         (Some(p), _) => (p.clone(), 2 * region),
         (None, FlashBoard::File { path, size_bytes }) => (path.clone(), *size_bytes),
-        (None, FlashBoard::Mtd { device }) => bail!(
-            "board {}: flash kind \"mtd\" ({device}): the store has no raw MTD backend yet; use \
-             the partition through mtdblock as kind = \"file\", or --flash FILE",
-            board.name
-        ),
+        (None, FlashBoard::Mtd { device }) => return Ok(FlashTarget::Mtd(PathBuf::from(device))),
     };
     if capacity < 2 * region {
         bail!(
@@ -81,11 +100,15 @@ fn flash_config(board: &Board, args: &Args) -> Result<(PathBuf, usize)> {
             board.name
         );
     }
-    Ok((path, capacity))
+    Ok(FlashTarget::File(path, capacity))
 }
 
 /// The flash device, with the simulated power cut of `--power-cut-after-bytes` (HIL) if asked.
-fn open_flash(path: &std::path::Path, capacity: usize, args: &Args) -> Result<Flash> {
+fn open_flash(target: &FlashTarget, board: &Board, args: &Args) -> Result<Flash> {
+    let (path, capacity) = match target {
+        FlashTarget::File(p, c) => (p, *c),
+        FlashTarget::Mtd(p) => return open_mtd(p, board),
+    };
     let dev = daemon::open_flash_file(path, capacity)?;
     #[cfg(feature = "sim")]
     if let Some(n) = args.power_cut_after_bytes {
@@ -100,54 +123,83 @@ fn open_flash(path: &std::path::Path, capacity: usize, args: &Args) -> Result<Fl
     Ok(Flash::File(dev))
 }
 
-/// The node's flash: the file, or (HIL) the file behind a fault injector.
+/// A raw MTD partition (`/dev/mtdN`, SPI NOR) for the A/B slots.
+#[cfg(target_os = "linux")]
+fn open_mtd(path: &std::path::Path, board: &Board) -> Result<Flash> {
+    let region = usize::try_from(luxnode::layout::FORMFACTORS_LEN_BYTES)?;
+    let dev = luxnode::store::mtd::open(path)
+        .with_context(|| format!("board {}: flash kind \"mtd\"", board.name))?;
+    let info = dev.info();
+    if dev.capacity() < 2 * region {
+        bail!(
+            "board {}: MTD partition {} holds {} bytes ({} KiB erase blocks): smaller than two \
+             {region}-byte image slots",
+            board.name,
+            path.display(),
+            info.size,
+            info.erase_size / 1024
+        );
+    }
+    tracing::info!(
+        "flash: MTD partition {}: {} bytes, {} KiB erase blocks",
+        path.display(),
+        info.size,
+        info.erase_size / 1024
+    );
+    Ok(Flash::Mtd(dev))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn open_mtd(path: &std::path::Path, board: &Board) -> Result<Flash> {
+    bail!(
+        "board {}: flash kind \"mtd\" ({}) needs Linux",
+        board.name,
+        path.display()
+    )
+}
+
+/// The node's flash: the file, an MTD partition, or (HIL) the file behind a fault injector.
 enum Flash {
     File(FileFlash),
+    #[cfg(target_os = "linux")]
+    Mtd(luxnode::store::mtd::MtdFlash<luxnode::store::mtd::MtdDevice>),
     #[cfg(feature = "sim")]
     Faulty(luxnode::store::devices::FaultyFlash<FileFlash>),
+}
+
+macro_rules! each_flash {
+    ($self:expr, $d:ident => $e:expr) => {
+        match $self {
+            Flash::File($d) => $e,
+            #[cfg(target_os = "linux")]
+            Flash::Mtd($d) => $e,
+            #[cfg(feature = "sim")]
+            Flash::Faulty($d) => $e,
+        }
+    };
 }
 
 impl FlashDevice for Flash {
     type Error = DeviceError;
     fn capacity(&self) -> usize {
-        match self {
-            Flash::File(d) => d.capacity(),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.capacity(),
-        }
+        each_flash!(self, d => d.capacity())
     }
     fn read(&mut self, offset: usize, buf: &mut [u8]) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.read(offset, buf),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.read(offset, buf),
-        }
+        each_flash!(self, d => d.read(offset, buf))
     }
     fn erase(&mut self, offset: usize, len: usize) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.erase(offset, len),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.erase(offset, len),
-        }
+        each_flash!(self, d => d.erase(offset, len))
     }
     fn write(&mut self, offset: usize, data: &[u8]) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.write(offset, data),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.write(offset, data),
-        }
+        each_flash!(self, d => d.write(offset, data))
     }
     fn sync(&mut self) -> Result<(), DeviceError> {
-        match self {
-            Flash::File(d) => d.sync(),
-            #[cfg(feature = "sim")]
-            Flash::Faulty(d) => d.sync(),
-        }
+        each_flash!(self, d => d.sync())
     }
 }
 
 /// What a commissioning capture needs: a name, the two cameras, the lights.
-type Rig = (
+pub(crate) type Rig = (
     String,
     Box<dyn DepthCamera>,
     Box<dyn LuminanceCamera>,
@@ -155,12 +207,17 @@ type Rig = (
 );
 
 /// The first boot's commissioning source: the board's cameras, or the CAD scene with `--cad`.
+// the node's whole setup passes through here once
+#[allow(clippy::too_many_arguments)]
 fn commission_source(
     board: &Board,
     scene: Scene,
     image: ImageOptions,
     cad: bool,
     report: luxnode::daemon::source::ReportTarget,
+    ambient: Option<AmbientAtCommissioning>,
+    light: &LightSlot,
+    levels_hook: &mut Option<luxnode::peripherals::node::LevelsHook>,
 ) -> Result<Box<dyn CommissionSource>> {
     let preset = board.preset;
     if cad {
@@ -176,18 +233,85 @@ fn commission_source(
         progress: true,
         ..CommissionOptions::default()
     };
-    let (what, depth, colour, lights): Rig = match &board.camera {
+    let Some((what, depth, colour, lights)) =
+        rig(board, &scene, ambient.as_ref(), light, levels_hook)?
+    else {
+        return Ok(Box::new(Unavailable(format!(
+            "board {}: commissioning with the hardware cameras switches the luminaires \
+             one at a time through the DALI gateway, and the board has no [gateway]",
+            board.name
+        ))));
+    };
+    Ok(Box::new(CameraSource {
+        what,
+        depth,
+        colour,
+        lights,
+        luminaires: scene.luminaires.clone(),
+        sensors: scene.sensors.clone(),
+        desks: scene.desks.clone(),
+        sequence: match &board.camera {
+            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
+            CameraBoard::Hardware { .. } => SequenceOptions {
+                registration: board.camera.registration().cloned(),
+                settle: Duration::from_millis(500),
+                discard_after_switch: 2,
+                ..SequenceOptions::default()
+            },
+            _ => SequenceOptions::default(),
+        },
+        commission,
+        image,
+        report,
+        ambient,
+    }))
+}
+
+/// The board's cameras and lights over `scene` (the simulated world with the board's optics, a
+/// recorded capture, or the hardware), `None` for hardware cameras without a DALI gateway to
+/// switch the luminaires.
+/// With an ambient light sensor on a simulated board, `light` and `levels_hook` are set so the
+/// simulated sensor reads what the world sends up to it.
+#[cfg_attr(not(feature = "sim"), allow(unused_variables))]
+pub(crate) fn rig(
+    board: &Board,
+    scene: &Scene,
+    ambient: Option<&AmbientAtCommissioning>,
+    light: &LightSlot,
+    levels_hook: &mut Option<luxnode::peripherals::node::LevelsHook>,
+) -> Result<Option<Rig>> {
+    let rig: Rig = match &board.camera {
         #[cfg(feature = "sim")]
         CameraBoard::Sim {
             depth,
             luminance,
             faults,
+            optics,
         } => {
             use luxnode::camera::FaultInjector;
             use luxnode::sim::camera::{SimWorld, world_settings};
             // the simulated room is the scene; the node sees it only through the cameras
-            let world = SimWorld::new(scene.clone(), &world_settings())
-                .with_context(|| format!("board {}: simulated cameras", board.name))?;
+            // (with the board's optics, when it gives them)
+            let world = SimWorld::new(
+                with_optics(scene.clone(), optics.as_ref()),
+                &world_settings(),
+            )
+            .with_context(|| format!("board {}: simulated cameras", board.name))?;
+            if let Some(a) = &ambient {
+                // the simulated ALS reads what the world sends up to it at the current levels
+                let (p, n) = a.pose;
+                let per = world.receiver_lx(
+                    glam::DVec3::from_array(p),
+                    glam::DVec3::from_array(n),
+                    20_000,
+                );
+                let w = world.clone();
+                *light.lock().unwrap_or_else(|p| p.into_inner()) = Some(Box::new(move || {
+                    w.levels().iter().zip(&per).map(|(x, e)| x * e).sum()
+                }));
+                let w = world.clone();
+                *levels_hook = Some(Box::new(move |l: &[f64]| w.follow_levels(l)));
+            }
             let d = world.depth_camera(depth.clone())?;
             let c = world.luminance_camera(luminance.clone())?;
             let (d, c): (Box<dyn DepthCamera>, Box<dyn LuminanceCamera>) = match faults {
@@ -216,11 +340,7 @@ fn commission_source(
         }
         CameraBoard::Hardware { .. } => {
             let Some(gateway) = &board.modbus.gateway else {
-                return Ok(Box::new(Unavailable(format!(
-                    "board {}: commissioning with the hardware cameras switches the luminaires \
-                     one at a time through the DALI gateway, and the board has no [gateway]",
-                    board.name
-                ))));
+                return Ok(None);
             };
             let (d, c) = luxnode::board::hardware::open(&board.camera)?;
             let lights = GatewayWriter::connect(gateway)?;
@@ -232,28 +352,7 @@ fn commission_source(
             )
         }
     };
-    Ok(Box::new(CameraSource {
-        what,
-        depth,
-        colour,
-        lights,
-        luminaires: scene.luminaires.clone(),
-        sensors: scene.sensors.clone(),
-        desks: scene.desks.clone(),
-        sequence: match &board.camera {
-            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
-            CameraBoard::Hardware { .. } => SequenceOptions {
-                registration: board.camera.registration().cloned(),
-                settle: Duration::from_millis(500),
-                discard_after_switch: 2,
-                ..SequenceOptions::default()
-            },
-            _ => SequenceOptions::default(),
-        },
-        commission,
-        image,
-        report,
-    }))
+    Ok(Some(rig))
 }
 
 /// Runs the node.
@@ -265,6 +364,19 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         board.name,
         board.description
     );
+    // a board whose ToF camera cannot reach its floor is refused before anything starts
+    if let CameraBoard::Hardware { .. } = &board.camera {
+        let pre = luxnode::board::hardware::preflight(&board.camera)
+            .with_context(|| format!("board {}", board.name))?;
+        tracing::info!(
+            "ToF camera: the floor is {:.2} m away{}",
+            pre.floor_mm / 1000.0,
+            pre.a010_unit_mm.map_or(String::new(), |u| format!(
+                "; A010 quantisation AT+UNIT={u} ({:.2} m range)",
+                luxnode::camera::a010::unit_range_mm(u) / 1000.0
+            ))
+        );
+    }
     let scene = match &board.scene {
         SceneSource::DemoOffice => demo_office()?,
         SceneSource::Directory(dir) => luxnode::scene::Scene::load(dir, &Default::default())
@@ -278,14 +390,77 @@ pub fn run(args: &Args) -> Result<ExitCode> {
             ..ImageOptions::default()
         }
     };
-    let (flash_path, capacity) = flash_config(&board, args)?;
-    // the commissioning report next to the flash: <flash dir>/commissioning-report/report.html
+    let flash_target = flash_config(&board, args)?;
+    let flash_path = flash_target.path().to_path_buf();
+    let default_als_at = match &board.camera {
+        CameraBoard::Hardware { .. } => luxnode::board::hardware::preflight(&board.camera)
+            .ok()
+            .map(|p| p.tof_camera.position_m.to_array()),
+        _ => scene.camera.as_ref().map(|c| c.position_m.to_array()),
+    };
+    let light: LightSlot = Arc::new(Mutex::new(None));
+    let hooks = luxnode::board::peripherals::SimHooks {
+        light: Some(Box::new({
+            let l = light.clone();
+            move || {
+                l.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .as_ref()
+                    .map_or(0.0, |f| f())
+            }
+        })),
+        led_trace: led_trace(args),
+        eeprom_record: None,
+    };
+    let mut peripherals = luxnode::board::peripherals::open(
+        board.i2c.as_ref(),
+        board.led.as_ref(),
+        default_als_at,
+        hooks,
+    );
+    // a camera module's EEPROM record replaces the board file's colour calibration
+    let board = if let CameraBoard::Hardware { .. } = &board.camera {
+        let camera = luxnode::board::peripherals::calibrated_cameras(
+            &board.camera,
+            peripherals.eeprom.as_mut(),
+        );
+        Board { camera, ..board }
+    } else {
+        board
+    };
+    let state = state_dir(&board, &flash_target);
+    let reference = state.join("ambient-reference.json");
+    // the commissioning report next to the flash: <state dir>/commissioning-report/report.html
     let report = luxnode::daemon::source::ReportTarget {
-        dir: Some(flash_path.with_file_name("commissioning-report")),
+        dir: Some(state.join("commissioning-report")),
         preset: board.preset.name().into(),
         maintenance_factor: board.maintenance_factor,
     };
-    let mut source = commission_source(&board, scene, image, args.cad, report)?;
+    let ambient = match (&peripherals.als, peripherals.als_pose) {
+        (Some(sensor), Some(pose)) => Some(AmbientAtCommissioning {
+            sensor: sensor.clone(),
+            pose,
+            reference: reference.clone(),
+        }),
+        (Some(_), None) => {
+            tracing::warn!(
+                "ambient light sensor: no position (i2c.als.position_m, or a ToF calibration): \
+                 not used at commissioning"
+            );
+            None
+        }
+        _ => None,
+    };
+    let mut source = commission_source(
+        &board,
+        scene,
+        image,
+        args.cad,
+        report,
+        ambient,
+        &light,
+        &mut peripherals.levels_hook,
+    )?;
     let seconds = args
         .seconds
         .map(|s| {
@@ -299,13 +474,13 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         })
         .transpose()?;
     let m = &board.modbus;
-    let flash = open_flash(&flash_path, capacity, args)?;
+    let flash = open_flash(&flash_target, &board, args)?;
     let companion = if m.gateway.is_none() && !args.no_controller {
         Some(controller(args)?)
     } else {
         None
     };
-    let settings_path = flash_path.with_extension("settings.json");
+    let settings_path = beside_image(&flash_target, "settings.json");
     let serve = serve_options(&board, args.bind, seconds, Some(settings_path.clone()));
     // SIGHUP: the board file again; its Modbus, gateway and access settings take effect
     let board_path = args.board.clone();
@@ -329,10 +504,53 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         reload: Some(reload),
         sensor_probe: sensor_probe(&board),
         live: live_task(&board),
+        peripherals,
+        ambient_reference: Some(reference),
     };
     match daemon::run(config, flash, source.as_mut())? {
         Exit::Stopped => Ok(ExitCode::SUCCESS),
         Exit::PowerCut => Ok(ExitCode::from(3)),
+    }
+}
+
+#[cfg(feature = "sim")]
+fn led_trace(args: &Args) -> Option<PathBuf> {
+    args.led_trace.clone()
+}
+
+#[cfg(not(feature = "sim"))]
+fn led_trace(_args: &Args) -> Option<PathBuf> {
+    None
+}
+
+/// Where the node keeps files beside its image (the commissioning report, the ambient light
+/// check's reference, the persisted settings): the flash file's directory, or for a raw MTD
+/// partition `/var/lib/luxnode`.
+fn state_dir(board: &Board, target: &FlashTarget) -> PathBuf {
+    let _ = board;
+    match target {
+        FlashTarget::File(p, _) => p
+            .parent()
+            .map(|d| d.to_path_buf())
+            .unwrap_or_else(|| PathBuf::from(".")),
+        FlashTarget::Mtd(_) => PathBuf::from("/var/lib/luxnode"),
+    }
+}
+
+/// A file beside the image: `<flash file>.<ext>` (`flash.settings.json`), or for a raw MTD
+/// partition `/var/lib/luxnode/mtdN.<ext>`.
+fn beside_image(target: &FlashTarget, ext: &str) -> PathBuf {
+    match target {
+        FlashTarget::File(p, _) => p.with_extension(ext),
+        FlashTarget::Mtd(p) => {
+            let name = p.file_name().map_or_else(
+                || std::ffi::OsString::from("flash"),
+                std::ffi::OsStr::to_os_string,
+            );
+            PathBuf::from("/var/lib/luxnode")
+                .join(name)
+                .with_extension(ext)
+        }
     }
 }
 
@@ -451,11 +669,20 @@ fn sensor_probe(board: &Board) -> Option<SensorProbe> {
     let every = board.sensor_check;
     match &board.camera {
         #[cfg(feature = "sim")]
-        CameraBoard::Sim { depth, faults, .. } => {
+        CameraBoard::Sim {
+            depth,
+            faults,
+            optics,
+            ..
+        } => {
             use luxnode::camera::FaultInjector;
             use luxnode::sim::camera::{SimWorld, world_settings};
-            let (scene_source, depth, faults) =
-                (board.scene.clone(), depth.clone(), faults.clone());
+            let (scene_source, depth, faults, optics) = (
+                board.scene.clone(),
+                depth.clone(),
+                faults.clone(),
+                optics.clone(),
+            );
             // the simulated camera is built at the first check (on the probe's thread), not
             // before the node serves
             let mut cam: Option<Box<dyn DepthCamera>> = None;
@@ -471,7 +698,8 @@ fn sensor_probe(board: &Board) -> Option<SensorProbe> {
                             }
                         };
                         let world =
-                            SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                            SimWorld::new(with_optics(scene, optics.as_ref()), &world_settings())
+                                .map_err(|e| e.to_string())?;
                         let c = world
                             .depth_camera(depth.clone())
                             .map_err(|e| e.to_string())?;
@@ -494,7 +722,10 @@ fn sensor_probe(board: &Board) -> Option<SensorProbe> {
         }
         CameraBoard::Replay { .. } => None,
         CameraBoard::Hardware { tof, colour } => {
-            let luxnode::board::camera::TofBoard::A010 { device: tof, .. } = tof;
+            let tof = match tof {
+                luxnode::board::camera::TofBoard::A010 { device, .. }
+                | luxnode::board::camera::TofBoard::V4l2 { device, .. } => device,
+            };
             let luxnode::board::camera::ColourBoard::V4l2 { device: video, .. } = colour;
             let devices = [tof.clone(), video.clone()];
             Some(SensorProbe {
@@ -550,4 +781,16 @@ fn controller(args: &Args) -> Result<(Companion, bool)> {
 #[cfg(not(feature = "sim"))]
 fn controller(_args: &Args) -> Result<(Companion, bool)> {
     bail!("the simulated controller is part of the `sim` feature; run with --no-controller")
+}
+
+/// The scene with the board's camera optics (`[camera.sim.optics]`) on its camera.
+#[cfg(feature = "sim")]
+fn with_optics(
+    mut scene: luxnode::scene::Scene,
+    optics: Option<&luxnode::board::camera::Optics>,
+) -> luxnode::scene::Scene {
+    if let (Some(o), Some(c)) = (optics, scene.camera.as_ref()) {
+        scene.camera = Some(o.apply(c));
+    }
+    scene
 }

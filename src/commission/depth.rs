@@ -8,8 +8,9 @@
 //!    neighbours lie within [`DepthOptions::edge_rel`] (relative) of it.
 //!
 //! Back-projection (`../shared/scenes/README.md`): the pixel (u, v) at depth z (along the
-//! optical axis) is `p_camera = z ((u − cx)/fx, (v − cy)/fy, 1)`, `p_world = position +
-//! world_from_camera · p_camera`.
+//! optical axis) is `p_camera = z d / d_z` for the unit ray d of the pixel (the pinhole's
+//! `z ((u − cx)/fx, (v − cy)/fy, 1)`; a fisheye's per [`crate::scene::Lens`]), `p_world =
+//! position + world_from_camera · p_camera`.
 
 use glam::DVec3;
 
@@ -77,18 +78,14 @@ impl DepthMap {
     /// The world point of pixel (u, v), m, if it has a depth.
     pub fn point_m(&self, camera: &Camera, u: u32, v: u32) -> Option<DVec3> {
         self.at(u, v)
-            .map(|z| back_project(camera, f64::from(u), f64::from(v), z))
+            .and_then(|z| back_project(camera, f64::from(u), f64::from(v), z))
     }
 }
 
-/// The world point at depth `z_m` (along the optical axis) through pixel (u, v).
-pub fn back_project(camera: &Camera, u: f64, v: f64, z_m: f64) -> DVec3 {
-    let d = DVec3::new(
-        (u - camera.cx) / camera.fx,
-        (v - camera.cy) / camera.fy,
-        1.0,
-    );
-    camera.position_m + camera.world_from_camera * (d * z_m)
+/// The world point at depth `z_m` (along the optical axis) through pixel (u, v), `None` outside
+/// the lens's field.
+pub fn back_project(camera: &Camera, u: f64, v: f64, z_m: f64) -> Option<DVec3> {
+    camera.point_at_depth(u, v, z_m)
 }
 
 /// Fuses depth frames (mm) into one clean map.

@@ -82,7 +82,7 @@ impl PointGrid {
                 let z = g.z_m[i];
                 if z.is_finite() {
                     let (u, v) = g.pixel(c, r);
-                    g.points_m[i] = Some(back_project(camera, u, v, z));
+                    g.points_m[i] = back_project(camera, u, v, z);
                 }
             }
         }

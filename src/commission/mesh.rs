@@ -24,6 +24,12 @@ pub struct MeshOptions {
     pub cut_rel: f64,
     /// Taubin smoothing passes (each a shrink and an inflate step).
     pub taubin_passes: usize,
+    /// Wide-angle meshing (commissioning turns it on for a fisheye): grid nodes further apart
+    /// than a cell cover half the way to their neighbours, and the floor is covered by
+    /// rectangles up to the patch size over the whole room, each seen when most of it was.
+    /// A wide lens sees far floor sparsely and through many desk shadows: without it the
+    /// floor breaks into thousands of small rectangles and the image outgrows the flash.
+    pub wide_angle: bool,
 }
 
 impl Default for MeshOptions {
@@ -33,6 +39,7 @@ impl Default for MeshOptions {
             patch_size_m: 1.0,
             cut_rel: 0.05,
             taubin_passes: 5,
+            wide_angle: false,
         }
     }
 }
@@ -162,6 +169,10 @@ pub fn plane_basis(n: DVec3) -> (DVec3, DVec3) {
     (e1, n.cross(e1))
 }
 
+/// The farthest a grid node's footprint reaches around it on its plane, m (half the way to
+/// its grid neighbours, a splat against holes in far, sparsely sampled surfaces).
+pub const MAX_SPLAT_M: f64 = 0.15;
+
 /// Meshes one plane. `extent`: rasterise over this world box (x0, y0, x1, y1) instead of the
 /// nodes' bounds (horizontal planes only), filling unseen cells with `fill`.
 pub fn mesh_plane(
@@ -217,12 +228,46 @@ pub fn mesh_plane(
     let ny = (((b1 - b0) / c).ceil() as usize).clamp(1, 4000);
     // with a room extent the raster is stretched to fit it exactly
     let (ca, cb) = ((a1 - a0) / nx as f64, (b1 - b0) / ny as f64);
+    // each node covers its cell, and where its grid neighbours on the plane are more than a
+    // cell apart (a wide-angle lens spreads the nodes of a far floor out) half the way to them,
+    // at most MAX_SPLAT_M around it
+    let on_plane: std::collections::HashSet<usize> = plane.nodes.iter().copied().collect();
     let mut occ = vec![false; nx * ny];
-    for &(a, b) in &uv {
-        let x = ((a - a0) / ca).floor();
-        let y = ((b - b0) / cb).floor();
-        if x >= 0.0 && y >= 0.0 && (x as usize) < nx && (y as usize) < ny {
-            occ[y as usize * nx + x as usize] = true;
+    for &i in &plane.nodes {
+        let Some(p) = grid.points_m[i] else { continue };
+        let (a, b) = ((p - org).dot(e1), (p - org).dot(e2));
+        let (col, row) = (i % grid.cols.max(1), i / grid.cols.max(1));
+        let mut half = 0.0_f64;
+        for (dc, dr) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+            let (cc, rr) = (col as i64 + dc, row as i64 + dr);
+            if cc < 0 || rr < 0 || cc >= grid.cols as i64 || rr >= grid.rows as i64 {
+                continue;
+            }
+            let j = grid.index(cc as usize, rr as usize);
+            if let (true, Some(q)) = (on_plane.contains(&j), grid.points_m[j]) {
+                let d = q - p;
+                half = half.max(0.5 * d.dot(e1).abs()).max(0.5 * d.dot(e2).abs());
+            }
+        }
+        // nodes closer than a cell apart leave no holes (the closing below handles the rest)
+        let half = if !o.wide_angle || 2.0 * half <= c {
+            0.0
+        } else {
+            (half - 0.5 * c).min(MAX_SPLAT_M)
+        };
+        let x0 = ((a - half - a0) / ca).floor().max(0.0);
+        let x1 = ((a + half - a0) / ca).floor();
+        let y0 = ((b - half - b0) / cb).floor().max(0.0);
+        let y1 = ((b + half - b0) / cb).floor();
+        if x1 < 0.0 || y1 < 0.0 {
+            continue;
+        }
+        let (x0, y0) = (x0 as usize, y0 as usize);
+        let (x1, y1) = ((x1 as usize).min(nx - 1), (y1 as usize).min(ny - 1));
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                occ[y * nx + x] = true;
+            }
         }
     }
     // closing: dilate then erode (one cell), fills one-cell holes and cracks
@@ -273,10 +318,39 @@ pub fn mesh_plane(
             );
         }
     };
-    quads(out, &occ, Part::Plane(k));
-    if let (Some(_), Some(fill)) = (room, fill) {
-        let unseen: Vec<bool> = occ.iter().map(|o| !o).collect();
-        quads(out, &unseen, fill);
+    match (room, fill) {
+        (Some(_), Some(fill)) if o.wide_angle => {
+            // the floor over the whole room: rectangles up to the patch size regardless of what
+            // was seen (the unseen floor takes the seen floor's reflectance anyway), each seen
+            // when most of its cells were
+            for (x, y, w, h) in rect_cover(&vec![true; nx * ny], nx, ny, max_cells) {
+                let seen = (y..y + h)
+                    .flat_map(|yy| (x..x + w).map(move |xx| yy * nx + xx))
+                    .filter(|&i| occ[i])
+                    .count();
+                let part = if 2 * seen >= w * h {
+                    Part::Plane(k)
+                } else {
+                    fill
+                };
+                out.push_quad(
+                    [
+                        corner(x, y),
+                        corner(x + w, y),
+                        corner(x + w, y + h),
+                        corner(x, y + h),
+                    ],
+                    part,
+                );
+            }
+        }
+        _ => {
+            quads(out, &occ, Part::Plane(k));
+            if let (Some(_), Some(fill)) = (room, fill) {
+                let unseen: Vec<bool> = occ.iter().map(|o| !o).collect();
+                quads(out, &unseen, fill);
+            }
+        }
     }
 }
 

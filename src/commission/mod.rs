@@ -72,6 +72,19 @@ pub enum Gain {
         /// Dimming state during the reading.
         levels: Vec<f64>,
     },
+    /// The node's ambient light sensor (`crate::peripherals`): mounted at `position_m`,
+    /// facing `normal` (down), it read `lux_lx` with the luminaires at `levels`; the gain is
+    /// the one for which the model predicts that reading.
+    Ambient {
+        /// Where the sensor is, m.
+        position_m: [f64; 3],
+        /// Its facing (unit vector; `[0, 0, -1]` looking down).
+        normal: [f64; 3],
+        /// Reading, lx.
+        lux_lx: f64,
+        /// Dimming state during the reading.
+        levels: Vec<f64>,
+    },
 }
 
 /// Every commissioning knob.
@@ -174,7 +187,9 @@ impl CommissionOptions {
         {
             return bad("ceiling height", format!("{z} m is not a height"));
         }
-        if let Gain::Luxmeter { lux_lx, levels, .. } = &self.gain {
+        if let Gain::Luxmeter { lux_lx, levels, .. } | Gain::Ambient { lux_lx, levels, .. } =
+            &self.gain
+        {
             if !(lux_lx.is_finite() && *lux_lx > 0.0 && *lux_lx < 1e6) {
                 return bad(
                     "luxmeter reading",
@@ -193,6 +208,55 @@ impl CommissionOptions {
         }
         Ok(())
     }
+}
+
+/// Gather rays of the ambient light sensor's virtual receiver.
+pub const AMBIENT_RAYS: usize = 20_000;
+
+/// Where a gain reading was taken.
+#[derive(Debug, Clone, Copy)]
+enum Reading {
+    /// Desk sensor index and id.
+    Sensor(usize, u32),
+    /// The node's ambient light sensor: position and facing.
+    Point(DVec3, DVec3),
+}
+
+impl Reading {
+    fn what(&self) -> &'static str {
+        match self {
+            Reading::Sensor(..) => "luxmeter",
+            Reading::Point(..) => "ambient light sensor",
+        }
+    }
+
+    fn place(&self) -> String {
+        match self {
+            Reading::Sensor(_, id) => format!("sensor {id}"),
+            Reading::Point(p, _) => format!("({:.2}, {:.2}, {:.2}) m", p.x, p.y, p.z),
+        }
+    }
+
+    /// The final model's reading.
+    fn final_reading(
+        &self,
+        scene: &Scene,
+        model: &Model,
+        levels: &[f64],
+    ) -> Result<f64, CommissionError> {
+        Ok(match self {
+            Reading::Sensor(s, _) => model.sensor_lux(levels)?[*s],
+            Reading::Point(p, n) => {
+                engine::points::evaluate(scene, model, &[(*p, *n)], AMBIENT_RAYS).lux(levels)[0]
+            }
+        })
+    }
+}
+
+fn unreachable_gain<T>() -> Result<T, CommissionError> {
+    Err(CommissionError::Input(
+        "internal: gain source changed during commissioning".into(),
+    ))
 }
 
 /// A plane, for people.
@@ -231,6 +295,9 @@ pub struct Report {
     pub reflectance: Estimate,
     /// Patches of the final model.
     pub patches: usize,
+    /// The ambient light sensor's reading per luminaire at 100 % predicted by the final model,
+    /// lx (with [`Gain::Ambient`]): the run-time check's reference.
+    pub ambient_response_lx: Option<Vec<f64>>,
     /// Warnings (also those of the capture).
     pub warnings: Vec<String>,
 }
@@ -383,7 +450,7 @@ pub fn from_capture(
         ));
     }
     let cam = capture.camera.clone();
-    crate::scene::check_intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+    cam.check()
         .map_err(|m| CommissionError::Input(format!("camera intrinsics: {m}")))?;
     if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
         return Err(CommissionError::Input(
@@ -398,7 +465,7 @@ pub fn from_capture(
 
     let st = Stage::start("planes", o.progress);
     let grid = grid::PointGrid::new(&depth, &cam, o.grid_stride_px, o.depth.edge_rel);
-    let found = planes::detect(&grid, cam.position_m, cam.fx, cam.fy, &o.planes);
+    let found = planes::detect(&grid, &cam, &o.planes);
     st.done(&mut report);
 
     let st = Stage::start("mesh", o.progress);
@@ -435,6 +502,10 @@ pub fn from_capture(
             )));
         }
     }
+    let mesh_options = MeshOptions {
+        wide_angle: o.mesh.wide_angle || cam.lens.is_fisheye(),
+        ..o.mesh
+    };
     let mut reco = RecoMesh::default();
     let mut on_plane = vec![false; grid.points_m.len()];
     for (k, p) in found.iter().enumerate() {
@@ -445,7 +516,7 @@ pub fn from_capture(
             &grid,
             p,
             k as u32,
-            &o.mesh,
+            &mesh_options,
             room.filter(|_| is_floor).map(|r| r.xy_m),
             is_floor.then_some(Part::FloorFill),
         );
@@ -527,11 +598,11 @@ pub fn from_capture(
     };
 
     let mut tri_rho = start_rho.clone();
-    // luxmeter mode: the cheap pass model's reading, corrected by the final model's
-    let mut luxmeter_fix: Option<(usize, f64)> = None;
+    // luxmeter / ambient mode: the cheap pass model's reading, corrected by the final model's
+    let mut luxmeter_fix: Option<(Reading, f64, Vec<f64>)> = None;
     let scale = match o.gain {
         Gain::Camera => cam.luminance_cd_m2_per_unit,
-        Gain::Luxmeter { .. } => None,
+        Gain::Luxmeter { .. } | Gain::Ambient { .. } => None,
     };
     if o.estimate_reflectances {
         let st = Stage::start("pass model", o.progress);
@@ -570,28 +641,63 @@ pub fn from_capture(
                     "camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading".into(),
                 ));
             }
-            (
-                Gain::Luxmeter {
-                    sensor_id,
-                    lux_lx,
-                    levels,
-                },
-                _,
-            ) => {
-                let s = sensors
-                    .iter()
-                    .position(|s| s.id == *sensor_id)
-                    .ok_or_else(|| {
-                        CommissionError::Input(format!(
-                            "luxmeter sensor {sensor_id} is not in the sensors"
-                        ))
-                    })?;
-                if levels.len() != luminaires.len() || !(lux_lx.is_finite() && *lux_lx > 0.0) {
-                    return Err(CommissionError::Input(
-                        "luxmeter reading: need a reading > 0 lx and one level per luminaire"
-                            .into(),
-                    ));
+            (Gain::Luxmeter { .. } | Gain::Ambient { .. }, _) => {
+                // the reading's model: a desk sensor of the scene, or the node's sensor
+                let (target_lx, levels, at) =
+                    match &o.gain {
+                        Gain::Luxmeter {
+                            sensor_id,
+                            lux_lx,
+                            levels,
+                        } => {
+                            let s = sensors.iter().position(|s| s.id == *sensor_id).ok_or_else(
+                                || {
+                                    CommissionError::Input(format!(
+                                        "luxmeter sensor {sensor_id} is not in the sensors"
+                                    ))
+                                },
+                            )?;
+                            (*lux_lx, levels.clone(), Reading::Sensor(s, *sensor_id))
+                        }
+                        Gain::Ambient {
+                            position_m,
+                            normal,
+                            lux_lx,
+                            levels,
+                        } => (
+                            *lux_lx,
+                            levels.clone(),
+                            Reading::Point(
+                                DVec3::from_array(*position_m),
+                                DVec3::from_array(*normal).normalize_or_zero(),
+                            ),
+                        ),
+                        Gain::Camera => unreachable_gain()?,
+                    };
+                if levels.len() != luminaires.len() || !(target_lx.is_finite() && target_lx > 0.0) {
+                    return Err(CommissionError::Input(format!(
+                        "{} reading: need a reading > 0 lx and one level per luminaire",
+                        at.what()
+                    )));
                 }
+                let point = match at {
+                    Reading::Point(p, n) => {
+                        if n == DVec3::ZERO {
+                            return Err(CommissionError::Input(
+                                "ambient light sensor: its facing is not a direction".into(),
+                            ));
+                        }
+                        Some(reflectance::PointReceiver::new(
+                            &pass_model,
+                            &luminaires,
+                            &caster,
+                            p,
+                            n,
+                            AMBIENT_RAYS,
+                        ))
+                    }
+                    Reading::Sensor(..) => None,
+                };
                 let reading = |e: &Estimate| {
                     let patch_rho: Vec<f64> = pass_model
                         .patches
@@ -599,13 +705,23 @@ pub fn from_capture(
                         .iter()
                         .map(|&t| e.tri_rho[t as usize])
                         .collect();
-                    reflectance::sensor_reading_lx(&pass_model, s, levels, &patch_rho, &pass)
+                    match (&at, &point) {
+                        (Reading::Sensor(s, _), _) => reflectance::sensor_reading_lx(
+                            &pass_model,
+                            *s,
+                            &levels,
+                            &patch_rho,
+                            &pass,
+                        ),
+                        (_, Some(r)) => r.reading_lx(&pass_model, &levels, &patch_rho, &pass),
+                        _ => 0.0,
+                    }
                 };
                 // bisection on log(gain), twice: the second time against the target
                 // corrected by the final model's reading at the first gain
                 let bisect = |target: f64| {
                     let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
-                    let mut best = run(1.0);
+                    let mut best = (run(1.0), 1.0);
                     for _ in 0..40 {
                         let mid = 0.5 * (lo + hi);
                         let e = run(mid.exp());
@@ -614,25 +730,26 @@ pub fn from_capture(
                         } else {
                             hi = mid;
                         }
-                        best = e;
+                        best = (e, mid.exp());
                         if hi - lo < 1e-3 {
                             break;
                         }
                     }
                     best
                 };
-                let first = bisect(*lux_lx);
+                let (first, _) = bisect(target_lx);
                 let pass_reading = reading(&first);
                 let scene = make_scene(&first.tri_rho);
                 let full = run_engine(&scene, &o.engine, &mut report.warnings)?;
-                let full_reading = full.sensor_lux(levels)?[s];
+                let full_reading = at.final_reading(&scene, &full, &levels)?;
                 let target = if full_reading > 0.0 {
-                    lux_lx * pass_reading / full_reading
+                    target_lx * pass_reading / full_reading
                 } else {
-                    *lux_lx
+                    target_lx
                 };
-                let best = bisect(target);
-                luxmeter_fix = Some((s, *lux_lx));
+                let (best, gain) = bisect(target);
+                let _ = gain;
+                luxmeter_fix = Some((at, target_lx, levels));
                 best
             }
         };
@@ -651,20 +768,31 @@ pub fn from_capture(
     let scene = make_scene(&tri_rho);
     let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
     report.patches = model.patches.len();
-    if let (
-        Some((s, lux)),
-        Gain::Luxmeter {
-            levels, sensor_id, ..
-        },
-    ) = (luxmeter_fix, &o.gain)
-    {
-        let r = model.sensor_lux(levels)?[s];
+    if let Some((at, lux, levels)) = &luxmeter_fix {
+        let r = at.final_reading(&scene, &model, levels)?;
         if (r - lux).abs() > 0.05 * lux {
             report.warnings.push(format!(
-                "luxmeter gain: the model reads {r:.0} lx at sensor {sensor_id}, not {lux:.0} lx \
-                 (reflectances at their limits?)"
+                "{} gain: the model reads {r:.0} lx at {}, not {lux:.0} lx \
+                 (reflectances at their limits?)",
+                at.what(),
+                at.place()
             ));
         }
+    }
+    if let Gain::Ambient {
+        position_m, normal, ..
+    } = &o.gain
+    {
+        let p = engine::points::evaluate(
+            &scene,
+            &model,
+            &[(
+                DVec3::from_array(*position_m),
+                DVec3::from_array(*normal).normalize_or_zero(),
+            )],
+            AMBIENT_RAYS,
+        );
+        report.ambient_response_lx = p.per_luminaire_lx.into_iter().next();
     }
     st.done(&mut report);
 
@@ -696,19 +824,10 @@ pub fn sensor_flags_for(
         .iter()
         .map(|s| {
             let mut f = 0;
-            let p_cam = cam.world_from_camera.transpose() * (s.position_m - cam.position_m);
-            let visible = p_cam.z > 0.0 && {
-                let u = cam.fx * p_cam.x / p_cam.z + cam.cx;
-                let v = cam.fy * p_cam.y / p_cam.z + cam.cy;
-                let (ur, vr) = (u.round(), v.round());
-                ur >= 0.0
-                    && vr >= 0.0
-                    && ur < f64::from(cam.width)
-                    && vr < f64::from(cam.height)
-                    && depth
-                        .at(ur as u32, vr as u32)
-                        .is_none_or(|z| z >= p_cam.z - 0.05)
-            };
+            let p_cam = cam.camera_from_world(s.position_m);
+            let visible = cam
+                .pixel_of(s.position_m)
+                .is_some_and(|(u, v)| depth.at(u, v).is_none_or(|z| z >= p_cam.z - 0.05));
             if !visible {
                 f |= sensor_flags::OUT_OF_VIEW;
             }

@@ -7,6 +7,7 @@ use glam::DVec3;
 
 use super::grid::PointGrid;
 use crate::rng::SplitMix64;
+use crate::scene::Camera;
 
 /// Plane detection knobs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,30 +95,21 @@ pub fn fit(points: &[DVec3]) -> Option<(DVec3, DVec3, f64)> {
     Some((c, n, rms))
 }
 
-/// Area a grid node stands for on a surface with normal `n` (its pixel footprint), m².
-pub fn node_area_m2(
-    grid: &PointGrid,
-    fx: f64,
-    fy: f64,
-    i: usize,
-    p: DVec3,
-    n: DVec3,
-    cam: DVec3,
-) -> f64 {
-    let z = grid.z_m[i];
+/// Area a grid node stands for on a surface with normal `n` (its pixel footprint), m²: the
+/// solid angle of its `stride × stride` pixel block (the lens's, [`Camera::pixel_solid_angle_sr`])
+/// times the squared distance, tilted onto the surface.
+pub fn node_area_m2(grid: &PointGrid, cam: &Camera, i: usize, p: DVec3, n: DVec3) -> f64 {
     let s = f64::from(grid.stride);
-    let to_cam = cam - p;
-    let dist = to_cam.length();
-    let cos = (to_cam.dot(n) / dist).abs().max(0.2);
-    // footprint of the pixel block perpendicular to the ray, then tilted onto the surface;
-    // z along the axis vs distance along the ray: dist/z
-    let w = s * z / fx * (dist / z);
-    let h = s * z / fy * (dist / z);
-    w * h / cos
+    let (u, v) = grid.pixel(i % grid.cols.max(1), i / grid.cols.max(1));
+    let to_cam = cam.position_m - p;
+    let dist2 = to_cam.length_squared();
+    let cos = (to_cam.dot(n) / dist2.sqrt()).abs().max(0.2);
+    s * s * cam.pixel_solid_angle_sr(u, v) * dist2 / cos
 }
 
-/// Finds the dominant planes. `camera_m`: the camera position; `fx`, `fy`: focal lengths.
-pub fn detect(grid: &PointGrid, camera_m: DVec3, fx: f64, fy: f64, o: &PlaneOptions) -> Vec<Plane> {
+/// Finds the dominant planes seen by camera `cam`.
+pub fn detect(grid: &PointGrid, cam: &Camera, o: &PlaneOptions) -> Vec<Plane> {
+    let camera_m = cam.position_m;
     let n_nodes = grid.points_m.len();
     let mut free: Vec<bool> = (0..n_nodes)
         .map(|i| grid.points_m[i].is_some() && grid.normals[i].is_some())
@@ -207,17 +199,7 @@ pub fn detect(grid: &PointGrid, camera_m: DVec3, fx: f64, fy: f64, o: &PlaneOpti
             }
             let area: f64 = comp
                 .iter()
-                .filter_map(|&j| {
-                    Some(node_area_m2(
-                        grid,
-                        fx,
-                        fy,
-                        j,
-                        grid.points_m[j]?,
-                        nn,
-                        camera_m,
-                    ))
-                })
+                .filter_map(|&j| Some(node_area_m2(grid, cam, j, grid.points_m[j]?, nn)))
                 .sum();
             if area < o.min_area_m2 || comp.len() < 8 {
                 continue;

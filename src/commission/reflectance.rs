@@ -144,7 +144,7 @@ pub fn sample(
     let rows: Vec<Option<Row>> = pixels
         .par_iter()
         .map(|&(u, v)| {
-            let dir = cam.ray_world(f64::from(u), f64::from(v));
+            let dir = cam.ray_world(f64::from(u), f64::from(v))?;
             let Hit::Front { patch, t_m } = caster.closest(cam.position_m, dir) else {
                 return None;
             };
@@ -491,4 +491,70 @@ pub fn sensor_reading_lx(
         total += x * (model.direct_sensor_lx[s][l] + g);
     }
     total
+}
+
+/// A point receiver's gather row and direct light on a model: what an ideal cosine receiver at
+/// `position` facing `normal` reads (the ambient light sensor at the node).
+#[derive(Debug, Clone)]
+pub struct PointReceiver {
+    /// Direct illuminance per luminaire at 100 %, lx.
+    pub direct_lx: Vec<f64>,
+    /// Gather row over the model's patches.
+    pub row: Vec<(u32, f64)>,
+}
+
+impl PointReceiver {
+    /// The receiver on `model` (the scene's luminaires, `rays` gather rays).
+    pub fn new(
+        model: &Model,
+        luminaires: &[Luminaire],
+        caster: &RayCaster,
+        position: DVec3,
+        normal: DVec3,
+        rays: usize,
+    ) -> Self {
+        let set = crate::engine::rayset::RaySet::new(model.settings.ray_set, rays);
+        let row = crate::engine::gather_row(
+            position,
+            normal,
+            &crate::lsc::AngularResponse::Cosine,
+            caster,
+            &set,
+            crate::engine::GatherWeighting::Consistent,
+        );
+        let direct_lx = luminaires
+            .iter()
+            .map(|l| {
+                let pts = direct::opening_points(l, model.settings.opening_samples);
+                direct::illuminance_lx(l, &pts, position, normal, Receiver::Surface, caster)
+            })
+            .collect();
+        Self { direct_lx, row }
+    }
+
+    /// The reading for a dimming state with these patch reflectances (the model's solve; no
+    /// final gather).
+    pub fn reading_lx(
+        &self,
+        model: &Model,
+        levels: &[f64],
+        patch_rho: &[f64],
+        settings: &Settings,
+    ) -> f64 {
+        let sys = CsrSystem {
+            f: model.ff.f.view(),
+            rho: patch_rho,
+        };
+        let mut total = 0.0;
+        for (l, &x) in levels.iter().enumerate() {
+            if x == 0.0 {
+                continue;
+            }
+            let mut b = vec![0.0; patch_rho.len()];
+            let _ = solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve);
+            let g: f64 = self.row.iter().map(|(j, w)| w * b[*j as usize]).sum();
+            total += x * (self.direct_lx.get(l).copied().unwrap_or(0.0) + g);
+        }
+        total
+    }
 }

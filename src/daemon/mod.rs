@@ -209,6 +209,10 @@ pub struct DaemonConfig {
     pub sensor_probe: Option<SensorProbe>,
     /// Live light: the cameras at run time (runs when the image has a live section).
     pub live: Option<live::LiveTask>,
+    /// The node's peripherals (ambient light sensor, status LED; none by default).
+    pub peripherals: crate::peripherals::node::Peripherals,
+    /// The ambient light check's reference file (written at commissioning).
+    pub ambient_reference: Option<PathBuf>,
 }
 
 /// How the daemon ended.
@@ -281,6 +285,21 @@ pub fn boot<F>(
 where
     F: FlashDevice<Error = DeviceError>,
 {
+    boot_with(flash, flash_path, source, recommission, accept, &|| {})
+}
+
+/// [`boot`], calling `commissioning` when it starts to commission (the LED shows it).
+pub fn boot_with<F>(
+    flash: F,
+    flash_path: &Path,
+    source: &mut dyn CommissionSource,
+    recommission: bool,
+    accept: Accept<'_>,
+    commissioning: &dyn Fn(),
+) -> Result<Booted, DaemonError>
+where
+    F: FlashDevice<Error = DeviceError>,
+{
     let mut slots = Slots::new(flash);
     let found = read_bootable(&mut slots, &mut *accept);
     let status = found.status;
@@ -311,6 +330,7 @@ where
             "no valid image"
         }
     );
+    commissioning();
     let t0 = Instant::now();
     let image = match source.commission() {
         Ok(i) => i,
@@ -397,11 +417,38 @@ fn damaged(s: SlotState) -> bool {
     }
 }
 
+/// How long the LED shows the fault pattern before the node exits with an error.
+pub const FAULT_LINGER: Duration = Duration::from_secs(2);
+
 /// Runs the node until a signal, `run_for`, or the end of a stopping companion.
 pub fn run<F>(
-    config: DaemonConfig,
+    mut config: DaemonConfig,
     flash: F,
     source: &mut dyn CommissionSource,
+) -> Result<Exit, DaemonError>
+where
+    F: FlashDevice<Error = DeviceError>,
+{
+    let led = config
+        .peripherals
+        .led
+        .take()
+        .map(|l| Arc::new(crate::peripherals::node::LedMonitor::spawn(l)));
+    let r = run_inner(config, flash, source, led.clone());
+    if let (Err(_), Some(l)) = (&r, &led) {
+        l.set(NodeState::Fault);
+        std::thread::sleep(FAULT_LINGER);
+    }
+    r
+}
+
+use crate::peripherals::led::NodeState;
+
+fn run_inner<F>(
+    mut config: DaemonConfig,
+    flash: F,
+    source: &mut dyn CommissionSource,
+    led: Option<Arc<crate::peripherals::node::LedMonitor>>,
 ) -> Result<Exit, DaemonError>
 where
     F: FlashDevice<Error = DeviceError>,
@@ -414,6 +461,16 @@ where
         Signals::install().map_err(ServeError::Io)?
     };
     let health = Arc::new(Health::default());
+    for f in &config.peripherals.open_faults {
+        tracing::error!("peripherals: {f}");
+    }
+    let show = |s: NodeState| {
+        if let Some(l) = &led {
+            l.set(s);
+            tracing::info!("status LED: {}", s.name());
+        }
+    };
+    show(NodeState::Booting);
     let mut identity = Identity::default();
     for c in config.board.chars() {
         if identity.model.push(c).is_err() {
@@ -439,12 +496,13 @@ where
             .map(|_| ())
             .map_err(|e| e.to_string())
     };
-    let booted = match boot(
+    let booted = match boot_with(
         flash,
         &config.flash_path,
         source,
         config.recommission,
         &mut accept,
+        &|| show(NodeState::Commissioning),
     )? {
         Booted::Image(b) => b,
         Booted::PowerCut => return Ok(Exit::PowerCut),
@@ -466,7 +524,27 @@ where
                 None
             }
         });
+    let luminaires = node.levels().len();
+    let payload_crc = image.header.payload_crc32;
     let node: SharedNode = Arc::new(Mutex::new(node));
+    let periph = std::mem::take(&mut config.peripherals);
+    let reference = match (&config.ambient_reference, &periph.als) {
+        (Some(p), Some(_)) => source::AmbientReference::load(p, payload_crc, luminaires),
+        _ => None,
+    };
+    let watch = Watch {
+        node: node.clone(),
+        als: periph
+            .als
+            .clone()
+            .map(|a| crate::peripherals::node::AlsMonitor::spawn(a, periph.als_period)),
+        reference,
+        tolerance: periph.als_tolerance,
+        led: led.clone(),
+        beat: health.register("peripherals watch", WATCH_LIMIT),
+        hook: periph.levels_hook,
+        open_faults: periph.open_faults,
+    };
     let serve = config.serve;
     let companion = config.companion;
     let reload = config.reload;
@@ -490,6 +568,7 @@ where
         let live_handle =
             live_task.map(|(task, l)| tokio::spawn(live::live_loop(task, l, node.clone())));
         let watchdog = tokio::spawn(systemd::watchdog_loop(health.clone(), node.clone()));
+        let watcher = tokio::spawn(watch.run());
         systemd::notify("READY=1");
         let stop = async move {
             tokio::select! {
@@ -500,6 +579,7 @@ where
         };
         let r = serve_node(node.clone(), listener, serve, stop, reload, signals).await;
         watchdog.abort();
+        watcher.abort();
         if let Some(t) = companion_task {
             t.abort();
         }
@@ -534,6 +614,131 @@ async fn sensor_probe_loop(p: SensorProbe, node: SharedNode) {
             tracing::warn!("sensor probe: {e}");
         }
         lock(&node).set_sensors_ok(r.is_ok());
+    }
+}
+
+/// The node's peripherals while it serves: the ALS's health and check as status bits, the LED
+/// following the status, the simulated board's light following the levels.
+struct Watch {
+    node: SharedNode,
+    als: Option<crate::peripherals::node::AlsMonitor>,
+    reference: Option<source::AmbientReference>,
+    tolerance: f64,
+    led: Option<Arc<crate::peripherals::node::LedMonitor>>,
+    /// Its beat for the watchdog (it is one of the node's supervised parts).
+    beat: crate::modbus::health::Beat,
+    hook: Option<crate::peripherals::node::LevelsHook>,
+    open_faults: Vec<String>,
+}
+
+/// The watch beats every 250 ms; silent this long, it counts as dead (the watchdog is not
+/// petted).
+const WATCH_LIMIT: Duration = Duration::from_secs(30);
+
+/// A reading counts for the check only this long after the last change of levels (a full
+/// auto-range at the longest integration takes about 2 s).
+const CHECK_SETTLE: Duration = Duration::from_secs(3);
+
+impl Watch {
+    async fn run(mut self) {
+        use crate::modbus::regmap::status;
+        let mut last_levels: Vec<f64> = Vec::new();
+        let mut changed_at = Instant::now();
+        let mut last_problem: Option<String> = None;
+        let mut last_check: Option<bool> = None;
+        let mut last_led: Option<NodeState> = None;
+        loop {
+            self.beat.beat();
+            let levels = lock(&self.node).levels().to_vec();
+            if levels != last_levels {
+                changed_at = Instant::now();
+                if let Some(h) = self.hook.as_mut() {
+                    h(&levels);
+                }
+                last_levels = levels.clone();
+            }
+            let mut problem = self.open_faults.first().cloned();
+            let mut check = None;
+            if let Some(m) = &self.als {
+                let st = m.status();
+                if let Some(p) = st.problem(m.deadline) {
+                    problem = Some(p);
+                } else if let (Some(r), Some((reading, at))) = (&self.reference, st.last)
+                    && at > changed_at + CHECK_SETTLE
+                {
+                    let predicted = r.predict_lx(&levels);
+                    let off = (reading.lux_lx - predicted).abs() > self.tolerance * predicted + 2.0;
+                    if last_check != Some(off) {
+                        if off {
+                            tracing::warn!(
+                                "ambient light check: the sensor reads {:.1} lx, the model predicts \
+                                 {predicted:.1} lx for the current levels ({}): {}; status bit 13 set",
+                                reading.lux_lx,
+                                if reading.lux_lx > predicted {
+                                    "more light than modelled"
+                                } else {
+                                    "less light than modelled"
+                                },
+                                if reading.lux_lx > predicted {
+                                    "daylight or another source: the published desk values are the luminaires' light only"
+                                } else {
+                                    "a luminaire gives less than modelled, or the room changed"
+                                }
+                            );
+                        } else {
+                            tracing::info!(
+                                "ambient light check: the sensor reads {:.1} lx, the model predicts \
+                                 {predicted:.1} lx: agree within {:.0} %",
+                                reading.lux_lx,
+                                self.tolerance * 100.0
+                            );
+                        }
+                    }
+                    check = Some(off);
+                }
+            }
+            if problem != last_problem {
+                match &problem {
+                    Some(p) => tracing::error!("peripheral fault: {p}; status bit 12 set"),
+                    None => tracing::info!("peripherals: healthy again; status bit 12 cleared"),
+                }
+                last_problem = problem.clone();
+            }
+            let st = {
+                let mut n = lock(&self.node);
+                n.set_peripheral_fault(problem.is_some());
+                if let Some(c) = check {
+                    n.set_light_check(c);
+                    last_check = Some(c);
+                }
+                n.map().status
+            };
+            if let Some(l) = &self.led {
+                let degraded = st
+                    & (status::PERIPHERAL_FAULT
+                        | status::LIGHT_CHECK
+                        | status::VALUES_STALE
+                        | status::COMPUTE_ERROR)
+                    != 0
+                    || st & (status::STORE_OK | status::SENSORS_OK | status::COMM_OK)
+                        != (status::STORE_OK | status::SENSORS_OK | status::COMM_OK);
+                let want = if degraded {
+                    NodeState::Degraded
+                } else {
+                    NodeState::Serving
+                };
+                if last_led != Some(want) {
+                    l.set(want);
+                    tracing::info!("status LED: {}", want.name());
+                    last_led = Some(want);
+                }
+                if let Some(f) = l.failure() {
+                    self.open_faults.retain(|x| x != &f);
+                    self.open_faults.push(f);
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(250)).await;
+        }
     }
 }
 

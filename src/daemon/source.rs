@@ -50,6 +50,8 @@ pub struct CameraSource {
     /// The commissioning record and where to write the report (`report.html`, `results.json`;
     /// written only with the `report` feature).
     pub report: ReportTarget,
+    /// The node's ambient light sensor, if fitted: the camera's absolute gain at commissioning.
+    pub ambient: Option<AmbientAtCommissioning>,
 }
 
 /// What the commissioning report records, and where it goes.
@@ -119,6 +121,86 @@ impl ReportTarget {
     }
 }
 
+/// The ambient light sensor as commissioning uses it.
+pub struct AmbientAtCommissioning {
+    /// The sensor (shared with the run-time monitor).
+    pub sensor: std::sync::Arc<std::sync::Mutex<crate::peripherals::node::AmbientSensor>>,
+    /// Where it is and which way it faces, m.
+    pub pose: ([f64; 3], [f64; 3]),
+    /// Where the run-time check's reference goes ([`AmbientReference`]).
+    pub reference: std::path::PathBuf,
+}
+
+/// The run-time check's reference, written at commissioning next to the image: the ALS's
+/// reading per luminaire at 100 % as the commissioned model predicts it, tied to the image by
+/// its payload CRC (a reference of another image is never used).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AmbientReference {
+    /// The image's payload CRC-32.
+    pub image_payload_crc32: u32,
+    /// The sensor's position, m.
+    pub position_m: [f64; 3],
+    /// Its facing.
+    pub normal: [f64; 3],
+    /// Predicted reading per luminaire at 100 %, lx.
+    pub per_luminaire_lx: Vec<f64>,
+}
+
+impl AmbientReference {
+    /// Reads a reference; `None` (with the reason logged) if it is missing, unreadable or for
+    /// another image.
+    pub fn load(
+        path: &std::path::Path,
+        image_payload_crc32: u32,
+        luminaires: usize,
+    ) -> Option<Self> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) => {
+                tracing::info!(
+                    "ambient light check: no reference ({}: {e}); it starts after the next commissioning",
+                    path.display()
+                );
+                return None;
+            }
+        };
+        match serde_json::from_str::<Self>(&text) {
+            Ok(r)
+                if r.image_payload_crc32 == image_payload_crc32
+                    && r.per_luminaire_lx.len() == luminaires
+                    && r.per_luminaire_lx
+                        .iter()
+                        .all(|x| x.is_finite() && *x >= 0.0) =>
+            {
+                Some(r)
+            }
+            Ok(_) => {
+                tracing::warn!(
+                    "ambient light check: {} belongs to another image; the check is off until the next commissioning",
+                    path.display()
+                );
+                None
+            }
+            Err(e) => {
+                tracing::warn!("ambient light check: {}: {e}", path.display());
+                None
+            }
+        }
+    }
+
+    /// The predicted reading for a dimming state, lx.
+    pub fn predict_lx(&self, levels: &[f64]) -> f64 {
+        self.per_luminaire_lx
+            .iter()
+            .zip(levels)
+            .map(|(a, x)| a * x)
+            .sum()
+    }
+}
+
+/// How many times the ALS is read at commissioning before giving up on it.
+const AMBIENT_TRIES: usize = 3;
+
 impl CommissionSource for CameraSource {
     fn describe(&self) -> String {
         format!(
@@ -164,13 +246,58 @@ impl CommissionSource for CameraSource {
         for w in &seq.capture.warnings {
             tracing::warn!("capture: {w}");
         }
+        let mut options = self.commission.clone();
+        let camera_gain = seq.capture.camera.luminance_cd_m2_per_unit;
+        let ambient = self.ambient.take();
+        if let Some(a) = &ambient {
+            match self.read_ambient(a) {
+                Ok(lux) => {
+                    tracing::info!(
+                        "ambient light sensor: {lux:.2} lx with every luminaire on; the camera's \
+                         absolute gain comes from it"
+                    );
+                    options.gain = commission::Gain::Ambient {
+                        position_m: a.pose.0,
+                        normal: a.pose.1,
+                        lux_lx: lux,
+                        levels: vec![1.0; self.luminaires.len()],
+                    };
+                }
+                Err(e) => tracing::warn!(
+                    "ambient light sensor: {e}; the camera's own calibration gives the gain"
+                ),
+            }
+        }
+        self.ambient = ambient;
         let c = commission::from_capture(
             &seq.capture,
             self.luminaires.clone(),
             self.sensors.clone(),
             self.desks.clone(),
-            &self.commission,
+            &options,
         )?;
+        if let commission::Gain::Ambient { .. } = options.gain {
+            let g = c.report.reflectance.gain_cd_m2_per_unit;
+            match camera_gain {
+                Some(k) => tracing::info!(
+                    "camera gain from the ambient light sensor: {g:.6} cd/m2 per unit; the \
+                     camera's calibration says {k:.6} ({:+.2} %)",
+                    100.0 * (g / k - 1.0)
+                ),
+                None => tracing::info!(
+                    "camera gain from the ambient light sensor: {g:.6} cd/m2 per unit"
+                ),
+            }
+            if let Some(k) = camera_gain
+                && (g / k - 1.0).abs() > 0.10
+            {
+                tracing::warn!(
+                    "camera gain: the ambient light sensor and the camera's calibration differ \
+                     by {:+.1} %: check the camera's exposure and calibration",
+                    100.0 * (g / k - 1.0)
+                );
+            }
+        }
         let r = &c.report;
         for (name, dt) in &r.timings {
             tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
@@ -191,7 +318,65 @@ impl CommissionSource for CameraSource {
         let image = build_for_region(&c.model, &options, formfactors_region_bytes())?;
         let bytes = with_live_section(image, &c, &seq.capture);
         self.report.write(&bytes);
+        if let (Some(a), Some(per)) = (&self.ambient, &c.report.ambient_response_lx)
+            && let Ok(h) = crate::store::Header::parse(&bytes)
+        {
+            let r = AmbientReference {
+                image_payload_crc32: h.payload_crc32,
+                position_m: a.pose.0,
+                normal: a.pose.1,
+                per_luminaire_lx: per.clone(),
+            };
+            let written = serde_json::to_string_pretty(&r)
+                .map_err(std::io::Error::other)
+                .and_then(|t| std::fs::write(&a.reference, t));
+            match written {
+                Ok(()) => tracing::info!(
+                    "ambient light check: reference {} ({:.1} lx with every luminaire on)",
+                    a.reference.display(),
+                    per.iter().sum::<f64>()
+                ),
+                Err(e) => tracing::warn!(
+                    "ambient light check: cannot write {}: {e}",
+                    a.reference.display()
+                ),
+            }
+        }
         Ok(bytes)
+    }
+}
+
+impl CameraSource {
+    /// The ALS with every luminaire on (after the settle time), then the lights off.
+    fn read_ambient(&mut self, a: &AmbientAtCommissioning) -> Result<f64, String> {
+        let n = self.luminaires.len();
+        self.lights
+            .set_levels(&vec![1.0; n])
+            .map_err(|e| e.to_string())?;
+        std::thread::sleep(self.sequence.settle);
+        let mut last = String::new();
+        let mut got = None;
+        for _ in 0..AMBIENT_TRIES {
+            let r = a.sensor.lock().unwrap_or_else(|p| p.into_inner()).measure();
+            match r {
+                Ok(r) => {
+                    got = Some(r.lux_lx);
+                    break;
+                }
+                Err(e) => last = e,
+            }
+        }
+        let off = self.lights.set_levels(&vec![0.0; n]);
+        if let Err(e) = off {
+            return Err(format!("switching the lights off: {e}"));
+        }
+        match got {
+            Some(lux) if lux > 0.5 => Ok(lux),
+            Some(lux) => Err(format!(
+                "reads {lux:.2} lx with every luminaire on: too little light to calibrate on"
+            )),
+            None => Err(last),
+        }
     }
 }
 

@@ -633,7 +633,9 @@ impl<'a> DenseField<'a> {
             .into_par_iter()
             .map(|k| {
                 let (u, v) = ((k % w) as f64, (k / w) as f64);
-                let dir = cam.ray_world(u, v);
+                let Some(dir) = cam.ray_world(u, v) else {
+                    return Pixel::Nothing;
+                };
                 match self.caster.closest(cam.position_m, dir) {
                     Hit::Front { patch, t_m } => {
                         if self.patches.rho[patch as usize] <= 0.0 {

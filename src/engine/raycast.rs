@@ -101,6 +101,23 @@ fn v3(p: DVec3) -> Vec3A {
     Vec3A::new(p.x as f32, p.y as f32, p.z as f32)
 }
 
+/// A ray direction for obvhs: in f32, with every zero component +0.0.
+///
+/// obvhs' CWBVH node test picks each axis's near and far slab by `direction < 0.0`, but takes
+/// the slab distances from `safe_inverse(direction)`, whose sign for a zero component is the
+/// sign *bit* (`signum(−0.0) = −1`). A −0.0 component (a wall normal `(1, 0, −0)` from a cross
+/// product, or a tiny negative f64 that rounds to −0.0 in f32) so gets the near and far planes
+/// swapped: every node whose slab contains the ray's origin on that axis is missed, and the ray
+/// leaves the scene through a closed room (the same defect as tinybvh's, fixed there in PR 282).
+/// +0.0 is consistent on both sides.
+fn direction_f32(d: DVec3) -> Vec3A {
+    let c = |x: f64| {
+        let x = x as f32;
+        if x == 0.0 { 0.0 } else { x }
+    };
+    Vec3A::new(c(d.x), c(d.y), c(d.z))
+}
+
 impl RayCaster {
     /// A world point in the caster frame.
     fn to_frame(&self, p: DVec3) -> Vec3A {
@@ -165,7 +182,12 @@ impl RayCaster {
             (dir.length() - 1.0).abs() < 1e-6,
             "ray directions are unit vectors"
         );
-        let ray = Ray::new(self.to_frame(origin), v3(dir), 0.0, f32::INFINITY);
+        let ray = Ray::new(
+            self.to_frame(origin),
+            direction_f32(dir),
+            0.0,
+            f32::INFINITY,
+        );
         let mut hit = RayHit::none();
         if !self
             .bvh
@@ -193,7 +215,7 @@ impl RayCaster {
             return true;
         }
         let tmax = ((d - self.eps_m) * self.scale) as f32;
-        let ray = Ray::new(self.to_frame(from), v3(v / d), 0.0, tmax);
+        let ray = Ray::new(self.to_frame(from), direction_f32(v / d), 0.0, tmax);
         self.bvh
             .ray_traverse_miss(ray, |r, id| intersect(&self.tris[id], r))
     }
@@ -255,5 +277,52 @@ mod tests {
         assert!(!rc.unoccluded(DVec3::new(0.5, 0.5, 0.5), DVec3::new(0.5, 0.5, 1.5)));
         // a segment ending on a surface is not blocked by that surface
         assert!(rc.unoccluded(DVec3::new(0.5, 0.5, 0.5), DVec3::new(0.5, 0.5, 1.0)));
+    }
+
+    #[test]
+    fn negative_zero_direction_components_do_not_leak() {
+        // A ray along a wall normal computed by a cross product, (1, 0, −0): obvhs' CWBVH picked
+        // the wrong slab planes for the −0.0 axis and every such ray left the scene.
+        let p = DVec3::new;
+        let mut patches = two_squares();
+        // a wall at x = 0 facing +x, and a panel 5 mm in front of it, facing +x too
+        for (x, rho) in [(0.0, 0.5), (0.005, 0.8)] {
+            for t in [
+                [p(x, 0., 0.), p(x, 1., 0.), p(x, 1., 1.)],
+                [p(x, 0., 0.), p(x, 1., 1.), p(x, 0., 1.)],
+            ] {
+                let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+                patches.corners_m.push(t);
+                patches.normal.push(cross.normalize());
+                patches.area_m2.push(0.5 * cross.length());
+                patches.rho.push(rho);
+                patches.group.push(1);
+                patches.source_triangle.push(1);
+            }
+        }
+        let rc = RayCaster::new(&patches);
+        let panel = |h: Hit| match h {
+            Hit::Back { patch, t_m } => {
+                assert!(patch >= 6, "{h:?}");
+                assert!((t_m - 0.004).abs() < 1e-5, "{h:?}");
+            }
+            other => panic!("{other:?}"),
+        };
+        let origin = p(0.001, 0.37, 0.61);
+        for dir in [
+            p(1.0, 0.0, 0.0),
+            p(1.0, -0.0, 0.0),
+            p(1.0, 0.0, -0.0),
+            p(1.0, -0.0, -0.0),
+            p(1.0, -1e-60, 1e-60), // −0.0 once in f32
+        ] {
+            panel(rc.closest(origin, dir));
+            assert!(!rc.unoccluded(origin, origin + dir));
+        }
+        // and up from the floor with (−0, 0, 1), a desk's normal from a cross product
+        match rc.closest(p(0.5, 0.5, 0.001), p(-0.0, 0.0, 1.0)) {
+            Hit::Front { patch, .. } => assert!(patch == 2 || patch == 3),
+            other => panic!("{other:?}"),
+        }
     }
 }

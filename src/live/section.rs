@@ -135,13 +135,23 @@ fn record(camera: &Camera, gain: Option<f64>) -> CameraRecord {
         position_m: camera.position_m.to_array(),
         world_from_camera: axes,
         cd_m2_per_unit: gain.unwrap_or(0.0),
+        lens_k: camera.lens.is_fisheye().then(|| camera.lens.k()),
     }
 }
 
-/// The scene camera of a stored camera record.
-pub fn camera_of(c: &CameraRecord) -> Camera {
+/// The scene camera of a stored camera record (its lens checked).
+pub fn camera_of(c: &CameraRecord) -> Result<Camera, LiveError> {
     let a = &c.world_from_camera;
-    Camera {
+    let lens = match c.lens_k {
+        None => crate::scene::Lens::Pinhole,
+        Some(k) => {
+            let l = crate::scene::Lens::KannalaBrandt { k };
+            l.check()
+                .map_err(|m| LiveError::Input(format!("the live section's camera lens: {m}")))?;
+            l
+        }
+    };
+    Ok(Camera {
         position_m: DVec3::from_array(c.position_m),
         world_from_camera: glam::DMat3::from_cols(
             DVec3::new(a[0], a[1], a[2]),
@@ -155,7 +165,8 @@ pub fn camera_of(c: &CameraRecord) -> Camera {
         width: u32::from(c.width),
         height: u32::from(c.height),
         luminance_cd_m2_per_unit: (c.cd_m2_per_unit > 0.0).then_some(c.cd_m2_per_unit),
-    }
+        lens,
+    })
 }
 
 /// Every pixel's first front-face hit on a surface of reflectance ≥ `min_rho`.
@@ -170,7 +181,8 @@ fn cast_all(
         .into_par_iter()
         .map(|i| {
             let (u, v) = (i % camera.width, i / camera.width);
-            let d = camera.ray_world(f64::from(u), f64::from(v));
+            // pixels outside a fisheye's image circle see nothing
+            let d = camera.ray_world(f64::from(u), f64::from(v))?;
             match caster.closest(camera.position_m, d) {
                 Hit::Front { patch, t_m } if model.patches.rho[patch as usize] >= min_rho => {
                     Some(PixelHit {

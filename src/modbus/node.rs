@@ -371,6 +371,25 @@ impl Node {
         self.refresh_flags();
     }
 
+    /// A peripheral fault (status bit [`status::PERIPHERAL_FAULT`]).
+    pub fn set_peripheral_fault(&mut self, fault: bool) {
+        self.set_extra(status::PERIPHERAL_FAULT, fault);
+    }
+
+    /// The ambient light check disagrees (status bit [`status::LIGHT_CHECK`]).
+    pub fn set_light_check(&mut self, disagrees: bool) {
+        self.set_extra(status::LIGHT_CHECK, disagrees);
+    }
+
+    fn set_extra(&mut self, bit: u16, on: bool) {
+        if on {
+            self.map.status |= bit;
+        } else {
+            self.map.status &= !bit;
+        }
+        self.refresh_flags();
+    }
+
     /// Sensor health (status bit).
     pub fn set_sensors_ok(&mut self, ok: bool) {
         if self.sensors_ok != ok {
@@ -625,7 +644,11 @@ impl Node {
     }
 
     fn refresh_flags(&mut self) {
-        let mut s = self.map.status & (status::GATEWAY_CONFIGURED | status::COMPUTE_ERROR);
+        let mut s = self.map.status
+            & (status::GATEWAY_CONFIGURED
+                | status::COMPUTE_ERROR
+                | status::PERIPHERAL_FAULT
+                | status::LIGHT_CHECK);
         s |= status::COMMISSIONED;
         if self.store_ok {
             s |= status::STORE_OK;

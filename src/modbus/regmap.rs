@@ -296,6 +296,12 @@ pub mod status {
     pub const COMM_OK: u16 = 1 << 7;
     /// Writes are enabled for some sources (the board's allowlist is not empty).
     pub const WRITES_ENABLED: u16 = 1 << 8;
+    /// A peripheral of the node (ambient light sensor, calibration EEPROM, status LED) is
+    /// absent, stuck or gives bad readings (the log says which and why).
+    pub const PERIPHERAL_FAULT: u16 = 1 << 12;
+    /// The ambient light sensor disagrees with the model's prediction for the current dimming
+    /// state by more than its tolerance (daylight, a failed luminaire, a changed room).
+    pub const LIGHT_CHECK: u16 = 1 << 13;
 }
 
 /// Communication health (input 40..=51): what the servers and links are doing, so a BMS sees a
@@ -930,7 +936,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources"
+        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources, 12 peripheral fault (ambient light sensor, calibration EEPROM or status LED absent, stuck or bad), 13 ambient light disagrees with the model"
     ),
     row!(
         Input,
@@ -1445,7 +1451,7 @@ mod tests {
     #[test]
     fn fixed_core_and_float_word_orders() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 3, 0, 3, 0, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 4, 0, 3, 0, 2, 0, 1]);
         // 523.25 = 0x4402D000: ABCD
         assert_eq!(read(&mut m, 4, 100, 2), vec![4, 4, 0x44, 0x02, 0xD0, 0x00]);
         // the same through function 0x03

@@ -26,10 +26,9 @@ pub enum RenderError {
     Png(#[from] image::ImageError),
 }
 
-/// Pixel coordinates of a world point, if in front of the camera.
+/// Pixel coordinates of a world point, if inside the lens's field.
 pub fn project(cam: &Camera, p: DVec3) -> Option<(f64, f64)> {
-    let q = cam.world_from_camera.transpose() * (p - cam.position_m);
-    (q.z > 1e-6).then(|| (cam.fx * q.x / q.z + cam.cx, cam.fy * q.y / q.z + cam.cy))
+    cam.project_world(p)
 }
 
 /// A desk to mark on a camera view: its outline and label lines.
@@ -139,10 +138,16 @@ fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
             DVec3::new(k.x_m[1], k.y_m[1], k.z_m),
             DVec3::new(k.x_m[0], k.y_m[1], k.z_m),
         ];
-        let pts: Vec<(f64, f64)> = cs.iter().filter_map(|p| to_px(*p)).collect();
-        if pts.len() == 4 {
-            for e in 0..4 {
-                c.line(pts[e], pts[(e + 1) % 4], 2, WHITE);
+        // each edge in 16 pieces: a fisheye images straight edges as curves
+        for e in 0..4 {
+            let (a, b) = (cs[e], cs[(e + 1) % 4]);
+            let steps = if cam.lens.is_fisheye() { 16 } else { 1 };
+            for s in 0..steps {
+                let p = a.lerp(b, f64::from(s) / f64::from(steps));
+                let q = a.lerp(b, f64::from(s + 1) / f64::from(steps));
+                if let (Some(p), Some(q)) = (to_px(p), to_px(q)) {
+                    c.line(p, q, 2, WHITE);
+                }
             }
         }
         let centre = DVec3::new(

@@ -118,6 +118,12 @@ struct CameraJson {
     cx: f64,
     cy: f64,
     luminance_cd_m2_per_unit: Option<f64>,
+    /// Lens model: "pinhole" (default), "equidistant" or "kannala_brandt".
+    #[serde(default)]
+    model: Option<String>,
+    /// Kannala-Brandt k1..k4.
+    #[serde(default)]
+    k: Option<[f64; 4]>,
 }
 
 /// Parses a JSON document into `T`, reporting the JSON path and line of any mismatch.
@@ -600,6 +606,8 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
     }
     super::check_intrinsics(j.fx, j.fy, j.cx, j.cy, j.width, j.height)
         .map_err(|m| invalid("intrinsics", m))?;
+    let lens = super::Lens::from_model(j.model.as_deref().unwrap_or("pinhole"), j.k)
+        .map_err(|m| invalid("model", m))?;
     if j.position.iter().any(|v| v.abs() * unit_to_m > 1e4) {
         return Err(invalid(
             "position",
@@ -624,6 +632,7 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
         width: j.width,
         height: j.height,
         luminance_cd_m2_per_unit: j.luminance_cd_m2_per_unit,
+        lens,
     })
 }
 

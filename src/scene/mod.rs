@@ -14,6 +14,7 @@
 
 mod builder;
 mod files;
+pub mod lens;
 mod obj;
 mod states;
 mod summary;
@@ -28,6 +29,7 @@ pub use files::{
     LoadOptions, PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
     load_sensors_file,
 };
+pub use lens::Lens;
 pub use obj::{ObjReport, load_obj};
 pub use states::{Scenario, TruthRow, UnknownLuminaire, check_scenarios, read_states, read_truth};
 pub use summary::SceneSummary;
@@ -210,7 +212,7 @@ pub struct Desks {
     pub grid_points: Vec<(u32, DVec3)>,
 }
 
-/// The ceiling camera: pinhole intrinsics and its pose.
+/// The ceiling camera: intrinsics, lens model ([`Lens`]: pinhole or fisheye) and its pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
     /// Optical centre, m.
@@ -231,13 +233,77 @@ pub struct Camera {
     pub height: u32,
     /// cd/m² per unit of a luminance frame, when this is a capture set's camera.
     pub luminance_cd_m2_per_unit: Option<f64>,
+    /// The lens: how a ray's angle maps to the image.
+    pub lens: Lens,
 }
 
 impl Camera {
-    /// The world-frame unit ray through pixel (u, v) (pixel centres at integer coordinates).
-    pub fn ray_world(&self, u: f64, v: f64) -> DVec3 {
-        let d = DVec3::new((u - self.cx) / self.fx, (v - self.cy) / self.fy, 1.0);
-        (self.world_from_camera * d).normalize()
+    /// Checks the intrinsics ([`check_intrinsics`]) and the lens ([`Lens::check`]).
+    pub fn check(&self) -> Result<(), String> {
+        check_intrinsics(self.fx, self.fy, self.cx, self.cy, self.width, self.height)?;
+        self.lens.check()
+    }
+
+    /// The unit ray through pixel (u, v) in camera coordinates (pixel centres at integer
+    /// coordinates), `None` outside the lens's field (a fisheye's corners).
+    pub fn ray_camera(&self, u: f64, v: f64) -> Option<DVec3> {
+        let m = glam::DVec2::new((u - self.cx) / self.fx, (v - self.cy) / self.fy);
+        self.lens.unproject(m)
+    }
+
+    /// The world-frame unit ray through pixel (u, v) (pixel centres at integer coordinates),
+    /// `None` outside the lens's field.
+    pub fn ray_world(&self, u: f64, v: f64) -> Option<DVec3> {
+        self.ray_camera(u, v).map(|d| self.world_from_camera * d)
+    }
+
+    /// The point in camera coordinates at depth `z_m` along the optical axis through pixel
+    /// (u, v), `None` outside the field.
+    pub fn point_at_depth_camera(&self, u: f64, v: f64, z_m: f64) -> Option<DVec3> {
+        let d = self.ray_camera(u, v)?;
+        (d.z > 1e-6).then(|| d * (z_m / d.z))
+    }
+
+    /// The world point at depth `z_m` along the optical axis through pixel (u, v), `None`
+    /// outside the field.
+    pub fn point_at_depth(&self, u: f64, v: f64, z_m: f64) -> Option<DVec3> {
+        self.point_at_depth_camera(u, v, z_m)
+            .map(|p| self.position_m + self.world_from_camera * p)
+    }
+
+    /// Pixel coordinates (u, v) of a point in camera coordinates, `None` outside the lens's
+    /// field (the result may lie outside the image).
+    pub fn project_camera(&self, p_cam: DVec3) -> Option<(f64, f64)> {
+        let m = self.lens.project(p_cam)?;
+        Some((self.fx * m.x + self.cx, self.fy * m.y + self.cy))
+    }
+
+    /// Pixel coordinates (u, v) of a world point, `None` outside the lens's field.
+    pub fn project_world(&self, p_m: DVec3) -> Option<(f64, f64)> {
+        self.project_camera(self.camera_from_world(p_m))
+    }
+
+    /// A world point in camera coordinates.
+    pub fn camera_from_world(&self, p_m: DVec3) -> DVec3 {
+        self.world_from_camera.transpose() * (p_m - self.position_m)
+    }
+
+    /// The pixel of a world point when it falls inside the image: (column, row).
+    pub fn pixel_of(&self, p_m: DVec3) -> Option<(u32, u32)> {
+        let (u, v) = self.project_world(p_m)?;
+        let (ur, vr) = (u.round(), v.round());
+        (ur >= 0.0 && vr >= 0.0 && ur < f64::from(self.width) && vr < f64::from(self.height))
+            .then_some((ur as u32, vr as u32))
+    }
+
+    /// The solid angle pixel (u, v) subtends, sr (0 outside the field).
+    pub fn pixel_solid_angle_sr(&self, u: f64, v: f64) -> f64 {
+        match self.ray_camera(u, v) {
+            Some(d) => {
+                self.lens.solid_angle_per_area(d.z.clamp(-1.0, 1.0).acos()) / (self.fx * self.fy)
+            }
+            None => 0.0,
+        }
     }
 }
 

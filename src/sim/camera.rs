@@ -412,6 +412,28 @@ impl SimWorld {
         self.shared.scene.luminaires.iter().map(|l| l.id).collect()
     }
 
+    /// What an ideal cosine receiver at `position` facing `normal` reads from each luminaire
+    /// at 100 %, lx (the node's ambient light sensor in this world): exact direct light and a
+    /// gather of the world's exitances with `rays` rays.
+    pub fn receiver_lx(&self, position: DVec3, normal: DVec3, rays: usize) -> Vec<f64> {
+        crate::engine::points::evaluate(self.scene(), self.model(), &[(position, normal)], rays)
+            .per_luminaire_lx
+            .into_iter()
+            .next()
+            .unwrap_or_default()
+    }
+
+    /// Sets the levels (luminaire order; clamped to [0, 1], extra or missing entries ignored),
+    /// as the room's controller would: the simulated board's light model follows the node.
+    pub fn follow_levels(&self, levels: &[f64]) {
+        let mut g = self.levels.lock().unwrap_or_else(|p| p.into_inner());
+        for (l, x) in g.iter_mut().zip(levels) {
+            if x.is_finite() {
+                *l = x.clamp(0.0, 1.0);
+            }
+        }
+    }
+
     /// The current levels (luminaire order).
     pub fn levels(&self) -> Vec<f64> {
         self.levels
@@ -436,7 +458,7 @@ impl SimWorld {
                 .into_par_iter()
                 .map(|i| {
                     let (u, v) = (i % cam.width, i / cam.width);
-                    let d = cam.ray_world(f64::from(u), f64::from(v));
+                    let d = cam.ray_world(f64::from(u), f64::from(v))?;
                     let (patch, t_m, front) = match s.caster.closest(cam.position_m, d) {
                         Hit::Front { patch, t_m } => (patch, t_m, true),
                         Hit::Back { patch, t_m } => (patch, t_m, false),
@@ -471,7 +493,9 @@ impl SimWorld {
                         .map(|(i, h)| match h {
                             Some(h) if h.front => {
                                 let (u, v) = (i as u32 % cam.width, i as u32 / cam.width);
-                                let d = cam.ray_world(f64::from(u), f64::from(v));
+                                let Some(d) = cam.ray_world(f64::from(u), f64::from(v)) else {
+                                    return 0.0;
+                                };
                                 let x: DVec3 = cam.position_m + d * h.t_m;
                                 let n = s.model.patches.normal[h.patch as usize];
                                 direct_lx(l, &pts, &probes, x, n, &s.caster)
@@ -521,7 +545,7 @@ impl SimWorld {
     fn overlay(&self, i: usize, extras: &WorldExtras) -> Option<(f64, f64)> {
         let cam = &self.shared.camera;
         let (u, v) = (i as u32 % cam.width, i as u32 / cam.width);
-        let d = cam.ray_world(f64::from(u), f64::from(v));
+        let d = cam.ray_world(f64::from(u), f64::from(v))?;
         let axis = cam.world_from_camera.z_axis;
         let hit = self.hits()[i];
         let mut t_hit = hit.map_or(f64::INFINITY, |h| h.t_m);

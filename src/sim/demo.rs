@@ -4,7 +4,7 @@
 //! An 8.0 × 6.0 × 2.8 m open-plan office: six desks in two rows, a cabinet, a door and a
 //! window band; six recessed 0.6 × 0.6 m luminaires of 4000 lm with a rotationally symmetric
 //! downlight distribution `I(γ) ∝ cos^1.4 γ`; a desk sensor at each desk centre and one on the
-//! floor of the walkway; a ceiling camera at the room centre looking down.
+//! floor of the walkway; a wide-angle (fisheye) ceiling camera at the room centre looking down.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -21,6 +21,8 @@ pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];
 pub const LUMINAIRE_FLUX_LM: f64 = 4000.0;
 /// Desk top height, m.
 const DESK_Z_M: f64 = 0.75;
+/// Focal length of the demo camera's equidistant lens, pixels (r = f θ).
+pub const DEMO_FOCAL_PX: f64 = 120.0;
 
 /// The demo luminaire's distribution at 1 lm per... scaled to [`LUMINAIRE_FLUX_LM`].
 pub fn demo_photometry() -> IntensityDistribution {
@@ -170,16 +172,19 @@ pub fn demo_office() -> Scene {
         });
     }
 
+    // A wide-angle (equidistant fisheye) ToF + colour node, its long image axis along the
+    // room's: 152° × 114° across the image, so every desk and most of the walls are in view.
     let camera = Camera {
         position_m: p(lx / 2.0, ly / 2.0, lz - 0.02),
-        world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
-        fx: 160.0,
-        fy: 160.0,
+        world_from_camera: DMat3::from_cols(DVec3::X, DVec3::NEG_Y, DVec3::NEG_Z),
+        fx: DEMO_FOCAL_PX,
+        fy: DEMO_FOCAL_PX,
         cx: 159.5,
         cy: 119.5,
         width: 320,
         height: 240,
         luminance_cd_m2_per_unit: None,
+        lens: crate::scene::Lens::EQUIDISTANT,
     };
 
     Scene {
@@ -225,7 +230,17 @@ mod tests {
             }
         }
         // the camera looks down
-        let down = s.camera.as_ref().unwrap().ray_world(159.5, 119.5);
+        let cam = s.camera.as_ref().unwrap();
+        let down = cam.ray_world(159.5, 119.5).unwrap();
         assert!((down - DVec3::NEG_Z).length() < 1e-9);
+        // every desk sensor is in the image (the equidistant lens: r = f θ)
+        for sen in &s.sensors {
+            let (u, v) = cam.project_world(sen.position_m).unwrap();
+            let d = sen.position_m - cam.position_m;
+            let theta = d.truncate().length().atan2(-d.z);
+            let r = (u - 159.5).hypot(v - 119.5);
+            assert!((r - DEMO_FOCAL_PX * theta).abs() < 1e-9);
+            assert!(cam.pixel_of(sen.position_m).is_some(), "sensor {}", sen.id);
+        }
     }
 }

@@ -24,6 +24,24 @@ pub enum DeviceError {
     /// The simulated power was cut.
     #[error("power cut")]
     PowerCut,
+    /// An erase not on erase-block boundaries (a raw MTD partition).
+    #[error("erase at {offset}+{len} is not on {erase_size}-byte erase blocks")]
+    Misaligned {
+        /// Offset.
+        offset: usize,
+        /// Length.
+        len: usize,
+        /// Erase block, bytes.
+        erase_size: usize,
+    },
+    /// The device cannot hold the slots (NAND, read-only, not an MTD device, ...).
+    #[error("{}: {why}", path.display())]
+    Unsupported {
+        /// The device.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
     /// File I/O.
     #[error("{path}: {source}")]
     Io {
@@ -330,5 +348,130 @@ impl<D: FlashDevice<Error = DeviceError>> FlashDevice for FaultyFlash<D> {
             return Err(DeviceError::PowerCut);
         }
         self.inner.sync()
+    }
+}
+
+/// A NOR flash with strict semantics behind the `embedded-storage` traits (feature `sim`):
+/// `WRITE_SIZE` 4, `ERASE_SIZE` 4 KiB, `READ_SIZE` 4 (an MCU's internal flash, say); erases
+/// and writes must be aligned, programming only clears bits, and the power can be cut after
+/// a number of programmed or erased bytes.
+#[cfg(feature = "sim")]
+#[derive(Debug, Clone)]
+pub struct SimNor {
+    /// The cells.
+    pub data: Vec<u8>,
+    /// Power fails after this many bytes erased or programmed.
+    pub cut_after_bytes: Option<usize>,
+    touched: usize,
+}
+
+/// Errors of [`SimNor`].
+#[cfg(feature = "sim")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimNorError {
+    /// Misaligned.
+    NotAligned,
+    /// Out of bounds.
+    OutOfBounds,
+    /// The power was cut.
+    PowerCut,
+}
+
+#[cfg(feature = "sim")]
+impl embedded_storage::nor_flash::NorFlashError for SimNorError {
+    fn kind(&self) -> embedded_storage::nor_flash::NorFlashErrorKind {
+        use embedded_storage::nor_flash::NorFlashErrorKind as K;
+        match self {
+            SimNorError::NotAligned => K::NotAligned,
+            SimNorError::OutOfBounds => K::OutOfBounds,
+            SimNorError::PowerCut => K::Other,
+        }
+    }
+}
+
+#[cfg(feature = "sim")]
+impl SimNor {
+    /// An erased device of `capacity` bytes.
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            data: vec![0xFF; capacity],
+            cut_after_bytes: None,
+            touched: 0,
+        }
+    }
+
+    fn spend(&mut self, n: usize) -> Result<usize, SimNorError> {
+        let allowed = match self.cut_after_bytes {
+            Some(limit) => limit.saturating_sub(self.touched).min(n),
+            None => n,
+        };
+        if allowed == 0 && n > 0 {
+            return Err(SimNorError::PowerCut);
+        }
+        self.touched += allowed;
+        Ok(allowed)
+    }
+}
+
+#[cfg(feature = "sim")]
+impl embedded_storage::nor_flash::ErrorType for SimNor {
+    type Error = SimNorError;
+}
+
+#[cfg(feature = "sim")]
+impl embedded_storage::nor_flash::ReadNorFlash for SimNor {
+    const READ_SIZE: usize = 4;
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), SimNorError> {
+        let o = offset as usize;
+        if !o.is_multiple_of(4) || !bytes.len().is_multiple_of(4) {
+            return Err(SimNorError::NotAligned);
+        }
+        let src = self
+            .data
+            .get(o..o + bytes.len())
+            .ok_or(SimNorError::OutOfBounds)?;
+        bytes.copy_from_slice(src);
+        Ok(())
+    }
+    fn capacity(&self) -> usize {
+        self.data.len()
+    }
+}
+
+#[cfg(feature = "sim")]
+impl embedded_storage::nor_flash::NorFlash for SimNor {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = 4096;
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), SimNorError> {
+        let (f, t) = (from as usize, to as usize);
+        if !f.is_multiple_of(4096) || !t.is_multiple_of(4096) || t < f {
+            return Err(SimNorError::NotAligned);
+        }
+        if t > self.data.len() {
+            return Err(SimNorError::OutOfBounds);
+        }
+        let n = self.spend(t - f)?;
+        self.data[f..f + n].fill(0xFF);
+        if n < t - f {
+            return Err(SimNorError::PowerCut);
+        }
+        Ok(())
+    }
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), SimNorError> {
+        let o = offset as usize;
+        if !o.is_multiple_of(4) || !bytes.len().is_multiple_of(4) {
+            return Err(SimNorError::NotAligned);
+        }
+        if o + bytes.len() > self.data.len() {
+            return Err(SimNorError::OutOfBounds);
+        }
+        let n = self.spend(bytes.len())?;
+        for (c, b) in self.data[o..o + n].iter_mut().zip(bytes) {
+            *c &= *b;
+        }
+        if n < bytes.len() {
+            return Err(SimNorError::PowerCut);
+        }
+        Ok(())
     }
 }

@@ -10,6 +10,11 @@
 //! reads images without it (an image of an older build) as images without a report section.
 //! The run-time core only checks the frame ([`super::Image::geometry_bytes`]); this module
 //! decodes it.
+//!
+//! Extensions follow the section's postcard bytes inside its length, as postcard bytes of
+//! [`SectionExtension`]: a build that does not know them stops reading at the end of the
+//! section (postcard ignores trailing bytes); this one reads a section without them as before.
+//! The first extension is the camera's lens (a fisheye's Kannala-Brandt coefficients).
 
 use serde::{Deserialize, Serialize};
 
@@ -26,6 +31,17 @@ pub struct CameraRecord {
     pub intrinsics_px: [f64; 4],
     /// Width and height, pixels.
     pub size_px: [u32; 2],
+    /// Kannala-Brandt k1..k4 of a fisheye lens, `None` for a pinhole (carried in the
+    /// [`SectionExtension`]).
+    #[serde(skip)]
+    pub lens_k: Option<[f64; 4]>,
+}
+
+/// What follows the section's own bytes (see the module's documentation).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct SectionExtension {
+    /// The camera lens's Kannala-Brandt coefficients, `None` for a pinhole.
+    pub camera_lens_k: Option<[f64; 4]>,
 }
 
 /// A desk top.
@@ -129,7 +145,11 @@ pub struct GeometrySection {
 impl GeometrySection {
     /// The framed section, to append after the version-1 payload.
     pub fn encode(&self) -> Result<Vec<u8>, postcard::Error> {
-        let body = postcard::to_stdvec(self)?;
+        let mut body = postcard::to_stdvec(self)?;
+        let ext = SectionExtension {
+            camera_lens_k: self.camera.as_ref().and_then(|c| c.lens_k),
+        };
+        body.extend_from_slice(&postcard::to_stdvec(&ext)?);
         let mut out = Vec::with_capacity(SECTION_FRAME_LEN + body.len());
         out.extend_from_slice(&SECTION_MAGIC);
         out.extend_from_slice(&SECTION_VERSION.to_le_bytes());
@@ -140,6 +160,15 @@ impl GeometrySection {
 
     /// Decodes the section's bytes ([`super::Image::geometry_bytes`]).
     pub fn decode(bytes: &[u8]) -> Result<GeometrySection, ImageError> {
-        postcard::from_bytes(bytes).map_err(|_| ImageError::Decode)
+        let (mut section, rest): (GeometrySection, &[u8]) =
+            postcard::take_from_bytes(bytes).map_err(|_| ImageError::Decode)?;
+        if !rest.is_empty() {
+            let ext: SectionExtension =
+                postcard::from_bytes(rest).map_err(|_| ImageError::Decode)?;
+            if let Some(c) = section.camera.as_mut() {
+                c.lens_k = ext.camera_lens_k;
+            }
+        }
+        Ok(section)
     }
 }

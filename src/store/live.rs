@@ -85,6 +85,8 @@ pub struct CameraRecord {
     pub world_from_camera: [f64; 9],
     /// Luminance per frame unit at commissioning, cd/m² (0: not known, a CAD image).
     pub cd_m2_per_unit: f64,
+    /// A fisheye's Kannala-Brandt coefficients k1..k4 (`None`: a pinhole).
+    pub lens_k: Option<[f64; 4]>,
 }
 
 /// Version 1 of the live section.

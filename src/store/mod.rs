@@ -30,6 +30,7 @@
 mod crc32;
 mod header;
 pub mod live;
+pub mod nor;
 pub mod slots;
 pub mod values;
 
@@ -39,6 +40,8 @@ pub mod devices;
 pub mod file;
 #[cfg(feature = "std")]
 pub mod geometry;
+#[cfg(feature = "std")]
+pub mod mtd;
 
 use serde::{Deserialize, Serialize};
 
