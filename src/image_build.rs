@@ -122,10 +122,23 @@ pub fn sections(image: &Image<'_>) -> Sections {
     let sparse = |s: &Sparse<'_>| {
         s.row_ptr.0.len() + s.col.0.len() + s.values.data.0.len() + s.values.scales.0.len()
     };
+    let live = image.live.as_ref().map_or(0, |l| {
+        l.sample_pixel.0.len()
+            + l.sample_patch.0.len()
+            + l.sample_depth_mm.0.len()
+            + l.artificial_lx.data.0.len()
+            + l.artificial_lx.scales.0.len()
+            + l.window_ptr.0.len()
+            + l.window_sample.0.len()
+            + l.window_offset_mm.0.len()
+            + l.sensor_response_lx.0.len()
+            + l.patch_emitter.0.len()
+            + crate::store::SECTION_FRAME_LEN
+    });
     let geometry = image
         .geometry_bytes()
         .map_or(0, |g| g.len() + crate::store::SECTION_FRAME_LEN);
-    let parts = vec![
+    let mut parts = vec![
         ("header", HEADER_LEN),
         ("form factors (row starts, columns, values)", sparse(&p.ff)),
         (
@@ -151,9 +164,13 @@ pub fn sections(image: &Image<'_>) -> Sections {
                 - sparse(&p.gather)
                 - p.direct_sensor_lx.0.len()
                 - p.first_bounce_sensor_lx.0.len()
-                - p.response_lx.0.len(),
+                - p.response_lx.0.len()
+                - live,
         ),
     ];
+    if image.live.is_some() {
+        parts.push(("live light (samples, windows, emitters)", live));
+    }
     Sections {
         parts,
         total: image.len(),
@@ -512,4 +529,140 @@ pub fn too_large_message(image: &Image<'_>, region_bytes: usize) -> String {
         width,
         hints.join("; ")
     )
+}
+
+/// The live-light section as commissioning builds it (owned; the stored layout and its meaning
+/// are in [`crate::store::live`]). `crate::live` fills it from a capture or a CAD model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveSectionData {
+    /// The camera and its gain.
+    pub camera: crate::store::live::CameraRecord,
+    /// [`crate::store::live::live_source`].
+    pub source: u8,
+    /// Grid stride of the samples, pixels.
+    pub stride: u16,
+    /// Pixel index per sample.
+    pub pixel: Vec<u32>,
+    /// Patch per sample.
+    pub patch: Vec<u32>,
+    /// Commissioned depth per sample, mm (0: unknown).
+    pub depth_mm: Vec<u16>,
+    /// Artificial irradiance at 100 %, lx: `[luminaire][sample]`.
+    pub artificial_lx: Vec<Vec<f64>>,
+    /// Per sensor: (sample, offset along world x, along world y, mm).
+    pub windows: Vec<Vec<(u32, i16, i16)>>,
+    /// Camera-calibrated response, lx: `[sensor][luminaire]`.
+    pub sensor_response_lx: Vec<Vec<f64>>,
+    /// Candidate emitter group per patch ([`crate::store::live::NO_EMITTER`]: none).
+    pub patch_emitter: Vec<u8>,
+    /// Number of emitter groups.
+    pub n_emitters: u16,
+}
+
+impl LiveSectionData {
+    /// Bytes the section takes in an image (postcard framing included, approximately).
+    pub fn encoded_len(&self) -> usize {
+        let n = self.pixel.len();
+        let l = self.artificial_lx.len();
+        let w: usize = self.windows.iter().map(Vec::len).sum();
+        64 + 10 * n
+            + 2 * l * n
+            + 4 * l
+            + 8 * w
+            + 4 * (self.windows.len() + 1)
+            + 8 * self.sensor_response_lx.len() * l
+            + self.patch_emitter.len()
+    }
+}
+
+/// The postcard body of a live section.
+pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
+    let n = d.pixel.len();
+    if d.patch.len() != n || d.depth_mm.len() != n || d.artificial_lx.iter().any(|r| r.len() != n) {
+        return Err(BuildError::Limits(
+            "live section: per-sample arrays differ in length".into(),
+        ));
+    }
+    let l = d.artificial_lx.len();
+    let pixel = u32_bytes(&d.pixel);
+    let patch = u32_bytes(&d.patch);
+    let depth: Vec<u8> = d.depth_mm.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let flat: Vec<f64> = d.artificial_lx.iter().flatten().copied().collect();
+    let bounds: Vec<usize> = (0..=l).map(|j| j * n).collect();
+    let (scales, data) = encode(&flat, &bounds, Precision::U16);
+    let mut ptr = vec![0u32];
+    let mut wsample = Vec::new();
+    let mut woff = Vec::new();
+    for w in &d.windows {
+        for &(i, dx, dy) in w {
+            wsample.push(i);
+            woff.extend_from_slice(&dx.to_le_bytes());
+            woff.extend_from_slice(&dy.to_le_bytes());
+        }
+        ptr.push(wsample.len() as u32);
+    }
+    let ptr = u32_bytes(&ptr);
+    let wsample = u32_bytes(&wsample);
+    let response = f64_bytes(&d.sensor_response_lx);
+    let live = crate::store::LiveV1 {
+        version: crate::store::live::LIVE_VERSION,
+        camera: d.camera,
+        source: d.source,
+        stride: d.stride,
+        n_samples: u32::try_from(n)
+            .map_err(|_| BuildError::Limits("live section: too many samples".into()))?,
+        sample_pixel: Bytes(&pixel),
+        sample_patch: Bytes(&patch),
+        sample_depth_mm: Bytes(&depth),
+        artificial_lx: Values {
+            precision: Precision::U16 as u8,
+            scales: Bytes(&scales),
+            data: Bytes(&data),
+        },
+        window_ptr: Bytes(&ptr),
+        window_sample: Bytes(&wsample),
+        window_offset_mm: Bytes(&woff),
+        sensor_response_lx: Bytes(&response),
+        patch_emitter: Bytes(&d.patch_emitter),
+        n_emitters: d.n_emitters,
+    };
+    postcard::to_stdvec(&live).map_err(|e| BuildError::Serialise(e.to_string()))
+}
+
+/// The image with its live section replaced by `live` (added when it has none; removed with
+/// `None`): the payload and every other section are kept byte for byte, the header's length and
+/// CRC rewritten, and the result parsed and checked.
+pub fn with_live(image: &[u8], live: Option<&LiveSectionData>) -> Result<Vec<u8>, BuildError> {
+    use crate::store::{LIVE_MAGIC, SECTION_FRAME_LEN};
+    let parsed = Image::parse(image).map_err(BuildError::Parse)?;
+    let payload = &image[HEADER_LEN..parsed.len()];
+    let (_, mut rest): (PayloadV1<'_>, &[u8]) = postcard::take_from_bytes(payload)
+        .map_err(|_| BuildError::Parse(crate::store::ImageError::Decode))?;
+    let mut body = payload[..payload.len() - rest.len()].to_vec();
+    // keep every other section as it is (the frames were checked by the parse)
+    while rest.len() >= SECTION_FRAME_LEN {
+        let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
+        let end = (SECTION_FRAME_LEN + len).min(rest.len());
+        if rest[0..4] != LIVE_MAGIC {
+            body.extend_from_slice(&rest[..end]);
+        }
+        rest = &rest[end..];
+    }
+    if let Some(live) = live {
+        let encoded = encode_live(live)?;
+        let frame =
+            crate::store::frame_section(LIVE_MAGIC, crate::store::live::LIVE_VERSION, &encoded)
+                .ok_or_else(|| BuildError::Limits("live section over 4 GiB".into()))?;
+        body.extend(frame);
+    }
+    let header = Header {
+        payload_len: u32::try_from(body.len())
+            .map_err(|_| BuildError::Limits("payload over 4 GiB".into()))?,
+        payload_crc32: crc32(&body),
+        ..parsed.header
+    };
+    let mut out = header.emit().to_vec();
+    out.extend_from_slice(&body);
+    Image::parse(&out).map_err(BuildError::Parse)?;
+    Ok(out)
 }

@@ -36,7 +36,7 @@
 //! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
 //! | 10 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
-//! | 11 | `render` | feature `report` | pictures: the top-view illuminance map, the camera-view report, plots |
+//! | 11 | `render`, `live` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; live light: the cameras at run time (measured desk lux, daylight, occlusion, ageing) and the image section it needs |
 //! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
 //! | 14 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
@@ -110,6 +110,8 @@ pub mod host;
 pub mod image_build;
 #[cfg(feature = "std")]
 pub mod image_geometry;
+#[cfg(feature = "std")]
+pub mod live;
 #[cfg(feature = "std")]
 pub mod lsc;
 #[cfg(feature = "std")]

@@ -46,8 +46,43 @@ pub struct Board {
     pub sensor_check: std::time::Duration,
     /// Lighting control (`[control]`).
     pub control: crate::modbus::node::ControlOptions,
+    /// Live light (`[live]`): the cameras at run time.
+    pub live: LiveBoard,
     /// The status LED (`[led]`), if any.
     pub led: Option<crate::board::camera::LedBoard>,
+}
+
+/// `[live]`: live light, the cameras at run time (`crate::live`).
+///
+/// ```toml
+/// [live]
+/// enabled = true   # default: on when the image has a live section
+/// period_s = 10.0  # a luminance (and depth) frame every period, 1..=3600 s
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveBoard {
+    /// Run live light when the image has a live section.
+    pub enabled: bool,
+    /// Frame period.
+    pub period: std::time::Duration,
+}
+
+impl Default for LiveBoard {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            period: std::time::Duration::from_secs(10),
+        }
+    }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct LiveToml {
+    #[serde(default)]
+    enabled: Option<bool>,
+    #[serde(default)]
+    period_s: Option<f64>,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -264,6 +299,8 @@ struct BoardToml {
     #[serde(default)]
     control: Option<crate::board::control::ControlToml>,
     #[serde(default)]
+    live: LiveToml,
+    #[serde(default)]
     led: Option<crate::board::camera::LedBoard>,
 }
 
@@ -429,11 +466,24 @@ impl Board {
             i.validate().map_err(|e| bad(e.0))?;
         }
         let control = crate::board::control::control(t.control).map_err(|e| bad(e.0))?;
+        let live = LiveBoard {
+            enabled: t.live.enabled.unwrap_or(true),
+            period: match t.live.period_s {
+                None => LiveBoard::default().period,
+                Some(s) if s.is_finite() && (1.0..=3600.0).contains(&s) => {
+                    std::time::Duration::from_secs_f64(s)
+                }
+                Some(s) => {
+                    return Err(bad(format!("live.period_s {s} is outside 1..=3600 s")));
+                }
+            },
+        };
         if let Some(l) = &t.led {
             l.validate().map_err(|e| bad(e.0))?;
         }
         Ok(Board {
             control,
+            live,
             preset,
             maintenance_factor,
             name: t.name,

@@ -1,6 +1,10 @@
-//! A capture set on disk (format in `../shared/scenes/README.md`): `camera.json`,
-//! `depth_NNN.png` (16-bit, mm along the optical axis, 0 = no return) and
-//! `luminance_L<k>.png` (16-bit linear, one luminaire on). `groundtruth/` is never read here.
+//! A capture set on disk (format in `../shared/scenes/README.md`, extended in `docs/cameras.md`):
+//! `camera.json`, `depth_NNN.png` (16-bit, mm along the optical axis, 0 = no return),
+//! `luminance_L<k>.png` (16-bit linear, one luminaire on) and, optionally, `luminance_off.png`
+//! (every luminaire off: the daylight and any other light during the capture, in the same
+//! encoding). With an off frame, commissioning subtracts it from each one-luminaire frame, so a
+//! capture taken in daylight gives the luminaires' own light; a set without one (the reference
+//! captures, taken in the dark) reads as before. `groundtruth/` is never read here.
 //!
 //! Loading checks what would otherwise panic or silently mislead later stages: missing frames,
 //! frames of another size than `camera.json` says, 8-bit or colour frames, depth frames with no
@@ -46,11 +50,15 @@ pub struct Capture {
     pub depth_mm: Vec<Frame>,
     /// Luminance frames with one luminaire on: (luminaire id, frame).
     pub luminance: Vec<(u32, Frame)>,
+    /// The frame with every luminaire off (daylight, other light), same encoding; `None` for a
+    /// capture taken in the dark (the reference sets).
+    pub off: Option<Frame>,
     /// Non-fatal findings.
     pub warnings: Vec<String>,
 }
 
-fn read_frame16(path: &Path) -> Result<Frame, CaptureError> {
+/// Reads a 16-bit greyscale PNG frame (the capture format's encoding).
+pub fn read_frame16(path: &Path) -> Result<Frame, CaptureError> {
     let bad = |message: String| CaptureError {
         path: path.to_path_buf(),
         message,
@@ -148,12 +156,50 @@ impl Capture {
             }
             luminance.push((id, f));
         }
+        let off_path = dir.join("luminance_off.png");
+        let off = if off_path.exists() {
+            let f = read_frame16(&off_path)?;
+            check_size(&off_path, &f, &camera)?;
+            let n = f.data.len().max(1) as f64;
+            let saturated = f.data.iter().filter(|&&v| v == SATURATED).count();
+            if saturated as f64 > 0.05 * n {
+                warnings.push(format!(
+                    "{}: {:.1} % of the pixels saturated: the daylight there cannot be \
+                     subtracted (those pixels are ignored)",
+                    off_path.display(),
+                    100.0 * saturated as f64 / n
+                ));
+            }
+            Some(f)
+        } else {
+            None
+        };
         Ok(Capture {
             dir: dir.to_path_buf(),
             camera,
             depth_mm,
             luminance,
+            off,
             warnings,
         })
+    }
+
+    /// The value of luminaire frame `k` at pixel `i` with the off frame subtracted, in frame
+    /// units: `None` where either frame is saturated, or the difference is not positive (no light
+    /// from the luminaire there, or daylight noise larger than it).
+    pub fn luminaire_value(&self, k: usize, i: usize) -> Option<f64> {
+        let x = *self.luminance.get(k)?.1.data.get(i)?;
+        if x == SATURATED || x == 0 {
+            return None;
+        }
+        let off = match &self.off {
+            Some(f) => match f.data.get(i) {
+                Some(&SATURATED) | None => return None,
+                Some(&o) => f64::from(o),
+            },
+            None => 0.0,
+        };
+        let v = f64::from(x) - off;
+        (v > 0.0).then_some(v)
     }
 }

@@ -8,8 +8,8 @@
 //! |---|---|
 //! | only luminaire k on, at 1 | `luminance_L<k>.png`, byte for byte |
 //! | all on at 1, and `luminance_all.png` exists | `luminance_all.png`, byte for byte |
-//! | anything else | `Σ_k x_k L_k` (luminance is linear), rounded; saturated where a contributing frame is |
-//! | all off | zeros |
+//! | anything else | `O + Σ_k x_k (L_k − O)` (luminance is linear), rounded; saturated where a contributing frame is |
+//! | all off | `luminance_off.png` (`O`, the daylight), or zeros for a set without one |
 //!
 //! Frames carry `camera.json`'s `luminance_cd_m2_per_unit`; without it a luminance capture is a
 //! configuration error. Exposure times are not recorded in the format and are reported as 0.
@@ -133,18 +133,27 @@ impl ReplayWorld {
         {
             return f.clone();
         }
+        if on.is_empty()
+            && let Some(f) = &c.off
+        {
+            return f.clone();
+        }
         let n = (w as usize) * (h as usize);
         let data = (0..n)
             .map(|i| {
-                let mut sum = 0.0;
+                let off = c.off.as_ref().map_or(0, |f| f.data[i]);
+                if off == u16::MAX {
+                    return u16::MAX;
+                }
+                let mut sum = f64::from(off);
                 for &k in &on {
                     let x = c.luminance[k].1.data[i];
                     if x == u16::MAX {
                         return u16::MAX;
                     }
-                    sum += levels[k] * f64::from(x);
+                    sum += levels[k] * (f64::from(x) - f64::from(off));
                 }
-                sum.round().min(65535.0) as u16
+                sum.round().clamp(0.0, 65535.0) as u16
             })
             .collect();
         Frame {

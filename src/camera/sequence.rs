@@ -1,9 +1,15 @@
 //! The commissioning capture sequence and writing a capture set to disk.
 //!
 //! ```text
-//! all off ─► N depth frames ─► for each luminaire k: only k on ─► one luminance frame
-//!         ─► all on ─► one luminance frame ─► all off
+//! all off ─► N depth frames ─► one luminance frame, all off (the daylight)
+//!         ─► for each luminaire k: only k on ─► one luminance frame
+//!         ─► all on ─► one luminance frame ─► all off ─► one more all-off frame (drift check)
 //! ```
+//!
+//! The all-off frames make commissioning work with daylight in the room: commissioning
+//! subtracts the first from every one-luminaire frame (`capture::Capture::luminaire_value`).
+//! The last one is compared with the first: daylight that changed during the capture by more
+//! than [`DAYLIGHT_DRIFT_WARNING`] is a warning (the subtraction is then off by that much).
 //!
 //! A frame that fails with a transient error (timeout, garbage) is retried up to `retries`
 //! times; each retry is counted in the capture's warnings. Any other error, or a frame still
@@ -32,6 +38,9 @@ pub struct SequenceOptions {
     pub discard_after_switch: usize,
     /// Take the all-on frame (a consistency check: it should equal the sum of the singles).
     pub all_on_frame: bool,
+    /// Take the all-off frames (the daylight during the capture, subtracted at commissioning;
+    /// and the drift check at the end).
+    pub off_frame: bool,
     /// The colour camera's calibration relative to the ToF camera: when given, every colour
     /// frame is resampled onto the ToF grid with the per-pixel median of the depth frames
     /// ([`super::register`]); when `None`, colour frames must already be registered (the
@@ -47,6 +56,7 @@ impl Default for SequenceOptions {
             settle: Duration::ZERO,
             discard_after_switch: 0,
             all_on_frame: true,
+            off_frame: true,
             registration: None,
         }
     }
@@ -64,7 +74,14 @@ pub struct Sequence {
     /// Largest relative difference between the all-on frame and the sum of the single frames
     /// over well-exposed pixels (a luminaire that did not switch shows here).
     pub superposition_error: Option<f64>,
+    /// How much the daylight changed during the capture: the median relative difference of the
+    /// last all-off frame from the first over the pixels lit in both (`None` without off frames
+    /// or in the dark).
+    pub daylight_drift: Option<f64>,
 }
+
+/// Daylight drift during a capture above which the sequence warns.
+pub const DAYLIGHT_DRIFT_WARNING: f64 = 0.05;
 
 /// The commissioning capture sequence: `depth_frames` depth frames, then for each luminaire in
 /// turn only that one on, one luminance frame, then all on; restores all off at the end. Retries
@@ -193,7 +210,7 @@ fn run(
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<Sequence, CameraError> {
     let n = ids.len();
-    let total = o.depth_frames + n + usize::from(o.all_on_frame);
+    let total = o.depth_frames + n + usize::from(o.all_on_frame) + 2 * usize::from(o.off_frame);
     let mut step = 0;
     let mut warnings = Vec::new();
     let mut used = 0;
@@ -251,6 +268,14 @@ fn run(
         let reference = *scale.get_or_insert(f.cd_m2_per_unit);
         Ok(rescale(&f, reference))
     };
+    let mut off = None;
+    if o.off_frame {
+        let what = "luminance frame, all off (daylight)";
+        progress(step, total, what);
+        // the luminaires are off since the depth frames: no switch, no settling
+        off = Some(take(what, colour, &mut scale, &mut warnings, &mut used)?);
+        step += 1;
+    }
     for (k, &id) in ids.iter().enumerate() {
         let what = format!("luminance frame, luminaire {id} on");
         progress(step, total, &what);
@@ -268,7 +293,7 @@ fn run(
         progress(step, total, what);
         switch(&vec![1.0; n], colour)?;
         let f = take(what, colour, &mut scale, &mut warnings, &mut used)?;
-        superposition_error = superposition(&f, &luminance);
+        superposition_error = superposition(&f, &luminance, off.as_ref());
         if let Some(e) = superposition_error.filter(|e| *e > 0.1) {
             warnings.push(format!(
                 "the all-on frame differs from the sum of the single-luminaire frames by up to \
@@ -279,6 +304,23 @@ fn run(
         all_on = Some(f);
         step += 1;
     }
+    let mut daylight_drift = None;
+    if let Some(first) = &off {
+        let what = "luminance frame, all off again (daylight drift)";
+        progress(step, total, what);
+        switch(&vec![0.0; n], colour)?;
+        let last = take(what, colour, &mut scale, &mut warnings, &mut used)?;
+        daylight_drift = drift(first, &last);
+        if let Some(d) = daylight_drift.filter(|d| *d > DAYLIGHT_DRIFT_WARNING) {
+            warnings.push(format!(
+                "the daylight changed by {:.0} % during the capture: the one-luminaire frames \
+                 are off by up to that much of the daylight (commission again when the light is \
+                 steady, or at night)",
+                100.0 * d
+            ));
+        }
+        step += 1;
+    }
     progress(step, total, "done");
     camera.luminance_cd_m2_per_unit = scale;
     Ok(Sequence {
@@ -287,12 +329,31 @@ fn run(
             camera,
             depth_mm,
             luminance,
+            off,
             warnings,
         },
         all_on,
         retries_used: used,
         superposition_error,
+        daylight_drift,
     })
+}
+
+/// The median relative difference between two all-off frames over the pixels well exposed in
+/// both (`None` when fewer than 1 % of the pixels are: a dark room).
+fn drift(a: &Frame, b: &Frame) -> Option<f64> {
+    let mut rel: Vec<f64> = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| **x >= 50 && **y >= 50 && **x != u16::MAX && **y != u16::MAX)
+        .map(|(x, y)| (f64::from(*y) - f64::from(*x)).abs() / f64::from(*x))
+        .collect();
+    if rel.len() * 100 < a.data.len() {
+        return None;
+    }
+    rel.sort_by(f64::total_cmp);
+    Some(rel[rel.len() / 2])
 }
 
 /// The resampling of the colour frames for this capture's geometry (the median depth), with a
@@ -322,22 +383,29 @@ fn registration_map(
     Ok(Some(map))
 }
 
-/// Relative difference between the all-on frame and the sum of the singles, over pixels that
-/// are well exposed in the all-on frame and saturated nowhere: the 99th percentile (a few
-/// pixels on a shadow edge may differ by rounding).
-fn superposition(all: &Frame, singles: &[(u32, Frame)]) -> Option<f64> {
+/// Relative difference between the all-on frame and the sum of the singles (each less the
+/// all-off frame, when there is one), over pixels that are well exposed in the all-on frame and
+/// saturated nowhere: the 99th percentile (a few pixels on a shadow edge may differ by
+/// rounding).
+fn superposition(all: &Frame, singles: &[(u32, Frame)], off: Option<&Frame>) -> Option<f64> {
     let mut rel = Vec::new();
     'px: for (i, &a) in all.data.iter().enumerate() {
         if a < 1000 || a == u16::MAX {
             continue;
         }
-        let mut sum = 0.0;
+        let o = match off.map(|f| f.data[i]) {
+            Some(u16::MAX) => continue,
+            Some(o) => f64::from(o),
+            None => 0.0,
+        };
+        // all on = off + Σ (single − off)
+        let mut sum = o;
         for (_, f) in singles {
             let x = f.data[i];
             if x == u16::MAX {
                 continue 'px;
             }
-            sum += f64::from(x);
+            sum += f64::from(x) - o;
         }
         rel.push((sum - f64::from(a)).abs() / f64::from(a));
     }
@@ -362,7 +430,8 @@ fn write_png16(path: &Path, f: &Frame) -> Result<(), CameraError> {
 }
 
 /// Writes a capture set in the shared format (`camera.json`, `depth_NNN.png`,
-/// `luminance_L<id>.png`, `luminance_all.png`), so it can be commissioned from or replayed.
+/// `luminance_L<id>.png`, `luminance_off.png` when the capture has an all-off frame,
+/// `luminance_all.png`), so it can be commissioned from or replayed.
 pub fn save_capture(
     dir: &Path,
     capture: &Capture,
@@ -392,6 +461,7 @@ pub fn save_capture(
         "encodings": {
             "depth_png": "uint16 millimetres along the camera optical axis (z_cam), 0 = no return",
             "luminance_png": "uint16 linear, luminance_cd_per_m2 = value * luminance_cd_m2_per_unit, clipped at 65535",
+            "luminance_off_png": "as luminance_png, every luminaire off (the daylight during the capture); commissioning subtracts it from each luminance_L<k>.png",
         },
     });
     if let Some(s) = c.luminance_cd_m2_per_unit {
@@ -409,6 +479,9 @@ pub fn save_capture(
     }
     for (id, f) in &capture.luminance {
         write_png16(&dir.join(format!("luminance_L{id}.png")), f)?;
+    }
+    if let Some(f) = &capture.off {
+        write_png16(&dir.join("luminance_off.png"), f)?;
     }
     if let Some(f) = all_on {
         write_png16(&dir.join("luminance_all.png"), f)?;

@@ -503,6 +503,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         recommission: args.recommission,
         reload: Some(reload),
         sensor_probe: sensor_probe(&board),
+        live: live_task(&board),
         peripherals,
         ambient_reference: Some(reference),
     };
@@ -583,6 +584,82 @@ fn serve_options(
         settings_path,
         control: board.control.clone(),
     }
+}
+
+/// Live light's cameras at run time (`[live]`): the simulated cameras over the board's scene
+/// (their room follows the node's dimming state), a recorded capture replayed at the node's
+/// levels, or the hardware cameras (opened again at each failure).
+fn live_task(board: &Board) -> Option<luxnode::daemon::live::LiveTask> {
+    use luxnode::daemon::live::{LiveTask, OpenedCameras, camera_source};
+    if !board.live.enabled {
+        tracing::info!("live: off (board [live] enabled = false)");
+        return None;
+    }
+    let capture = match &board.camera {
+        #[cfg(feature = "sim")]
+        CameraBoard::Sim {
+            depth, luminance, ..
+        } => {
+            use luxnode::sim::camera::{SimWorld, world_settings};
+            let (scene_source, depth, luminance) =
+                (board.scene.clone(), depth.clone(), luminance.clone());
+            camera_source(move || -> Result<OpenedCameras, String> {
+                let scene = match &scene_source {
+                    SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
+                    SceneSource::Directory(dir) => {
+                        luxnode::scene::Scene::load(dir, &Default::default())
+                            .map_err(|e| e.to_string())?
+                    }
+                };
+                let world = SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                let d = world
+                    .depth_camera(depth.clone())
+                    .map_err(|e| e.to_string())?;
+                let c = world
+                    .luminance_camera(luminance.clone())
+                    .map_err(|e| e.to_string())?;
+                Ok((Box::new(d), Box::new(c), Some(Box::new(world))))
+            })
+        }
+        CameraBoard::Replay { dir } => {
+            let (dir, scene_source) = (dir.clone(), board.scene.clone());
+            camera_source(move || -> Result<OpenedCameras, String> {
+                let ids: Vec<u32> = match &scene_source {
+                    SceneSource::Directory(d) => {
+                        luxnode::scene::Scene::load(d, &Default::default())
+                            .map_err(|e| e.to_string())?
+                            .luminaires
+                            .iter()
+                            .map(|l| l.id)
+                            .collect()
+                    }
+                    SceneSource::DemoOffice => {
+                        return Err("a recorded capture needs the scene's directory".into());
+                    }
+                };
+                let world = ReplayWorld::open(&dir, &ids).map_err(|e| e.to_string())?;
+                Ok((
+                    Box::new(world.depth_camera()),
+                    Box::new(world.luminance_camera()),
+                    Some(Box::new(world)),
+                ))
+            })
+        }
+        CameraBoard::Hardware { .. } => {
+            // the colour frames must be registered to the ToF grid like at commissioning; the
+            // run-time registration is not wired yet
+            tracing::warn!(
+                "live: run-time frames from hardware cameras are not supported yet; serving the \
+                 model only"
+            );
+            return None;
+        }
+    };
+    Some(LiveTask {
+        period: board.live.period,
+        settings: luxnode::live::LiveSettings::default(),
+        capture,
+    })
 }
 
 /// The sensors' health check while serving: simulated cameras take a frame (through their

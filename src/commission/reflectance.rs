@@ -21,7 +21,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::mesh::{Part, RecoMesh};
-use crate::camera::capture::{Capture, SATURATED};
+use crate::camera::capture::Capture;
 use crate::engine::direct::{self, Receiver};
 use crate::engine::raycast::{Hit, RayCaster};
 use crate::engine::{Model, Settings};
@@ -155,17 +155,9 @@ pub fn sample(
             let x = cam.position_m + dir * t_m;
             let n = model.patches.normal[patch as usize];
             let i = (v * cam.width + u) as usize;
-            let value: Vec<f64> = capture
-                .luminance
-                .iter()
-                .map(|(_, f)| {
-                    let d = f.data[i];
-                    if d == 0 || d == SATURATED {
-                        f64::NAN
-                    } else {
-                        f64::from(d)
-                    }
-                })
+            // the luminaire's own light: its frame less the all-off frame (daylight), if any
+            let value: Vec<f64> = (0..capture.luminance.len())
+                .map(|k| capture.luminaire_value(k, i).unwrap_or(f64::NAN))
                 .collect();
             let e: Vec<f64> = luminaires
                 .iter()

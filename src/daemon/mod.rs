@@ -19,6 +19,7 @@
 //! Everything the daemon has to say goes out as `tracing` events (journald-friendly when
 //! stderr is not a terminal); it never prints.
 
+pub mod live;
 pub mod source;
 pub mod systemd;
 
@@ -206,6 +207,8 @@ pub struct DaemonConfig {
     pub reload: Option<Reload>,
     /// The sensors' health check.
     pub sensor_probe: Option<SensorProbe>,
+    /// Live light: the cameras at run time (runs when the image has a live section).
+    pub live: Option<live::LiveTask>,
     /// The node's peripherals (ambient light sensor, status LED; none by default).
     pub peripherals: crate::peripherals::node::Peripherals,
     /// The ambient light check's reference file (written at commissioning).
@@ -512,6 +515,15 @@ where
     }
     node.set_store_ok(booted.store_ok);
     node.set_sensors_ok(booted.sensors_ok);
+    let live_task = config
+        .live
+        .and_then(|task| match live::estimator(&image, &task.settings) {
+            Ok(l) => Some((task, l)),
+            Err(e) => {
+                tracing::warn!("live: {e}; serving the model only");
+                None
+            }
+        });
     let luminaires = node.levels().len();
     let payload_crc = image.header.payload_crc32;
     let node: SharedNode = Arc::new(Mutex::new(node));
@@ -553,6 +565,8 @@ where
             })
         });
         let probe_task = probe.map(|p| tokio::spawn(sensor_probe_loop(p, node.clone())));
+        let live_handle =
+            live_task.map(|(task, l)| tokio::spawn(live::live_loop(task, l, node.clone())));
         let watchdog = tokio::spawn(systemd::watchdog_loop(health.clone(), node.clone()));
         let watcher = tokio::spawn(watch.run());
         systemd::notify("READY=1");
@@ -570,6 +584,9 @@ where
             t.abort();
         }
         if let Some(t) = probe_task {
+            t.abort();
+        }
+        if let Some(t) = live_handle {
             t.abort();
         }
         let n = lock(&node);

@@ -471,6 +471,33 @@ impl Node {
         }
     }
 
+    /// Publishes live light (`crate::live`): per desk values (desk order; a slice of another
+    /// length is refused and the blocks read "not available"), the ageing factor per luminaire
+    /// (also applied to the control plant, [`Self::set_ageing`]), the live status bits and the
+    /// age of the last frame used, s.
+    pub fn set_live(
+        &mut self,
+        desks: &[super::regmap::LiveDesk],
+        ageing: &[f64],
+        status: u16,
+        last_frame_age_s: f64,
+    ) {
+        let live = &mut self.map.live;
+        live.desks.clear();
+        if desks.len() == self.map.desks.len() {
+            for d in desks {
+                let _ = live.desks.push(*d);
+            }
+        }
+        live.ageing.clear();
+        for &a in ageing.iter().take(self.ageing.len()) {
+            let _ = live.ageing.push(a);
+        }
+        live.status = status;
+        live.last_frame_age_s = last_frame_age_s;
+        self.set_ageing(ageing);
+    }
+
     /// Publishes a daylight estimate per desk, lx (desk order); one of the wrong length or with a
     /// value that is not a finite lux >= 0 is refused and the last one kept.
     pub fn set_daylight(&mut self, daylight_lx: &[f64]) -> bool {

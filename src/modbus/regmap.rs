@@ -96,6 +96,151 @@ pub mod addr {
     pub const CONTROL_LAST: u16 = 67;
     /// Desk k meets its target under the control plan: 700 + k.
     pub const DESK_MET: u16 = 700;
+    /// Live-light status bits ([`super::live_status`]).
+    pub const LIVE_STATUS: u16 = 70;
+    /// Age of the last camera frame live light used, s (saturating; 65535 none yet).
+    pub const LIVE_LAST_FRAME_AGE: u16 = 71;
+    /// Desk k's live total lux (daylight included), float32: 3000 + 2k, 3001 + 2k.
+    pub const LIVE_TOTAL_FLOAT: u16 = 3000;
+    /// Desk k's live artificial lux (the luminaires now), float32: 3200 + 2k, 3201 + 2k.
+    pub const LIVE_ARTIFICIAL_FLOAT: u16 = 3200;
+    /// Desk k's live daylight (extraneous) lux, float32: 3400 + 2k, 3401 + 2k.
+    pub const LIVE_DAYLIGHT_FLOAT: u16 = 3400;
+    /// Desk k's live total lux, u16: 3600 + k.
+    pub const LIVE_TOTAL_U16: u16 = 3600;
+    /// Desk k's live artificial lux, u16: 3700 + k.
+    pub const LIVE_ARTIFICIAL_U16: u16 = 3700;
+    /// Desk k's live daylight lux, u16: 3800 + k.
+    pub const LIVE_DAYLIGHT_U16: u16 = 3800;
+    /// Desk k's live source ([`super::LiveSource`]): 3900 + k.
+    pub const LIVE_SOURCE: u16 = 3900;
+    /// Desk k's live standard uncertainty of the total, lx, u16: 4000 + k.
+    pub const LIVE_UNCERTAINTY: u16 = 4000;
+    /// Desk k's live flags ([`super::live_flags`]): 4100 + k.
+    pub const LIVE_FLAGS: u16 = 4100;
+    /// Age of the frame desk k's daylight comes from, s (saturating): 4200 + k.
+    pub const LIVE_FRAME_AGE: u16 = 4200;
+    /// Luminaire j's ageing factor, 0.001 (1000 = as commissioned): 4300 + j.
+    pub const AGEING: u16 = 4300;
+}
+
+/// Live-light status bits (input register 70).
+pub mod live_status {
+    /// Live light runs (the image has a live section and the board a camera).
+    pub const ON: u16 = 1 << 0;
+    /// The camera does not answer (or only gives rejected frames) for longer than the stale
+    /// limit: the values are held, then model only.
+    pub const CAMERA_STALE: u16 = 1 << 1;
+    /// A large part of the room changed for good: recommissioning advised.
+    pub const RECOMMISSION: u16 = 1 << 2;
+    /// The last frame had no daylight (ageing is measured on such frames).
+    pub const NIGHT: u16 = 1 << 3;
+    /// The last frame was rejected (dark, saturated, wrong size, stale).
+    pub const FRAME_REJECTED: u16 = 1 << 4;
+}
+
+/// Live-light flags per desk (input 4100 + k); the same bits as `crate::live::flags`.
+pub mod live_flags {
+    /// Something covers the desk now: the value is held.
+    pub const OCCLUDED: u16 = 1 << 0;
+    /// The daylight part is the last good one (see the frame age).
+    pub const HELD: u16 = 1 << 1;
+    /// No fresh frame for longer than the stale limit.
+    pub const STALE: u16 = 1 << 2;
+    /// The last frame was rejected.
+    pub const BAD_FRAME: u16 = 1 << 3;
+    /// The desk's window (or the frame) is saturated.
+    pub const SATURATED: u16 = 1 << 4;
+    /// A luminaire lighting this desk aged below the maintenance factor.
+    pub const AGEING: u16 = 1 << 5;
+    /// The desk's surroundings changed for good: recommissioning advised.
+    pub const GEOMETRY_CHANGED: u16 = 1 << 6;
+    /// No depth frame: covering judged from luminance alone.
+    pub const NO_DEPTH: u16 = 1 << 7;
+}
+
+/// Where a desk's live value comes from (input 3900 + k).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u16)]
+pub enum LiveSource {
+    /// The model's artificial light only (no usable frame yet, or live light off).
+    #[default]
+    Model = 0,
+    /// Measured by the camera on the desk top.
+    Measured = 1,
+    /// Inferred: the model's light plus daylight propagated from what the camera sees.
+    Inferred = 2,
+}
+
+/// One desk's live value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiveDesk {
+    /// Total, lx (not finite: not available).
+    pub total_lx: f64,
+    /// The luminaires' part, lx.
+    pub artificial_lx: f64,
+    /// Daylight (extraneous) part, lx.
+    pub daylight_lx: f64,
+    /// Standard uncertainty of the total, lx.
+    pub uncertainty_lx: f64,
+    /// Source.
+    pub source: LiveSource,
+    /// [`live_flags`].
+    pub flags: u16,
+    /// Age of the frame the daylight comes from, s.
+    pub frame_age_s: f64,
+}
+
+impl Default for LiveDesk {
+    fn default() -> Self {
+        Self {
+            total_lx: f64::NAN,
+            artificial_lx: f64::NAN,
+            daylight_lx: f64::NAN,
+            uncertainty_lx: f64::NAN,
+            source: LiveSource::Model,
+            flags: 0,
+            frame_age_s: f64::NAN,
+        }
+    }
+}
+
+/// The live-light registers (`crate::live`): per desk total, artificial and daylight lux with
+/// source, flags and frame age; per luminaire the ageing factor. Only aggregates: no image
+/// leaves the node.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LiveRegisters {
+    /// Per desk (empty: live light off; the blocks then read "not available").
+    pub desks: heapless::Vec<LiveDesk, MAX_DESKS>,
+    /// Ageing factor per luminaire (empty: all 1).
+    pub ageing: heapless::Vec<f64, MAX_LUMINAIRES>,
+    /// [`live_status`] bits.
+    pub status: u16,
+    /// Age of the last frame used, s (not finite: none yet).
+    pub last_frame_age_s: f64,
+}
+
+/// A lux value as a rounded, saturating u16 ([`NOT_AVAILABLE_U16`] when not finite).
+fn lux_u16(lux: f64) -> u16 {
+    if lux.is_finite() {
+        let r = libm::round(lux.max(0.0));
+        if r >= f64::from(U16_LUX_MAX) {
+            U16_LUX_MAX
+        } else {
+            r as u16
+        }
+    } else {
+        NOT_AVAILABLE_U16
+    }
+}
+
+/// Seconds as a saturating u16 ([`NOT_AVAILABLE_U16`] when not finite).
+fn seconds_u16(s: f64) -> u16 {
+    if s.is_finite() {
+        libm::round(s.clamp(0.0, 65534.0)) as u16
+    } else {
+        NOT_AVAILABLE_U16
+    }
 }
 
 /// Control flags (input register 62).
@@ -335,6 +480,8 @@ pub struct RegisterMap {
     pub comm: CommHealth,
     /// Lighting control.
     pub control: ControlRegisters,
+    /// Live light.
+    pub live: LiveRegisters,
 }
 
 /// What a request changed.
@@ -437,6 +584,12 @@ impl RegisterMap {
                     }
                 }
             }
+        } else if a == addr::LIVE_STATUS {
+            self.live.status
+        } else if a == addr::LIVE_LAST_FRAME_AGE {
+            seconds_u16(self.live.last_frame_age_s)
+        } else if (addr::LIVE_TOTAL_FLOAT..addr::AGEING + l).contains(&a) {
+            return self.read_live(a, d, l);
         } else if in_block(addr::DESK_MET, self.control.met.len() as u16) {
             self.control.met[usize::from(a - addr::DESK_MET)]
         } else if in_block(addr::DESK_FLOAT, 2 * d) {
@@ -480,6 +633,59 @@ impl RegisterMap {
             && in_block(addr::DESK_TARGET, self.control.targets_lx.len() as u16)
         {
             self.control.targets_lx[usize::from(a - addr::DESK_TARGET)]
+        } else {
+            return None;
+        };
+        Some(v)
+    }
+
+    /// The live blocks (3000..): `None` outside them.
+    fn read_live(&self, a: u16, d: u16, l: u16) -> Option<u16> {
+        let live = &self.live;
+        let desk = |k: u16| live.desks.get(usize::from(k)).copied().unwrap_or_default();
+        let float = |v: f64, word: u16| {
+            let bits = if v.is_finite() {
+                (v as f32).to_bits()
+            } else {
+                NOT_AVAILABLE_F32
+            };
+            self.word_order.words(bits)[usize::from(word)]
+        };
+        let in_block = |base: u16, count: u16| a >= base && a < base.saturating_add(count);
+        let v = if in_block(addr::LIVE_TOTAL_FLOAT, 2 * d) {
+            let o = a - addr::LIVE_TOTAL_FLOAT;
+            float(desk(o / 2).total_lx, o % 2)
+        } else if in_block(addr::LIVE_ARTIFICIAL_FLOAT, 2 * d) {
+            let o = a - addr::LIVE_ARTIFICIAL_FLOAT;
+            float(desk(o / 2).artificial_lx, o % 2)
+        } else if in_block(addr::LIVE_DAYLIGHT_FLOAT, 2 * d) {
+            let o = a - addr::LIVE_DAYLIGHT_FLOAT;
+            float(desk(o / 2).daylight_lx, o % 2)
+        } else if in_block(addr::LIVE_TOTAL_U16, d) {
+            lux_u16(desk(a - addr::LIVE_TOTAL_U16).total_lx)
+        } else if in_block(addr::LIVE_ARTIFICIAL_U16, d) {
+            lux_u16(desk(a - addr::LIVE_ARTIFICIAL_U16).artificial_lx)
+        } else if in_block(addr::LIVE_DAYLIGHT_U16, d) {
+            lux_u16(desk(a - addr::LIVE_DAYLIGHT_U16).daylight_lx)
+        } else if in_block(addr::LIVE_SOURCE, d) {
+            desk(a - addr::LIVE_SOURCE).source as u16
+        } else if in_block(addr::LIVE_UNCERTAINTY, d) {
+            lux_u16(desk(a - addr::LIVE_UNCERTAINTY).uncertainty_lx)
+        } else if in_block(addr::LIVE_FLAGS, d) {
+            desk(a - addr::LIVE_FLAGS).flags
+        } else if in_block(addr::LIVE_FRAME_AGE, d) {
+            seconds_u16(desk(a - addr::LIVE_FRAME_AGE).frame_age_s)
+        } else if in_block(addr::AGEING, l) {
+            let f = live
+                .ageing
+                .get(usize::from(a - addr::AGEING))
+                .copied()
+                .unwrap_or(1.0);
+            if f.is_finite() {
+                libm::round((1000.0 * f).clamp(0.0, 65534.0)) as u16
+            } else {
+                NOT_AVAILABLE_U16
+            }
         } else {
             return None;
         };
@@ -1017,6 +1223,149 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "R",
         "desk k at 700 + k: 1 the control plan meets its target, 0 short, 65535 control off"
+    ),
+    row!(
+        Input,
+        addr::LIVE_STATUS,
+        "1",
+        "live status",
+        "bits",
+        "",
+        "",
+        "R",
+        "live light: bit 0 on (the image has a live section and the board a camera), 1 camera stale (values held, then model only), 2 recommissioning advised (a large part of the room changed), 3 the last frame had no daylight, 4 the last frame was rejected"
+    ),
+    row!(
+        Input,
+        addr::LIVE_LAST_FRAME_AGE,
+        "1",
+        "live frame age",
+        "u16",
+        "s",
+        "1",
+        "R",
+        "age of the last camera frame live light used (saturating); 65535 none yet"
+    ),
+    row!(
+        Input,
+        addr::LIVE_TOTAL_FLOAT,
+        "2D",
+        "desk live total lux",
+        "float32, word order per client",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3000 + 2k: measured or inferred total (daylight included); NaN when not available (live light off)"
+    ),
+    row!(
+        Input,
+        addr::LIVE_ARTIFICIAL_FLOAT,
+        "2D",
+        "desk live artificial lux",
+        "float32, word order per client",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3200 + 2k: the luminaires' part at the current dimming state and ageing"
+    ),
+    row!(
+        Input,
+        addr::LIVE_DAYLIGHT_FLOAT,
+        "2D",
+        "desk live daylight lux",
+        "float32, word order per client",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3400 + 2k: daylight and any unmodelled light (total − artificial, ≥ 0)"
+    ),
+    row!(
+        Input,
+        addr::LIVE_TOTAL_U16,
+        "D",
+        "desk live total lux (u16)",
+        "u16",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3600 + k: as 3000 + 2k, rounded, saturating at 65534; 65535 not available"
+    ),
+    row!(
+        Input,
+        addr::LIVE_ARTIFICIAL_U16,
+        "D",
+        "desk live artificial lux (u16)",
+        "u16",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3700 + k: as 3200 + 2k, rounded"
+    ),
+    row!(
+        Input,
+        addr::LIVE_DAYLIGHT_U16,
+        "D",
+        "desk live daylight lux (u16)",
+        "u16",
+        "lx",
+        "1",
+        "R",
+        "desk k at 3800 + k: as 3400 + 2k, rounded"
+    ),
+    row!(
+        Input,
+        addr::LIVE_SOURCE,
+        "D",
+        "desk live source",
+        "enum",
+        "",
+        "",
+        "R",
+        "desk k at 3900 + k: 0 model only (no usable frame), 1 measured (the camera sees the desk top), 2 inferred (daylight propagated from what the camera sees)"
+    ),
+    row!(
+        Input,
+        addr::LIVE_UNCERTAINTY,
+        "D",
+        "desk live uncertainty",
+        "u16",
+        "lx",
+        "1",
+        "R",
+        "desk k at 4000 + k: one standard uncertainty of the total"
+    ),
+    row!(
+        Input,
+        addr::LIVE_FLAGS,
+        "D",
+        "desk live flags",
+        "bits",
+        "",
+        "",
+        "R",
+        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame"
+    ),
+    row!(
+        Input,
+        addr::LIVE_FRAME_AGE,
+        "D",
+        "desk live frame age",
+        "u16",
+        "s",
+        "1",
+        "R",
+        "desk k at 4200 + k: age of the frame its daylight comes from (saturating)"
+    ),
+    row!(
+        Input,
+        addr::AGEING,
+        "L",
+        "luminaire ageing factor",
+        "u16",
+        "",
+        "0.001",
+        "R",
+        "luminaire j at 4300 + j: measured light over the commissioned model's (1000 = as commissioned), from night frames; it scales the luminaire in the control plant"
     ),
 ];
 

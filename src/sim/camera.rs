@@ -33,6 +33,19 @@
 //! illuminance on the hit patch from the engine's radiosity basis (`Σ_j F_pj B_l,j`), constant
 //! over a patch. Luminaire openings (ρ = 0) and back faces render black. The value is
 //! `L / cd_m2_per_unit`, rounded, clipped at 65535, with optional relative Gaussian noise.
+//!
+//! ## The world beyond the luminaires ([`WorldExtras`], for live light)
+//!
+//! | what | model |
+//! |---|---|
+//! | daylight | the scene's `window*` groups emit a Lambertian exitance W (lm/m²); the world's engine solves `B = W S + ρ F B` once for W = 1, and a surface gets `W (F B)_p` (its patch's incident daylight; the window itself shows `W B/π`). No sun beam: a diffuse sky through the glazing |
+//! | ageing | luminaire l gives `a_l` times its light |
+//! | people, boxes | axis-aligned boxes: a ray that meets one first returns its depth, and luminance `ρ_box E/π` with E the light of the surface under it |
+//! | a moved desk | its group is removed (its pixels show the floor plane below: depth to z = 0, the floor's reflectance) and a box stands where it went |
+//! | a camera that fails | both cameras answer [`CameraError::Disconnected`] |
+//!
+//! [`WorldExtras`] are set directly or by a [`crate::sim::scenario::Scenario`] armed on the
+//! world, evaluated at each frame from the time since it was started.
 
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::SystemTime;
@@ -73,6 +86,9 @@ struct Shared {
     direct_lx: OnceLock<Vec<Vec<f64>>>,
     /// `[luminaire][patch]` interreflected illuminance at 100 %, lx.
     indirect_lx: OnceLock<Vec<Vec<f64>>>,
+    /// Daylight for a window exitance of 1 lm/m²: (incident per patch, exitance per patch), lx
+    /// and lm/m².
+    daylight: OnceLock<(Vec<f64>, Vec<f64>)>,
 }
 
 /// `m` points over a luminaire's opening (m even): the engine's `m/2` low-discrepancy points
@@ -161,11 +177,62 @@ fn direct_lx(
     e
 }
 
+/// An axis-aligned box in the room (a person, a box on a desk, a moved desk).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Occluder {
+    /// Lower corner, m.
+    pub lo_m: DVec3,
+    /// Upper corner, m.
+    pub hi_m: DVec3,
+    /// Reflectance of its top.
+    pub rho: f64,
+}
+
+impl Occluder {
+    /// The ray's entry distance, if it meets the box.
+    fn hit(&self, o: DVec3, d: DVec3) -> Option<f64> {
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            let (oa, da, lo, hi) = (o[a], d[a], self.lo_m[a], self.hi_m[a]);
+            if da.abs() < 1e-12 {
+                if oa < lo || oa > hi {
+                    return None;
+                }
+                continue;
+            }
+            let (mut ta, mut tb) = ((lo - oa) / da, (hi - oa) / da);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            t0 = t0.max(ta);
+            t1 = t1.min(tb);
+        }
+        (t0 <= t1 && t0 > 0.0).then_some(t0)
+    }
+}
+
+/// Everything the world has beyond its luminaires' levels.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct WorldExtras {
+    /// Exitance of the window groups, lm/m² (0: night).
+    pub window_exitance_lm_m2: f64,
+    /// Ageing factor per luminaire (empty: all 1).
+    pub ageing: Vec<f64>,
+    /// Boxes in the room.
+    pub occluders: Vec<Occluder>,
+    /// Mesh groups taken out of the room (a moved desk's old place shows the floor).
+    pub removed_groups: Vec<String>,
+    /// Both cameras fail.
+    pub cameras_fail: bool,
+}
+
 /// The simulated room: scene, model, current luminaire levels. Cheap to clone (shared).
 #[derive(Clone)]
 pub struct SimWorld {
     shared: Arc<Shared>,
     levels: Arc<Mutex<Vec<f64>>>,
+    extras: Arc<Mutex<WorldExtras>>,
+    scenario: Arc<Mutex<Option<(crate::sim::scenario::Scenario, std::time::Instant)>>>,
 }
 
 impl std::fmt::Debug for SimWorld {
@@ -225,9 +292,104 @@ impl SimWorld {
                 hits: OnceLock::new(),
                 direct_lx: OnceLock::new(),
                 indirect_lx: OnceLock::new(),
+                daylight: OnceLock::new(),
             }),
             levels: Arc::new(Mutex::new(vec![0.0; n])),
+            extras: Arc::new(Mutex::new(WorldExtras::default())),
+            scenario: Arc::new(Mutex::new(None)),
         })
+    }
+
+    /// The extras as they are now (a running scenario's, evaluated at this instant).
+    pub fn extras(&self) -> WorldExtras {
+        let sc = self.scenario.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((scenario, t0)) = sc.as_ref() {
+            return scenario.extras_at(t0.elapsed().as_secs_f64(), self.scene());
+        }
+        self.extras
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// Sets the extras (a scenario, if running, overrides them).
+    pub fn set_extras(&self, extras: WorldExtras) {
+        *self.extras.lock().unwrap_or_else(|p| p.into_inner()) = extras;
+    }
+
+    /// Starts a scenario now: from here on every frame shows the scenario's state at the time
+    /// since this call. Before, the world shows the scenario's state at time 0.
+    pub fn start_scenario(&self, scenario: crate::sim::scenario::Scenario) {
+        self.set_extras(scenario.extras_at(0.0, self.scene()));
+        *self.scenario.lock().unwrap_or_else(|p| p.into_inner()) =
+            Some((scenario, std::time::Instant::now()));
+    }
+
+    /// Seconds since the scenario started (`None`: none running).
+    pub fn scenario_time_s(&self) -> Option<f64> {
+        self.scenario
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+            .map(|(_, t0)| t0.elapsed().as_secs_f64())
+    }
+
+    /// Daylight for a window exitance of 1 lm/m²: (incident illuminance per patch, lx; exitance
+    /// per patch, lm/m²). Zeros without `window*` groups.
+    pub fn daylight_basis(&self) -> &(Vec<f64>, Vec<f64>) {
+        let s = &self.shared;
+        s.daylight.get_or_init(|| {
+            let m = &s.model;
+            let n = m.patches.len();
+            let mesh = &s.scene.mesh;
+            let emits: Vec<bool> = (0..n)
+                .map(|i| {
+                    let t = m.patches.source_triangle[i] as usize;
+                    mesh.triangles
+                        .get(t)
+                        .and_then(|t| mesh.groups.get(t.group as usize))
+                        .is_some_and(|g| g.starts_with("window"))
+                })
+                .collect();
+            // B = S + ρ F B by Jacobi-style sweeps (Gauss-Seidel in place)
+            let mut b: Vec<f64> = emits.iter().map(|&e| f64::from(u8::from(e))).collect();
+            for _ in 0..500 {
+                let mut change = 0.0f64;
+                for i in 0..n {
+                    let inc: f64 = m.ff.f.row(i).map(|(j, f)| f * b[j as usize]).sum();
+                    let new = f64::from(u8::from(emits[i])) + m.patches.rho[i] * inc;
+                    change = change.max((new - b[i]).abs());
+                    b[i] = new;
+                }
+                if change < 1e-10 {
+                    break;
+                }
+            }
+            let incident = (0..n)
+                .map(|i| m.ff.f.row(i).map(|(j, f)| f * b[j as usize]).sum())
+                .collect();
+            (incident, b)
+        })
+    }
+
+    /// The world's own reading at each sensor for these levels and extras, lx: the engine's
+    /// response (times the ageing) plus the window's daylight through the sensors' gather rows.
+    /// Boxes and moved desks are not in it (a covered desk's value is held by the node anyway).
+    pub fn sensor_truth_lx(&self, levels: &[f64], extras: &WorldExtras) -> Vec<f64> {
+        let m = &self.shared.model;
+        let (_, b) = self.daylight_basis();
+        (0..m.sensors())
+            .map(|s| {
+                let art: f64 = m.response_lx[s]
+                    .iter()
+                    .zip(levels)
+                    .enumerate()
+                    .map(|(l, (r, x))| r * x * extras.ageing.get(l).copied().unwrap_or(1.0))
+                    .sum();
+                let day: f64 = m.gather.row(s).map(|(j, w)| w * b[j as usize]).sum();
+                art + extras.window_exitance_lm_m2 * day
+            })
+            .collect()
     }
 
     /// The scene.
@@ -364,10 +526,67 @@ impl SimWorld {
 
     /// Luminance at each pixel for the given levels, cd/m² (row-major, noise-free).
     pub fn luminance_cd_m2(&self, levels: &[f64]) -> Vec<f64> {
+        self.luminance_with(levels, &WorldExtras::default())
+    }
+
+    /// The patch's group name.
+    fn group_of(&self, patch: usize) -> Option<&str> {
+        let s = &self.shared;
+        let t = s.model.patches.source_triangle[patch] as usize;
+        let mesh = &s.scene.mesh;
+        mesh.triangles
+            .get(t)
+            .and_then(|t| mesh.groups.get(t.group as usize))
+            .map(String::as_str)
+    }
+
+    /// What pixel `i` sees with the extras: (depth along the axis, m, or NaN; luminance factor
+    /// source). `None` keeps the plain hit.
+    fn overlay(&self, i: usize, extras: &WorldExtras) -> Option<(f64, f64)> {
+        let cam = &self.shared.camera;
+        let (u, v) = (i as u32 % cam.width, i as u32 / cam.width);
+        let d = cam.ray_world(f64::from(u), f64::from(v))?;
+        let axis = cam.world_from_camera.z_axis;
+        let hit = self.hits()[i];
+        let mut t_hit = hit.map_or(f64::INFINITY, |h| h.t_m);
+        let mut rho = None;
+        if let Some(h) = hit
+            && self
+                .group_of(h.patch as usize)
+                .is_some_and(|g| extras.removed_groups.iter().any(|r| r == g))
+            && d.z < -1e-9
+        {
+            // the floor plane below the removed object
+            t_hit = -cam.position_m.z / d.z;
+            rho = Some(self.floor_rho());
+        }
+        for o in &extras.occluders {
+            if let Some(t) = o.hit(cam.position_m, d)
+                && t < t_hit
+            {
+                t_hit = t;
+                rho = Some(o.rho);
+            }
+        }
+        rho.map(|r| (t_hit * d.dot(axis), r))
+    }
+
+    fn floor_rho(&self) -> f64 {
+        let m = &self.shared.model;
+        (0..m.patches.len())
+            .find(|&p| self.group_of(p) == Some("floor"))
+            .map_or(0.25, |p| m.patches.rho[p])
+    }
+
+    /// Luminance at each pixel for these levels and extras, cd/m² (noise-free).
+    pub fn luminance_with(&self, levels: &[f64], extras: &WorldExtras) -> Vec<f64> {
         let hits = self.hits();
         let dir = self.direct_lx();
         let ind = self.indirect_lx();
         let rho = &self.shared.model.patches.rho;
+        let w = extras.window_exitance_lm_m2;
+        let day = (w > 0.0).then(|| self.daylight_basis());
+        let any_overlay = !extras.occluders.is_empty() || !extras.removed_groups.is_empty();
         hits.iter()
             .enumerate()
             .map(|(i, h)| match h {
@@ -376,10 +595,24 @@ impl SimWorld {
                     let mut e = 0.0;
                     for (l, x) in levels.iter().enumerate() {
                         if *x > 0.0 {
-                            e += x * (dir[l][i] + ind[l][p]);
+                            let a = extras.ageing.get(l).copied().unwrap_or(1.0);
+                            e += x * a * (dir[l][i] + ind[l][p]);
                         }
                     }
-                    rho[p] * e / std::f64::consts::PI
+                    let mut own = 0.0;
+                    if let Some((incident, b)) = day {
+                        e += w * incident[p];
+                        if self.group_of(p).is_some_and(|g| g.starts_with("window")) {
+                            // the glazing: its own exitance (emission and reflection)
+                            own = w * (b[p] - rho[p] * incident[p]);
+                        }
+                    }
+                    let r = if any_overlay {
+                        self.overlay(i, extras).map_or(rho[p], |(_, r)| r)
+                    } else {
+                        rho[p]
+                    };
+                    (r * e + own) / std::f64::consts::PI
                 }
                 _ => 0.0,
             })
@@ -579,7 +812,21 @@ impl DepthCamera for SimDepthCamera {
 
     fn capture_depth(&mut self) -> Result<DepthFrame, CameraError> {
         let o = self.options.clone();
+        let extras = self.world.extras();
+        if extras.cameras_fail {
+            return Err(CameraError::Disconnected {
+                device: "simulated ToF camera".into(),
+                reason: "the scenario failed the camera".into(),
+            });
+        }
         let mut z = self.exact_depth_m();
+        if !extras.occluders.is_empty() || !extras.removed_groups.is_empty() {
+            for (i, zi) in z.iter_mut().enumerate() {
+                if let Some((zo, _)) = self.world.overlay(i, &extras) {
+                    *zi = zo;
+                }
+            }
+        }
         let mut rng = SplitMix64::new(o.seed ^ hash64(self.frame_index.wrapping_add(0x5EED)));
         self.frame_index += 1;
         if o.flying_pixel_chance > 0.0 {
@@ -675,7 +922,14 @@ impl LuminanceCamera for SimLuminanceCamera {
     fn capture_luminance(&mut self) -> Result<LuminanceFrame, CameraError> {
         let o = &self.options;
         let levels = self.world.levels();
-        let l = self.world.luminance_cd_m2(&levels);
+        let extras = self.world.extras();
+        if extras.cameras_fail {
+            return Err(CameraError::Disconnected {
+                device: "simulated colour camera".into(),
+                reason: "the scenario failed the camera".into(),
+            });
+        }
+        let l = self.world.luminance_with(&levels, &extras);
         let mut rng = SplitMix64::new(o.seed ^ hash64(self.frame_index.wrapping_add(0x1A11)));
         self.frame_index += 1;
         let data = l

@@ -7,9 +7,12 @@
 //! | header, 40 bytes (header.rs) | payload: postcard, format version 1 |
 //! ```
 //!
-//! An optional geometry section may follow the payload, inside its length and CRC (the
-//! patches' corners, the camera, desks, luminaires: what a report needs, `geometry`); builds
-//! that do not know it ignore it, and images without it parse as before.
+//! Optional sections may follow the payload, inside its length and CRC, each framed as
+//! `magic (4 bytes) | version (u16 LE) | length (u32 LE) | bytes`: the geometry section
+//! ([`SECTION_MAGIC`], the patches' corners, the camera, desks, luminaires: what a report needs,
+//! `geometry`) and the live-light section ([`live::LIVE_MAGIC`], [`live`]). A build skips a
+//! section version it does not read; bytes that are not a known section are an error, never a
+//! misread; images without sections parse as before.
 //!
 //! The payload ([`PayloadV1`]) holds the sparse form factors, patch reflectances, direct
 //! illuminance per luminaire on patches and at sensors, the sensors' first bounce and gather
@@ -26,6 +29,7 @@
 
 mod crc32;
 mod header;
+pub mod live;
 pub mod nor;
 pub mod slots;
 pub mod values;
@@ -43,6 +47,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crc32::{Crc32, crc32};
 pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
+pub use live::{LIVE_MAGIC, LiveV1};
 pub use values::{Bytes, Precision, Sparse, Values};
 
 use crate::solver::RadiositySystem;
@@ -201,21 +206,54 @@ pub const SECTION_VERSION: u16 = 1;
 /// Frame length before the section's bytes: magic, version (u16 LE), length (u32 LE).
 pub const SECTION_FRAME_LEN: usize = 10;
 
-/// The section bytes of what follows the version-1 payload, checked: `Ok(None)` for no section
-/// (or a section version this build does not read), an error for bytes that are not a section.
-fn unframe(rest: &[u8]) -> Result<Option<&[u8]>, ImageError> {
-    if rest.is_empty() {
-        return Ok(None);
+/// The sections found after the version-1 payload (their bodies, unframed).
+#[derive(Debug, Clone, Copy, Default)]
+struct Found<'a> {
+    geometry: Option<&'a [u8]>,
+    live: Option<&'a [u8]>,
+}
+
+/// The sections of what follows the version-1 payload, checked: none for no bytes; each frame
+/// must be whole and of a known kind (an error for bytes that are not a section, or a frame
+/// longer than what is left); a version this build does not read is skipped; a section twice is
+/// an error.
+fn unframe(mut rest: &[u8]) -> Result<Found<'_>, ImageError> {
+    let mut found = Found::default();
+    while !rest.is_empty() {
+        if rest.len() < SECTION_FRAME_LEN {
+            return Err(ImageError::Inconsistent("bytes after the payload"));
+        }
+        let magic = [rest[0], rest[1], rest[2], rest[3]];
+        let version = u16::from_le_bytes([rest[4], rest[5]]);
+        let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
+        if rest.len() - SECTION_FRAME_LEN < len {
+            return Err(ImageError::Inconsistent("section length"));
+        }
+        let body = &rest[SECTION_FRAME_LEN..SECTION_FRAME_LEN + len];
+        rest = &rest[SECTION_FRAME_LEN + len..];
+        let slot = match magic {
+            SECTION_MAGIC if version == SECTION_VERSION => &mut found.geometry,
+            live::LIVE_MAGIC if version == live::LIVE_VERSION => &mut found.live,
+            // a known section at a version this build does not read
+            SECTION_MAGIC | live::LIVE_MAGIC => continue,
+            _ => return Err(ImageError::Inconsistent("bytes after the payload")),
+        };
+        check(slot.is_none(), "a section twice")?;
+        *slot = Some(body);
     }
-    if rest.len() < SECTION_FRAME_LEN || rest[0..4] != SECTION_MAGIC {
-        return Err(ImageError::Inconsistent("bytes after the payload"));
-    }
-    let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
-    if rest.len() - SECTION_FRAME_LEN != len {
-        return Err(ImageError::Inconsistent("geometry section length"));
-    }
-    let version = u16::from_le_bytes([rest[4], rest[5]]);
-    Ok((version == SECTION_VERSION).then_some(&rest[SECTION_FRAME_LEN..]))
+    Ok(found)
+}
+
+/// Frames a section body: `magic | version | length | body`.
+#[cfg(feature = "std")]
+pub fn frame_section(magic: [u8; 4], version: u16, body: &[u8]) -> Option<std::vec::Vec<u8>> {
+    let len = u32::try_from(body.len()).ok()?;
+    let mut out = std::vec::Vec::with_capacity(SECTION_FRAME_LEN + body.len());
+    out.extend_from_slice(&magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(body);
+    Some(out)
 }
 
 /// A parsed, fully checked image borrowing its bytes.
@@ -227,6 +265,8 @@ pub struct Image<'a> {
     pub payload: PayloadV1<'a>,
     /// The geometry section's bytes, when the image has one this build reads.
     geometry: Option<&'a [u8]>,
+    /// The live-light section, when the image has one ([`live`]).
+    pub live: Option<LiveV1<'a>>,
 }
 
 fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
@@ -248,7 +288,7 @@ fn mul(a: usize, b: usize, what: &'static str) -> Result<usize, ImageError> {
     a.checked_mul(b).ok_or(ImageError::Inconsistent(what))
 }
 
-fn check_values(
+pub(crate) fn check_values(
     v: &Values<'_>,
     rows: usize,
     len: usize,
@@ -329,13 +369,22 @@ impl<'a> Image<'a> {
         }
         let (payload, rest): (PayloadV1<'a>, &'a [u8]) =
             postcard::take_from_bytes(payload_bytes).map_err(|_| ImageError::Decode)?;
-        let geometry = unframe(rest)?;
-        let image = Self {
+        let found = unframe(rest)?;
+        let mut image = Self {
             header,
             payload,
-            geometry,
+            geometry: found.geometry,
+            live: None,
         };
         image.validate()?;
+        if let Some(body) = found.live {
+            image.live = Some(LiveV1::parse(
+                body,
+                image.patches(),
+                image.luminaires(),
+                image.sensors(),
+            )?);
+        }
         Ok(image)
     }
 

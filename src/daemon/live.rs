@@ -1,0 +1,253 @@
+//! The node's live-light task (`crate::live`): every period (board `[live] period_s`, default
+//! 10 s) it takes a luminance frame (and a depth frame) from the board's cameras on a blocking
+//! thread, runs the estimator at the node's current dimming state, and publishes the result: the
+//! live registers (per desk total, artificial and daylight lux, source, flags, frame age; per
+//! luminaire the ageing factor), the daylight for the lighting control (`Node::set_daylight`,
+//! only while it is fresh) and the ageing factors (`Node::set_ageing`, the control plant). Frames
+//! are used and dropped: no image leaves the node.
+//!
+//! A camera that fails or gives rejected frames leaves the last good values in place, flagged
+//! held, then stale ([`LiveSettings::stale_after_s`]); the node keeps serving the model.
+
+use std::time::{Duration, Instant};
+
+use crate::camera::{DepthCamera, LightControl, LuminanceCamera};
+use crate::live::{DeskLive, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict};
+use crate::modbus::node::{Node, SharedNode, lock};
+use crate::modbus::regmap::{LiveDesk, LiveSource, live_status};
+use crate::store::Image;
+
+/// One frame from the board's cameras, registered to the ToF grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CapturedFrame {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Linear luminance (0 no data, 65535 saturated).
+    pub luminance: Vec<u16>,
+    /// cd/m² per unit.
+    pub cd_m2_per_unit: f64,
+    /// Depth along the optical axis, mm, when the board has a depth frame.
+    pub depth_mm: Option<Vec<u16>>,
+}
+
+/// Takes one frame (blocking), given the luminaires' levels now (a simulated or recorded room
+/// shows them; real cameras ignore them).
+pub type FrameSource = Box<dyn FnMut(&[f64]) -> Result<CapturedFrame, String> + Send>;
+
+/// The cameras a frame source opens (at its first frame, on the task's thread): depth, colour
+/// (registered to the depth grid), and for a simulated or recorded room its light control.
+pub type OpenedCameras = (
+    Box<dyn DepthCamera>,
+    Box<dyn LuminanceCamera>,
+    Option<Box<dyn LightControl + Send>>,
+);
+
+/// A frame source over cameras opened at the first frame (and opened again after an error): the
+/// luminance frame, then the depth frame (a depth failure leaves the frame without depth: the
+/// estimator then judges covering from the luminance alone).
+pub fn camera_source(
+    mut open: impl FnMut() -> Result<OpenedCameras, String> + Send + 'static,
+) -> FrameSource {
+    let mut cams: Option<OpenedCameras> = None;
+    Box::new(move |levels: &[f64]| {
+        if cams.is_none() {
+            cams = Some(open()?);
+        }
+        let Some((depth, colour, lights)) = cams.as_mut() else {
+            return Err("no camera".into());
+        };
+        if let Some(l) = lights.as_mut() {
+            l.set_levels(levels).map_err(|e| e.to_string())?;
+        }
+        let lum = match colour.capture_luminance() {
+            Ok(f) => f,
+            Err(e) => {
+                cams = None;
+                return Err(format!("colour camera: {e}"));
+            }
+        };
+        let depth_mm = match depth.capture_depth() {
+            Ok(d) if d.width == lum.width && d.height == lum.height => Some(d.depth_mm),
+            Ok(_) => None,
+            Err(e) => {
+                tracing::debug!("live: ToF camera: {e}");
+                None
+            }
+        };
+        Ok(CapturedFrame {
+            width: lum.width,
+            height: lum.height,
+            luminance: lum.data,
+            cd_m2_per_unit: lum.cd_m2_per_unit,
+            depth_mm,
+        })
+    })
+}
+
+/// The live task as the board configures it.
+pub struct LiveTask {
+    /// Frame period.
+    pub period: Duration,
+    /// The estimator's settings.
+    pub settings: LiveSettings,
+    /// The cameras.
+    pub capture: FrameSource,
+}
+
+/// Live light over a booted image: the estimator, or why not (logged by the caller).
+pub fn estimator(image: &Image<'_>, settings: &LiveSettings) -> Result<Live, String> {
+    let model = LiveModel::new(image).map_err(|e| e.to_string())?;
+    tracing::info!(
+        "live: {} samples over {} seen patches, {} emitter groups, {} of {} desks in view, {:.1} MB",
+        model.samples(),
+        model.seen_patches(),
+        model.emitters(),
+        (0..model.sensors()).filter(|&s| model.in_view(s)).count(),
+        model.sensors(),
+        model.memory_bytes() as f64 / 1e6
+    );
+    Live::new(model, settings.clone()).map_err(|e| e.to_string())
+}
+
+fn register(d: &DeskLive) -> LiveDesk {
+    LiveDesk {
+        total_lx: d.total_lx,
+        artificial_lx: d.artificial_lx,
+        daylight_lx: d.daylight_lx,
+        uncertainty_lx: d.uncertainty_lx,
+        source: match d.source {
+            Source::Model => LiveSource::Model,
+            Source::Measured => LiveSource::Measured,
+            Source::Inferred => LiveSource::Inferred,
+        },
+        flags: d.flags,
+        frame_age_s: d.frame_age_s,
+    }
+}
+
+/// What the task remembers between frames.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StepState {
+    /// When the last frame was used (task clock, s).
+    pub last_used_s: Option<f64>,
+}
+
+/// One period: the frame (or the camera's error) into the estimator at the node's dimming state,
+/// the result into the node. `now_s` and the frame's time are on the task's clock. Returns the
+/// live status bits published.
+pub fn step(
+    live: &mut Live,
+    state: &mut StepState,
+    frame: Result<CapturedFrame, String>,
+    taken_s: f64,
+    node: &mut Node,
+    now_s: f64,
+) -> u16 {
+    let levels: Vec<f64> = node.levels().to_vec();
+    let mut status = live_status::ON;
+    let known = node.dimming_known();
+    let result = match (&frame, known) {
+        (Ok(f), true) => live.update(
+            &LiveFrame {
+                width: f.width,
+                height: f.height,
+                luminance: &f.luminance,
+                cd_m2_per_unit: f.cd_m2_per_unit,
+                depth_mm: f.depth_mm.as_deref(),
+                taken_s,
+            },
+            &levels,
+            now_s,
+        ),
+        _ => live.no_frame(&levels, now_s),
+    };
+    if let Err(e) = result {
+        tracing::warn!("live: {e}");
+    }
+    match &frame {
+        Err(e) => {
+            tracing::warn!("live: no frame: {e}");
+            status |= live_status::FRAME_REJECTED;
+        }
+        Ok(_) if !known => {
+            tracing::debug!("live: dimming state not known yet; frame skipped");
+        }
+        Ok(_) => match live.report() {
+            Some(r) if r.verdict == Verdict::Ok => {
+                state.last_used_s = Some(taken_s);
+                if r.night {
+                    status |= live_status::NIGHT;
+                }
+            }
+            Some(r) => {
+                tracing::warn!("live: frame rejected ({})", r.verdict.describe());
+                status |= live_status::FRAME_REJECTED;
+            }
+            None => {}
+        },
+    }
+    if live.report().is_some_and(|r| r.recommission) {
+        status |= live_status::RECOMMISSION;
+    }
+    let age = state.last_used_s.map_or(f64::NAN, |t| (now_s - t).max(0.0));
+    if age.is_nan() || age > live.settings().stale_after_s {
+        status |= live_status::CAMERA_STALE;
+    }
+    let desks: Vec<LiveDesk> = live.desks().iter().map(register).collect();
+    node.set_live(&desks, live.ageing(), status, age);
+    let max_age = node.control_options().daylight_max_age_s;
+    if let Some(d) = live.daylight_for_control(max_age) {
+        node.set_daylight(&d);
+    }
+    status
+}
+
+/// The task: a frame every period until aborted.
+pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
+    let health = lock(&node).health().clone();
+    let beat = health.register("live light", task.period * 3 + Duration::from_secs(60));
+    let mut tick = tokio::time::interval(task.period);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let t0 = Instant::now();
+    let mut state = StepState::default();
+    loop {
+        tick.tick().await;
+        let mut capture = task.capture;
+        let levels = lock(&node).levels().to_vec();
+        let (frame, capture) = tokio::task::spawn_blocking(move || {
+            let f = capture(&levels);
+            (f, capture)
+        })
+        .await
+        .unwrap_or_else(|e| {
+            // the camera thread panicked: no camera from here on
+            let dead: FrameSource = Box::new(|_: &[f64]| Err("the camera thread died".into()));
+            (Err(format!("the camera thread failed: {e}")), dead)
+        });
+        task.capture = capture;
+        let taken_s = t0.elapsed().as_secs_f64();
+        // the estimator runs on a blocking thread too (tens of ms)
+        let node2 = node.clone();
+        let done = tokio::task::spawn_blocking(move || {
+            let mut n = lock(&node2);
+            let now_s = t0.elapsed().as_secs_f64();
+            step(&mut live, &mut state, frame, taken_s, &mut n, now_s);
+            (live, state)
+        })
+        .await;
+        match done {
+            Ok((l, st)) => {
+                live = l;
+                state = st;
+                beat.beat();
+            }
+            Err(e) => {
+                // a bug: the task ends, its missing beats stop the watchdog's petting
+                tracing::error!("live: the estimator failed: {e}; live light stops");
+                return;
+            }
+        }
+    }
+}

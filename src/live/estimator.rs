@@ -1,0 +1,1367 @@
+//! The run-time estimator: a registered luminance frame (and, when there is one, a depth frame)
+//! in, per-desk total, artificial and daylight lux out, with their source, flags and
+//! uncertainty. The method is in the module docs of [`crate::live`]; this file is its code.
+
+use std::sync::OnceLock;
+
+use crate::store::Image;
+
+use super::nnls::nnls_gram;
+use super::{LiveError, flags};
+
+/// Where a desk's value comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u16)]
+pub enum Source {
+    /// No usable frame yet: the model's artificial light only (daylight unknown, 0).
+    #[default]
+    Model = 0,
+    /// Measured by the camera on the desk top around the sensor.
+    Measured = 1,
+    /// Inferred: the artificial light of the model plus daylight propagated from what the
+    /// camera sees (the desk is out of view, or covered now with no earlier measurement).
+    Inferred = 2,
+}
+
+impl Source {
+    /// The word in CSV and JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Model => "model",
+            Source::Measured => "measured",
+            Source::Inferred => "inferred",
+        }
+    }
+}
+
+/// One desk's live value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeskLive {
+    /// The sensor id.
+    pub id: u32,
+    /// Total illuminance, lx.
+    pub total_lx: f64,
+    /// The luminaires' part at the current dimming state (and ageing), lx.
+    pub artificial_lx: f64,
+    /// Extraneous light (daylight, unmodelled sources), lx.
+    pub daylight_lx: f64,
+    /// One standard uncertainty of the total, lx.
+    pub uncertainty_lx: f64,
+    /// Measured, inferred or model only.
+    pub source: Source,
+    /// [`flags`] bits.
+    pub flags: u16,
+    /// Age of the frame the daylight part comes from, s.
+    pub frame_age_s: f64,
+}
+
+/// What the estimator thought of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Used.
+    Ok,
+    /// Another size than the commissioned camera's.
+    WrongSize,
+    /// Older than [`LiveSettings::stale_after_s`].
+    Stale,
+    /// Far darker than the luminaires alone would make it (a covered lens, a dead sensor).
+    Dark,
+    /// Too many samples saturated (overexposed).
+    Saturated,
+    /// Too few usable samples (a depth frame that disagrees everywhere, a frame of zeros).
+    Unusable,
+}
+
+impl Verdict {
+    /// For logs.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Verdict::Ok => "ok",
+            Verdict::WrongSize => "wrong size",
+            Verdict::Stale => "stale",
+            Verdict::Dark => "dark",
+            Verdict::Saturated => "saturated",
+            Verdict::Unusable => "unusable",
+        }
+    }
+}
+
+/// The knobs of live light (board file `[live]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveSettings {
+    /// A depth sample disagrees with the commissioned depth by more than this, m ...
+    pub depth_tolerance_m: f64,
+    /// ... and more than this fraction of it.
+    pub depth_tolerance_rel: f64,
+    /// A desk is covered when this fraction of its window disagrees in depth.
+    pub occluded_fraction: f64,
+    /// A desk is unmeasurable (saturated) when this fraction of its window is saturated.
+    pub window_saturated_fraction: f64,
+    /// A frame is saturated when this fraction of all samples is.
+    pub frame_saturated_fraction: f64,
+    /// A frame older than this is stale, s.
+    pub stale_after_s: f64,
+    /// A depth change that lasts this many frames is a change of the room.
+    pub geometry_frames: u32,
+    /// Changed samples (fraction of those with depth) beyond which recommissioning is advised.
+    pub geometry_area_fraction: f64,
+    /// A frame is night (no daylight) when the fitted extraneous light is below this fraction
+    /// of the measured light.
+    pub night_fraction: f64,
+    /// Night frames needed before the ageing factors are updated.
+    pub ageing_min_frames: u32,
+    /// Night frames after which the ageing factors are updated even if the night goes on.
+    pub ageing_max_frames: u32,
+    /// A desk is flagged for ageing when a luminaire giving it this share of its light...
+    pub ageing_flag_share: f64,
+    /// ... is below this ageing factor.
+    pub maintenance_factor: f64,
+    /// Relative standard uncertainty of inferred daylight (measured on the Radiance bench).
+    pub inferred_rel_uncertainty: f64,
+    /// Relative standard uncertainty of a measured total from reflectance and gain (bench).
+    pub measured_rel_uncertainty: f64,
+}
+
+impl Default for LiveSettings {
+    fn default() -> Self {
+        Self {
+            depth_tolerance_m: 0.05,
+            depth_tolerance_rel: 0.03,
+            occluded_fraction: 0.3,
+            window_saturated_fraction: 0.3,
+            frame_saturated_fraction: 0.2,
+            stale_after_s: 30.0,
+            geometry_frames: 30,
+            geometry_area_fraction: 0.05,
+            night_fraction: 0.02,
+            ageing_min_frames: 20,
+            ageing_max_frames: 2000,
+            ageing_flag_share: 0.1,
+            maintenance_factor: 0.9,
+            inferred_rel_uncertainty: 0.25,
+            measured_rel_uncertainty: 0.02,
+        }
+    }
+}
+
+impl LiveSettings {
+    /// Checks every knob before any work.
+    pub fn validate(&self) -> Result<(), LiveError> {
+        let frac = |name: &str, x: f64| {
+            if x.is_finite() && (0.0..=1.0).contains(&x) {
+                Ok(())
+            } else {
+                Err(LiveError::Input(format!(
+                    "live {name} {x} is outside [0, 1]"
+                )))
+            }
+        };
+        frac("occluded_fraction", self.occluded_fraction)?;
+        frac("window_saturated_fraction", self.window_saturated_fraction)?;
+        frac("frame_saturated_fraction", self.frame_saturated_fraction)?;
+        frac("geometry_area_fraction", self.geometry_area_fraction)?;
+        frac("night_fraction", self.night_fraction)?;
+        frac("ageing_flag_share", self.ageing_flag_share)?;
+        frac("depth_tolerance_rel", self.depth_tolerance_rel)?;
+        frac("inferred_rel_uncertainty", self.inferred_rel_uncertainty)?;
+        frac("measured_rel_uncertainty", self.measured_rel_uncertainty)?;
+        if !(self.maintenance_factor.is_finite() && (0.0..=1.5).contains(&self.maintenance_factor))
+        {
+            return Err(LiveError::Input(format!(
+                "live maintenance_factor {} is outside [0, 1.5]",
+                self.maintenance_factor
+            )));
+        }
+        if !(self.depth_tolerance_m.is_finite() && (0.001..=2.0).contains(&self.depth_tolerance_m))
+        {
+            return Err(LiveError::Input(format!(
+                "live depth_tolerance_m {} is outside 0.001..=2 m",
+                self.depth_tolerance_m
+            )));
+        }
+        if !(self.stale_after_s.is_finite() && self.stale_after_s > 0.0 && self.stale_after_s < 1e6)
+        {
+            return Err(LiveError::Input(format!(
+                "live stale_after_s {} must be a positive number of seconds",
+                self.stale_after_s
+            )));
+        }
+        if self.geometry_frames == 0 || self.geometry_frames > 100_000 {
+            return Err(LiveError::Input(format!(
+                "live geometry_frames {} must be 1..=100000",
+                self.geometry_frames
+            )));
+        }
+        if self.ageing_min_frames == 0 || self.ageing_max_frames < self.ageing_min_frames {
+            return Err(LiveError::Input(format!(
+                "live ageing frames: min {} must be ≥ 1 and ≤ max {}",
+                self.ageing_min_frames, self.ageing_max_frames
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A frame on the commissioned camera's grid.
+#[derive(Debug, Clone, Copy)]
+pub struct LiveFrame<'a> {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Linear luminance, row-major; 0 = no data, 65535 = saturated.
+    pub luminance: &'a [u16],
+    /// cd/m² per unit of `luminance`.
+    pub cd_m2_per_unit: f64,
+    /// Depth along the optical axis, mm (0 = no return), same grid; `None`: no depth frame.
+    pub depth_mm: Option<&'a [u16]>,
+    /// When it was taken, s (the caller's monotonic clock; the same clock as `now_s`).
+    pub taken_s: f64,
+}
+
+/// A sparse matrix decoded once from the image (f32 values: the stored precision is at most
+/// that of u16 fractions for the form factors).
+#[derive(Debug, Clone, Default)]
+struct Csr32 {
+    ptr: Vec<u32>,
+    col: Vec<u32>,
+    val: Vec<f32>,
+}
+
+impl Csr32 {
+    fn from_sparse(s: &crate::store::Sparse<'_>) -> Self {
+        let rows = s.rows as usize;
+        let mut out = Csr32 {
+            ptr: Vec::with_capacity(rows + 1),
+            col: Vec::with_capacity(s.nnz()),
+            val: Vec::with_capacity(s.nnz()),
+        };
+        out.ptr.push(0);
+        for i in 0..rows {
+            for k in s.row_range(i) {
+                out.col.push(s.col_at(k) as u32);
+                out.val.push(s.values.get(k, i) as f32);
+            }
+            out.ptr.push(out.col.len() as u32);
+        }
+        out
+    }
+
+    fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let r = self.ptr[i] as usize..self.ptr[i + 1] as usize;
+        self.col[r.clone()]
+            .iter()
+            .zip(&self.val[r])
+            .map(|(&c, &v)| (c as usize, f64::from(v)))
+    }
+
+    fn bytes(&self) -> usize {
+        4 * self.ptr.len() + 4 * self.col.len() + 4 * self.val.len()
+    }
+}
+
+/// Gauss-Seidel for `k` right-hand sides at once over `rows`: `b_i = s_i + ρ_i Σ_j F_ij b_j`
+/// (b laid out `[patch][k]`; rows not listed keep their values). Stops when the largest change
+/// is below `tol` of the largest value, or after `max_sweeps`.
+fn multi_gs(
+    ff: &Csr32,
+    rho: &[f64],
+    rows: &[u32],
+    src: &[f64],
+    b: &mut [f64],
+    k: usize,
+    max_sweeps: usize,
+) -> usize {
+    let mut acc = vec![0.0; k];
+    for sweep in 1..=max_sweeps {
+        let mut maxd = 0.0f64;
+        let mut maxb = 0.0f64;
+        for &i in rows {
+            let i = i as usize;
+            acc.iter_mut().for_each(|a| *a = 0.0);
+            for (c, v) in ff.row(i) {
+                let bc = &b[c * k..c * k + k];
+                for (a, x) in acc.iter_mut().zip(bc) {
+                    *a += v * x;
+                }
+            }
+            for q in 0..k {
+                let new = src[i * k + q] + rho[i] * acc[q];
+                maxd = maxd.max((new - b[i * k + q]).abs());
+                maxb = maxb.max(new.abs());
+                b[i * k + q] = new;
+            }
+        }
+        if maxd <= 1e-7 * maxb || maxb == 0.0 {
+            return sweep;
+        }
+    }
+    max_sweeps
+}
+
+/// A desk's window: samples and their weights.
+#[derive(Debug, Clone, Default)]
+struct Window {
+    sample: Vec<u32>,
+    weight: Vec<f64>,
+}
+
+/// Everything precomputed from an image (once, at boot).
+#[derive(Debug)]
+pub struct LiveModel {
+    ids: Vec<u32>,
+    luminaires: usize,
+    width: u32,
+    height: u32,
+    gain: f64,
+    // samples, ordered by patch
+    px: Vec<u32>,
+    pi_over_rho: Vec<f64>,
+    depth_ref: Vec<u16>,
+    art: Vec<f32>,
+    // patches
+    rho: Vec<f64>,
+    seen: Vec<u32>,
+    seen_range: Vec<(u32, u32)>,
+    unseen: Vec<u32>,
+    ff: Csr32,
+    gather: Csr32,
+    // sensors
+    response: Vec<f64>,
+    calibrated: Vec<f64>,
+    windows: Vec<Window>,
+    // emitters: boundary basis (seen exitance fixed), at seen patches and sensors
+    k: usize,
+    emitter_src: Vec<f64>,
+    v_seen: Vec<f64>,
+    g_sensor: Vec<f64>,
+    // full-model basis at seen patches (the night test), computed when first needed
+    u_seen: OnceLock<Vec<f64>>,
+}
+
+impl LiveModel {
+    /// Precomputes the estimator's data from an image with a live section.
+    pub fn new(image: &Image<'_>) -> Result<LiveModel, LiveError> {
+        let live = image.live.as_ref().ok_or(LiveError::NoSection)?;
+        let (n_p, l, s) = (image.patches(), image.luminaires(), image.sensors());
+        let rho: Vec<f64> = (0..n_p).map(|i| image.payload.rho.get(i, 0)).collect();
+        let n = live.samples();
+        let mut order: Vec<usize> = (0..n).filter(|&i| rho[live.patch(i)] > 0.0).collect();
+        order.sort_by_key(|&i| (live.patch(i), live.pixel(i)));
+        let mut new_index = vec![u32::MAX; n];
+        for (k, &i) in order.iter().enumerate() {
+            new_index[i] = k as u32;
+        }
+        let px: Vec<u32> = order.iter().map(|&i| live.pixel(i) as u32).collect();
+        let pi_over_rho = order
+            .iter()
+            .map(|&i| std::f64::consts::PI / rho[live.patch(i)])
+            .collect();
+        let depth_ref = order.iter().map(|&i| live.depth_mm(i)).collect();
+        let mut art = Vec::with_capacity(order.len() * l);
+        for &i in &order {
+            for j in 0..l {
+                art.push(live.artificial_lx(j, i) as f32);
+            }
+        }
+        // seen patches: at least two samples
+        let mut seen = Vec::new();
+        let mut seen_range = Vec::new();
+        let mut is_seen = vec![false; n_p];
+        let mut k = 0;
+        while k < order.len() {
+            let p = live.patch(order[k]);
+            let mut e = k;
+            while e < order.len() && live.patch(order[e]) == p {
+                e += 1;
+            }
+            if e - k >= 2 {
+                seen.push(p as u32);
+                seen_range.push((k as u32, e as u32));
+                is_seen[p] = true;
+            }
+            k = e;
+        }
+        let unseen: Vec<u32> = (0..n_p as u32).filter(|&p| !is_seen[p as usize]).collect();
+        let windows = (0..s)
+            .map(|sensor| {
+                let mut w = Window::default();
+                for e in live.window(sensor) {
+                    let (i, dx, dy) = live.window_entry(e);
+                    let k = new_index[i];
+                    if k != u32::MAX {
+                        w.sample.push(k);
+                        // Gaussian weight, σ = 5 cm
+                        w.weight
+                            .push((-(dx * dx + dy * dy) / (2.0 * 0.05 * 0.05)).exp());
+                    }
+                }
+                w
+            })
+            .collect();
+        let response = (0..s)
+            .flat_map(|sn| (0..l).map(move |j| (sn, j)))
+            .map(|(sn, j)| image.response_lx(sn, j))
+            .collect();
+        let calibrated = (0..s)
+            .flat_map(|sn| (0..l).map(move |j| (sn, j)))
+            .map(|(sn, j)| live.sensor_response_lx(sn, j, l))
+            .collect();
+        let ff = Csr32::from_sparse(&image.payload.ff);
+        let gather = Csr32::from_sparse(&image.payload.gather);
+        // emitter groups on unseen patches only
+        let k_em = usize::from(live.n_emitters);
+        let mut emitter_src = vec![0.0; n_p * k_em];
+        for p in 0..n_p {
+            if let Some(g) = live.emitter(p).filter(|_| !is_seen[p]) {
+                emitter_src[p * k_em + g] = 1.0;
+            }
+        }
+        let mut model = LiveModel {
+            ids: (0..s).map(|k| image.sensor_id(k)).collect(),
+            luminaires: l,
+            width: u32::from(live.camera.width),
+            height: u32::from(live.camera.height),
+            gain: live.camera.cd_m2_per_unit,
+            px,
+            pi_over_rho,
+            depth_ref,
+            art,
+            rho,
+            seen,
+            seen_range,
+            unseen,
+            ff,
+            gather,
+            response,
+            calibrated,
+            windows,
+            k: k_em,
+            emitter_src,
+            v_seen: Vec::new(),
+            g_sensor: Vec::new(),
+            u_seen: OnceLock::new(),
+        };
+        model.boundary_basis();
+        Ok(model)
+    }
+
+    /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is
+    /// measured), interreflected over the unseen patches; its incident light at the seen patches
+    /// and the sensors' reading of it.
+    fn boundary_basis(&mut self) {
+        let (n_p, k) = (self.rho.len(), self.k);
+        if k == 0 {
+            return;
+        }
+        let mut b = vec![0.0; n_p * k];
+        multi_gs(
+            &self.ff,
+            &self.rho,
+            &self.unseen,
+            &self.emitter_src,
+            &mut b,
+            k,
+            300,
+        );
+        self.v_seen = incident(&self.ff, &self.seen, &b, k);
+        let s = self.ids.len();
+        let rows: Vec<u32> = (0..s as u32).collect();
+        self.g_sensor = incident(&self.gather, &rows, &b, k);
+    }
+
+    /// The full-model basis at the seen patches: unit emission of each group with every patch
+    /// reflecting (for the night test).
+    fn full_basis(&self) -> &[f64] {
+        self.u_seen.get_or_init(|| {
+            let (n_p, k) = (self.rho.len(), self.k);
+            if k == 0 {
+                return Vec::new();
+            }
+            let mut b = vec![0.0; n_p * k];
+            let all: Vec<u32> = (0..n_p as u32).collect();
+            multi_gs(&self.ff, &self.rho, &all, &self.emitter_src, &mut b, k, 300);
+            incident(&self.ff, &self.seen, &b, k)
+        })
+    }
+
+    /// Samples.
+    pub fn samples(&self) -> usize {
+        self.px.len()
+    }
+
+    /// Seen patches.
+    pub fn seen_patches(&self) -> usize {
+        self.seen.len()
+    }
+
+    /// Candidate emitter groups.
+    pub fn emitters(&self) -> usize {
+        self.k
+    }
+
+    /// Desk sensors.
+    pub fn sensors(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Luminaires.
+    pub fn luminaires(&self) -> usize {
+        self.luminaires
+    }
+
+    /// The commissioned camera's frame size.
+    pub fn frame_size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The camera gain at commissioning, cd/m² per unit (0: not known).
+    pub fn gain(&self) -> f64 {
+        self.gain
+    }
+
+    /// True when desk `s` has a window (the camera sees it).
+    pub fn in_view(&self, s: usize) -> bool {
+        self.windows.get(s).is_some_and(|w| !w.sample.is_empty())
+    }
+
+    /// Bytes held (the precomputed arrays; the per-frame scratch of [`Live`] comes on top).
+    pub fn memory_bytes(&self) -> usize {
+        let f = 8;
+        self.px.len() * (4 + f + 2)
+            + self.art.len() * 4
+            + self.rho.len() * f
+            + (self.seen.len() + self.unseen.len()) * 4
+            + self.seen_range.len() * 8
+            + self.ff.bytes()
+            + self.gather.bytes()
+            + (self.response.len() + self.calibrated.len()) * f
+            + self
+                .windows
+                .iter()
+                .map(|w| w.sample.len() * (4 + f))
+                .sum::<usize>()
+            + (self.emitter_src.len() + self.v_seen.len() + self.g_sensor.len()) * f
+            + self
+                .u_seen
+                .get()
+                .map_or(self.seen.len() * self.k * f, |u| u.len() * f)
+    }
+}
+
+/// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
+fn incident(m: &Csr32, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
+    let mut out = vec![0.0; rows.len() * k];
+    for (r, &i) in rows.iter().enumerate() {
+        for (c, v) in m.row(i as usize) {
+            for q in 0..k {
+                out[r * k + q] += v * b[c * k + q];
+            }
+        }
+    }
+    out
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let m = v.len() / 2;
+    let (_, x, _) = v.select_nth_unstable_by(m, f64::total_cmp);
+    Some(*x)
+}
+
+/// The weighted median of (value, weight) pairs.
+fn weighted_median(v: &mut [(f64, f64)]) -> Option<f64> {
+    let total: f64 = v.iter().map(|x| x.1).sum();
+    if v.is_empty() || total.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        return None;
+    }
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut acc = 0.0;
+    for &(x, w) in v.iter() {
+        acc += w;
+        if acc >= 0.5 * total {
+            return Some(x);
+        }
+    }
+    v.last().map(|x| x.0)
+}
+
+/// Per-desk memory between frames.
+#[derive(Debug, Clone, Copy, Default)]
+struct Held {
+    /// Last good daylight, lx, and when its frame was taken, s.
+    daylight: Option<(f64, f64, f64)>,
+}
+
+/// The night accumulator of the ageing fit.
+#[derive(Debug, Clone, Default)]
+struct AgeingAcc {
+    g: Vec<f64>,
+    h: Vec<f64>,
+    frames: u32,
+}
+
+/// What one frame did, beyond the desk values (for logs, the Modbus status and tests).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameReport {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Samples used.
+    pub samples_used: usize,
+    /// Samples whose depth disagreed with the commissioned mesh.
+    pub samples_occluded: usize,
+    /// Fraction of the samples with depth that changed persistently (geometry).
+    pub changed_fraction: f64,
+    /// Recommissioning advised (a large persistent change).
+    pub recommission: bool,
+    /// The frame counted as night (no extraneous light).
+    pub night: bool,
+    /// The ageing factors were updated with this frame.
+    pub ageing_updated: bool,
+    /// Relative RMS residual of the emitter fit on the seen surfaces.
+    pub fit_residual: f64,
+    /// Mean daylight the fitted emitters give the seen surfaces, lx.
+    pub daylight_seen_lx: f64,
+}
+
+/// The live-light state: the model and what it remembers between frames.
+#[derive(Debug)]
+pub struct Live {
+    model: LiveModel,
+    settings: LiveSettings,
+    ageing: Vec<f64>,
+    held: Vec<Held>,
+    changed: Vec<u16>,
+    b_boundary: Vec<f64>,
+    acc: AgeingAcc,
+    desks: Vec<DeskLive>,
+    report: Option<FrameReport>,
+    // scratch
+    d: Vec<f64>,
+    state: Vec<u8>,
+}
+
+const S_VALID: u8 = 1;
+const S_SATURATED: u8 = 2;
+const S_OCCLUDED: u8 = 4;
+const S_NO_DEPTH: u8 = 8;
+
+impl Live {
+    /// Live light over a model, all ageing factors 1.
+    pub fn new(model: LiveModel, settings: LiveSettings) -> Result<Live, LiveError> {
+        settings.validate()?;
+        let (s, l, n) = (model.sensors(), model.luminaires(), model.samples());
+        let desks = (0..s)
+            .map(|k| DeskLive {
+                id: model.ids[k],
+                total_lx: 0.0,
+                artificial_lx: 0.0,
+                daylight_lx: 0.0,
+                uncertainty_lx: 0.0,
+                source: Source::Model,
+                flags: flags::HELD,
+                frame_age_s: 0.0,
+            })
+            .collect();
+        let n_p = model.rho.len();
+        Ok(Live {
+            ageing: vec![1.0; l],
+            held: vec![Held::default(); s],
+            changed: vec![0; n],
+            b_boundary: vec![0.0; n_p],
+            acc: AgeingAcc {
+                g: vec![0.0; l * l],
+                h: vec![0.0; l],
+                frames: 0,
+            },
+            desks,
+            report: None,
+            d: vec![0.0; n],
+            state: vec![0; n],
+            model,
+            settings,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &LiveModel {
+        &self.model
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &LiveSettings {
+        &self.settings
+    }
+
+    /// The desks as last computed.
+    pub fn desks(&self) -> &[DeskLive] {
+        &self.desks
+    }
+
+    /// What the last frame did.
+    pub fn report(&self) -> Option<&FrameReport> {
+        self.report.as_ref()
+    }
+
+    /// The ageing factor per luminaire (1 = as commissioned): it scales the luminaire's column
+    /// of the response matrix.
+    pub fn ageing(&self) -> &[f64] {
+        &self.ageing
+    }
+
+    /// Sets the ageing factors (restored from a previous run). Each in (0, 2].
+    pub fn set_ageing(&mut self, a: &[f64]) -> Result<(), LiveError> {
+        if a.len() != self.ageing.len()
+            || a.iter().any(|x| !(x.is_finite() && *x > 0.0 && *x <= 2.0))
+        {
+            return Err(LiveError::Input(format!(
+                "ageing factors: {} values in (0, 2] needed",
+                self.ageing.len()
+            )));
+        }
+        self.ageing.copy_from_slice(a);
+        Ok(())
+    }
+
+    /// Daylight per desk for the lighting control (`crate::control::regulator::Inputs`), lx:
+    /// `None` when any desk's value is older than `max_age_s` (the loop then plans as if there
+    /// were no daylight, the safe side) or no frame was used yet.
+    pub fn daylight_for_control(&self, max_age_s: f64) -> Option<Vec<f64>> {
+        let ok = self.desks.iter().all(|d| {
+            d.source != Source::Model && d.frame_age_s <= max_age_s && d.flags & flags::STALE == 0
+        });
+        ok.then(|| self.desks.iter().map(|d| d.daylight_lx).collect())
+    }
+
+    fn check_levels(&self, levels: &[f64]) -> Result<(), LiveError> {
+        if levels.len() != self.model.luminaires
+            || levels
+                .iter()
+                .any(|x| !(x.is_finite() && (0.0..=1.0).contains(x)))
+        {
+            return Err(LiveError::Input(format!(
+                "{} levels in [0, 1] needed, one per luminaire",
+                self.model.luminaires
+            )));
+        }
+        Ok(())
+    }
+
+    /// The model's artificial light at desk `s`: the camera-calibrated response where the camera
+    /// sees the desk, the radiosity response elsewhere.
+    fn artificial(&self, s: usize, levels: &[f64]) -> f64 {
+        let l = self.model.luminaires;
+        let row = if self.model.in_view(s) {
+            &self.model.calibrated[s * l..(s + 1) * l]
+        } else {
+            &self.model.response[s * l..(s + 1) * l]
+        };
+        row.iter()
+            .zip(levels)
+            .zip(&self.ageing)
+            .map(|((r, x), a)| r * x * a)
+            .sum()
+    }
+
+    fn ageing_flag(&self, s: usize) -> bool {
+        let l = self.model.luminaires;
+        let row = &self.model.response[s * l..(s + 1) * l];
+        let total: f64 = row.iter().sum();
+        total > 0.0
+            && row.iter().zip(&self.ageing).any(|(r, a)| {
+                *r >= self.settings.ageing_flag_share * total
+                    && *a < self.settings.maintenance_factor
+            })
+    }
+
+    /// No frame this time (the camera does not answer): every desk keeps its last daylight with
+    /// the artificial part at the current dimming state, flagged stale once the last frame is
+    /// older than [`LiveSettings::stale_after_s`].
+    pub fn no_frame(&mut self, levels: &[f64], now_s: f64) -> Result<&[DeskLive], LiveError> {
+        self.check_levels(levels)?;
+        for s in 0..self.desks.len() {
+            let age = self.held[s]
+                .daylight
+                .map_or(f64::INFINITY, |(_, t, _)| now_s - t);
+            let extra = if age > self.settings.stale_after_s {
+                flags::STALE
+            } else {
+                0
+            };
+            self.hold(s, levels, now_s, flags::HELD | extra);
+        }
+        Ok(&self.desks)
+    }
+
+    /// Desk `s` from its held daylight (or none: the model alone).
+    fn hold(&mut self, s: usize, levels: &[f64], now_s: f64, f: u16) {
+        let art = self.artificial(s, levels);
+        let mut f = f | flags::HELD;
+        if self.ageing_flag(s) {
+            f |= flags::AGEING;
+        }
+        let (daylight, age, unc, source) = match self.held[s].daylight {
+            Some((d, t, u)) => (d, (now_s - t).max(0.0), u, self.desks[s].source),
+            None => (0.0, 0.0, 0.0, Source::Model),
+        };
+        let source = if source == Source::Model && self.held[s].daylight.is_some() {
+            Source::Inferred
+        } else {
+            source
+        };
+        let total = art + daylight;
+        self.desks[s] = DeskLive {
+            id: self.model.ids[s],
+            total_lx: finite_or(total, art),
+            artificial_lx: finite_or(art, 0.0),
+            daylight_lx: finite_or(daylight, 0.0),
+            uncertainty_lx: finite_or(unc.max(self.settings.measured_rel_uncertainty * total), 0.0),
+            source,
+            flags: f,
+            frame_age_s: if age.is_finite() { age } else { 0.0 },
+        };
+    }
+
+    /// One frame: the measurement, the split, the inference, the flags. `levels`: each
+    /// luminaire's output in [0, 1] at the time of the frame (from the arc levels).
+    pub fn update(
+        &mut self,
+        frame: &LiveFrame<'_>,
+        levels: &[f64],
+        now_s: f64,
+    ) -> Result<&[DeskLive], LiveError> {
+        self.check_levels(levels)?;
+        let verdict = self.check_frame(frame, now_s);
+        if verdict != Verdict::Ok {
+            let f = match verdict {
+                Verdict::Stale => flags::STALE,
+                Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
+                _ => flags::BAD_FRAME,
+            };
+            for s in 0..self.desks.len() {
+                self.hold(s, levels, now_s, f);
+            }
+            self.report = Some(FrameReport {
+                verdict,
+                samples_used: 0,
+                samples_occluded: 0,
+                changed_fraction: 0.0,
+                recommission: self.report.is_some_and(|r| r.recommission),
+                night: false,
+                ageing_updated: false,
+                fit_residual: 0.0,
+                daylight_seen_lx: 0.0,
+            });
+            return Ok(&self.desks);
+        }
+        let m = &self.model;
+        let l = m.luminaires;
+        let wa: Vec<f64> = levels
+            .iter()
+            .zip(&self.ageing)
+            .map(|(x, a)| x * a)
+            .collect();
+        let g = frame.cd_m2_per_unit;
+        let st = self.settings.clone();
+        // 1. per sample: measured illuminance π L / ρ less the artificial part
+        let (mut used, mut occluded, mut with_depth, mut changed_n) =
+            (0usize, 0usize, 0usize, 0usize);
+        for i in 0..m.px.len() {
+            let p = m.px[i] as usize;
+            let v = frame.luminance[p];
+            let mut state = 0u8;
+            match frame.depth_mm {
+                Some(depth) => {
+                    let (z, r) = (depth[p], m.depth_ref[i]);
+                    if z > 0 && r > 0 {
+                        with_depth += 1;
+                        let tol = (st.depth_tolerance_m * 1000.0)
+                            .max(st.depth_tolerance_rel * f64::from(r));
+                        if (f64::from(z) - f64::from(r)).abs() > tol {
+                            state |= S_OCCLUDED;
+                            occluded += 1;
+                            self.changed[i] = self.changed[i].saturating_add(1);
+                        } else {
+                            self.changed[i] = 0;
+                        }
+                        if u32::from(self.changed[i]) >= st.geometry_frames {
+                            changed_n += 1;
+                        }
+                    }
+                }
+                None => state |= S_NO_DEPTH,
+            }
+            // 0 is a dark surface (the samples are pixels that saw one at commissioning)
+            if v == u16::MAX {
+                state |= S_SATURATED;
+            } else if state & S_OCCLUDED == 0 {
+                state |= S_VALID;
+                used += 1;
+                let meas = g * f64::from(v) * m.pi_over_rho[i];
+                let art: f64 = m.art[i * l..(i + 1) * l]
+                    .iter()
+                    .zip(&wa)
+                    .map(|(e, w)| f64::from(*e) * w)
+                    .sum();
+                self.d[i] = meas - art;
+            }
+            self.state[i] = state;
+        }
+        let n = m.px.len().max(1);
+        let saturated = self.state.iter().filter(|s| **s & S_SATURATED != 0).count();
+        let verdict = if saturated as f64 > st.frame_saturated_fraction * n as f64 {
+            Verdict::Saturated
+        } else if (used as f64) < 0.1 * n as f64 {
+            Verdict::Unusable
+        } else {
+            // darker than the luminaires alone: half of the samples read below 5 % of their
+            // artificial light, which is well above 10 lx
+            let mut rel: Vec<f64> = (0..m.px.len())
+                .filter(|&i| self.state[i] & S_VALID != 0)
+                .filter_map(|i| {
+                    let art: f64 = m.art[i * l..(i + 1) * l]
+                        .iter()
+                        .zip(&wa)
+                        .map(|(e, w)| f64::from(*e) * w)
+                        .sum();
+                    (art > 10.0).then(|| (self.d[i] + art) / art)
+                })
+                .collect();
+            let enough = rel.len() * 4 >= used;
+            match median(&mut rel) {
+                Some(r) if enough && r < 0.05 => Verdict::Dark,
+                _ => Verdict::Ok,
+            }
+        };
+        let changed_fraction = if with_depth > 0 {
+            changed_n as f64 / with_depth as f64
+        } else {
+            0.0
+        };
+        let recommission = changed_fraction > st.geometry_area_fraction;
+        if verdict != Verdict::Ok {
+            let f = match verdict {
+                Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
+                _ => flags::BAD_FRAME,
+            };
+            for s in 0..self.desks.len() {
+                self.hold(s, levels, now_s, f);
+            }
+            self.report = Some(FrameReport {
+                verdict,
+                samples_used: used,
+                samples_occluded: occluded,
+                changed_fraction,
+                recommission,
+                night: false,
+                ageing_updated: false,
+                fit_residual: 0.0,
+                daylight_seen_lx: 0.0,
+            });
+            return Ok(&self.desks);
+        }
+        // 2. per seen patch: the median residual (daylight) and the artificial part
+        let m = &self.model;
+        let n_seen = m.seen.len();
+        let mut d_seen = vec![0.0; n_seen];
+        let mut w_seen = vec![0.0; n_seen];
+        let mut a_seen = vec![0.0; n_seen * l];
+        let mut buf = Vec::new();
+        for (r, &(a, b)) in m.seen_range.iter().enumerate() {
+            buf.clear();
+            let mut cnt = 0.0f64;
+            for i in a as usize..b as usize {
+                if self.state[i] & S_VALID != 0 {
+                    buf.push(self.d[i]);
+                    for j in 0..l {
+                        a_seen[r * l + j] += f64::from(m.art[i * l + j]) * levels[j];
+                    }
+                    cnt += 1.0;
+                }
+            }
+            if let Some(med) = median(&mut buf) {
+                d_seen[r] = med;
+                w_seen[r] = cnt.min(64.0);
+                for j in 0..l {
+                    a_seen[r * l + j] /= cnt;
+                }
+            }
+        }
+        // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
+        let (d_inferred, fit_residual, daylight_seen) = self.infer(&d_seen, &w_seen);
+        // 4. ageing: night frames accumulate the luminaires' fit
+        let (night, ageing_updated) = self.ageing_step(&d_seen, &w_seen, &a_seen);
+        // 5. desks: decided with the model borrowed, applied after
+        let m = &self.model;
+        let l = m.luminaires;
+        let mut actions: Vec<(usize, Action)> = Vec::with_capacity(m.sensors());
+        for (s, &inferred) in d_inferred.iter().enumerate().take(m.sensors()) {
+            let w = &m.windows[s];
+            let mut extra = 0u16;
+            if frame.depth_mm.is_none() {
+                extra |= flags::NO_DEPTH;
+            }
+            if self.ageing_flag(s) {
+                extra |= flags::AGEING;
+            }
+            if w.sample.is_empty() {
+                // out of view: the model's light and the inferred daylight
+                let art = self.artificial(s, levels);
+                let day = inferred.max(0.0);
+                let unc = ((st.inferred_rel_uncertainty * day).powi(2)
+                    + (fit_residual * day).powi(2)
+                    + (0.03 * art).powi(2))
+                .sqrt();
+                actions.push((s, Action::Set(art, day, unc, Source::Inferred, extra)));
+                continue;
+            }
+            let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
+            let mut vals: Vec<(f64, f64)> = Vec::with_capacity(w.sample.len());
+            for (&i, &wt) in w.sample.iter().zip(&w.weight) {
+                let i = i as usize;
+                let stt = self.state[i];
+                if stt & S_OCCLUDED != 0 {
+                    n_occ += 1;
+                }
+                if stt & S_SATURATED != 0 {
+                    n_sat += 1;
+                }
+                if u32::from(self.changed[i]) >= st.geometry_frames {
+                    n_chg += 1;
+                }
+                if stt & S_VALID != 0 {
+                    let art: f64 = m.art[i * l..(i + 1) * l]
+                        .iter()
+                        .zip(levels.iter().zip(&self.ageing))
+                        .map(|(e, (x, a))| f64::from(*e) * x * a)
+                        .sum();
+                    if self.d[i] < -(0.3 * art + 5.0) {
+                        n_dark += 1;
+                    }
+                    vals.push((self.d[i], wt));
+                }
+            }
+            let total_w = w.sample.len() as f64;
+            let covered_depth = n_occ as f64 > st.occluded_fraction * total_w;
+            // without depth: most of the window far darker than the luminaires make it
+            let covered_light =
+                frame.depth_mm.is_none() && n_dark as f64 > 0.5 * vals.len().max(1) as f64;
+            let sat = n_sat as f64 > st.window_saturated_fraction * total_w;
+            if n_chg as f64 > 0.5 * total_w {
+                extra |= flags::GEOMETRY_CHANGED;
+            }
+            if covered_depth || covered_light || sat || vals.len() < 3 {
+                let f = extra
+                    | if sat { flags::SATURATED } else { 0 }
+                    | if covered_depth || covered_light || vals.len() < 3 {
+                        flags::OCCLUDED
+                    } else {
+                        0
+                    };
+                if self.held[s].daylight.is_some() {
+                    actions.push((s, Action::Hold(f)));
+                } else {
+                    // nothing measured yet: the inferred daylight, like a desk out of view
+                    let art = self.artificial(s, levels);
+                    let day = inferred.max(0.0);
+                    let unc =
+                        ((st.inferred_rel_uncertainty * day).powi(2) + (0.03 * art).powi(2)).sqrt();
+                    actions.push((
+                        s,
+                        Action::Set(art, day, unc, Source::Inferred, f | flags::HELD),
+                    ));
+                }
+                continue;
+            }
+            // the weighted median residual of the window; spread for the uncertainty
+            let mut v2 = vals.clone();
+            let dm = weighted_median(&mut v2).unwrap_or(0.0);
+            let mut dev: Vec<f64> = vals.iter().map(|(x, _)| (x - dm).abs()).collect();
+            let mad = median(&mut dev).unwrap_or(0.0) * 1.4826;
+            let n_eff = vals.len() as f64;
+            let art_full = self.artificial(s, levels);
+            let total = art_full + dm;
+            let day = dm.max(0.0);
+            let art = total - day;
+            let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2)
+                + (st.measured_rel_uncertainty * total).powi(2))
+            .sqrt();
+            actions.push((s, Action::Set(art, day, unc, Source::Measured, extra)));
+        }
+        for (s, a) in actions {
+            match a {
+                Action::Set(art, day, unc, source, f) => {
+                    self.set_desk(s, art, day, unc, source, f, frame.taken_s, now_s)
+                }
+                Action::Hold(f) => self.hold(s, levels, now_s, f),
+            }
+        }
+        self.report = Some(FrameReport {
+            verdict: Verdict::Ok,
+            samples_used: used,
+            samples_occluded: occluded,
+            changed_fraction,
+            recommission,
+            night,
+            ageing_updated,
+            fit_residual,
+            daylight_seen_lx: daylight_seen,
+        });
+        Ok(&self.desks)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn set_desk(
+        &mut self,
+        s: usize,
+        art: f64,
+        day: f64,
+        unc: f64,
+        source: Source,
+        f: u16,
+        taken_s: f64,
+        now_s: f64,
+    ) {
+        let art = finite_or(art, 0.0);
+        let day = finite_or(day, 0.0);
+        let unc = finite_or(unc, 0.0);
+        if f & flags::HELD == 0 {
+            self.held[s].daylight = Some((day, taken_s, unc));
+        }
+        self.desks[s] = DeskLive {
+            id: self.model.ids[s],
+            total_lx: art + day,
+            artificial_lx: art,
+            daylight_lx: day,
+            uncertainty_lx: unc,
+            source,
+            flags: f,
+            frame_age_s: finite_or((now_s - taken_s).max(0.0), 0.0),
+        };
+    }
+
+    fn check_frame(&self, f: &LiveFrame<'_>, now_s: f64) -> Verdict {
+        let (w, h) = self.model.frame_size();
+        let n = (w as usize) * (h as usize);
+        if f.width != w
+            || f.height != h
+            || f.luminance.len() != n
+            || f.depth_mm.is_some_and(|d| d.len() != n)
+            || !(f.cd_m2_per_unit.is_finite() && f.cd_m2_per_unit > 0.0)
+        {
+            return Verdict::WrongSize;
+        }
+        if !(f.taken_s.is_finite() && now_s - f.taken_s <= self.settings.stale_after_s) {
+            return Verdict::Stale;
+        }
+        Verdict::Ok
+    }
+
+    /// Daylight at every sensor from the seen residuals: the seen surfaces' measured exitance
+    /// `ρ D` propagated over the unseen patches (Gauss-Seidel, warm), plus unknown emitters
+    /// fitted to what that leaves unexplained on the seen surfaces (robust NNLS). Returns
+    /// (daylight per sensor, relative RMS residual, mean fitted daylight on the seen surfaces).
+    fn infer(&mut self, d_seen: &[f64], w_seen: &[f64]) -> (Vec<f64>, f64, f64) {
+        let m = &self.model;
+        let (k, n_seen, s_count) = (m.k, m.seen.len(), m.sensors());
+        // seen exitance fixed, unseen solved
+        let b = &mut self.b_boundary;
+        for (r, &p) in m.seen.iter().enumerate() {
+            let p = p as usize;
+            b[p] = if w_seen[r] > 0.0 {
+                m.rho[p] * d_seen[r].max(0.0)
+            } else {
+                0.0
+            };
+        }
+        let zeros = vec![0.0; b.len()];
+        multi_gs(&m.ff, &m.rho, &m.unseen, &zeros, b, 1, 200);
+        let c = incident(&m.ff, &m.seen, b, 1);
+        let rows: Vec<u32> = (0..s_count as u32).collect();
+        let from_seen = incident(&m.gather, &rows, b, 1);
+        // emitters: y = D − c ≈ V w, weighted, twice (the second without outliers: sun patches)
+        let mut w_use: Vec<f64> = w_seen.to_vec();
+        let mut x = vec![0.0; k];
+        let y: Vec<f64> = (0..n_seen).map(|r| d_seen[r] - c[r]).collect();
+        let mut resid = vec![0.0; n_seen];
+        for pass in 0..2 {
+            if k > 0 {
+                let mut g = vec![0.0; k * k];
+                let mut h = vec![0.0; k];
+                for r in 0..n_seen {
+                    let wr = w_use[r];
+                    if wr <= 0.0 {
+                        continue;
+                    }
+                    let v = &m.v_seen[r * k..(r + 1) * k];
+                    for a in 0..k {
+                        h[a] += wr * v[a] * y[r];
+                        for bb in 0..k {
+                            g[a * k + bb] += wr * v[a] * v[bb];
+                        }
+                    }
+                }
+                x = nnls_gram(&g, &h, k);
+            }
+            for r in 0..n_seen {
+                let fit: f64 = (0..k).map(|q| m.v_seen[r * k + q] * x[q]).sum();
+                resid[r] = y[r] - fit;
+            }
+            if pass == 0 {
+                let mut a: Vec<f64> = (0..n_seen)
+                    .filter(|&r| w_use[r] > 0.0)
+                    .map(|r| resid[r].abs())
+                    .collect();
+                let mad = median(&mut a).unwrap_or(0.0) * 1.4826;
+                for r in 0..n_seen {
+                    if resid[r].abs() > 3.0 * mad + 5.0 {
+                        w_use[r] = 0.0;
+                    }
+                }
+            }
+        }
+        let (mut num, mut den, mut sw, mut fitted) = (0.0, 0.0, 0.0, 0.0);
+        for r in 0..n_seen {
+            let wr = w_use[r];
+            if wr > 0.0 {
+                num += wr * resid[r] * resid[r];
+                den += wr * d_seen[r].max(1.0).powi(2);
+                sw += wr;
+                fitted += wr * (c[r] + (0..k).map(|q| m.v_seen[r * k + q] * x[q]).sum::<f64>());
+            }
+        }
+        let rel = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
+        let out = (0..s_count)
+            .map(|s| {
+                let e: f64 = (0..k).map(|q| m.g_sensor[s * k + q] * x[q]).sum();
+                finite_or(from_seen[s] + e, 0.0)
+            })
+            .collect();
+        (
+            out,
+            finite_or(rel, 0.0),
+            if sw > 0.0 { fitted / sw } else { 0.0 },
+        )
+    }
+
+    /// The night test and the ageing fit. A frame is night when a joint fit of the luminaires
+    /// (one factor each) and the emitters to the measured light on the seen surfaces gives the
+    /// emitters less than [`LiveSettings::night_fraction`] of it; night frames accumulate the
+    /// luminaires' fit; after [`LiveSettings::ageing_min_frames`] of them, the first day frame
+    /// (or [`LiveSettings::ageing_max_frames`]) sets the ageing factors. Returns (night, updated).
+    fn ageing_step(&mut self, d_seen: &[f64], w_seen: &[f64], a_seen: &[f64]) -> (bool, bool) {
+        let l = self.model.luminaires;
+        let n_seen = self.model.seen.len();
+        // measured light per seen patch: the residual plus the artificial part at the current
+        // ageing
+        let meas: Vec<f64> = (0..n_seen)
+            .map(|r| {
+                d_seen[r]
+                    + (0..l)
+                        .map(|j| a_seen[r * l + j] * self.ageing[j])
+                        .sum::<f64>()
+            })
+            .collect();
+        let signal: f64 = (0..n_seen).map(|r| w_seen[r] * meas[r].max(0.0)).sum();
+        let positive: f64 = (0..n_seen).map(|r| w_seen[r] * d_seen[r].max(0.0)).sum();
+        let mut night = false;
+        if signal > 0.0 && positive <= 0.25 * signal {
+            // a candidate: fit luminaires and emitters together
+            let k = self.model.k;
+            let u = self.model.full_basis();
+            let nv = l + k;
+            let mut g = vec![0.0; nv * nv];
+            let mut h = vec![0.0; nv];
+            let col = |r: usize, c: usize| -> f64 {
+                if c < l {
+                    a_seen[r * l + c]
+                } else {
+                    u[r * k + (c - l)]
+                }
+            };
+            for r in 0..n_seen {
+                let wr = w_seen[r];
+                if wr <= 0.0 {
+                    continue;
+                }
+                for a in 0..nv {
+                    let ca = col(r, a);
+                    if ca == 0.0 {
+                        continue;
+                    }
+                    h[a] += wr * ca * meas[r];
+                    for b in 0..nv {
+                        g[a * nv + b] += wr * ca * col(r, b);
+                    }
+                }
+            }
+            let x = nnls_gram(&g, &h, nv);
+            let extraneous: f64 = (0..n_seen)
+                .map(|r| w_seen[r] * (0..k).map(|q| u[r * k + q] * x[l + q]).sum::<f64>())
+                .sum();
+            night = extraneous <= self.settings.night_fraction * signal;
+        }
+        if night {
+            for r in 0..n_seen {
+                let wr = w_seen[r];
+                if wr <= 0.0 {
+                    continue;
+                }
+                for a in 0..l {
+                    self.acc.h[a] += wr * a_seen[r * l + a] * meas[r];
+                    for b in 0..l {
+                        self.acc.g[a * l + b] += wr * a_seen[r * l + a] * a_seen[r * l + b];
+                    }
+                }
+            }
+            self.acc.frames += 1;
+        }
+        let enough = self.acc.frames >= self.settings.ageing_min_frames;
+        let commit = enough && (!night || self.acc.frames >= self.settings.ageing_max_frames);
+        let mut updated = false;
+        if commit {
+            let alpha = nnls_gram(&self.acc.g, &self.acc.h, l);
+            let max_diag = (0..l).map(|j| self.acc.g[j * l + j]).fold(0.0f64, f64::max);
+            for (j, &a) in alpha.iter().enumerate() {
+                // a luminaire that lit the seen surfaces enough during the night
+                if self.acc.g[j * l + j] >= 1e-3 * max_diag
+                    && a.is_finite()
+                    && (0.2..=1.5).contains(&a)
+                {
+                    self.ageing[j] = a;
+                    updated = true;
+                }
+            }
+            self.acc = AgeingAcc {
+                g: vec![0.0; l * l],
+                h: vec![0.0; l],
+                frames: 0,
+            };
+            if updated {
+                tracing::info!(
+                    "live: ageing factors updated after a night: {}",
+                    self.ageing
+                        .iter()
+                        .map(|a| format!("{a:.3}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+        }
+        (night, updated)
+    }
+}
+
+/// What to do with a desk after a frame.
+enum Action {
+    /// (artificial, daylight, uncertainty, source, flags).
+    Set(f64, f64, f64, Source, u16),
+    /// Keep the last good daylight, with these flags.
+    Hold(u16),
+}
+
+fn finite_or(x: f64, fallback: f64) -> f64 {
+    if x.is_finite() { x } else { fallback }
+}

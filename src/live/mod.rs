@@ -1,0 +1,142 @@
+//! Live light: the cameras at run time. A luminance frame (and a depth frame) every few seconds
+//! becomes measured desk lux with the daylight in it, split into the luminaires' part and the
+//! extraneous part, with flags for covered desks, ageing luminaires and a changed room. No image
+//! leaves the node: frames are used and dropped; only per-desk aggregates are published.
+//!
+//! ## Method
+//!
+//! At commissioning ([`section`]) the image gets a live section ([`crate::store::live`]): camera
+//! pixels (every `stride`-th, and all around each in-view desk sensor) with the patch each sees,
+//! the commissioned depth, and the irradiance there from each luminaire at 100 % (`E_l`, from the
+//! one-luminaire frames less the all-off frame, or from the engine on a CAD model).
+//!
+//! At run time ([`estimator`]), for each sample p of a frame (gain g, luminance L):
+//!
+//! ```text
+//! measured   M(p) = π g L(p) / ρ(p)              (a Lambertian surface: L = ρ E / π)
+//! artificial A(p) = Σ_l x_l a_l E_l(p)            (x_l the dimming level, a_l the ageing factor)
+//! extraneous D(p) = M(p) − A(p)                   (daylight, any light the model does not know)
+//! ```
+//!
+//! A sample is dropped where the depth frame disagrees with the commissioned depth (by more than
+//! 5 cm and 3 %: a person, a box), or where it is saturated.
+//!
+//! * **A desk the camera sees** (its window has samples): `D̂` = the weighted median of `D` over
+//!   the window (Gaussian weights, σ = 5 cm); artificial `Â = Σ_l x_l a_l Ẽ_l` with `Ẽ_l` the
+//!   desk's camera-calibrated response (the plane fit of `E_l` over the window at the sensor,
+//!   stored at commissioning); **total = Â + D̂** (*measured*). Daylight = max(D̂, 0); a negative
+//!   residual (the luminaires give less than the model says) counts against the artificial part.
+//! * **A desk the camera does not see**, or a covered one with nothing measured before:
+//!   artificial = the radiosity model `Σ_l x_l a_l R_l`; daylight **inferred**:
+//!   1. per seen patch, the median `D̄_i`; its exitance `ρ_i D̄_i` is *measured*;
+//!   2. the unseen patches reflect it: `b_u = ρ_u Σ_j F_uj b_j` (Gauss-Seidel over the stored
+//!      form factors, the seen patches held at their measured exitance);
+//!   3. what that leaves unexplained on the seen surfaces, `D̄_i − (F b)_i`, is fitted by
+//!      *unknown emitters* (groups of unseen patches: windows in walls, any unmodelled light, each
+//!      of unknown exitance `w_k ≥ 0`) by weighted non-negative least squares ([`nnls`]), twice:
+//!      the second time without the outliers of the first (a sun patch is direct light from
+//!      outside, not a diffuse emitter);
+//!   4. the desk reads `gather_s · (b + Σ_k w_k β_k)` (its stored gather row over the exitance;
+//!      `β_k` the emitters' exitance with their interreflections).
+//!
+//! **Held values.** A covered desk, a saturated window, a bad or stale frame: the desk keeps its
+//! last good daylight and gets the artificial part at the current dimming state (so with the
+//! dimming unchanged the value is exactly the last good one), flagged, with the age of the frame
+//! it comes from.
+//!
+//! **Ageing.** A frame is *night* when a joint non-negative fit of one factor per luminaire and
+//! the emitters to the measured light on the seen surfaces gives the emitters less than 2 % of it.
+//! Night frames accumulate the luminaires' least-squares fit; after enough of them, the first day
+//! frame sets each luminaire's ageing factor `a_l` (measured / commissioned light), which scales
+//! its column of the response matrix everywhere (live values, the core desk-lux block, the
+//! control plant).
+//!
+//! **Geometry.** A sample whose depth disagrees for [`LiveSettings::geometry_frames`] frames in a
+//! row has changed (a moved desk, not a person passing); a desk whose window has mostly changed is
+//! flagged; more than [`LiveSettings::geometry_area_fraction`] of the samples changed →
+//! recommissioning advised.
+//!
+//! ## For the lighting control (`crate::control`)
+//!
+//! [`Live::daylight_for_control`] gives the daylight per desk (`None` when stale: the regulator
+//! then plans without daylight, the safe side); [`Live::ageing`] the factor per luminaire, which
+//! [`aged_response`] applies to the response matrix of the control plant.
+
+pub mod estimator;
+pub mod nnls;
+pub mod section;
+
+pub use estimator::{
+    DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict,
+};
+pub use section::{SectionOptions, from_capture, from_model};
+
+/// Why live light cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    /// The image has no live section (commissioned before live light, or without a camera).
+    #[error(
+        "the image has no live-light section: commission again (with the cameras) to enable live light"
+    )]
+    NoSection,
+    /// A setting or an input is unusable.
+    #[error("{0}")]
+    Input(String),
+}
+
+/// Flag bits of a desk's live value (`DeskLive::flags`, Modbus input 4100 + k): the register
+/// map's own bits ([`crate::modbus::regmap::live_flags`]).
+pub mod flags {
+    pub use crate::modbus::regmap::live_flags::*;
+
+    /// The flags as words, for logs and the CLI.
+    pub fn describe(f: u16) -> String {
+        let names = [
+            (OCCLUDED, "occluded"),
+            (HELD, "held"),
+            (STALE, "stale"),
+            (BAD_FRAME, "bad_frame"),
+            (SATURATED, "saturated"),
+            (AGEING, "ageing"),
+            (GEOMETRY_CHANGED, "geometry_changed"),
+            (NO_DEPTH, "no_depth"),
+        ];
+        let v: Vec<&str> = names
+            .iter()
+            .filter(|(b, _)| f & b != 0)
+            .map(|(_, n)| *n)
+            .collect();
+        v.join("|")
+    }
+}
+
+/// The response matrix `R_kj` (desks × luminaires, row-major) with each luminaire's column scaled
+/// by its ageing factor: the plant of the lighting control once ageing is measured.
+pub fn aged_response(response_lx: &[f64], ageing: &[f64], out: &mut [f64]) {
+    let l = ageing.len().max(1);
+    for (k, (o, r)) in out.iter_mut().zip(response_lx).enumerate() {
+        *o = r * ageing.get(k % l).copied().unwrap_or(1.0);
+    }
+}
+
+/// Adds a live section to an image, within a flash region of `region_bytes`: the section's
+/// budget is what the region has left (at most `o.budget_bytes`), so the sample stride grows
+/// until it fits. `Ok(None)` when not even a coarse section fits (the image is served without
+/// live light, and the caller says so).
+pub fn attach(
+    image: &[u8],
+    section: impl Fn(&SectionOptions) -> Result<crate::image_build::LiveSectionData, LiveError>,
+    o: &SectionOptions,
+    region_bytes: usize,
+) -> Result<Option<Vec<u8>>, LiveError> {
+    let room = region_bytes.saturating_sub(image.len());
+    if room < 8 * 1024 {
+        return Ok(None);
+    }
+    let mut opts = o.clone();
+    opts.budget_bytes = opts.budget_bytes.min(room - 1024);
+    let data = section(&opts)?;
+    let bytes = crate::image_build::with_live(image, Some(&data))
+        .map_err(|e| LiveError::Input(format!("live section: {e}")))?;
+    Ok((bytes.len() <= region_bytes).then_some(bytes))
+}

@@ -1,0 +1,720 @@
+//! Building the live-light section at commissioning ([`crate::store::live`]): which camera
+//! pixels to sample, the patch each sees, its commissioned depth and the luminaires' light on
+//! it; each desk sensor's window and camera-calibrated response; the candidate emitter groups.
+//!
+//! Two sources of the per-sample artificial irradiance:
+//!
+//! * [`from_capture`]: the one-luminaire frames of the commissioning capture with the all-off
+//!   frame subtracted, `E_l = π g (L_l − L_off) / ρ` (g the camera gain, ρ the patch's estimated
+//!   reflectance): what the camera measured, so that at run time, with nothing changed, the
+//!   measured illuminance `π g L / ρ` and the artificial part agree pixel by pixel and the
+//!   residual is the extraneous light alone.
+//! * [`from_model`]: a CAD scene with a camera: the engine's exact direct light at the pixel's
+//!   surface point (photometry over the opening, shadow rays) plus its patch's interreflected
+//!   light, as the simulated camera renders it.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::camera::capture::Capture;
+use crate::commission::Commissioned;
+use crate::engine::direct::{self, Receiver};
+use crate::engine::raycast::{Hit, RayCaster};
+use crate::engine::{Csr, Model};
+use crate::image_build::LiveSectionData;
+use crate::scene::{Camera, Luminaire, Scene, Sensor};
+use crate::store::live::{CameraRecord, MAX_EMITTERS, NO_EMITTER, live_source};
+use crate::store::sensor_flags;
+
+use super::LiveError;
+
+/// Knobs of the section.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SectionOptions {
+    /// Grid stride of the samples, pixels (0: the smallest that keeps the section within
+    /// `budget_bytes`).
+    pub stride: u32,
+    /// Largest section, bytes, when the stride is chosen.
+    pub budget_bytes: usize,
+    /// Radius of a desk sensor's window, m.
+    pub window_radius_m: f64,
+    /// A window sample lies within this of the sensor's plane, m.
+    pub window_plane_m: f64,
+    /// Lowest reflectance of a sampled surface (darker surfaces amplify noise: π L / ρ).
+    pub min_rho: f64,
+    /// Side of an emitter group's cell, m.
+    pub emitter_cell_m: f64,
+    /// Candidate emitters on downward-facing unseen surfaces (the ceiling) too.
+    pub ceiling_emitters: bool,
+    /// Points over a luminaire's opening for the direct light of a model-built section.
+    pub opening_points: usize,
+}
+
+impl Default for SectionOptions {
+    fn default() -> Self {
+        Self {
+            stride: 0,
+            budget_bytes: 600 * 1024,
+            window_radius_m: 0.10,
+            window_plane_m: 0.03,
+            min_rho: 0.02,
+            emitter_cell_m: 1.5,
+            ceiling_emitters: false,
+            opening_points: 32,
+        }
+    }
+}
+
+impl SectionOptions {
+    fn validate(&self) -> Result<(), LiveError> {
+        let bad = |m: String| Err(LiveError::Input(m));
+        if self.stride > 64 {
+            return bad(format!("sample stride {} px must be 0..=64", self.stride));
+        }
+        if !(self.window_radius_m.is_finite() && (0.005..=1.0).contains(&self.window_radius_m)) {
+            return bad(format!(
+                "window radius {} m must be within 0.005..=1 m",
+                self.window_radius_m
+            ));
+        }
+        if !(self.window_plane_m.is_finite() && (0.001..=0.5).contains(&self.window_plane_m)) {
+            return bad(format!(
+                "window plane tolerance {} m must be within 0.001..=0.5 m",
+                self.window_plane_m
+            ));
+        }
+        if !(self.min_rho.is_finite() && (0.0..0.9).contains(&self.min_rho)) {
+            return bad(format!(
+                "lowest reflectance {} outside [0, 0.9)",
+                self.min_rho
+            ));
+        }
+        if !(self.emitter_cell_m.is_finite() && (0.1..=100.0).contains(&self.emitter_cell_m)) {
+            return bad(format!(
+                "emitter cell {} m must be within 0.1..=100 m",
+                self.emitter_cell_m
+            ));
+        }
+        if !(1..=1024).contains(&self.opening_points) {
+            return bad(format!(
+                "opening points {} must be 1..=1024",
+                self.opening_points
+            ));
+        }
+        if self.budget_bytes < 4096 {
+            return bad(format!(
+                "section budget {} B is below 4 kB",
+                self.budget_bytes
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What a pixel's ray meets.
+#[derive(Debug, Clone, Copy)]
+struct PixelHit {
+    patch: u32,
+    point: DVec3,
+    z_m: f64,
+}
+
+fn record(camera: &Camera, gain: Option<f64>) -> CameraRecord {
+    let m = camera.world_from_camera;
+    let mut axes = [0.0; 9];
+    for (k, a) in [m.x_axis, m.y_axis, m.z_axis].iter().enumerate() {
+        axes[3 * k..3 * k + 3].copy_from_slice(&a.to_array());
+    }
+    CameraRecord {
+        width: camera.width.min(u32::from(u16::MAX)) as u16,
+        height: camera.height.min(u32::from(u16::MAX)) as u16,
+        fx: camera.fx,
+        fy: camera.fy,
+        cx: camera.cx,
+        cy: camera.cy,
+        position_m: camera.position_m.to_array(),
+        world_from_camera: axes,
+        cd_m2_per_unit: gain.unwrap_or(0.0),
+        lens_k: camera.lens.is_fisheye().then(|| camera.lens.k()),
+    }
+}
+
+/// The scene camera of a stored camera record (its lens checked).
+pub fn camera_of(c: &CameraRecord) -> Result<Camera, LiveError> {
+    let a = &c.world_from_camera;
+    let lens = match c.lens_k {
+        None => crate::scene::Lens::Pinhole,
+        Some(k) => {
+            let l = crate::scene::Lens::KannalaBrandt { k };
+            l.check()
+                .map_err(|m| LiveError::Input(format!("the live section's camera lens: {m}")))?;
+            l
+        }
+    };
+    Ok(Camera {
+        position_m: DVec3::from_array(c.position_m),
+        world_from_camera: glam::DMat3::from_cols(
+            DVec3::new(a[0], a[1], a[2]),
+            DVec3::new(a[3], a[4], a[5]),
+            DVec3::new(a[6], a[7], a[8]),
+        ),
+        fx: c.fx,
+        fy: c.fy,
+        cx: c.cx,
+        cy: c.cy,
+        width: u32::from(c.width),
+        height: u32::from(c.height),
+        luminance_cd_m2_per_unit: (c.cd_m2_per_unit > 0.0).then_some(c.cd_m2_per_unit),
+        lens,
+    })
+}
+
+/// Every pixel's first front-face hit on a surface of reflectance ≥ `min_rho`.
+fn cast_all(
+    camera: &Camera,
+    model: &Model,
+    caster: &RayCaster,
+    min_rho: f64,
+) -> Vec<Option<PixelHit>> {
+    let axis = camera.world_from_camera.z_axis;
+    (0..camera.width * camera.height)
+        .into_par_iter()
+        .map(|i| {
+            let (u, v) = (i % camera.width, i / camera.width);
+            // pixels outside a fisheye's image circle see nothing
+            let d = camera.ray_world(f64::from(u), f64::from(v))?;
+            match caster.closest(camera.position_m, d) {
+                Hit::Front { patch, t_m } if model.patches.rho[patch as usize] >= min_rho => {
+                    Some(PixelHit {
+                        patch,
+                        point: camera.position_m + d * t_m,
+                        z_m: t_m * d.dot(axis),
+                    })
+                }
+                _ => None,
+            }
+        })
+        .collect()
+}
+
+/// Where a sensor projects in the camera, if in front of it.
+fn project(camera: &Camera, p: DVec3) -> Option<(f64, f64, f64)> {
+    let c = camera.world_from_camera.transpose() * (p - camera.position_m);
+    (c.z > 1e-6).then(|| {
+        (
+            camera.fx * c.x / c.z + camera.cx,
+            camera.fy * c.y / c.z + camera.cy,
+            c.z,
+        )
+    })
+}
+
+/// The pixels of a sensor's window: surface points within `radius` of the sensor in its plane
+/// and within `plane_m` of the plane, on a patch facing the sensor's way. Empty when the camera
+/// does not see the sensor.
+fn window_pixels(
+    camera: &Camera,
+    hits: &[Option<PixelHit>],
+    model: &Model,
+    sensor: &Sensor,
+    o: &SectionOptions,
+) -> Vec<(u32, f64, f64)> {
+    let Some((u0, v0, z)) = project(camera, sensor.position_m) else {
+        return Vec::new();
+    };
+    let reach_px = (o.window_radius_m * camera.fx.max(camera.fy) / z).ceil() + 2.0;
+    let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+    let umin = (u0 - reach_px).floor().max(0.0);
+    let umax = (u0 + reach_px).ceil().min(w - 1.0);
+    let vmin = (v0 - reach_px).floor().max(0.0);
+    let vmax = (v0 + reach_px).ceil().min(h - 1.0);
+    if umin > umax || vmin > vmax {
+        return Vec::new();
+    }
+    let n = sensor.normal;
+    let mut out = Vec::new();
+    for v in vmin as u32..=vmax as u32 {
+        for u in umin as u32..=umax as u32 {
+            let i = v * camera.width + u;
+            let Some(hit) = hits[i as usize] else {
+                continue;
+            };
+            let d = hit.point - sensor.position_m;
+            let along = d.dot(n);
+            let inplane = d - n * along;
+            if along.abs() <= o.window_plane_m
+                && inplane.length() <= o.window_radius_m
+                && model.patches.normal[hit.patch as usize].dot(n) > 0.95
+            {
+                out.push((i, inplane.x, inplane.y));
+            }
+        }
+    }
+    out
+}
+
+/// Value at the origin of a weighted least-squares plane `a + b x + c y` through the points
+/// (Gaussian weights of σ = `sigma_m`); the weighted mean when the points do not span a plane.
+pub fn plane_at_origin(points: &[(f64, f64, f64)], sigma_m: f64) -> Option<f64> {
+    if points.is_empty() {
+        return None;
+    }
+    let mut m = [[0.0f64; 3]; 3];
+    let mut r = [0.0f64; 3];
+    let (mut sw, mut swv) = (0.0, 0.0);
+    for &(x, y, val) in points {
+        let w = (-(x * x + y * y) / (2.0 * sigma_m * sigma_m)).exp();
+        let b = [1.0, x, y];
+        for a in 0..3 {
+            for c in 0..3 {
+                m[a][c] += w * b[a] * b[c];
+            }
+            r[a] += w * b[a] * val;
+        }
+        sw += w;
+        swv += w * val;
+    }
+    if sw <= 0.0 {
+        return None;
+    }
+    let mean = swv / sw;
+    // Cramer's rule for the intercept; a near-singular system (a line of points) falls back
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&m);
+    let scale = m[0][0] * m[1][1] * m[2][2];
+    if !(d.is_finite() && scale > 0.0 && d.abs() > 1e-9 * scale) {
+        return Some(mean);
+    }
+    let mut m0 = m;
+    for a in 0..3 {
+        m0[a][0] = r[a];
+    }
+    let a = det(&m0) / d;
+    Some(if a.is_finite() { a } else { mean })
+}
+
+/// Patches any pixel sees (seen patches' exitance is measured at run time; the others are
+/// candidate emitters or modelled).
+fn seen_patches(hits: &[Option<PixelHit>], patches: usize) -> Vec<bool> {
+    let mut count = vec![0u32; patches];
+    for h in hits.iter().flatten() {
+        count[h.patch as usize] += 1;
+    }
+    count.iter().map(|&c| c >= 2).collect()
+}
+
+/// Groups the unseen, reflecting patches into candidate emitters: by the dominant axis of their
+/// normal (walls; upward-facing floor and furniture; the ceiling only when asked), then by a
+/// cell of `cell_m` over the plane's two other axes. The cell grows until there are at most
+/// [`MAX_EMITTERS`] groups.
+fn emitter_groups(model: &Model, seen: &[bool], o: &SectionOptions) -> (Vec<u8>, u16) {
+    let p = &model.patches;
+    let mut cell = o.emitter_cell_m;
+    loop {
+        let mut keys: std::collections::BTreeMap<(u8, i64, i64), u8> = Default::default();
+        let mut out = vec![NO_EMITTER; p.len()];
+        let mut overflow = false;
+        for i in 0..p.len() {
+            if seen[i] || p.rho[i] <= 0.0 {
+                continue;
+            }
+            let n = p.normal[i];
+            let c = p.centroid_m(i);
+            let (axis, a, b) = if n.z.abs() >= n.x.abs().max(n.y.abs()) {
+                if n.z < 0.0 && !o.ceiling_emitters {
+                    continue;
+                }
+                (if n.z > 0.0 { 0 } else { 1 }, c.x, c.y)
+            } else if n.x.abs() >= n.y.abs() {
+                (if n.x > 0.0 { 2 } else { 3 }, c.y, c.z)
+            } else {
+                (if n.y > 0.0 { 4 } else { 5 }, c.x, c.z)
+            };
+            let key = (axis, (a / cell).floor() as i64, (b / cell).floor() as i64);
+            let next = keys.len();
+            let g = *keys.entry(key).or_insert(next.min(255) as u8);
+            if keys.len() > MAX_EMITTERS {
+                overflow = true;
+                break;
+            }
+            out[i] = g;
+        }
+        if !overflow {
+            return (out, keys.len() as u16);
+        }
+        cell *= 1.5;
+    }
+}
+
+/// Samples on the grid of `stride` plus every window pixel; (pixel, hit) in pixel order.
+fn samples(
+    camera: &Camera,
+    hits: &[Option<PixelHit>],
+    stride: u32,
+    window_px: &[Vec<(u32, f64, f64)>],
+) -> Vec<(u32, PixelHit)> {
+    let s = stride.max(1);
+    let mut take = vec![false; hits.len()];
+    for v in (s / 2..camera.height).step_by(s as usize) {
+        for u in (s / 2..camera.width).step_by(s as usize) {
+            take[(v * camera.width + u) as usize] = true;
+        }
+    }
+    for w in window_px {
+        for &(i, _, _) in w {
+            take[i as usize] = true;
+        }
+    }
+    take.iter()
+        .enumerate()
+        .filter_map(|(i, &t)| t.then_some(()).and_then(|_| hits[i].map(|h| (i as u32, h))))
+        .collect()
+}
+
+fn mm(x: f64) -> i16 {
+    (x * 1000.0).round().clamp(-32768.0, 32767.0) as i16
+}
+
+/// The stride for a budget: the smallest whose section fits.
+fn choose_stride(
+    o: &SectionOptions,
+    camera: &Camera,
+    hits: &[Option<PixelHit>],
+    windows: &[Vec<(u32, f64, f64)>],
+    luminaires: usize,
+    patches: usize,
+) -> u32 {
+    if o.stride > 0 {
+        return o.stride;
+    }
+    for s in 1..=16 {
+        let n = samples(camera, hits, s, windows).len();
+        let w: usize = windows.iter().map(Vec::len).sum();
+        let bytes = 64 + n * (10 + 2 * luminaires) + 8 * w + patches;
+        if bytes <= o.budget_bytes {
+            return s;
+        }
+    }
+    16
+}
+
+/// Everything both sources share: samples, windows, emitter groups.
+struct Layout {
+    stride: u32,
+    samples: Vec<(u32, PixelHit)>,
+    windows: Vec<Vec<(u32, i16, i16)>>,
+    window_px: Vec<Vec<(u32, f64, f64)>>,
+    patch_emitter: Vec<u8>,
+    n_emitters: u16,
+}
+
+fn layout(
+    camera: &Camera,
+    model: &Model,
+    sensors: &[Sensor],
+    flags: &[u8],
+    o: &SectionOptions,
+) -> Layout {
+    let caster = RayCaster::new(&model.patches);
+    let hits = cast_all(camera, model, &caster, o.min_rho);
+    let window_px: Vec<Vec<(u32, f64, f64)>> = sensors
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            if flags
+                .get(k)
+                .is_some_and(|f| f & sensor_flags::OUT_OF_VIEW != 0)
+            {
+                Vec::new()
+            } else {
+                window_pixels(camera, &hits, model, s, o)
+            }
+        })
+        .collect();
+    let stride = choose_stride(
+        o,
+        camera,
+        &hits,
+        &window_px,
+        model.luminaires(),
+        model.patches.len(),
+    );
+    let samples = samples(camera, &hits, stride, &window_px);
+    let index: std::collections::HashMap<u32, u32> = samples
+        .iter()
+        .enumerate()
+        .map(|(k, (px, _))| (*px, k as u32))
+        .collect();
+    let windows = window_px
+        .iter()
+        .map(|w| {
+            w.iter()
+                .filter_map(|&(px, dx, dy)| index.get(&px).map(|&k| (k, mm(dx), mm(dy))))
+                .collect()
+        })
+        .collect();
+    let seen = seen_patches(&hits, model.patches.len());
+    let (patch_emitter, n_emitters) = emitter_groups(model, &seen, o);
+    Layout {
+        stride,
+        samples,
+        windows,
+        window_px,
+        patch_emitter,
+        n_emitters,
+    }
+}
+
+/// The camera-calibrated response of each sensor: the plane fit at the sensor of the window's
+/// per-luminaire irradiance (zeros without a window).
+fn calibrated_response(
+    window_px: &[Vec<(u32, f64, f64)>],
+    value: impl Fn(usize, u32) -> Option<f64>,
+    luminaires: usize,
+    sigma_m: f64,
+) -> Vec<Vec<f64>> {
+    window_px
+        .iter()
+        .map(|w| {
+            (0..luminaires)
+                .map(|l| {
+                    let pts: Vec<(f64, f64, f64)> = w
+                        .iter()
+                        .filter_map(|&(px, dx, dy)| value(l, px).map(|e| (dx, dy, e)))
+                        .collect();
+                    if pts.len() * 2 < w.len().max(1) {
+                        return 0.0;
+                    }
+                    plane_at_origin(&pts, sigma_m).unwrap_or(0.0).max(0.0)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The section from a commissioning: the capture's one-luminaire frames less its all-off frame.
+pub fn from_capture(
+    c: &Commissioned,
+    capture: &Capture,
+    o: &SectionOptions,
+) -> Result<LiveSectionData, LiveError> {
+    o.validate()?;
+    let camera = c
+        .scene
+        .camera
+        .as_ref()
+        .ok_or_else(|| LiveError::Input("the commissioned scene has no camera".into()))?;
+    let gain = c.report.reflectance.gain_cd_m2_per_unit;
+    if !(gain.is_finite() && gain > 0.0) {
+        return Err(LiveError::Input(format!(
+            "camera gain {gain} cd/m² per unit: reflectances were not estimated"
+        )));
+    }
+    if capture.luminance.len() != c.model.luminaires() {
+        return Err(LiveError::Input(
+            "the capture's frames do not match the luminaires".into(),
+        ));
+    }
+    let model = &c.model;
+    let l_count = model.luminaires();
+    let lay = layout(camera, model, &c.scene.sensors, &c.sensor_flags, o);
+    let rho = &model.patches.rho;
+    // E_l = π g (L_l − L_off) / ρ of the pixel's patch
+    let e_at = |l: usize, px: u32, patch: usize| -> f64 {
+        let r = rho[patch];
+        if r <= 0.0 {
+            return 0.0;
+        }
+        capture
+            .luminaire_value(l, px as usize)
+            .map_or(0.0, |v| std::f64::consts::PI * gain * v / r)
+    };
+    let artificial: Vec<Vec<f64>> = (0..l_count)
+        .map(|l| {
+            lay.samples
+                .iter()
+                .map(|(px, h)| e_at(l, *px, h.patch as usize))
+                .collect()
+        })
+        .collect();
+    let hit_of: std::collections::HashMap<u32, usize> = lay
+        .samples
+        .iter()
+        .map(|(px, h)| (*px, h.patch as usize))
+        .collect();
+    let response = calibrated_response(
+        &lay.window_px,
+        |l, px| {
+            let patch = *hit_of.get(&px)?;
+            capture
+                .luminaire_value(l, px as usize)
+                .map(|v| std::f64::consts::PI * gain * v / rho[patch])
+        },
+        l_count,
+        0.5 * o.window_radius_m,
+    );
+    let depth_mm = lay
+        .samples
+        .iter()
+        .map(|(px, h)| {
+            let (u, v) = (px % camera.width, px / camera.width);
+            let z = c.depth.at(u, v).unwrap_or(h.z_m);
+            (z * 1000.0).round().clamp(0.0, 65535.0) as u16
+        })
+        .collect();
+    Ok(LiveSectionData {
+        camera: record(camera, Some(gain)),
+        source: live_source::CAPTURE,
+        stride: lay.stride.min(u32::from(u16::MAX)) as u16,
+        pixel: lay.samples.iter().map(|s| s.0).collect(),
+        patch: lay.samples.iter().map(|s| s.1.patch).collect(),
+        depth_mm,
+        artificial_lx: artificial,
+        windows: lay.windows,
+        sensor_response_lx: response,
+        patch_emitter: lay.patch_emitter,
+        n_emitters: lay.n_emitters,
+    })
+}
+
+/// Interreflected illuminance per luminaire at 100 % on each patch, lx (`[luminaire][patch]`).
+fn indirect_lx(ff: &Csr, basis_b: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    basis_b
+        .par_iter()
+        .map(|b| {
+            (0..ff.rows())
+                .map(|i| ff.row(i).map(|(j, f)| f * b[j as usize]).sum())
+                .collect()
+        })
+        .collect()
+}
+
+fn direct_at(l: &Luminaire, points: &[DVec3], x: DVec3, n: DVec3, caster: &RayCaster) -> f64 {
+    direct::illuminance_lx(l, points, x, n, Receiver::Surface, caster)
+}
+
+/// The section from a CAD scene with a camera and its engine model: per sample the engine's exact
+/// direct light at the pixel's surface point plus its patch's interreflected light. Sensor
+/// visibility: a sensor is in view when the camera's ray toward it first meets a surface within
+/// 3 cm of it. `gain`: the camera's luminance scale, if known.
+pub fn from_model(
+    scene: &Scene,
+    model: &Model,
+    o: &SectionOptions,
+) -> Result<(LiveSectionData, Vec<u8>), LiveError> {
+    o.validate()?;
+    let camera = scene
+        .camera
+        .as_ref()
+        .ok_or_else(|| LiveError::Input(format!("scene {} has no camera.json", scene.name)))?;
+    if camera.width == 0 || camera.height == 0 || camera.width > 4096 || camera.height > 4096 {
+        return Err(LiveError::Input(format!(
+            "camera of {}x{} pixels: 1..=4096 a side",
+            camera.width, camera.height
+        )));
+    }
+    let caster = RayCaster::new(&model.patches);
+    let flags: Vec<u8> = scene
+        .sensors
+        .iter()
+        .map(|s| {
+            let visible = project(camera, s.position_m).is_some_and(|(u, v, _)| {
+                u >= -0.5
+                    && v >= -0.5
+                    && u < f64::from(camera.width) - 0.5
+                    && v < f64::from(camera.height) - 0.5
+                    && {
+                        let d = (s.position_m - camera.position_m).normalize();
+                        match caster.closest(camera.position_m, d) {
+                            Hit::Front { t_m, .. } => {
+                                (camera.position_m + d * t_m - s.position_m).length() < 0.03
+                            }
+                            _ => false,
+                        }
+                    }
+            });
+            if visible {
+                0
+            } else {
+                sensor_flags::OUT_OF_VIEW
+            }
+        })
+        .collect();
+    let lay = layout(camera, model, &scene.sensors, &flags, o);
+    let indirect = indirect_lx(&model.ff.f, &model.basis_b);
+    let points: Vec<Vec<DVec3>> = scene
+        .luminaires
+        .iter()
+        .map(|l| direct::centred_opening_points(l, o.opening_points))
+        .collect();
+    let artificial: Vec<Vec<f64>> = scene
+        .luminaires
+        .iter()
+        .enumerate()
+        .map(|(l, lum)| {
+            lay.samples
+                .par_iter()
+                .map(|(_, h)| {
+                    let p = h.patch as usize;
+                    let n = model.patches.normal[p];
+                    direct_at(lum, &points[l], h.point, n, &caster) + indirect[l][p]
+                })
+                .collect()
+        })
+        .collect();
+    // the model's own sensor reading is its calibrated response (zero out of view)
+    let response = (0..model.sensors())
+        .map(|s| {
+            if lay.windows[s].is_empty() {
+                vec![0.0; model.luminaires()]
+            } else {
+                model.response_lx[s].clone()
+            }
+        })
+        .collect();
+    let depth_mm = lay
+        .samples
+        .iter()
+        .map(|(_, h)| (h.z_m * 1000.0).round().clamp(0.0, 65535.0) as u16)
+        .collect();
+    Ok((
+        LiveSectionData {
+            camera: record(camera, camera.luminance_cd_m2_per_unit),
+            source: live_source::MODEL,
+            stride: lay.stride.min(u32::from(u16::MAX)) as u16,
+            pixel: lay.samples.iter().map(|s| s.0).collect(),
+            patch: lay.samples.iter().map(|s| s.1.patch).collect(),
+            depth_mm,
+            artificial_lx: artificial,
+            windows: lay.windows,
+            sensor_response_lx: response,
+            patch_emitter: lay.patch_emitter,
+            n_emitters: lay.n_emitters,
+        },
+        flags,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plane_fit_is_exact_for_planes_and_asymmetric_windows() {
+        // a plane 100 + 30 x − 50 y sampled only on one side of the origin
+        let pts: Vec<(f64, f64, f64)> = (0..20)
+            .flat_map(|i| (0..5).map(move |j| (0.01 * f64::from(i), 0.01 * f64::from(j) - 0.02)))
+            .map(|(x, y)| (x, y, 100.0 + 30.0 * x - 50.0 * y))
+            .collect();
+        let v = plane_at_origin(&pts, 0.05).unwrap();
+        assert!((v - 100.0).abs() < 1e-9, "{v}");
+        // points on a line: the weighted mean
+        let line = [(0.0, 0.0, 1.0), (0.0, 0.0, 3.0)];
+        assert_eq!(plane_at_origin(&line, 0.05), Some(2.0));
+        assert_eq!(plane_at_origin(&[], 0.05), None);
+    }
+}
