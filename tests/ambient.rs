@@ -82,6 +82,9 @@ fn the_ambient_light_sensor_calibrates_the_camera_gain_within_2_percent() {
         reading.setting,
         100.0 * err
     );
+    // Issue 17's target, 2 %. Measured: -0.54 % before the engine's -0.0 ray-direction fix
+    // (issue 13), +1.24 % since (the model keeps the light that used to leak out, so the
+    // reflectances read lower and the gain higher; the simulated world's truth moved +0.4 %).
     assert!(err.abs() < 0.02, "gain off by {:.2} %", 100.0 * err);
     // the run-time check's reference: one luminaire at a time (measured: within 4.5 %)
     for (j, (m, t)) in reference.iter().zip(&per_lum).enumerate() {
