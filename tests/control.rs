@@ -430,7 +430,8 @@ fn the_loop_brightens_at_once_dims_after_the_hold_and_is_safe_without_camera() {
     tick(&mut reg, 0.0, Some(0.0), true);
     let night = reg.current().to_vec();
     assert!(lux_of(&night, 0.0).iter().all(|&e| e >= 500.0 - 1e-6));
-    // the sun comes: the lights hold for the dim hold, then dim
+    // the sun comes: the lights hold for the dim hold, then dim (the filter follows a rising
+    // estimate with a 30 s time constant: at 75 s it has 89 % of the step)
     tick(&mut reg, 10.0, Some(300.0), true);
     assert_eq!(reg.current(), &night[..], "no dimming before the hold");
     tick(&mut reg, 75.0, Some(300.0), true);
@@ -440,9 +441,25 @@ fn the_loop_brightens_at_once_dims_after_the_hold_and_is_safe_without_camera() {
         "dimmed after the hold"
     );
     assert!(lux_of(&sunny, 300.0).iter().all(|&e| e >= 500.0 - 1e-6));
-    // a cloud: brighter at once
+    // a cloud: brighter at once (the filter follows a falling estimate with a 10 s time
+    // constant), and within four time constants every desk is back within the dead band of its
+    // target from the luminaires alone
     tick(&mut reg, 80.0, Some(0.0), true);
-    assert_eq!(reg.current(), &night[..], "brightened at once");
+    assert!(
+        reg.current().iter().zip(&sunny).any(|(a, b)| a.0 > b.0),
+        "brightened at once: {:?} vs {sunny:?}",
+        reg.current()
+    );
+    for s in 1..=8 {
+        tick(&mut reg, 80.0 + 5.0 * f64::from(s), Some(0.0), true);
+    }
+    assert!(
+        lux_of(reg.current(), 0.0)
+            .iter()
+            .all(|&e| e >= 0.95 * 500.0 - 1e-6),
+        "{:?}",
+        lux_of(reg.current(), 0.0)
+    );
     // the camera goes stale: the safe plan (no daylight assumed), whatever the sun does
     let t = tick(&mut reg, 200.0, None, true);
     assert!(t.safe);
@@ -661,4 +678,434 @@ fn a_day_of_daylight_is_accounted_and_the_optimiser_never_uses_more() {
         (total - opt_kwh).abs() <= 5.5e-3,
         "{total} vs {opt_kwh}\n{out}"
     );
+}
+
+/// office_a's fast-preset image, built once per target directory.
+fn office_a_image() -> std::path::PathBuf {
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("control-office_a.img");
+    if path.exists() {
+        return path;
+    }
+    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    luxnode(&[
+        "image",
+        "build",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        tmp.to_str().unwrap(),
+        "--preset",
+        "fast",
+    ]);
+    std::fs::rename(&tmp, &path).unwrap();
+    path
+}
+
+/// The simulated room around the node's loop: the lights (what the gear is at), the true
+/// daylight, and the camera's noisy daylight estimate (live light's: measured lux less the
+/// model's artificial lux, so its noise scales with the total lux on the desk).
+struct Room<'a> {
+    plant: Plant<'a>,
+    lights: Vec<ArcLevel>,
+    rng: SplitMix64,
+    /// Standard deviation of one frame's estimate, as a fraction of the desk's total lux.
+    noise: f64,
+}
+
+impl Room<'_> {
+    fn artificial(&self) -> Vec<f64> {
+        let x: Vec<f64> = self
+            .lights
+            .iter()
+            .map(|a| a.fraction(self.plant.curve).unwrap())
+            .collect();
+        let mut lux = vec![0.0; self.plant.desks];
+        luxnode::control::desk_lux(&self.plant, &vec![0.0; self.plant.desks], &x, &mut lux);
+        lux
+    }
+    fn frame(&mut self, truth: &[f64]) -> Vec<f64> {
+        let art = self.artificial();
+        truth
+            .iter()
+            .zip(&art)
+            .map(|(d, a)| {
+                (d + self.noise * (d + a) * luxnode::rng::gaussian(&mut self.rng)).max(0.0)
+            })
+            .collect()
+    }
+    fn desk_lux(&self, truth: &[f64]) -> Vec<f64> {
+        self.artificial()
+            .iter()
+            .zip(truth)
+            .map(|(a, d)| a + d)
+            .collect()
+    }
+}
+
+/// The loop on office_a under a day of Radiance daylight, as the HIL rig would run it: frames
+/// every 2 s with 5 % noise, the DALI gateway and the camera lost and back. Asserts the issue's
+/// targets: no more than one level change per luminaire per minute at steady daylight, the
+/// desks settled within the dead band, the safe state without the camera, the gear's system
+/// failure level (full, IEC 62386-102's default) while the gateway is away, and the plan
+/// resent the moment it is back.
+#[test]
+fn the_closed_loop_on_office_a_holds_the_desks_without_pumping_and_rides_out_lost_links() {
+    let bytes = std::fs::read(office_a_image()).unwrap();
+    let img = luxnode::store::Image::parse(&bytes).unwrap();
+    let (kd, l) = (img.sensors(), img.luminaires());
+    let r: Vec<f64> = (0..kd)
+        .flat_map(|k| (0..l).map(move |j| (k, j)))
+        .map(|(k, j)| img.response_lx(k, j))
+        .collect();
+    let power: Vec<LuminairePower> = (0..l)
+        .map(|j| LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j)))
+        .collect();
+    let ids: Vec<u32> = (0..kd).map(|k| img.sensor_id(k)).collect();
+    let day = luxnode::bench::control_day::read_series(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("bench/radiance/results/daylight_office_a_clear.csv"),
+        &ids,
+    )
+    .unwrap();
+    // the true daylight at hour t: linear between the hourly Radiance steps
+    let daylight_at = |t_h: f64| -> Vec<f64> {
+        let i = day
+            .iter()
+            .rposition(|s| s.time_h <= t_h)
+            .unwrap_or(0)
+            .min(day.len() - 2);
+        let (a, b) = (&day[i], &day[i + 1]);
+        let w = ((t_h - a.time_h) / (b.time_h - a.time_h)).clamp(0.0, 1.0);
+        a.daylight_lx
+            .iter()
+            .zip(&b.daylight_lx)
+            .map(|(x, y)| x + w * (y - x))
+            .collect()
+    };
+    let plant = Plant {
+        desks: kd,
+        luminaires: l,
+        response_lx: &r,
+        power: &power,
+        curve: DimmingCurve::Logarithmic,
+    };
+    let targets = vec![500.0; kd];
+    let settings = Settings::default();
+    let band = 1.0 - settings.dead_band;
+    let mut reg = Regulator::new(Mode::DaylightHarvesting, settings);
+    let mut scratch = vec![0.0; scratch_len(kd, l, false)];
+    let mut room = Room {
+        plant,
+        lights: vec![ArcLevel(254); l], // the gear at its power-on level
+        rng: SplitMix64::new(21),
+        noise: 0.05,
+    };
+    // one tick: a frame (or none), the loop, the gateway delivering (or the gear at its
+    // failure level); returns the luminaires whose level changed
+    let mut step = |reg: &mut Regulator,
+                    room: &mut Room<'_>,
+                    now_s: f64,
+                    truth: &[f64],
+                    camera: bool,
+                    gateway: bool|
+     -> (Vec<usize>, bool, bool) {
+        let frame = room.frame(truth);
+        let t = reg
+            .tick(
+                &plant,
+                &targets,
+                Inputs {
+                    now_s,
+                    daylight_lx: camera.then_some(&frame[..]),
+                    gateway_up: gateway,
+                },
+                &mut scratch,
+            )
+            .unwrap();
+        let before = room.lights.clone();
+        if !gateway {
+            assert!(
+                t.write.is_none(),
+                "nothing can be written without the gateway"
+            );
+            room.lights = vec![ArcLevel(254); l]; // the bus is down: system failure level
+        } else if let Some(w) = &t.write {
+            room.lights = w.to_vec();
+        }
+        let changed = (0..l).filter(|&j| room.lights[j] != before[j]).collect();
+        (changed, t.safe, t.write.is_some())
+    };
+
+    // steady daylight (10:00) for 15 minutes: after the first plan and its dim hold (5 min),
+    // no luminaire changes level more than once a minute, and the desks sit within the dead
+    // band of their targets
+    let steady = daylight_at(10.0);
+    let mut last_change = vec![f64::NEG_INFINITY; l];
+    let mut changes_after_settling = 0;
+    for i in 0..450 {
+        let now = 2.0 * f64::from(i);
+        let (changed, safe, _) = step(&mut reg, &mut room, now, &steady, true, true);
+        assert!(!safe);
+        if now >= 300.0 {
+            for &j in &changed {
+                assert!(
+                    now - last_change[j] >= 60.0,
+                    "luminaire {j} changed at {} s and again at {now} s",
+                    last_change[j]
+                );
+                changes_after_settling += 1;
+            }
+        }
+        for j in changed {
+            last_change[j] = now;
+        }
+        if now >= 300.0 {
+            let lux = room.desk_lux(&steady);
+            assert!(
+                lux.iter().zip(&targets).all(|(e, t)| *e >= band * t),
+                "{now} s: {lux:?}"
+            );
+        }
+    }
+    eprintln!(
+        "steady daylight, 5 % noise: {changes_after_settling} level changes in the last 10 min"
+    );
+    assert!(changes_after_settling <= l, "{changes_after_settling}");
+
+    // the day from 10:15 to 17:00, one frame every 2 s: every desk within the dead band of its
+    // target all along (measured: 0.975 of it at worst), and few changes (a rising or falling
+    // sun moves the plan a dead band at a time; measured: at most 37 per luminaire in 405 min)
+    let t0 = 900.0;
+    let mut changes = vec![0usize; l];
+    let mut worst = f64::INFINITY;
+    let ticks = ((17.0 - 10.25) * 1800.0) as u32;
+    for i in 0..ticks {
+        let now = t0 + 2.0 * f64::from(i);
+        let truth = daylight_at(10.25 + 2.0 * f64::from(i) / 3600.0);
+        let (changed, _, _) = step(&mut reg, &mut room, now, &truth, true, true);
+        for j in changed {
+            changes[j] += 1;
+        }
+        let lux = room.desk_lux(&truth);
+        worst = lux
+            .iter()
+            .zip(&targets)
+            .map(|(e, t)| e / t)
+            .fold(worst, f64::min);
+    }
+    let minutes = (17.0 - 10.25) * 60.0;
+    eprintln!(
+        "the day: level changes per luminaire {changes:?} in {minutes} min, least lux / target {worst:.3}"
+    );
+    assert!(worst >= band, "{worst}");
+    assert!(
+        changes.iter().all(|&c| (c as f64) <= minutes / 8.0),
+        "{changes:?} in {minutes} min"
+    );
+
+    // the camera lost at dusk (the daylight falls to a tenth while it is away): the loop plans
+    // with no daylight at once, so every desk meets its target from the luminaires alone
+    let mut now = t0 + 2.0 * f64::from(ticks);
+    let dusk: Vec<f64> = daylight_at(17.0).iter().map(|d| 0.1 * d).collect();
+    let mut safe_seen = false;
+    for _ in 0..30 {
+        now += 2.0;
+        let (_, safe, _) = step(&mut reg, &mut room, now, &dusk, false, true);
+        safe_seen |= safe;
+    }
+    assert!(safe_seen);
+    let lux = room.desk_lux(&vec![0.0; kd]);
+    assert!(
+        lux.iter().zip(&targets).all(|(e, t)| *e >= t - 1e-6),
+        "safe plan: {lux:?}"
+    );
+
+    // the camera back, then the gateway lost for two minutes: nothing is written, the gear
+    // holds its system failure level (full), every desk lit; the link back: the plan is sent
+    // again at once
+    for _ in 0..60 {
+        now += 2.0;
+        step(&mut reg, &mut room, now, &dusk, true, true);
+    }
+    let planned = reg.current().to_vec();
+    for _ in 0..60 {
+        now += 2.0;
+        step(&mut reg, &mut room, now, &dusk, true, false);
+        let lux = room.desk_lux(&dusk);
+        assert!(lux.iter().zip(&targets).all(|(e, t)| e >= t));
+    }
+    now += 2.0;
+    let (_, _, wrote) = step(&mut reg, &mut room, now, &dusk, true, true);
+    assert!(wrote, "the plan is resent when the gateway is back");
+    assert_eq!(room.lights, reg.current());
+    assert_eq!(room.lights, planned, "the plan made before the loss");
+    let lux = room.desk_lux(&dusk);
+    assert!(
+        lux.iter().zip(&targets).all(|(e, t)| *e >= band * t),
+        "{lux:?}"
+    );
+}
+
+/// The cells of the table row after `marker` in docs/control.md whose first cell is `first`.
+fn doc_row(doc: &str, marker: &str, first: &str) -> Vec<String> {
+    let at = doc
+        .find(marker)
+        .unwrap_or_else(|| panic!("docs/control.md has no {marker}"));
+    let line = doc[at..]
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with('|'))
+        .find(|l| l.trim_start_matches('|').trim_start().starts_with(first))
+        .unwrap_or_else(|| panic!("docs/control.md: no row {first:?} after {marker}"));
+    line.trim()
+        .trim_matches('|')
+        .split('|')
+        .map(|c| c.trim().to_owned())
+        .collect()
+}
+
+/// A printed number (leading digits, '.', 'e', '-') and half a unit of its last digit.
+fn doc_number(cell: &str) -> (f64, f64) {
+    let s: String = cell
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | '-'))
+        .collect();
+    let v: f64 = s
+        .parse()
+        .unwrap_or_else(|_| panic!("no number in {cell:?}"));
+    let mantissa = s.split('e').next().unwrap_or("");
+    let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len());
+    let exp: i32 = s.split_once('e').map_or(0, |(_, e)| e.parse().unwrap_or(0));
+    (v, 0.5 * 10f64.powi(exp - decimals as i32))
+}
+
+/// A deterministic figure: within its rounding plus a tenth.
+fn check_figure(what: &str, measured: f64, cell: &str) {
+    let (v, half) = doc_number(cell);
+    assert!(
+        (measured - v).abs() <= half + 0.1 * v.abs(),
+        "{what}: measured {measured}, docs/control.md says {cell}"
+    );
+}
+
+/// A time (µs): at most three times the published one, times how much busier than idle the
+/// machine is, plus 20 µs.
+fn check_time_us(what: &str, measured: std::time::Duration, cell: &str) {
+    let (v, _) = doc_number(cell);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    let busy = (luxnode::host::load_average()
+        .and_then(|s| s.parse::<f64>().ok())
+        .unwrap_or(0.0)
+        / cores)
+        .max(1.0);
+    let us = measured.as_secs_f64() * 1e6;
+    assert!(
+        us <= (3.0 * v + 20.0) * busy,
+        "{what}: measured {us:.0} µs, docs/control.md says {cell} (machine {busy:.1} x busier than idle)"
+    );
+}
+
+#[test]
+fn the_published_control_figures_hold() {
+    use luxnode::bench::control as bc;
+    let doc = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/control.md"),
+    )
+    .unwrap();
+    // speed and optimality: `luxnode bench control` (20 instances, seed 1)
+    for r in bc::run(&bc::SIZES, 20, 1) {
+        let size = format!("{} x {}", r.luminaires, r.desks);
+        let row = doc_row(&doc, "<!-- control bench -->", &size);
+        check_time_us(&format!("{size} CPU"), r.median_cpu, &row[1]);
+        check_time_us(&format!("{size} wall"), r.median, &row[2]);
+        check_time_us(&format!("{size} worst CPU"), r.worst_cpu, &row[3]);
+        check_figure(
+            &format!("{size} iterations"),
+            f64::from(r.iterations),
+            &row[4],
+        );
+        check_time_us(&format!("{size} microlp"), r.microlp_median, &row[5]);
+        let (lp_doc, _) = doc_number(&row[6]);
+        assert!(
+            r.lp_rel_diff <= (10.0 * lp_doc).max(1e-13),
+            "{size}: {} vs {}",
+            r.lp_rel_diff,
+            row[6]
+        );
+        check_figure(
+            &format!("{size} DALI excess"),
+            100.0 * r.dali_excess,
+            &row[7],
+        );
+        assert_eq!(
+            format!("{}/{}", r.infeasible, r.instances),
+            row[8],
+            "{size} out of reach"
+        );
+    }
+    for r in bc::exhaustive(&bc::EXHAUSTIVE_SIZES, 20, 1) {
+        let size = format!("{} x {}", r.luminaires, r.desks);
+        let row = doc_row(&doc, "<!-- control exhaustive -->", &size);
+        assert_eq!(r.combinations.to_string(), row[1], "{size}");
+        assert_eq!(r.feasible.to_string(), row[2], "{size}");
+        assert_eq!(r.optimal.to_string(), row[3], "{size}");
+        check_figure(
+            &format!("{size} mean excess"),
+            100.0 * r.mean_excess,
+            &row[4],
+        );
+        check_figure(
+            &format!("{size} worst excess"),
+            100.0 * r.worst_excess,
+            &row[5],
+        );
+    }
+    // the microcontroller's scratch
+    assert_eq!(scratch_len(100, 64, false), 14_841);
+    assert_eq!(scratch_len(8, 8, false), 321);
+    // energy over the Radiance days on office_a
+    let bytes = std::fs::read(office_a_image()).unwrap();
+    let img = luxnode::store::Image::parse(&bytes).unwrap();
+    let ids: Vec<u32> = (0..img.sensors()).map(|k| img.sensor_id(k)).collect();
+    let power: Vec<LuminairePower> = (0..img.luminaires())
+        .map(|j| LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j)))
+        .collect();
+    for sky in ["clear", "overcast"] {
+        let series = luxnode::bench::control_day::read_series(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!(
+                "bench/radiance/results/daylight_office_a_{sky}.csv"
+            )),
+            &ids,
+        )
+        .unwrap();
+        let (rows, t) = luxnode::bench::control_day::run(
+            &img,
+            &power,
+            &vec![500.0; ids.len()],
+            &series,
+            (8.0, 18.0),
+        )
+        .unwrap();
+        let marker = format!("<!-- control-day {sky} -->");
+        let saved = |kwh: f64| 100.0 * (1.0 - kwh / t.all_on_kwh);
+        for (name, kwh) in [
+            ("all on", t.all_on_kwh),
+            ("one photocell", t.photocell_kwh),
+            ("least power", t.optimised_kwh),
+        ] {
+            let row = doc_row(&doc, &marker, name);
+            check_figure(&format!("{sky} {name} kWh"), kwh, &row[1]);
+            if name != "all on" {
+                check_figure(&format!("{sky} {name} saved"), saved(kwh), &row[2]);
+            }
+        }
+        let mut worst = 0.0f64;
+        for r in &rows {
+            assert_eq!(r.short, (0, 0), "{sky} {}: no desk short", r.time_h);
+            worst = worst.max(100.0 * (r.optimised_w / r.lp_w - 1.0));
+        }
+        let row = doc_row(&doc, "<!-- control-day excess -->", sky);
+        check_figure(&format!("{sky} worst excess"), worst, &row[1]);
+    }
 }

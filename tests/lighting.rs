@@ -237,3 +237,90 @@ fn the_plan_is_written_to_the_dali_gateway() {
         std::thread::sleep(Duration::from_millis(50));
     }
 }
+
+/// The gateway lost and back while the node holds the desks: gateway-sim killed (the link
+/// lost; the node flags its levels not delivered once its poll sees it), then started again
+/// on the same address with every luminaire at 254, the DALI system failure level a gateway
+/// that powers the bus leaves its gear at (IEC 62386-102's default: every desk lit). The node
+/// notices the link is back and sends its plan again: the gateway holds the node's levels.
+#[test]
+fn the_gateway_lost_and_back_gets_the_plan_again() {
+    let gw = spawn_listening(GATEWAY_SIM, &["--bind".into(), "127.0.0.1:0".into()]);
+    let gw_addr = gw.addr;
+    let dir = tempfile::tempdir().unwrap();
+    let b = board(
+        dir.path(),
+        "mode = \"constant-light\"\ntick_s = 0.1\n",
+        Some(gw_addr),
+    );
+    let node = serve(&b, &dir.path().join("settings.json"));
+    let planned = rt().block_on(async {
+        let mut c = client(node.addr).await;
+        wait_for(&mut c, "planned and delivered", |s| {
+            s.1.iter().all(|&m| m == 1) && s.3 & 2 == 0
+        })
+        .await;
+        let planned = c
+            .read_holding_registers(addr::ARC_LEVEL, 8)
+            .await
+            .unwrap()
+            .unwrap();
+        let mut g = client(gw_addr).await;
+        assert_eq!(
+            g.read_holding_registers(10, 8).await.unwrap().unwrap(),
+            planned
+        );
+        assert!(planned.iter().any(|&a| a < 254), "dimmed: {planned:?}");
+        planned
+    });
+    drop(gw);
+    // the node's status: the gateway link down
+    rt().block_on(async {
+        let mut c = client(node.addr).await;
+        let t0 = Instant::now();
+        loop {
+            let st = c.read_input_registers(0, 4).await.unwrap().unwrap()[3];
+            if st & luxnode::modbus::regmap::status::GATEWAY_LINK_UP == 0 {
+                break;
+            }
+            assert!(t0.elapsed() < Duration::from_secs(10), "status {st:#x}");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    });
+    let failure: Vec<String> = (10..18).map(|a| format!("{a}=254")).collect();
+    let gw2 = spawn_listening(
+        GATEWAY_SIM,
+        &[
+            "--bind".into(),
+            gw_addr.to_string(),
+            "--set".into(),
+            failure.join(","),
+        ],
+    );
+    rt().block_on(async {
+        let mut g = client(gw_addr).await;
+        let t0 = Instant::now();
+        loop {
+            let now = g.read_holding_registers(10, 8).await.unwrap().unwrap();
+            if now == planned {
+                break;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(10),
+                "the gateway still holds {now:?}, the plan is {planned:?}\n{}",
+                node.output()
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let mut c = client(node.addr).await;
+        let (lux, met, _, flags, _, _) = wait_for(&mut c, "delivered again", |s| {
+            s.1.iter().all(|&m| m == 1) && s.3 & 2 == 0
+        })
+        .await;
+        assert!(
+            lux.iter().all(|&e| e >= 500.0 * (1.0 - 1e-6)),
+            "{lux:?} {met:?} {flags}"
+        );
+    });
+    drop(gw2);
+}

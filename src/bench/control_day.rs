@@ -111,6 +111,8 @@ pub struct DayRow {
     pub photocell_w: f64,
     /// The least-power plan, W.
     pub optimised_w: f64,
+    /// The continuous optimum (the linear programme's, before DALI levels), W: a lower bound.
+    pub lp_w: f64,
     /// Desks short under the photocell / the optimiser.
     pub short: (usize, usize),
 }
@@ -209,6 +211,7 @@ pub fn run(
             all_on_w: pc.all_on_w,
             photocell_w: pc.power_w,
             optimised_w: opt.power_w,
+            lp_w: opt.lp_power_w,
             short: (pc.short, opt.short),
         });
     }

@@ -12,6 +12,9 @@
 //! fade_steps_per_s = 20
 //! dead_band = 0.05             # of the target
 //! dim_hold_s = 60
+//! daylight_rise_s = 30         # daylight filter time constants (rising, falling estimate)
+//! daylight_fall_s = 10
+//! min_saving = 0.03            # a new plan replaces levels that hold only if it saves this
 //! uniformity = 0.6             # optional: every desk at least 0.6 of the mean
 //! tick_s = 1
 //! daylight_max_age_s = 60
@@ -41,6 +44,9 @@ pub struct ControlToml {
     fade_steps_per_s: Option<f64>,
     dead_band: Option<f64>,
     dim_hold_s: Option<f64>,
+    daylight_rise_s: Option<f64>,
+    daylight_fall_s: Option<f64>,
+    min_saving: Option<f64>,
     uniformity: Option<f64>,
     tick_s: Option<f64>,
     daylight_max_age_s: Option<f64>,
@@ -118,6 +124,24 @@ pub(crate) fn control(t: Option<ControlToml>) -> Result<ControlOptions, SectionE
             .uniformity
             .map(|u| within("uniformity", u, 0.0, 1.0))
             .transpose()?,
+        daylight_rise_s: within(
+            "daylight_rise_s",
+            t.daylight_rise_s.unwrap_or(s0.daylight_rise_s),
+            0.0,
+            3600.0,
+        )?,
+        daylight_fall_s: within(
+            "daylight_fall_s",
+            t.daylight_fall_s.unwrap_or(s0.daylight_fall_s),
+            0.0,
+            3600.0,
+        )?,
+        min_saving: within(
+            "min_saving",
+            t.min_saving.unwrap_or(s0.min_saving),
+            0.0,
+            0.5,
+        )?,
     };
     Ok(ControlOptions {
         mode,
@@ -160,6 +184,15 @@ mod tests {
         );
         assert_eq!(c.rated_power_w, Some(40.0));
         assert_eq!(c.loop_settings.uniformity, Some(0.6));
+        let f = parse("daylight_rise_s = 60\ndaylight_fall_s = 0\nmin_saving = 0.1\n").unwrap();
+        assert_eq!(
+            (
+                f.loop_settings.daylight_rise_s,
+                f.loop_settings.daylight_fall_s,
+                f.loop_settings.min_saving
+            ),
+            (60.0, 0.0, 0.1)
+        );
         let d = parse("").unwrap();
         assert_eq!((d.mode, d.target_lx, d.min_arc), (Mode::Off, 500.0, 85));
         for (bad, says) in [
@@ -170,6 +203,8 @@ mod tests {
             ("min_arc = 0", "min_arc"),
             ("dead_band = 0.9", "dead_band"),
             ("uniformity = 1.5", "uniformity"),
+            ("daylight_fall_s = -1", "daylight_fall_s"),
+            ("min_saving = 0.9", "min_saving"),
             ("tick_s = 0", "tick_s"),
             ("rated_power_w = 0", "rated_power_w"),
             ("colour = 1", "unknown field"),

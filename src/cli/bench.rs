@@ -160,8 +160,9 @@ pub enum Command {
         #[arg(long)]
         scene: PathBuf,
     },
-    /// The least-power optimiser (luminaires x desks up to 64 x 100): time per optimisation,
-    /// the continuous optimum against the independent microlp solver, the DALI plan's excess.
+    /// The least-power optimiser (luminaires x desks up to 128 x 200): time per optimisation,
+    /// the continuous optimum against the independent microlp solver, the DALI plan's excess;
+    /// then the DALI plan against the exhaustive DALI optimum for 2 to 4 luminaires.
     Control {
         /// Instances per size.
         #[arg(long, default_value_t = 20)]
@@ -419,26 +420,49 @@ pub fn run(command: Command) -> Result<()> {
                 bail!("--instances {instances}: 1..=10000");
             }
             println!(
-                "# least-power dimming: {instances} office-like instances per size (seed {seed}), load average {}",
+                "# least-power dimming: {instances} office-like instances per size (seed {seed}), each solved once untimed then {} times timed, load average {}",
+                bench::control::TIMED_RUNS,
                 luxnode::host::load_average().unwrap_or_else(|| "?".into())
             );
             println!(
-                "| luminaires x desks | median CPU time | median wall time | worst wall time | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
+                "| luminaires x desks | median CPU time | median wall time | worst CPU time | simplex iterations (median) | microlp, LP only (median wall) | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
             );
-            println!("|---|---:|---:|---:|---:|---:|---:|");
-            let sizes = [(8, 8), (16, 24), (32, 50), (64, 100)];
-            for r in bench::control::run(&sizes, instances, seed) {
+            println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+            for r in bench::control::run(&bench::control::SIZES, instances, seed) {
                 println!(
-                    "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
+                    "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {} | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
                     r.luminaires,
                     r.desks,
                     r.median_cpu.as_secs_f64() * 1e6,
                     r.median.as_secs_f64() * 1e6,
-                    r.worst.as_secs_f64() * 1e6,
+                    r.worst_cpu.as_secs_f64() * 1e6,
+                    r.iterations,
+                    r.microlp_median.as_secs_f64() * 1e6,
                     r.lp_rel_diff,
                     100.0 * r.dali_excess,
                     r.infeasible,
                     r.instances
+                );
+            }
+            println!();
+            println!(
+                "# the DALI plan against the exhaustive DALI optimum (every combination of levels), {instances} instances per size, daylight and targets random"
+            );
+            println!(
+                "| luminaires x desks | combinations per instance | instances with a solution | plan = optimum | mean excess | worst excess |"
+            );
+            println!("|---|---:|---:|---:|---:|---:|");
+            for r in bench::control::exhaustive(&bench::control::EXHAUSTIVE_SIZES, instances, seed)
+            {
+                println!(
+                    "| {} x {} | {} | {} | {} | {:.3} % | {:.3} % |",
+                    r.luminaires,
+                    r.desks,
+                    r.combinations,
+                    r.feasible,
+                    r.optimal,
+                    100.0 * r.mean_excess,
+                    100.0 * r.worst_excess
                 );
             }
         }
@@ -736,17 +760,18 @@ fn control_day(
         daylight.display()
     );
     println!(
-        "| time (h) | mean daylight (lx) | all on (W) | one photocell (W) | least power (W) | desks short (photocell / least power) |"
+        "| time (h) | mean daylight (lx) | all on (W) | one photocell (W) | least power (W) | least power over the continuous optimum | desks short (photocell / least power) |"
     );
-    println!("|---:|---:|---:|---:|---:|---|");
+    println!("|---:|---:|---:|---:|---:|---:|---|");
     for r in &rows {
         println!(
-            "| {:.2} | {:.0} | {:.0} | {:.0} | {:.0} | {} / {} |",
+            "| {:.2} | {:.0} | {:.0} | {:.0} | {:.0} | {:.3} % | {} / {} |",
             r.time_h,
             r.mean_daylight_lx,
             r.all_on_w,
             r.photocell_w,
             r.optimised_w,
+            100.0 * (r.optimised_w / r.lp_w - 1.0),
             r.short.0,
             r.short.1
         );

@@ -6,9 +6,16 @@
 //!   `ConstantLight`: the least-power state that meets every target with no daylight (a new
 //!   installation is not over-lit; lamp ageing is compensated as its factor is measured).
 //!   `DaylightHarvesting`: the same with each desk's measured daylight.
+//! * **Daylight filter.** Each desk's daylight estimate is smoothed before anything looks at it:
+//!   an exponential filter that follows a falling estimate quickly (`daylight_fall_s`, a cloud
+//!   must brighten the lights within seconds) and a rising one slowly (`daylight_rise_s`). A
+//!   frame's noise is damped, and what noise is left errs low: toward more light, the safe side.
 //! * **Dead band.** A new plan is made only when a target changes, the mode changes, or the
-//!   daylight on some desk has moved by more than `dead_band` of its target since the last plan:
-//!   camera noise below that never moves a light.
+//!   filtered daylight on some desk has moved by more than `dead_band` of its target since the
+//!   last plan: camera noise below that never moves a light.
+//! * **Keep what works.** A new plan replaces the levels only when the levels as they are leave
+//!   some desk short, or when it saves more than `min_saving` of their power: a room with
+//!   several near-equal least-power states does not hop between them on noise.
 //! * **Hysteresis.** A plan is applied at once when some desk is short as things are (more than
 //!   the dead band below its target); a plan that only saves power waits until it has been
 //!   wanted for `dim_hold_s`. Clouds passing do not make the lights pump.
@@ -72,6 +79,13 @@ pub struct Settings {
     pub dim_hold_s: f64,
     /// Optional uniformity constraint for the optimiser.
     pub uniformity: Option<f64>,
+    /// Time constant of the daylight filter while the estimate rises, s.
+    pub daylight_rise_s: f64,
+    /// Time constant of the daylight filter while the estimate falls, s.
+    pub daylight_fall_s: f64,
+    /// Least fraction of the present levels' power a new plan must save to replace levels that
+    /// meet every target.
+    pub min_saving: f64,
 }
 
 impl Default for Settings {
@@ -81,6 +95,9 @@ impl Default for Settings {
             dead_band: 0.05,
             dim_hold_s: 60.0,
             uniformity: None,
+            daylight_rise_s: 30.0,
+            daylight_fall_s: 10.0,
+            min_saving: 0.03,
         }
     }
 }
@@ -134,6 +151,8 @@ pub struct Regulator {
     current: Vec<ArcLevel, MAX_LUMINAIRES>,
     /// Daylight the plan was made for.
     planned_daylight: Vec<f64, MAX_DESKS>,
+    /// The filtered daylight estimate (empty: none yet, or it went stale).
+    daylight_filtered: Vec<f64, MAX_DESKS>,
     planned_targets: Vec<f64, MAX_DESKS>,
     planned_mode: Option<Mode>,
     planned_safe: bool,
@@ -169,6 +188,58 @@ impl Regulator {
     /// Levels as last commanded.
     pub fn current(&self) -> &[ArcLevel] {
         &self.current
+    }
+
+    /// One step of the daylight filter toward the estimate `d`, `dt` seconds after the last.
+    fn filter_daylight(&mut self, d: &[f64], dt: f64) {
+        if self.daylight_filtered.len() != d.len() {
+            self.daylight_filtered = d.iter().copied().take(MAX_DESKS).collect();
+            return;
+        }
+        let gain = |tau: f64| {
+            if tau <= 0.0 {
+                1.0
+            } else {
+                1.0 - libm::exp(-dt / tau)
+            }
+        };
+        let (rise, fall) = (
+            gain(self.settings.daylight_rise_s),
+            gain(self.settings.daylight_fall_s),
+        );
+        for (f, &e) in self.daylight_filtered.iter_mut().zip(d) {
+            let a = if e < *f { fall } else { rise };
+            *f += a * (e - *f);
+        }
+    }
+
+    /// The desk lux and power of the levels as they are, if they meet every target within the
+    /// dead band with this daylight (`None` before the first write or when some desk is short).
+    fn holds(
+        &self,
+        plant: &Plant<'_>,
+        targets: &[f64],
+        daylight: &[f64],
+    ) -> Option<(Vec<f64, MAX_DESKS>, f64)> {
+        if self.current.len() != plant.luminaires || self.current.contains(&ArcLevel::MASK) {
+            return None;
+        }
+        let mut x: Vec<f64, MAX_LUMINAIRES> = Vec::new();
+        let mut power = 0.0;
+        for (a, p) in self.current.iter().zip(plant.power) {
+            let f = a.fraction(plant.curve)?;
+            power += p.power_w(f);
+            let _ = x.push(f);
+        }
+        let mut lux: Vec<f64, MAX_DESKS> = vec_of(0.0, plant.desks);
+        super::desk_lux(plant, daylight, &x, &mut lux);
+        let band = 1.0 - self.settings.dead_band;
+        let ok = lux.iter().zip(targets).all(|(e, t)| *e >= *t * band);
+        if self.settings.uniformity.is_some() {
+            // the uniformity constraint is the optimiser's to keep
+            return None;
+        }
+        ok.then_some((lux, power))
     }
 
     fn needs_plan(&self, targets: &[f64], daylight: &[f64], safe: bool) -> bool {
@@ -215,10 +286,22 @@ impl Regulator {
             });
         }
         let zeros = [0.0; MAX_DESKS];
-        let (daylight, safe): (&[f64], bool) = match (self.mode, inputs.daylight_lx) {
-            (Mode::DaylightHarvesting, Some(d)) if d.len() == kd => (d, false),
-            (Mode::DaylightHarvesting, _) => (&zeros[..kd], true),
-            _ => (&zeros[..kd], false),
+        let safe = match (self.mode, inputs.daylight_lx) {
+            (Mode::DaylightHarvesting, Some(d)) if d.len() == kd => {
+                self.filter_daylight(d, dt);
+                false
+            }
+            (Mode::DaylightHarvesting, _) => {
+                self.daylight_filtered.clear();
+                true
+            }
+            _ => false,
+        };
+        let filtered = self.daylight_filtered.clone();
+        let daylight: &[f64] = if self.mode == Mode::DaylightHarvesting && !safe {
+            &filtered
+        } else {
+            &zeros[..kd]
         };
         let mut replanned = false;
         if self.needs_plan(targets_lx, daylight, safe) {
@@ -239,11 +322,24 @@ impl Regulator {
                 },
                 scratch,
             )?;
+            let mut power_w = report.power_w;
+            // (not for the safe plan: that one is the guarantee, taken as it is)
+            if !safe
+                && let Some((lux_now, power_now)) = self.holds(plant, targets_lx, daylight)
+                && report.power_w > (1.0 - self.settings.min_saving) * power_now
+            {
+                // the levels as they are meet every target and the new plan saves little:
+                // keep them
+                arc = self.current.clone();
+                lux = lux_now;
+                met = vec_of(true, kd);
+                power_w = power_now;
+            }
             self.plan = Plan {
                 arc,
                 lux,
                 met,
-                power_w: report.power_w,
+                power_w,
                 all_on_w: report.all_on_w,
             };
             self.planned_daylight = daylight.iter().copied().take(MAX_DESKS).collect();

@@ -41,12 +41,17 @@ pub struct Lighting {
     started: Instant,
     delivered_ok: bool,
     last_mode: Option<Mode>,
+    /// The node's count of gateway link changes at the last tick.
+    link_changes: u64,
 }
 
 impl Lighting {
     /// The loop for `node`, delivering through `gateway` if given.
     pub fn new(node: SharedNode, gateway: Option<GatewayConfig>) -> Self {
-        let settings = lock(&node).control_options().loop_settings;
+        let (settings, link_changes) = {
+            let n = lock(&node);
+            (n.control_options().loop_settings, n.gateway_link_changes())
+        };
         Self {
             node,
             gateway,
@@ -56,12 +61,13 @@ impl Lighting {
             started: Instant::now(),
             delivered_ok: true,
             last_mode: None,
+            link_changes,
         }
     }
 
     /// One tick.
     pub async fn tick(&mut self) -> TickReport {
-        let (mode, response, power, targets, daylight, kd, l) = {
+        let (mode, response, power, targets, daylight, kd, l, link_up, link_changes) = {
             let n = lock(&self.node);
             (
                 n.control_mode(),
@@ -71,8 +77,15 @@ impl Lighting {
                 n.fresh_daylight().map(<[f64]>::to_vec),
                 n.model().sensor_ids.len(),
                 n.model().luminaire_ids.len(),
+                n.gateway_link_up(),
+                n.gateway_link_changes(),
             )
         };
+        // the link lost and back between two ticks (two changes or more) is a loss too: down for
+        // this tick, so the next one resends
+        let bounced = link_changes.wrapping_sub(self.link_changes) >= 2;
+        self.link_changes = link_changes;
+        let up = self.delivered_ok && link_up && !bounced;
         if self.last_mode != Some(mode) {
             tracing::info!("lighting control: mode {mode:?}");
             self.last_mode = Some(mode);
@@ -105,7 +118,10 @@ impl Lighting {
             Inputs {
                 now_s,
                 daylight_lx: daylight.as_deref(),
-                gateway_up: self.delivered_ok,
+                // the gateway poll sees a lost link (and a gateway restarted with its gear at
+                // its failure level) even when the loop has nothing to write: the levels are
+                // resent when it is back
+                gateway_up: up,
             },
             &mut self.scratch,
         ) {
@@ -139,13 +155,16 @@ impl Lighting {
             .iter()
             .zip(self.regulator.current())
             .any(|(p, c)| p != c);
+        // delivered: the link up all along and every level the loop commands sent at least once
+        let all_delivered =
+            up && self.delivered_ok && !self.regulator.current().contains(&ArcLevel::MASK);
         let flags = if tick.safe { control_flags::SAFE } else { 0 }
-            | if self.delivered_ok {
+            | if all_delivered {
                 0
             } else {
                 control_flags::NOT_DELIVERED
             }
-            | if holding && self.delivered_ok {
+            | if holding && all_delivered {
                 control_flags::HOLDING
             } else {
                 0

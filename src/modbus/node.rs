@@ -193,6 +193,7 @@ pub struct Node {
     started: Instant,
     computed: Instant,
     gateway_up: bool,
+    gateway_link_changes: u64,
     store_ok: bool,
     sensors_ok: bool,
     /// Per luminaire: its level is known (set since start, or given at start).
@@ -294,6 +295,7 @@ impl Node {
             started: now,
             computed: now,
             gateway_up: !options.gateway_configured,
+            gateway_link_changes: 0,
             store_ok: true,
             sensors_ok: true,
             arc_known: vec![options.initial_arc.is_some(); model_luminaires],
@@ -361,8 +363,20 @@ impl Node {
     pub fn set_gateway_link(&mut self, up: bool) {
         if self.gateway_up != up {
             self.gateway_up = up;
+            self.gateway_link_changes = self.gateway_link_changes.wrapping_add(1);
             self.refresh_flags();
         }
+    }
+
+    /// Whether the DALI gateway link is up (always, when none is configured).
+    pub fn gateway_link_up(&self) -> bool {
+        self.gateway_up
+    }
+
+    /// How often the gateway link went up or down so far: a reader that samples
+    /// [`Self::gateway_link_up`] now and then sees from this that it was lost in between.
+    pub fn gateway_link_changes(&self) -> u64 {
+        self.gateway_link_changes
     }
 
     /// Store health (status bit).
