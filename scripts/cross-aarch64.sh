@@ -7,7 +7,8 @@
 # the published figures (timed, and office_a commissioned a dozen times) run natively only
 # (scripts/test.sh); they exercise the same code. The Modbus tests that start servers as
 # processes and drive them with mbpoll/pymodbus, the HIL rig (processes), commissioning from
-# captures and the camera simulator (seconds of ray casting each) run natively too; the fuzzer,
+# captures and the camera simulator (seconds of ray casting each), live light and the report
+# (commissioning the demo office, a browser) run natively too; the fuzzer,
 # the A010 ToF parser, V4L2 decoding and streaming (recorded streams), the replay camera, the
 # sensor layer's drivers on simulated buses and the NOR/MTD flash backends run on both.
 set -euo pipefail
@@ -25,7 +26,8 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
   -E 'not (test(power_cut) | test(open_box) | binary(extremes) | binary(cli)
           | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
           | binary(energy) | binary(ward) | binary(lighting)
-          | (binary(control) & (test(every_desk) | test(a_day_of)))
+          | (binary(control) & (test(every_desk) | test(a_day_of) | test(published)))
+          | binary(live) | binary(report) | binary(open_plan_image)
           | (binary(modbus) & not test(fuzzed))
           | binary(hil) | binary(hil_peripherals) | binary(ambient) | binary(field) | binary(fuzz_smoke)
           | binary(commission)
