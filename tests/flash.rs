@@ -7,58 +7,12 @@
 
 mod common;
 
-use common::{luminaire, scene, sensor};
-use glam::DVec3;
-use luxnode::engine::{self, PatchSettings, Settings};
-use luxnode::image_build::{ImageOptions, build_image};
-use luxnode::scene::MeshBuilder;
+use common::small_image;
+use luxnode::store::HEADER_LEN;
 use luxnode::store::devices::{DeviceError, Faults, FaultyFlash, SimNor, SimNorError};
 use luxnode::store::mtd::{MTD_NANDFLASH, MTD_NORFLASH, MTD_WRITEABLE, MtdFlash, MtdInfo, SimMtd};
 use luxnode::store::nor::{Nor, NorError};
 use luxnode::store::slots::{FlashDevice, Slot, SlotState, Slots, WriteError};
-use luxnode::store::{HEADER_LEN, Precision};
-
-/// A two-luminaire room whose image is a few kB.
-fn small_image(flux_scale: f64) -> Vec<u8> {
-    let mut b = MeshBuilder::new();
-    let m = b.material("grey", 0.6).unwrap();
-    b.room(DVec3::new(3.0, 2.0, 2.5), m, &[]);
-    let l1 = luminaire(1, DVec3::new(1.0, 1.0, 2.4), [0.3, 0.3], false, move |_| {
-        300.0 * flux_scale
-    });
-    let l2 = luminaire(2, DVec3::new(2.0, 1.0, 2.4), [0.3, 0.3], false, move |_| {
-        200.0 * flux_scale
-    });
-    let s = scene(
-        b.build(),
-        vec![l1, l2],
-        vec![
-            sensor(1, DVec3::new(1.5, 1.0, 0.8)),
-            sensor(2, DVec3::new(0.5, 0.5, 0.0)),
-        ],
-    );
-    let settings = Settings {
-        patches: PatchSettings {
-            patch_size_m: 1.5,
-            detail_ratio: 0.0,
-            min_patch_m: 0.5,
-            light_ratio: 0.0,
-        },
-        rays: 100,
-        sensor_rays: 300,
-        final_gather_rays: 100,
-        ..Settings::default()
-    };
-    let model = engine::compute_model(&s, &settings).unwrap();
-    build_image(
-        &model,
-        &ImageOptions {
-            precision: Precision::F16,
-            ..ImageOptions::default()
-        },
-    )
-    .unwrap()
-}
 
 fn generation(s: SlotState) -> Option<u64> {
     match s {

@@ -109,3 +109,45 @@ pub fn sensor(id: u32, position: DVec3) -> Sensor {
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
+
+/// A small room (two luminaires, two sensors) whose image is a few kB: for exhaustive tests.
+pub fn small_image(flux_scale: f64) -> Vec<u8> {
+    let mut b = luxnode::scene::MeshBuilder::new();
+    let m = b.material("grey", 0.6).unwrap();
+    b.room(DVec3::new(3.0, 2.0, 2.5), m, &[]);
+    let l1 = luminaire(1, DVec3::new(1.0, 1.0, 2.4), [0.3, 0.3], false, move |_| {
+        300.0 * flux_scale
+    });
+    let l2 = luminaire(2, DVec3::new(2.0, 1.0, 2.4), [0.3, 0.3], false, move |_| {
+        200.0 * flux_scale
+    });
+    let s = scene(
+        b.build(),
+        vec![l1, l2],
+        vec![
+            sensor(1, DVec3::new(1.5, 1.0, 0.8)),
+            sensor(2, DVec3::new(0.5, 0.5, 0.0)),
+        ],
+    );
+    let settings = luxnode::engine::Settings {
+        patches: luxnode::engine::PatchSettings {
+            patch_size_m: 1.5,
+            detail_ratio: 0.0,
+            min_patch_m: 0.5,
+            light_ratio: 0.0,
+        },
+        rays: 100,
+        sensor_rays: 300,
+        final_gather_rays: 100,
+        ..luxnode::engine::Settings::default()
+    };
+    let model = luxnode::engine::compute_model(&s, &settings).unwrap();
+    luxnode::image_build::build_image(
+        &model,
+        &luxnode::image_build::ImageOptions {
+            precision: luxnode::store::Precision::F16,
+            ..luxnode::image_build::ImageOptions::default()
+        },
+    )
+    .unwrap()
+}
