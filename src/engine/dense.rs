@@ -174,6 +174,22 @@ pub struct Readings {
 }
 
 impl Readings {
+    /// The readings of points computed one row (direct, interreflected per luminaire) each.
+    fn from_rows(luminaires: usize, rows: Vec<(Vec<f64>, Vec<f64>)>) -> Self {
+        let mut out = Readings {
+            luminaires,
+            direct_lx: Vec::with_capacity(rows.len() * luminaires),
+            indirect_lx: Vec::with_capacity(rows.len() * luminaires),
+        };
+        for (d, i) in rows {
+            out.direct_lx.extend(d);
+            out.indirect_lx.extend(i);
+        }
+        out
+    }
+}
+
+impl Readings {
     /// Points.
     pub fn len(&self) -> usize {
         self.direct_lx.len() / self.luminaires.max(1)
@@ -354,16 +370,7 @@ impl<'a> DenseField<'a> {
                 (d, i)
             })
             .collect();
-        let mut out = Readings {
-            luminaires: l,
-            direct_lx: Vec::with_capacity(points.len() * l),
-            indirect_lx: Vec::with_capacity(points.len() * l),
-        };
-        for (d, i) in rows {
-            out.direct_lx.extend(d);
-            out.indirect_lx.extend(i);
-        }
-        out
+        Readings::from_rows(l, rows)
     }
 
     /// Readings at calculation-grid points (the sensor's number of opening points).
@@ -388,16 +395,7 @@ impl<'a> DenseField<'a> {
                 }
             })
             .collect();
-        let mut out = Readings {
-            luminaires: l,
-            direct_lx: Vec::with_capacity(points.len() * l),
-            indirect_lx: Vec::with_capacity(points.len() * l),
-        };
-        for (d, i) in rows {
-            out.direct_lx.extend(d);
-            out.indirect_lx.extend(i);
-        }
-        out
+        Readings::from_rows(l, rows)
     }
 
     /// Readings at points in the air (a calculation plane above the floor, the immediate
@@ -448,16 +446,7 @@ impl<'a> DenseField<'a> {
                 (d, i)
             })
             .collect();
-        let mut out = Readings {
-            luminaires: l,
-            direct_lx: Vec::with_capacity(points.len() * l),
-            indirect_lx: Vec::with_capacity(points.len() * l),
-        };
-        for (d, i) in rows {
-            out.direct_lx.extend(d);
-            out.indirect_lx.extend(i);
-        }
-        out
+        Readings::from_rows(l, rows)
     }
 
     fn openings(&self) -> Openings {
