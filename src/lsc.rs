@@ -102,6 +102,40 @@ impl Lsc {
         self.response[i - 1] + f * (self.response[i] - self.response[i - 1])
     }
 
+    /// A cosine sensor at the bottom of a matt black tube (a hood or light pipe) whose bore
+    /// the sensor's window fills, with `tan θc = bore / length`: light at incidence θ reaches
+    /// the overlap of the bore's two end discs, offset by `length · tan θ`, so
+    ///
+    /// `s(θ) = cos θ · V(tan θ / tan θc)`, `V(x) = (2/π)(acos x − x √(1 − x²))` for x < 1, 0
+    /// beyond,
+    ///
+    /// the area of two unit-diameter discs' lens at centre distance x over a disc's area. It
+    /// sees a cone of half-angle θc, soft-edged. Tabulated at 256 steps; `None` unless
+    /// 1° ≤ θc ≤ 85°.
+    pub fn hooded(cutoff_rad: f64) -> Option<Self> {
+        let c = cutoff_rad.to_degrees();
+        if !(1.0..=85.0).contains(&c) {
+            return None;
+        }
+        let tan_c = cutoff_rad.tan();
+        let steps = 256usize;
+        let mut angles_rad = Vec::with_capacity(steps + 2);
+        let mut response = Vec::with_capacity(steps + 2);
+        for i in 0..=steps {
+            let t = cutoff_rad * i as f64 / steps as f64;
+            let x = (t.tan() / tan_c).min(1.0);
+            let v = (2.0 / std::f64::consts::PI) * (x.acos() - x * (1.0 - x * x).max(0.0).sqrt());
+            angles_rad.push(t);
+            response.push((t.cos() * v).max(0.0));
+        }
+        angles_rad.push(std::f64::consts::FRAC_PI_2);
+        response.push(0.0);
+        Some(Self {
+            angles_rad,
+            response,
+        })
+    }
+
     /// The table points, degrees and relative response (after normalisation).
     pub fn points_deg(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
         self.angles_rad
@@ -134,6 +168,20 @@ impl AngularResponse {
             }
             AngularResponse::Table(l) => l.response(theta_rad),
         }
+    }
+
+    /// `∫ s(θ) dω` over the hemisphere, sr (π for a cosine sensor): a uniform luminance L gives
+    /// the reading `L · ∫ s dω`. Simpson's rule on a 0.005° grid.
+    pub fn projected_solid_angle_sr(&self) -> f64 {
+        let n = 18_000usize; // even
+        let h = std::f64::consts::FRAC_PI_2 / n as f64;
+        let g = |t: f64| 2.0 * std::f64::consts::PI * self.response(t) * t.sin();
+        let mut s = g(0.0) + g(n as f64 * h);
+        for k in 1..n {
+            let w = if k % 2 == 1 { 4.0 } else { 2.0 };
+            s += w * g(k as f64 * h);
+        }
+        s * h / 3.0
     }
 
     /// The cosine error `f2` (0 for an ideal cosine receiver), integrated to 85° with
@@ -173,6 +221,33 @@ impl fmt::Display for AngularResponse {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hooded_sensor_sees_a_soft_cone() {
+        // a cosine sensor's projected solid angle is π
+        let pi = std::f64::consts::PI;
+        assert!((AngularResponse::Cosine.projected_solid_angle_sr() - pi).abs() < 1e-9);
+        // small cut-off: s ≈ V(θ/θc), ∫ s dω → 2π tan²θc ∫_0^1 V(x) x dx = π tan²θc / 4 (the
+        // disc's autocorrelation integrates to its area); relative correction O(tan²θc)
+        let c = 2f64.to_radians();
+        let h = AngularResponse::Table(Lsc::hooded(c).unwrap());
+        let want = pi * c.tan().powi(2) / 4.0;
+        let got = h.projected_solid_angle_sr();
+        assert!((got / want - 1.0).abs() < 3e-3, "{got} vs {want}");
+        // 35°: zero beyond the cut-off, below the cosine inside, 1 at normal incidence
+        let c = 35f64.to_radians();
+        let h = AngularResponse::Table(Lsc::hooded(c).unwrap());
+        assert!((h.response(0.0) - 1.0).abs() < 1e-12);
+        assert_eq!(h.response(36f64.to_radians()), 0.0);
+        for d in 1..35 {
+            let t = f64::from(d).to_radians();
+            assert!(h.response(t) < t.cos() && h.response(t) > 0.0, "{d}°");
+        }
+        // out of range: no hood
+        assert!(Lsc::hooded(0.5f64.to_radians()).is_none());
+        assert!(Lsc::hooded(86f64.to_radians()).is_none());
+        assert!(Lsc::hooded(f64::NAN).is_none());
+    }
 
     #[test]
     fn ideal_cosine_has_zero_f2() {

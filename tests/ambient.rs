@@ -1,20 +1,22 @@
 //! The ambient light sensor at commissioning: on the simulated board (the demo office, simulated
 //! ToF + colour cameras, the VEML7700's register model on a simulated I2C bus reading what the
-//! world sends up to the node), the camera's absolute gain found from the sensor's reading is
-//! within 2 % of the simulated camera's true gain, and the model then predicts the sensor's
-//! reading for other dimming states.
+//! world sends up to the node), the hooded sensor gives the camera's absolute gain straight from
+//! the frames, within 0.5 % of the simulated camera's true gain and independent of the unseen
+//! walls, and the model then predicts the sensor's reading per luminaire; a bare sensor's gain
+//! comes through the model and moves with the unseen walls' default reflectance.
 
 use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 use luxnode::camera::capture_sequence;
 use luxnode::commission::{CommissionOptions, Gain};
+use luxnode::lsc::{AngularResponse, Lsc};
 use luxnode::peripherals::sim::{SimBus, SimClock, SimDelay, SimVeml7700};
 use luxnode::peripherals::veml7700::{self, Veml7700};
 use luxnode::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld};
 
 #[test]
-fn the_ambient_light_sensor_calibrates_the_camera_gain_within_2_percent() {
+fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
     let w = SimWorld::demo_office().unwrap();
     let ids = w.luminaire_ids();
     let n = ids.len();
@@ -33,64 +35,107 @@ fn the_ambient_light_sensor_calibrates_the_camera_gain_within_2_percent() {
         &mut |_, _, _| {},
     )
     .unwrap();
-    // the sensor 1 cm below the camera, facing down
+    // the sensor 1 cm below the camera, facing down, under the sim board's 35° hood
     let cam = w.camera().position_m;
     let als_at = cam - DVec3::new(0.0, 0.0, 0.01);
     let down = DVec3::new(0.0, 0.0, -1.0);
-    let per_lum = w.receiver_lx(als_at, down, 20_000);
-    let levels = vec![1.0; n];
-    let truth: f64 = per_lum.iter().sum();
-    // the reading goes through the register model and the driver's auto-range
-    let light = Arc::new(Mutex::new(truth));
-    let l = light.clone();
-    let clock = SimClock::virtual_time();
-    let bus =
-        SimBus::new(clock.clone()).with(SimVeml7700::new(Box::new(move || *l.lock().unwrap()), 5));
-    let mut als = Veml7700::new(bus, veml7700::ADDRESS);
-    let reading = als.measure_auto(&mut SimDelay(clock)).unwrap();
-    assert!(
-        (reading.lux_lx / truth - 1.0).abs() < 0.01,
-        "{} vs {truth}",
-        reading.lux_lx
-    );
+    let hood = AngularResponse::Table(Lsc::hooded(35f64.to_radians()).unwrap());
     let scene = w.scene();
-    let o = CommissionOptions {
-        gain: Gain::Ambient {
-            position_m: als_at.to_array(),
-            normal: down.to_array(),
-            lux_lx: reading.lux_lx,
-            levels: levels.clone(),
-        },
-        ..CommissionOptions::default()
+    let levels = vec![1.0; n];
+    let commission = |response: &AngularResponse, wall_rho: f64| {
+        let per_lum = w.receiver_lx(als_at, down, response, 20_000);
+        let truth: f64 = per_lum.iter().sum();
+        // the reading goes through the register model and the driver's auto-range
+        let light = Arc::new(Mutex::new(truth));
+        let l = light.clone();
+        let clock = SimClock::virtual_time();
+        let bus = SimBus::new(clock.clone())
+            .with(SimVeml7700::new(Box::new(move || *l.lock().unwrap()), 5));
+        let mut als = Veml7700::new(bus, veml7700::ADDRESS);
+        let reading = als.measure_precise(&mut SimDelay(clock), 4).unwrap();
+        assert!(
+            (reading.lux_lx / truth - 1.0).abs() < 0.01,
+            "{} vs {truth}",
+            reading.lux_lx
+        );
+        let mut o = CommissionOptions {
+            gain: Gain::Ambient {
+                position_m: als_at.to_array(),
+                normal: down.to_array(),
+                lux_lx: reading.lux_lx,
+                levels: levels.clone(),
+                response: response.clone(),
+            },
+            ..CommissionOptions::default()
+        };
+        o.closure.wall_rho = wall_rho;
+        let c = luxnode::commission::from_capture(
+            &capture,
+            scene.luminaires.clone(),
+            scene.sensors.clone(),
+            scene.desks.clone(),
+            &o,
+        )
+        .unwrap();
+        let gain = c.report.reflectance.gain_cd_m2_per_unit;
+        let err = gain / true_gain - 1.0;
+        eprintln!(
+            "{response}, unseen walls {wall_rho}: ALS {truth:.2} lx (read {:.2} lx at {:?}), \
+             gain {gain:.5} vs {true_gain} ({:+.2} %), direct: {:?}",
+            reading.lux_lx,
+            reading.setting,
+            100.0 * err,
+            c.report.ambient_direct
+        );
+        (err, c, per_lum)
     };
-    let c = luxnode::commission::from_capture(
-        &capture,
-        scene.luminaires.clone(),
-        scene.sensors.clone(),
-        scene.desks.clone(),
-        &o,
-    )
-    .unwrap();
-    let gain = c.report.reflectance.gain_cd_m2_per_unit;
-    let err = gain / true_gain - 1.0;
+    // Hooded: the gain straight from the frames (docs/peripherals.md: measured -0.20 %), the
+    // same whatever the unseen walls' default reflectance. Issue 17's target is 2 %; the guard
+    // is 3 × the measured value.
+    let (err, c, per_lum) = commission(&hood, 0.5);
+    let d = c.report.ambient_direct.clone().unwrap();
+    assert!(d.covered > 0.99 && d.saturated == 0.0, "{d:?}");
+    assert!(err.abs() < 0.005, "gain off by {:.2} %", 100.0 * err);
+    let (err_bright, _, _) = commission(&hood, 0.6);
+    assert!((err_bright - err).abs() < 1e-9, "{err} vs {err_bright}");
+    // the run-time check's reference: the final model predicts the hooded sensor's reading
+    // per luminaire (measured: within 4 % for the luminaires that light its cone)
     let reference = c.report.ambient_response_lx.clone().unwrap();
+    let total: f64 = per_lum.iter().sum();
     let predicted: f64 = reference.iter().sum();
-    eprintln!(
-        "ALS {truth:.2} lx (read {:.2} lx at {:?}), gain {gain:.5} vs {true_gain} ({:+.2} %), \
-         model predicts {predicted:.2} lx; per luminaire truth {per_lum:.2?} model {reference:.2?}",
-        reading.lux_lx,
-        reading.setting,
-        100.0 * err
+    eprintln!("per luminaire truth {per_lum:.2?} model {reference:.2?}");
+    assert!(
+        (predicted / total - 1.0).abs() < 0.03,
+        "{predicted} vs {total}"
     );
-    // Issue 17's target, 2 %. Measured: -0.54 % before the engine's -0.0 ray-direction fix
-    // (issue 13), +1.24 % since (the model keeps the light that used to leak out, so the
-    // reflectances read lower and the gain higher; the simulated world's truth moved +0.4 %).
-    assert!(err.abs() < 0.02, "gain off by {:.2} %", 100.0 * err);
-    // the run-time check's reference: one luminaire at a time (measured: within 4.5 %)
     for (j, (m, t)) in reference.iter().zip(&per_lum).enumerate() {
         assert!(
-            (m / t - 1.0).abs() < 0.10,
+            (m - t).abs() < 0.10 * t + 0.01 * total,
             "luminaire {j}: model {m}, truth {t}"
         );
     }
+    // Bare (cosine): the sensor sees walls the camera does not, the gain comes through the model
+    // and its unseen walls' default reflectance moves it (docs/peripherals.md: +2.65 % at 0.5,
+    // -13.8 % at 0.6, the walls being 0.6 and the window 0.1 in this room).
+    let (bare_05, c, _) = commission(&AngularResponse::Cosine, 0.5);
+    assert!(c.report.ambient_direct.is_none());
+    assert!(
+        c.report
+            .warnings
+            .iter()
+            .any(|w| w.contains("sees beyond the camera")),
+        "{:?}",
+        c.report.warnings
+    );
+    let (bare_06, _, _) = commission(&AngularResponse::Cosine, 0.6);
+    eprintln!(
+        "bare sensor: gain {:+.2} % (walls 0.5), {:+.2} % (walls 0.6)",
+        100.0 * bare_05,
+        100.0 * bare_06
+    );
+    assert!(bare_05.abs() < 0.06, "{bare_05}");
+    assert!(
+        (0.12..0.25).contains(&(bare_05 - bare_06)),
+        "{bare_05} {bare_06}"
+    );
 }

@@ -4,7 +4,7 @@
 //!
 //! | scenario | expected |
 //! |---|---|
-//! | commissioning from scratch | the ALS gives the camera gain within 2 % of the simulated camera's; the LED blinks the commissioning pattern (500 ms edges), then stays lit while serving |
+//! | commissioning from scratch | the hooded ALS gives the camera gain straight from the frames, within 0.5 % of the simulated camera's (issue 17: 2 %); the LED blinks the commissioning pattern (500 ms edges), then stays lit while serving |
 //! | the run-time check | all luminaires on over Modbus: the ALS agrees with the model (bit 13 clear, bit 12 clear) |
 //! | the ALS unplugged | status bit 12 within seconds, a log line naming the sensor and "no acknowledge", the LED's degraded pattern; Modbus answers throughout |
 //! | the bus jammed (each transfer hangs 30 s) | bit 12 within the 5 s deadline, "no answer" in the log, Modbus answers within 1 s meanwhile, SIGTERM exits at once |
@@ -128,10 +128,15 @@ fn peripherals_on_the_simulated_board() {
         .and_then(|(p, _)| p.trim().parse().ok())
         .unwrap_or_else(|| panic!("{line}"));
     eprintln!("{line}");
-    // Issue 17's target is 2 %: measured +0.34 % before the engine's -0.0 ray-direction fix
-    // (issue 13) and +2.14 % since, so the target is not met on the sim board today (open in
-    // issue 17's note). Guard: 1.5 × the measured value, so a further regression fails.
-    assert!(pct.abs() < 3.2, "{line}");
+    // Issue 17's target is 2 %. The sim board's sensor is hooded (35°, inside the camera's
+    // view), so the gain comes straight from the frames: measured -0.17 % (docs/peripherals.md).
+    // A bare sensor's gain came through the model and its unseen walls: +0.34 %, then +2.14 %
+    // after the engine's -0.0 ray-direction fix moved the model. Guard: 3 × the measured value.
+    assert!(pct.abs() < 0.5, "{line}");
+    assert!(
+        out.contains("the camera's gain measured directly"),
+        "the direct gain was not used:\n{out}"
+    );
     // the LED: commissioning edges every 500 ms, then lit while serving
     std::thread::sleep(Duration::from_secs(3));
     let e = edges(&led);

@@ -263,6 +263,13 @@ pub struct AlsBoard {
     /// Which way it faces (unit vector); default straight down.
     #[serde(default = "default_down")]
     pub normal: [f64; 3],
+    /// The matt black tube (hood) over the sensor, as the half-angle of the cone it lets the
+    /// sensor see, degrees (`tan θc` = bore / length; response in [`crate::lsc::Lsc::hooded`]).
+    /// With the cone inside the colour camera's view, the camera's gain is measured directly
+    /// against the sensor at commissioning, with no model in between. Absent: a bare cosine
+    /// sensor (the gain then comes through the model, docs/peripherals.md).
+    #[serde(default)]
+    pub hood_half_angle_deg: Option<f64>,
     /// Time between run-time readings, s.
     #[serde(default = "default_als_period_s")]
     pub period_s: f64,
@@ -394,6 +401,13 @@ impl I2cBoard {
             let n = a.normal.iter().map(|x| x * x).sum::<f64>().sqrt();
             if !finite || !(0.5..=2.0).contains(&n) {
                 return err("i2c.als: position_m and normal must be finite, normal a direction");
+            }
+            if let Some(h) = a.hood_half_angle_deg
+                && !(h.is_finite() && (1.0..=85.0).contains(&h))
+            {
+                return err(format!(
+                    "i2c.als.hood_half_angle_deg {h} is outside 1..=85 degrees"
+                ));
             }
             if !(a.period_s.is_finite() && (0.1..=3600.0).contains(&a.period_s)) {
                 return err(format!(

@@ -303,6 +303,7 @@ pub(crate) fn rig(
                 let per = world.receiver_lx(
                     glam::DVec3::from_array(p),
                     glam::DVec3::from_array(n),
+                    &a.response,
                     20_000,
                 );
                 let w = world.clone();
@@ -440,6 +441,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         (Some(sensor), Some(pose)) => Some(AmbientAtCommissioning {
             sensor: sensor.clone(),
             pose,
+            response: als_response(&board)?,
             reference: reference.clone(),
         }),
         (Some(_), None) => {
@@ -793,4 +795,24 @@ fn with_optics(
         scene.camera = Some(o.apply(c));
     }
     scene
+}
+
+/// The board's ambient light sensor's angular response: hooded (`[i2c.als]
+/// hood_half_angle_deg`) or a bare cosine sensor.
+fn als_response(board: &Board) -> Result<luxnode::lsc::AngularResponse> {
+    use luxnode::lsc::{AngularResponse, Lsc};
+    let hood = board
+        .i2c
+        .as_ref()
+        .and_then(|i| i.als.as_ref())
+        .and_then(|a| a.hood_half_angle_deg);
+    Ok(match hood {
+        None => AngularResponse::Cosine,
+        Some(deg) => AngularResponse::Table(Lsc::hooded(deg.to_radians()).with_context(|| {
+            format!(
+                "board {}: i2c.als.hood_half_angle_deg {deg} is outside 1..=85",
+                board.name
+            )
+        })?),
+    })
 }

@@ -14,6 +14,7 @@
 //! spinner and its time. Bad input is an error ([`CommissionError`]) or a counted warning,
 //! never a panic. The capture's `groundtruth/` is never read.
 
+pub mod ambient;
 pub mod closure;
 pub mod depth;
 pub mod grid;
@@ -29,6 +30,7 @@ use glam::DVec3;
 pub use crate::camera::capture::Capture;
 use crate::engine::raycast::RayCaster;
 use crate::engine::{self, EngineError, Model, Settings};
+use crate::lsc::AngularResponse;
 use crate::scene::{Desks, Luminaire, Material, Mesh, ObjReport, Scene, Sensor, Triangle};
 use crate::store::sensor_flags;
 use crate::units::Reflectance;
@@ -73,8 +75,10 @@ pub enum Gain {
         levels: Vec<f64>,
     },
     /// The node's ambient light sensor (`crate::peripherals`): mounted at `position_m`,
-    /// facing `normal` (down), it read `lux_lx` with the luminaires at `levels`; the gain is
-    /// the one for which the model predicts that reading.
+    /// facing `normal` (down), with angular response `response`, it read `lux_lx` with the
+    /// luminaires at `levels`. Where the sensor sees only what the camera sees (a hooded
+    /// sensor), the gain is measured directly against the frames ([`ambient::direct_gain`]);
+    /// otherwise it is the one for which the model predicts that reading.
     Ambient {
         /// Where the sensor is, m.
         position_m: [f64; 3],
@@ -84,7 +88,20 @@ pub enum Gain {
         lux_lx: f64,
         /// Dimming state during the reading.
         levels: Vec<f64>,
+        /// The sensor's angular response (ideal cosine for a bare sensor).
+        response: AngularResponse,
     },
+}
+
+impl Gain {
+    /// The reading sensor's angular response (a luxmeter: ideal cosine).
+    fn response(&self) -> &AngularResponse {
+        const COSINE: &AngularResponse = &AngularResponse::Cosine;
+        match self {
+            Gain::Ambient { response, .. } => response,
+            _ => COSINE,
+        }
+    }
 }
 
 /// Every commissioning knob.
@@ -243,11 +260,13 @@ impl Reading {
         scene: &Scene,
         model: &Model,
         levels: &[f64],
+        response: &AngularResponse,
     ) -> Result<f64, CommissionError> {
         Ok(match self {
             Reading::Sensor(s, _) => model.sensor_lux(levels)?[*s],
             Reading::Point(p, n) => {
-                engine::points::evaluate(scene, model, &[(*p, *n)], AMBIENT_RAYS).lux(levels)[0]
+                engine::points::evaluate_with(scene, model, &[(*p, *n)], AMBIENT_RAYS, response)
+                    .lux(levels)[0]
             }
         })
     }
@@ -298,6 +317,9 @@ pub struct Report {
     /// The ambient light sensor's reading per luminaire at 100 % predicted by the final model,
     /// lx (with [`Gain::Ambient`]): the run-time check's reference.
     pub ambient_response_lx: Option<Vec<f64>>,
+    /// The ambient light sensor's direct comparison with the camera, where it sees only what the
+    /// camera sees (then the gain came from it).
+    pub ambient_direct: Option<ambient::DirectGain>,
     /// Warnings (also those of the capture).
     pub warnings: Vec<String>,
 }
@@ -634,8 +656,47 @@ pub fn from_capture(
                 &o.reflectance,
             )
         };
+        // a sensor that sees only what the camera sees: its gain straight from the frames
+        let direct = match &o.gain {
+            Gain::Ambient {
+                normal,
+                lux_lx,
+                levels,
+                response,
+                ..
+            } => match ambient::direct_gain(
+                capture,
+                response,
+                DVec3::from_array(*normal),
+                *lux_lx,
+                levels,
+            ) {
+                Ok(d) => {
+                    tracing::info!(
+                        "ambient light sensor: the camera's gain measured directly, {:.6} cd/m2 \
+                         per unit ({:.1} % of the sensor's view in the image, {:.2} % saturated)",
+                        d.gain_cd_m2_per_unit,
+                        100.0 * d.covered,
+                        100.0 * d.saturated
+                    );
+                    Some(d)
+                }
+                Err(e) => {
+                    report.warnings.push(format!(
+                        "ambient light sensor: {e}; the gain comes through the model instead \
+                         (its unseen surfaces' default reflectances enter it)"
+                    ));
+                    None
+                }
+            },
+            _ => None,
+        };
+        report.ambient_direct = direct.clone();
         let est = match (&o.gain, scale) {
             (Gain::Camera, Some(g)) => run(g),
+            (Gain::Ambient { .. }, _) if direct.is_some() => {
+                run(direct.as_ref().map_or(1.0, |d| d.gain_cd_m2_per_unit))
+            }
             (Gain::Camera, None) => {
                 return Err(CommissionError::Input(
                     "camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading".into(),
@@ -664,6 +725,7 @@ pub fn from_capture(
                             normal,
                             lux_lx,
                             levels,
+                            ..
                         } => (
                             *lux_lx,
                             levels.clone(),
@@ -693,6 +755,7 @@ pub fn from_capture(
                             &caster,
                             p,
                             n,
+                            o.gain.response(),
                             AMBIENT_RAYS,
                         ))
                     }
@@ -741,7 +804,7 @@ pub fn from_capture(
                 let pass_reading = reading(&first);
                 let scene = make_scene(&first.tri_rho);
                 let full = run_engine(&scene, &o.engine, &mut report.warnings)?;
-                let full_reading = at.final_reading(&scene, &full, &levels)?;
+                let full_reading = at.final_reading(&scene, &full, &levels, o.gain.response())?;
                 let target = if full_reading > 0.0 {
                     target_lx * pass_reading / full_reading
                 } else {
@@ -769,7 +832,7 @@ pub fn from_capture(
     let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
     report.patches = model.patches.len();
     if let Some((at, lux, levels)) = &luxmeter_fix {
-        let r = at.final_reading(&scene, &model, levels)?;
+        let r = at.final_reading(&scene, &model, levels, o.gain.response())?;
         if (r - lux).abs() > 0.05 * lux {
             report.warnings.push(format!(
                 "{} gain: the model reads {r:.0} lx at {}, not {lux:.0} lx \
@@ -780,10 +843,13 @@ pub fn from_capture(
         }
     }
     if let Gain::Ambient {
-        position_m, normal, ..
+        position_m,
+        normal,
+        response,
+        ..
     } = &o.gain
     {
-        let p = engine::points::evaluate(
+        let p = engine::points::evaluate_with(
             &scene,
             &model,
             &[(
@@ -791,6 +857,7 @@ pub fn from_capture(
                 DVec3::from_array(*normal).normalize_or_zero(),
             )],
             AMBIENT_RAYS,
+            response,
         );
         report.ambient_response_lx = p.per_luminaire_lx.into_iter().next();
     }

@@ -511,13 +511,14 @@ impl PointReceiver {
         caster: &RayCaster,
         position: DVec3,
         normal: DVec3,
+        response: &crate::lsc::AngularResponse,
         rays: usize,
     ) -> Self {
         let set = crate::engine::rayset::RaySet::new(model.settings.ray_set, rays);
         let row = crate::engine::gather_row(
             position,
             normal,
-            &crate::lsc::AngularResponse::Cosine,
+            response,
             caster,
             &set,
             crate::engine::GatherWeighting::Consistent,
@@ -526,7 +527,11 @@ impl PointReceiver {
             .iter()
             .map(|l| {
                 let pts = direct::opening_points(l, model.settings.opening_samples);
-                direct::illuminance_lx(l, &pts, position, normal, Receiver::Surface, caster)
+                let receiver = match response {
+                    crate::lsc::AngularResponse::Cosine => Receiver::Surface,
+                    r => Receiver::Sensor(r),
+                };
+                direct::illuminance_lx(l, &pts, position, normal, receiver, caster)
             })
             .collect();
         Self { direct_lx, row }

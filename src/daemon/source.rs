@@ -121,12 +121,17 @@ impl ReportTarget {
     }
 }
 
+/// Conversions averaged in the ambient light sensor's calibration reading.
+const AMBIENT_CONVERSIONS: u8 = 4;
+
 /// The ambient light sensor as commissioning uses it.
 pub struct AmbientAtCommissioning {
     /// The sensor (shared with the run-time monitor).
     pub sensor: std::sync::Arc<std::sync::Mutex<crate::peripherals::node::AmbientSensor>>,
     /// Where it is and which way it faces, m.
     pub pose: ([f64; 3], [f64; 3]),
+    /// Its angular response (a hooded sensor's cone, or a bare cosine sensor).
+    pub response: crate::lsc::AngularResponse,
     /// Where the run-time check's reference goes ([`AmbientReference`]).
     pub reference: std::path::PathBuf,
 }
@@ -261,6 +266,7 @@ impl CommissionSource for CameraSource {
                         normal: a.pose.1,
                         lux_lx: lux,
                         levels: vec![1.0; self.luminaires.len()],
+                        response: a.response.clone(),
                     };
                 }
                 Err(e) => tracing::warn!(
@@ -357,7 +363,11 @@ impl CameraSource {
         let mut last = String::new();
         let mut got = None;
         for _ in 0..AMBIENT_TRIES {
-            let r = a.sensor.lock().unwrap_or_else(|p| p.into_inner()).measure();
+            let r = a
+                .sensor
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .measure_precise(AMBIENT_CONVERSIONS);
             match r {
                 Ok(r) => {
                     got = Some(r.lux_lx);

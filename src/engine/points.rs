@@ -37,6 +37,18 @@ pub fn evaluate(
     points: &[(DVec3, DVec3)],
     rays: usize,
 ) -> PointReadings {
+    evaluate_with(scene, model, points, rays, &AngularResponse::Cosine)
+}
+
+/// [`evaluate`] for sensors of angular response `response` (a hooded ambient light sensor,
+/// a luxmeter's LSC): `E = ∫ L s(θ) dω`, direct light weighted by `s(θ)`.
+pub fn evaluate_with(
+    scene: &Scene,
+    model: &Model,
+    points: &[(DVec3, DVec3)],
+    rays: usize,
+    response: &AngularResponse,
+) -> PointReadings {
     let caster = RayCaster::new(&model.patches);
     let set = RaySet::new(model.settings.ray_set, rays);
     let openings: Vec<Vec<DVec3>> = scene
@@ -44,18 +56,21 @@ pub fn evaluate(
         .iter()
         .map(|l| direct::centred_opening_points(l, model.settings.opening_samples))
         .collect();
-    let cosine = AngularResponse::Cosine;
+    let receiver = match response {
+        AngularResponse::Cosine => Receiver::Surface,
+        r => Receiver::Sensor(r),
+    };
     let per_luminaire_lx = points
         .par_iter()
         .map(|&(p, n)| {
-            let row = gather_row(p, n, &cosine, &caster, &set, GatherWeighting::Consistent);
+            let row = gather_row(p, n, response, &caster, &set, GatherWeighting::Consistent);
             scene
                 .luminaires
                 .iter()
                 .zip(&openings)
                 .zip(&model.basis_b)
                 .map(|((l, pts), b)| {
-                    let d = direct::illuminance_lx(l, pts, p, n, Receiver::Surface, &caster);
+                    let d = direct::illuminance_lx(l, pts, p, n, receiver, &caster);
                     d + row.iter().map(|(j, w)| w * b[*j as usize]).sum::<f64>()
                 })
                 .collect()

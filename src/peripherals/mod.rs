@@ -15,16 +15,19 @@
 //!
 //! ## Where the ambient light sensor looks (the geometry)
 //!
-//! The sensor sits on the node's underside next to the cameras, facing straight down, with no
-//! lens or hood: it measures the illuminance on a horizontal, downward-facing plane at the
-//! node, `E = ∫ L cos θ dω` over the lower hemisphere, the light the floor, the desks and the
-//! walls send up. Luminaires flush with the ceiling send it (almost) nothing directly. The
-//! commissioned model predicts that reading for any dimming state (a virtual sensor at the
-//! node facing down: `engine::points`), so:
+//! The sensor sits on the node's underside next to the cameras, facing straight down. With a
+//! hood (a matt black tube over it, `[i2c.als] hood_half_angle_deg`, response
+//! `lsc::Lsc::hooded`) it sees a cone inside the colour camera's view; bare, it sees
+//! the whole lower hemisphere, `E = ∫ L cos θ dω`, the light the floor, the desks and the walls
+//! send up. Luminaires flush with the ceiling send it (almost) nothing directly. The
+//! commissioned model predicts that reading for any dimming state (a virtual sensor at the node
+//! with the sensor's response: `engine::points::evaluate_with`), so:
 //!
-//! * at commissioning the camera's absolute gain is the one for which the model predicts what
-//!   the sensor reads with every luminaire on (`commission::Gain::Ambient`, instead of a
-//!   luxmeter reading on a desk);
+//! * at commissioning, hooded, the camera's absolute gain is measured directly against the
+//!   frames (`commission::ambient`: the sensor and the camera see the same luminances);
+//!   bare, it is the one for which the model predicts what the sensor reads with every
+//!   luminaire on (`commission::Gain::Ambient`, instead of a luxmeter reading on a desk), which
+//!   depends on the unseen walls' default reflectance (docs/peripherals.md);
 //! * at run time the reading is compared with the prediction for the current dimming state:
 //!   below it by more than the tolerance means a luminaire gives less light than modelled (or
 //!   the room changed); above it means daylight or another source; both raise a status bit.

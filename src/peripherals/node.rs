@@ -130,6 +130,16 @@ impl AmbientSensor {
                 e => format!("{}: {e}", self.name),
             })
     }
+
+    /// A calibration measurement ([`Veml7700::measure_precise`], `conversions` averaged).
+    pub fn measure_precise(&mut self, conversions: u8) -> Result<Reading, String> {
+        self.driver
+            .measure_precise(&mut *self.delay, conversions)
+            .map_err(|e| match e {
+                super::veml7700::Error::Bus(b) => format!("{}: I2C: {b}", self.name),
+                e => format!("{}: {e}", self.name),
+            })
+    }
 }
 
 /// The status LED as the node drives it.

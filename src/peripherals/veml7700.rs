@@ -85,6 +85,9 @@ pub mod reg {
     pub const ALS_INT: u8 = 0x06;
 }
 
+/// [`Veml7700::measure_precise`] keeps the count below this (headroom for flicker and drift).
+pub const PRECISE_MAX_COUNT: f64 = 20_000.0;
+
 /// Analog gain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Gain {
@@ -470,6 +473,57 @@ impl<I: I2c> Veml7700<I> {
             als,
             white,
             setting,
+        })
+    }
+
+    /// A calibration measurement (the camera's gain at commissioning): the application note's
+    /// auto-range, then more sensitivity (gain first, to leave the corrected low gains, then
+    /// integration time) while the count stays below [`PRECISE_MAX_COUNT`], then the mean of
+    /// `conversions` conversions (clamped to 1..=16). At 14 lx: ×2, 800 ms, about 3 800 counts
+    /// instead of the auto-range's 240 (one count 0.03 % instead of 0.4 %).
+    pub fn measure_precise<D: DelayNs + ?Sized>(
+        &mut self,
+        delay: &mut D,
+        conversions: u8,
+    ) -> Result<Reading, Error<I::Error>> {
+        let first = self.measure_auto(delay)?;
+        let mut s = first.setting;
+        let mut count = f64::from(first.als);
+        loop {
+            let next = match s.gain.up() {
+                Some(gain) => Setting { gain, ..s },
+                None => match s.it.longer() {
+                    Some(it) => Setting { it, ..s },
+                    None => break,
+                },
+            };
+            let projected = count * s.resolution_lx() / next.resolution_lx();
+            if projected > PRECISE_MAX_COUNT {
+                break;
+            }
+            s = next;
+            count = projected;
+        }
+        if s != first.setting {
+            self.configure(delay, s)?;
+        }
+        let n = conversions.clamp(1, 16);
+        let (mut lux, mut als, mut white) = (0.0, 0u32, 0u32);
+        for _ in 0..n {
+            let r = self.measure(delay)?;
+            if r.als == u16::MAX {
+                return Err(Error::Saturated);
+            }
+            lux += r.lux_lx;
+            als += u32::from(r.als);
+            white += u32::from(r.white);
+        }
+        let k = u32::from(n);
+        Ok(Reading {
+            lux_lx: lux / f64::from(n),
+            als: u16::try_from(als / k).unwrap_or(u16::MAX),
+            white: u16::try_from(white / k).unwrap_or(u16::MAX),
+            setting: s,
         })
     }
 

@@ -412,15 +412,76 @@ impl SimWorld {
         self.shared.scene.luminaires.iter().map(|l| l.id).collect()
     }
 
-    /// What an ideal cosine receiver at `position` facing `normal` reads from each luminaire
-    /// at 100 %, lx (the node's ambient light sensor in this world): exact direct light and a
-    /// gather of the world's exitances with `rays` rays.
-    pub fn receiver_lx(&self, position: DVec3, normal: DVec3, rays: usize) -> Vec<f64> {
-        crate::engine::points::evaluate(self.scene(), self.model(), &[(position, normal)], rays)
-            .per_luminaire_lx
+    /// What a receiver of angular response `response` at `position` facing `normal` reads from
+    /// each luminaire at 100 %, lx (the node's ambient light sensor in this world):
+    /// `E = ∫ L s(θ) dω`, with exact direct light on the receiver and, over `rays`
+    /// cosine-distributed directions (weight `(π/N) s/cos`), the luminance of the first surface
+    /// hit as the cameras see it (`ρ (E_direct at the point + E_indirect of its patch) / π`).
+    pub fn receiver_lx(
+        &self,
+        position: DVec3,
+        normal: DVec3,
+        response: &crate::lsc::AngularResponse,
+        rays: usize,
+    ) -> Vec<f64> {
+        use crate::engine::rayset::{RaySet, frame, to_world};
+        let s = &self.shared;
+        let m = &s.model;
+        let receiver = match response {
+            crate::lsc::AngularResponse::Cosine => Receiver::Surface,
+            r => Receiver::Sensor(r),
+        };
+        let lums = &s.scene.luminaires;
+        let points: Vec<Vec<DVec3>> = lums
+            .iter()
+            .map(|l| opening_points(l, s.opening_points))
+            .collect();
+        let probes: Vec<Vec<DVec3>> = lums.iter().map(visibility_probes).collect();
+        let indirect = self.indirect_lx();
+        let set = RaySet::new(m.settings.ray_set, rays.max(1));
+        let fr = frame(normal, 0.0);
+        let origin = s.caster.offset(position, normal);
+        let scale = std::f64::consts::PI / set.len() as f64;
+        let seen: Vec<f64> = set
+            .dirs
+            .par_iter()
+            .map(|d| {
+                let mut out = vec![0.0; lums.len()];
+                let cos = d.z.max(1e-12);
+                let w = scale * response.response(cos.acos()) / cos;
+                if w <= 0.0 {
+                    return out;
+                }
+                let dw = to_world(&fr, *d);
+                if let Hit::Front { patch, t_m } = s.caster.closest(origin, dw) {
+                    let p = patch as usize;
+                    let x = origin + dw * t_m;
+                    let n = m.patches.normal[p];
+                    let k = w * m.patches.rho[p] / std::f64::consts::PI;
+                    for (j, l) in lums.iter().enumerate() {
+                        let e =
+                            direct_lx(l, &points[j], &probes[j], x, n, &s.caster) + indirect[j][p];
+                        out[j] = k * e;
+                    }
+                }
+                out
+            })
+            .collect::<Vec<Vec<f64>>>()
             .into_iter()
-            .next()
-            .unwrap_or_default()
+            // summed in ray order: the same result for any thread count
+            .fold(vec![0.0; lums.len()], |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            });
+        lums.iter()
+            .zip(&points)
+            .zip(seen)
+            .map(|((l, pts), e)| {
+                e + direct::illuminance_lx(l, pts, position, normal, receiver, &s.caster)
+            })
+            .collect()
     }
 
     /// Sets the levels (luminaire order; clamped to [0, 1], extra or missing entries ignored),
