@@ -744,3 +744,146 @@ fn commissioning_switches_luminaires_through_the_gateway() {
         assert_eq!(got, want, "{encoding}");
     }
 }
+
+/// A gateway whose level reads take `delay` and answer what the registers held when the read
+/// began (a slow DALI gateway); `read_began` counts reads as they begin.
+struct SlowGateway {
+    regs: std::sync::Arc<std::sync::Mutex<Vec<u16>>>,
+    read_began: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    delay: Duration,
+}
+
+impl luxnode::modbus::node::PduHandler for SlowGateway {
+    fn handle_pdu(
+        &mut self,
+        _unit: u8,
+        pdu: &[u8],
+        out: &mut [u8; luxnode::modbus::pdu::MAX_PDU],
+    ) -> Option<usize> {
+        use luxnode::modbus::pdu::{
+            Exception, MAX_WRITE, Request, decode_request, encode_exception, encode_registers,
+            encode_write_echo,
+        };
+        let mut words = [0u16; MAX_WRITE];
+        let request = decode_request(pdu, &mut words).ok()?;
+        let fc = request.function();
+        let mut regs = self.regs.lock().unwrap();
+        Some(match request {
+            Request::ReadHolding { address, quantity } => {
+                let (a, n) = (usize::from(address), usize::from(quantity));
+                let snapshot = regs[a..a + n].to_vec();
+                drop(regs);
+                self.read_began
+                    .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                std::thread::sleep(self.delay);
+                encode_registers(fc, &snapshot, out)
+            }
+            Request::WriteSingle { address, value } => {
+                regs[usize::from(address)] = value;
+                encode_write_echo(fc, address, value, out)
+            }
+            Request::WriteMultiple { address, values } => {
+                let a = usize::from(address);
+                regs[a..a + values.len()].copy_from_slice(values);
+                encode_write_echo(fc, address, values.len() as u16, out)
+            }
+            _ => encode_exception(fc, Exception::IllegalFunction, out),
+        })
+    }
+}
+
+#[test]
+fn a_gateway_read_in_flight_never_undoes_a_delivery() {
+    use luxnode::modbus::gateway::{self, GatewayConfig, GatewayCounters};
+    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use std::sync::{Arc, Mutex};
+    let image = common::small_image(1.0);
+    let img = Image::parse(&image).unwrap();
+    let node = Node::new(
+        NodeModel::from_image(&img, 1),
+        NodeOptions {
+            gateway_configured: true,
+            ..NodeOptions::default()
+        },
+    )
+    .unwrap();
+    let node = Arc::new(Mutex::new(node));
+    let regs = Arc::new(Mutex::new(vec![0u16; 64]));
+    // the gateway's levels at 16 and 18: 100 and 120
+    regs.lock().unwrap()[16] = 100;
+    regs.lock().unwrap()[18] = 120;
+    let read_began = Arc::new(AtomicU64::new(0));
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    let listener = rt
+        .block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))
+        .unwrap();
+    let addr = listener.local_addr().unwrap();
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let handler = Arc::new(Mutex::new(SlowGateway {
+        regs: regs.clone(),
+        read_began: read_began.clone(),
+        delay: Duration::from_millis(400),
+    }));
+    rt.spawn(luxnode::modbus::tcp::serve(
+        listener,
+        handler,
+        luxnode::modbus::tcp::TcpOptions::default(),
+        Arc::new(luxnode::modbus::tcp::TcpCounters::default()),
+        stop_rx.clone(),
+        None,
+    ));
+    let config = GatewayConfig::from_toml(&format!(
+        "address = \"{addr}\"\npoll_interval_ms = 2000\ntimeout_ms = 1500\nretries = 0\n\
+         [levels]\nbase = 16\nstride = 2\nencoding = \"dali\"\n"
+    ))
+    .unwrap();
+    let counters = Arc::new(GatewayCounters::default());
+    rt.spawn(gateway::run(
+        config,
+        node.clone(),
+        counters.clone(),
+        stop_rx,
+        None,
+    ));
+    let wait = |what: &str, ok: &dyn Fn() -> bool| {
+        let t0 = Instant::now();
+        while !ok() {
+            assert!(t0.elapsed() < Duration::from_secs(10), "{what}");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    };
+    // the first poll applies the gateway's levels
+    wait("first poll", &|| {
+        counters.polls_ok.load(Ordering::SeqCst) >= 1
+    });
+    assert_eq!(node.lock().unwrap().map().arc[..2], [100, 120]);
+    // the second poll's read begins; meanwhile the lighting control delivers 200, 210
+    wait("second read", &|| read_began.load(Ordering::SeqCst) >= 2);
+    {
+        let mut r = regs.lock().unwrap();
+        r[16] = 200;
+        r[18] = 210;
+    }
+    node.lock()
+        .unwrap()
+        .set_arc_levels_delivered(&[200, 210])
+        .unwrap();
+    // the read answers the old levels (100, 120): they must not replace the delivered ones
+    wait("second poll", &|| {
+        counters.polls_ok.load(Ordering::SeqCst) >= 2
+    });
+    assert_eq!(node.lock().unwrap().map().arc[..2], [200, 210]);
+    assert_eq!(counters.superseded_reads.load(Ordering::SeqCst), 1);
+    // the next poll reads the new levels and applies them
+    wait("third poll", &|| {
+        counters.polls_ok.load(Ordering::SeqCst) >= 3
+    });
+    assert_eq!(node.lock().unwrap().map().arc[..2], [200, 210]);
+    assert_eq!(counters.superseded_reads.load(Ordering::SeqCst), 1);
+    let _ = stop_tx.send(true);
+}

@@ -272,6 +272,9 @@ pub fn decode_level(
 pub struct GatewayCounters {
     /// Successful polls.
     pub polls_ok: AtomicU64,
+    /// Polls whose levels were not applied: the lighting control delivered new levels while the
+    /// read was in flight.
+    pub superseded_reads: AtomicU64,
     /// Failed attempts.
     pub failures: AtomicU64,
     /// Times the link was declared lost.
@@ -385,9 +388,9 @@ async fn poll_once(
     let Some(c) = ctx.as_mut() else {
         return Err(GatewayError::Answer("no connection".into()));
     };
-    let (count, curve) = {
+    let (count, curve, delivered_before) = {
         let n = lock(node);
-        (n.levels().len(), n.map().curve)
+        (n.levels().len(), n.map().curve, n.levels_delivered())
     };
     let addrs = config.level_addresses(count)?;
     let words = read_registers(c, config.levels.function, &addrs, timeout).await?;
@@ -401,7 +404,13 @@ async fn poll_once(
     }
     let lux: Vec<f64> = {
         let mut n = lock(node);
-        n.set_levels(&levels)?;
+        if n.levels_delivered() == delivered_before {
+            n.set_levels(&levels)?;
+        } else {
+            // the lighting control wrote new levels while this read was in flight: the read may
+            // hold the old ones; the next poll reads the new
+            counters.superseded_reads.fetch_add(1, Ordering::Relaxed);
+        }
         n.set_gateway_link(true);
         n.desks().iter().map(|d| d.1).collect()
     };

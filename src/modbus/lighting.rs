@@ -199,8 +199,9 @@ impl Lighting {
         match gateway::write_arc_levels(ctx, &config, levels).await {
             Ok(()) => {
                 tracing::info!(target: "luxnode::audit", "lighting control: levels {raw:?} written to the gateway");
-                // the node shows them at once; the gateway poll confirms them
-                let _ = lock(&self.node).set_arc_levels(&raw);
+                // the node shows them at once; the gateway poll confirms them (a poll read in
+                // flight meanwhile is dropped: it holds the old levels)
+                let _ = lock(&self.node).set_arc_levels_delivered(&raw);
                 true
             }
             Err(e) => {

@@ -194,6 +194,9 @@ pub struct Node {
     computed: Instant,
     gateway_up: bool,
     gateway_link_changes: u64,
+    /// Level sets the lighting control delivered to the gateway (a gateway read that started
+    /// before one is out of date: [`Node::levels_delivered`]).
+    levels_delivered: u64,
     store_ok: bool,
     sensors_ok: bool,
     /// Per luminaire: its level is known (set since start, or given at start).
@@ -296,6 +299,7 @@ impl Node {
             computed: now,
             gateway_up: !options.gateway_configured,
             gateway_link_changes: 0,
+            levels_delivered: 0,
             store_ok: true,
             sensors_ok: true,
             arc_known: vec![options.initial_arc.is_some(); model_luminaires],
@@ -356,6 +360,20 @@ impl Node {
         }
         self.recompute();
         Ok(())
+    }
+
+    /// Sets the arc levels the lighting control has just written to the gateway
+    /// ([`Node::set_arc_levels`]) and counts the delivery, so a gateway poll whose read was in
+    /// flight meanwhile (the old levels) does not overwrite them.
+    pub fn set_arc_levels_delivered(&mut self, arc: &[u8]) -> Result<(), NodeError> {
+        self.set_arc_levels(arc)?;
+        self.levels_delivered = self.levels_delivered.wrapping_add(1);
+        Ok(())
+    }
+
+    /// How many level sets the lighting control has delivered ([`Node::set_arc_levels_delivered`]).
+    pub fn levels_delivered(&self) -> u64 {
+        self.levels_delivered
     }
 
     /// The DALI gateway link went up (`true`) or was lost (`false`). While it is lost the desk
