@@ -6,7 +6,7 @@
 use luxnode::control::lp::{Lp, scratch_len as lp_scratch};
 use luxnode::control::regulator::{Inputs, Mode, Regulator, Settings};
 use luxnode::control::{
-    Demand, LuminairePower, PlanOut, Plant, arc_at_least, optimise, scratch_len,
+    Demand, LuminairePower, Plan, Plant, arc_at_least, photocell, plan, scratch_len,
 };
 use luxnode::dali::{ArcLevel, DimmingCurve};
 use luxnode::rng::SplitMix64;
@@ -173,20 +173,15 @@ fn the_dali_plan_is_the_brute_force_optimum_for_two_luminaires() {
             power: &pw,
             curve,
         };
-        let (mut arc, mut lux, mut met) = (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
-        let rep = optimise(
+        let Plan {
+            met, report: rep, ..
+        } = plan(
             &plant,
             &Demand {
                 target_lx: &target,
                 daylight_lx: &daylight,
                 uniformity: None,
             },
-            PlanOut {
-                arc: &mut arc,
-                lux: &mut lux,
-                met: &mut met,
-            },
-            &mut vec![0.0; scratch_len(kd, l, false)],
         )
         .unwrap();
         let mut best: Option<f64> = None;
@@ -236,20 +231,18 @@ fn infeasible_targets_give_the_closest_state_and_flags() {
         power: &pw,
         curve: DimmingCurve::Logarithmic,
     };
-    let (mut arc, mut lux, mut met) = ([ArcLevel::OFF; 2], [0.0; 2], [false; 2]);
-    let rep = optimise(
+    let Plan {
+        arc,
+        lux,
+        met,
+        report: rep,
+    } = plan(
         &plant,
         &Demand {
             target_lx: &[500.0, 500.0],
             daylight_lx: &[0.0, 0.0],
             uniformity: None,
         },
-        PlanOut {
-            arc: &mut arc,
-            lux: &mut lux,
-            met: &mut met,
-        },
-        &mut vec![0.0; scratch_len(2, 2, false)],
     )
     .unwrap();
     assert_eq!(arc[0], ArcLevel::MAX, "the short desk gets all there is");
@@ -272,23 +265,16 @@ fn uniformity_is_held_when_asked() {
         curve: DimmingCurve::Logarithmic,
     };
     let run = |u: Option<f64>| {
-        let (mut arc, mut lux, mut met) = ([ArcLevel::OFF; 2], [0.0; 2], [false; 2]);
-        optimise(
+        let p = plan(
             &plant,
             &Demand {
                 target_lx: &[300.0, 300.0],
                 daylight_lx: &[400.0, 0.0],
                 uniformity: u,
             },
-            PlanOut {
-                arc: &mut arc,
-                lux: &mut lux,
-                met: &mut met,
-            },
-            &mut vec![0.0; scratch_len(2, 2, u.is_some())],
         )
         .unwrap();
-        (arc, lux, met)
+        (p.arc, p.lux, p.met)
     };
     let (arc, lux, _) = run(None);
     assert_eq!(arc[0], ArcLevel::OFF);
@@ -568,7 +554,6 @@ fn every_desk_meets_its_target_when_the_run_time_core_evaluates_the_plan() {
 
 #[test]
 fn the_photocell_baseline_is_the_lowest_common_level() {
-    use luxnode::control::photocell_plan;
     let mut rng = SplitMix64::new(21);
     let curve = DimmingCurve::Logarithmic;
     for _ in 0..30 {
@@ -583,18 +568,14 @@ fn the_photocell_baseline_is_the_lowest_common_level() {
             power: &pw,
             curve,
         };
-        let (mut arc, mut lux, mut met) = (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
-        let rep = photocell_plan(
+        let Plan {
+            arc, report: rep, ..
+        } = photocell(
             &plant,
             &Demand {
                 target_lx: &target,
                 daylight_lx: &daylight,
                 uniformity: None,
-            },
-            PlanOut {
-                arc: &mut arc,
-                lux: &mut lux,
-                met: &mut met,
             },
         )
         .unwrap();

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use microlp::{ComparisonOp, OptimizationDirection, Problem, SolveOutcome};
 
-use crate::control::{Demand, LuminairePower, PlanOut, Plant, optimise, scratch_len};
+use crate::control::{Demand, LuminairePower, Plan, PlanOut, Plant, optimise, plan, scratch_len};
 use crate::dali::{ArcLevel, DimmingCurve};
 use crate::rng::SplitMix64;
 
@@ -341,21 +341,13 @@ pub fn exhaustive(sizes: &[(usize, usize)], instances: usize, seed: u64) -> Vec<
                 power: &power,
                 curve: DimmingCurve::Logarithmic,
             };
-            let (mut arc, mut lux, mut met) =
-                (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
-            let Ok(rep) = optimise(
+            let Ok(Plan { report: rep, .. }) = plan(
                 &plant,
                 &Demand {
                     target_lx: &target,
                     daylight_lx: &daylight,
                     uniformity: None,
                 },
-                PlanOut {
-                    arc: &mut arc,
-                    lux: &mut lux,
-                    met: &mut met,
-                },
-                &mut vec![0.0; scratch_len(kd, l, false)],
             ) else {
                 continue;
             };

@@ -9,10 +9,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::control::{
-    Demand, LuminairePower, PlanOut, PlanReport, Plant, optimise, photocell_plan, scratch_len,
-};
-use crate::dali::{ArcLevel, DimmingCurve};
+use crate::control::{Demand, LuminairePower, Plant, photocell, plan};
+use crate::dali::DimmingCurve;
 use crate::store::Image;
 
 /// Why the day could not be computed.
@@ -150,7 +148,6 @@ pub fn run(
         power,
         curve: DimmingCurve::Logarithmic,
     };
-    let mut scratch = vec![0.0; scratch_len(kd, l, false)];
     let steps: Vec<&Step> = series
         .iter()
         .filter(|s| s.time_h >= occupied_h.0 && s.time_h < occupied_h.1)
@@ -177,30 +174,8 @@ pub fn run(
             daylight_lx: &s.daylight_lx,
             uniformity: None,
         };
-        let plan = |f: &dyn Fn(PlanOut<'_>) -> Result<PlanReport, crate::control::ControlError>| {
-            let (mut arc, mut lux, mut met) =
-                (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
-            f(PlanOut {
-                arc: &mut arc,
-                lux: &mut lux,
-                met: &mut met,
-            })
-        };
-        let pc = plan(&|out| photocell_plan(&plant, &demand, out))?;
-        let opt = {
-            let (mut arc, mut lux, mut met) =
-                (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
-            optimise(
-                &plant,
-                &demand,
-                PlanOut {
-                    arc: &mut arc,
-                    lux: &mut lux,
-                    met: &mut met,
-                },
-                &mut scratch,
-            )?
-        };
+        let pc = photocell(&plant, &demand)?.report;
+        let opt = plan(&plant, &demand)?.report;
         totals.all_on_kwh += pc.all_on_w * dt_h / 1000.0;
         totals.photocell_kwh += pc.power_w * dt_h / 1000.0;
         totals.optimised_kwh += opt.power_w * dt_h / 1000.0;

@@ -186,6 +186,57 @@ pub struct PlanReport {
     pub iterations: u32,
 }
 
+/// A plan with owned outputs: what hosts, benches and tests use ([`plan`], [`photocell`]); the
+/// node's loop keeps [`optimise`] over its own buffers.
+#[cfg(feature = "std")]
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Arc level per luminaire.
+    pub arc: Vec<ArcLevel>,
+    /// Illuminance each desk will get (artificial at the plan + daylight), lx.
+    pub lux: Vec<f64>,
+    /// Whether each desk meets its target (and the uniformity, if asked).
+    pub met: Vec<bool>,
+    /// The plan in numbers.
+    pub report: PlanReport,
+}
+
+#[cfg(feature = "std")]
+impl Plan {
+    fn with(
+        plant: &Plant<'_>,
+        f: impl FnOnce(PlanOut<'_>) -> Result<PlanReport, ControlError>,
+    ) -> Result<Self, ControlError> {
+        let (kd, l) = (plant.desks, plant.luminaires);
+        let (mut arc, mut lux, mut met) = (vec![ArcLevel::OFF; l], vec![0.0; kd], vec![false; kd]);
+        let report = f(PlanOut {
+            arc: &mut arc,
+            lux: &mut lux,
+            met: &mut met,
+        })?;
+        Ok(Self {
+            arc,
+            lux,
+            met,
+            report,
+        })
+    }
+}
+
+/// [`optimise`] with owned outputs and scratch.
+#[cfg(feature = "std")]
+pub fn plan(plant: &Plant<'_>, demand: &Demand<'_>) -> Result<Plan, ControlError> {
+    let mut scratch =
+        vec![0.0; scratch_len(plant.desks, plant.luminaires, demand.uniformity.is_some())];
+    Plan::with(plant, |out| optimise(plant, demand, out, &mut scratch))
+}
+
+/// [`photocell_plan`] with owned outputs.
+#[cfg(feature = "std")]
+pub fn photocell(plant: &Plant<'_>, demand: &Demand<'_>) -> Result<Plan, ControlError> {
+    Plan::with(plant, |out| photocell_plan(plant, demand, out))
+}
+
 /// Rows of the programme.
 fn rows(desks: usize, uniformity: bool) -> usize {
     if uniformity { 2 * desks } else { desks }
