@@ -246,6 +246,7 @@ fn example() -> CameraCalibration {
         ],
         translation_m: [0.0, -0.025, 0.0],
         calibration_cd_m2_s: 9.5,
+        fisheye_k: None,
     }
 }
 
@@ -287,7 +288,8 @@ fn calibration_record_survives_a_torn_update_and_flipped_bits() {
     let s = calibration::read(&mut e).unwrap();
     assert_eq!(s.newest(), None);
     assert!(s.b.unwrap_err().to_string().contains("CRC"));
-    assert_eq!(RECORD_LEN, 12 + 176 + 4);
+    // version 2: the version 1 body (176 bytes) + lens (1) + four fisheye coefficients (32)
+    assert_eq!(RECORD_LEN, 12 + 176 + 1 + 32 + 4);
 }
 
 #[test]
@@ -395,4 +397,42 @@ fn a_stuck_bus_never_hangs_the_node() {
     };
     let e = s.measure().unwrap_err();
     assert!(e.contains("no acknowledge"), "{e}");
+}
+
+#[test]
+fn the_calibration_record_carries_the_boards_lens_both_ways() {
+    use luxnode::board::Board;
+    use luxnode::board::peripherals::{apply_calibration, record_from_board};
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("boards/rock5b/board.toml"),
+    )
+    .unwrap();
+    let pinhole = "k1 = -0.12                   # radial distortion (OpenCV k1, k2)\nk2 = 0.03";
+    assert!(text.contains(pinhole));
+    let dir = tempfile::tempdir().unwrap();
+    for fisheye in [false, true] {
+        let t = if fisheye {
+            text.replace(
+                pinhole,
+                "model = \"kannala_brandt\"\nk = [0.03, -0.008, 0.0005, 0.0]",
+            )
+            .replace("fx = 762.8  ", "fx = 420.0  ")
+            .replace("fy = 762.8", "fy = 420.0")
+        } else {
+            text.clone()
+        };
+        let path = dir.path().join("board.toml");
+        std::fs::write(&path, t).unwrap();
+        let b = Board::load(&path).unwrap();
+        let rec = record_from_board(&b.camera, "MOD-7").unwrap();
+        assert_eq!(rec.fisheye_k.is_some(), fisheye);
+        if fisheye {
+            assert_eq!(rec.fisheye_k, Some([0.03, -0.008, 0.0005, 0.0]));
+            assert_eq!((rec.k1, rec.k2, rec.fx), (0.0, 0.0, 420.0));
+        }
+        // through the EEPROM's bytes and back onto the board: the same cameras
+        let (back, g) = CameraCalibration::decode(&rec.encode(5)).unwrap();
+        assert_eq!((back, g), (rec, 5));
+        assert_eq!(apply_calibration(&b.camera, &back).unwrap(), b.camera);
+    }
 }

@@ -273,8 +273,10 @@ pub fn apply_calibration(
             cy: cal.cy,
             k1: cal.k1,
             k2: cal.k2,
-            // the EEPROM record holds a pinhole calibration (k1, k2)
-            lens: Default::default(),
+            lens: match cal.fisheye_k {
+                Some(k) => crate::scene::Lens::KannalaBrandt { k },
+                None => crate::scene::Lens::Pinhole,
+            },
         },
         ColourFromTof {
             rotation: cal.rotation,
@@ -338,6 +340,10 @@ pub fn record_from_board(
         rotation: p.rotation,
         translation_m: p.translation_m,
         calibration_cd_m2_s: options.calibration_cd_m2_s,
+        fisheye_k: match i.lens {
+            crate::scene::Lens::KannalaBrandt { k } => Some(k),
+            crate::scene::Lens::Pinhole => None,
+        },
     };
     cal.validate().map_err(|e| e.to_string())?;
     Ok(cal)

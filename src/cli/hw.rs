@@ -64,11 +64,15 @@ pub fn run(command: &Command) -> Result<()> {
                         for (name, copy) in [("A", &s.a), ("B", &s.b)] {
                             match copy {
                                 Ok((c, g)) => println!(
-                                    "calibration copy {name}: generation {g}, module {}, {}x{}, fx {:.1}, {:.3} cd/m2 s",
+                                    "calibration copy {name}: generation {g}, module {}, {}x{}, fx {:.1}, {}, {:.3} cd/m2 s",
                                     c.serial_str(),
                                     c.width,
                                     c.height,
                                     c.fx,
+                                    match c.fisheye_k {
+                                        Some(k) => format!("Kannala-Brandt fisheye k {k:?}"),
+                                        None => format!("pinhole k1 {} k2 {}", c.k1, c.k2),
+                                    },
                                     c.calibration_cd_m2_s
                                 ),
                                 Err(e) => println!("calibration copy {name}: {e}"),

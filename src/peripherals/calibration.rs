@@ -5,10 +5,15 @@
 //! ```text
 //! copy A at 0, copy B at half the EEPROM (2048 on a 24C32)
 //! | magic "LXCC" | version u16 | length u16 | generation u32 | body (length bytes) | CRC-32 u32 |
-//! body, version 1, little-endian:
+//! body, version 2, little-endian:
 //! | serial [u8; 16] | width u32 | height u32 | fx fy cx cy k1 k2 f64 | rotation 9 × f64 (row-major)
-//! | translation_m 3 × f64 | calibration_cd_m2_s f64 |
+//! | translation_m 3 × f64 | calibration_cd_m2_s f64 | lens u8 | kb 4 × f64 |
+//! lens: 0 pinhole (OpenCV radial k1, k2; kb zero), 1 Kannala-Brandt fisheye (k1 = k2 = 0,
+//! r = θ (1 + kb1 θ² + kb2 θ⁴ + kb3 θ⁶ + kb4 θ⁸))
 //! ```
+//!
+//! Version 1 (written by earlier builds) is the same body without `lens` and `kb`: a pinhole.
+//! It still reads; updates write version 2.
 //!
 //! The CRC (IEEE, as the flash image's) covers everything before it. A copy is valid when the
 //! magic, the version, the length and the CRC agree and every number is in range (finite,
@@ -24,14 +29,18 @@ use crate::store::Crc32;
 
 /// Record magic.
 pub const MAGIC: [u8; 4] = *b"LXCC";
-/// Layout version of the body.
-pub const VERSION: u16 = 1;
-/// Body length of version 1.
-pub const BODY_LEN: usize = 16 + 4 + 4 + 8 * (6 + 9 + 3 + 1);
+/// Layout version of the body written.
+pub const VERSION: u16 = 2;
+/// Body length of version 1 (pinhole only).
+pub const BODY_LEN_V1: usize = 16 + 4 + 4 + 8 * (6 + 9 + 3 + 1);
+/// Body length of version 2.
+pub const BODY_LEN: usize = BODY_LEN_V1 + 1 + 8 * 4;
 /// Header length (magic, version, length, generation).
 pub const HEAD_LEN: usize = 12;
-/// Whole record.
+/// Whole record (version 2; a version 1 record is shorter and read from the same place).
 pub const RECORD_LEN: usize = HEAD_LEN + BODY_LEN + 4;
+/// A fisheye coefficient beyond this is refused (a calibration's are below 1).
+pub const MAX_KB: f64 = 10.0;
 
 /// The colour camera's per-unit calibration: its intrinsics, its pose relative to the ToF
 /// camera (`X_colour = rotation · X_tof + translation_m`), and its luminance calibration.
@@ -61,6 +70,8 @@ pub struct CameraCalibration {
     pub translation_m: [f64; 3],
     /// cd/m² at full scale for a 1 s exposure.
     pub calibration_cd_m2_s: f64,
+    /// A Kannala-Brandt fisheye's k1..k4 (then `k1 = k2 = 0` above); `None`: a pinhole.
+    pub fisheye_k: Option<[f64; 4]>,
 }
 
 /// Why a copy is not usable.
@@ -93,7 +104,10 @@ impl core::fmt::Display for RecordError {
             RecordError::Version(v) => {
                 write!(f, "record version {v}, this build reads {VERSION}")
             }
-            RecordError::Length(n) => write!(f, "length field {n}, version 1 has {BODY_LEN}"),
+            RecordError::Length(n) => write!(
+                f,
+                "length field {n}, version 1 has {BODY_LEN_V1}, version 2 {BODY_LEN}"
+            ),
             RecordError::Crc { stored, actual } => write!(
                 f,
                 "CRC mismatch (stored {stored:#010x}, computed {actual:#010x})"
@@ -158,6 +172,16 @@ impl CameraCalibration {
         if !(self.calibration_cd_m2_s.is_finite() && self.calibration_cd_m2_s > 0.0) {
             return Err(RecordError::Range("the luminance calibration"));
         }
+        if let Some(k) = self.fisheye_k {
+            if !k.iter().all(|x| x.is_finite() && x.abs() <= MAX_KB) {
+                return Err(RecordError::Range("a fisheye coefficient"));
+            }
+            if self.k1 != 0.0 || self.k2 != 0.0 {
+                return Err(RecordError::Range(
+                    "k1, k2 (pinhole distortion on a fisheye)",
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -188,6 +212,10 @@ impl CameraCalibration {
             w.f64(x);
         }
         w.f64(self.calibration_cd_m2_s);
+        w.put(&[u8::from(self.fisheye_k.is_some())]);
+        for x in self.fisheye_k.unwrap_or([0.0; 4]) {
+            w.f64(x);
+        }
         let at = w.at;
         let mut c = Crc32::new();
         c.update(&b[..at]);
@@ -204,14 +232,16 @@ impl CameraCalibration {
             return Err(RecordError::BadMagic);
         }
         let version = u16::from_le_bytes([b[4], b[5]]);
-        if version != VERSION {
-            return Err(RecordError::Version(version));
-        }
+        let body_len = match version {
+            1 => BODY_LEN_V1,
+            2 => BODY_LEN,
+            v => return Err(RecordError::Version(v)),
+        };
         let len = u16::from_le_bytes([b[6], b[7]]);
-        if usize::from(len) != BODY_LEN {
+        if usize::from(len) != body_len {
             return Err(RecordError::Length(len));
         }
-        let end = HEAD_LEN + BODY_LEN;
+        let end = HEAD_LEN + body_len;
         let stored = u32::from_le_bytes([b[end], b[end + 1], b[end + 2], b[end + 3]]);
         let mut c = Crc32::new();
         c.update(&b[..end]);
@@ -233,6 +263,17 @@ impl CameraCalibration {
         }
         let translation_m = [r.f64(), r.f64(), r.f64()];
         let calibration_cd_m2_s = r.f64();
+        let fisheye_k = if version >= 2 {
+            let lens = r.take::<1>()[0];
+            let k = [r.f64(), r.f64(), r.f64(), r.f64()];
+            match lens {
+                0 if k == [0.0; 4] => None,
+                1 => Some(k),
+                _ => return Err(RecordError::Range("the lens model")),
+            }
+        } else {
+            None
+        };
         let cal = CameraCalibration {
             serial,
             width,
@@ -246,6 +287,7 @@ impl CameraCalibration {
             rotation,
             translation_m,
             calibration_cd_m2_s,
+            fisheye_k,
         };
         cal.validate()?;
         Ok((cal, generation))
@@ -352,7 +394,58 @@ mod tests {
             rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             translation_m: [-0.03, 0.0, 0.0],
             calibration_cd_m2_s: 12.0,
+            fisheye_k: None,
         }
+    }
+
+    /// A version 1 record (earlier builds): the version 2 layout without lens and kb.
+    fn encode_v1(c: &CameraCalibration, generation: u32) -> [u8; RECORD_LEN] {
+        let v2 = c.encode(generation);
+        let mut b = [0u8; RECORD_LEN];
+        let end = HEAD_LEN + BODY_LEN_V1;
+        b[..end].copy_from_slice(&v2[..end]);
+        b[4..6].copy_from_slice(&1u16.to_le_bytes());
+        b[6..8].copy_from_slice(&(BODY_LEN_V1 as u16).to_le_bytes());
+        let mut crc = Crc32::new();
+        crc.update(&b[..end]);
+        b[end..end + 4].copy_from_slice(&crc.finish().to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn fisheye_records_round_trip_and_version_1_still_reads() {
+        let mut f = example();
+        f.k1 = 0.0;
+        f.k2 = 0.0;
+        f.fisheye_k = Some([0.03, -0.008, 0.0005, 0.0]);
+        let b = f.encode(3);
+        assert_eq!(CameraCalibration::decode(&b), Ok((f, 3)));
+        // a pinhole written by an earlier build (version 1) reads as a pinhole
+        let c = example();
+        let v1 = encode_v1(&c, 9);
+        assert_eq!(CameraCalibration::decode(&v1), Ok((c, 9)));
+        // an unknown lens byte, a fisheye with pinhole distortion, absurd coefficients
+        let mut x = b;
+        x[HEAD_LEN + BODY_LEN_V1] = 7;
+        let end = HEAD_LEN + BODY_LEN;
+        let mut crc = Crc32::new();
+        crc.update(&x[..end]);
+        x[end..].copy_from_slice(&crc.finish().to_le_bytes());
+        assert_eq!(
+            CameraCalibration::decode(&x),
+            Err(RecordError::Range("the lens model"))
+        );
+        let mut g = f;
+        g.k1 = 0.1;
+        assert!(g.validate().is_err());
+        g.k1 = 0.0;
+        g.fisheye_k = Some([f64::NAN, 0.0, 0.0, 0.0]);
+        assert!(g.validate().is_err());
+        g.fisheye_k = Some([1e3, 0.0, 0.0, 0.0]);
+        assert!(matches!(
+            CameraCalibration::decode(&g.encode(1)),
+            Err(RecordError::Range(_))
+        ));
     }
 
     #[test]
@@ -372,9 +465,9 @@ mod tests {
             CameraCalibration::decode(&[0xFF; RECORD_LEN]),
             Err(RecordError::Blank)
         );
-        let mut v2 = b;
-        v2[4] = 2;
-        assert_eq!(CameraCalibration::decode(&v2), Err(RecordError::Version(2)));
+        let mut v3 = b;
+        v3[4] = 3;
+        assert_eq!(CameraCalibration::decode(&v3), Err(RecordError::Version(3)));
     }
 
     #[test]
