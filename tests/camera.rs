@@ -1623,6 +1623,33 @@ mod fisheye {
     }
 
     #[test]
+    fn the_live_section_finds_every_desk_through_the_fisheye() {
+        // live light projects the desk sensors through the camera's lens: the sim-fisheye
+        // board's camera sees all 7 demo desks, the pinhole demo camera 3
+        use luxnode::board::Board;
+        use luxnode::board::camera::CameraBoard;
+        use luxnode::live::section::{SectionOptions, from_model};
+        let b = Board::load(std::path::Path::new("boards/sim-fisheye/board.toml")).unwrap();
+        let CameraBoard::Sim {
+            optics: Some(o), ..
+        } = &b.camera
+        else {
+            panic!("{:?}", b.camera);
+        };
+        let world = luxnode::sim::camera::SimWorld::demo_office().unwrap();
+        let mut scene = luxnode::sim::demo::demo_office();
+        let pinhole = scene.camera.clone().unwrap();
+        for (camera, in_view) in [(o.apply(&pinhole), 7), (pinhole, 3)] {
+            scene.camera = Some(camera);
+            let (section, flags) =
+                from_model(&scene, world.model(), &SectionOptions::default()).unwrap();
+            let seen = section.windows.iter().filter(|w| !w.is_empty()).count();
+            assert_eq!(seen, in_view, "{flags:?}");
+            assert_eq!(flags.iter().filter(|&&f| f == 0).count(), in_view);
+        }
+    }
+
+    #[test]
     fn board_files_carry_checked_optics() {
         use luxnode::board::Board;
         use luxnode::board::camera::CameraBoard;

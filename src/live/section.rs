@@ -198,15 +198,15 @@ fn cast_all(
 }
 
 /// Where a sensor projects in the camera, if in front of it.
+/// Pixel coordinates and depth along the axis of a world point, through the camera's lens
+/// (pinhole or fisheye); `None` behind the camera or outside the lens's field.
 fn project(camera: &Camera, p: DVec3) -> Option<(f64, f64, f64)> {
     let c = camera.world_from_camera.transpose() * (p - camera.position_m);
-    (c.z > 1e-6).then(|| {
-        (
-            camera.fx * c.x / c.z + camera.cx,
-            camera.fy * c.y / c.z + camera.cy,
-            c.z,
-        )
-    })
+    if c.z <= 1e-6 {
+        return None;
+    }
+    let (u, v) = camera.project_camera(c)?;
+    Some((u, v, c.z))
 }
 
 /// The pixels of a sensor's window: surface points within `radius` of the sensor in its plane
@@ -222,6 +222,8 @@ fn window_pixels(
     let Some((u0, v0, z)) = project(camera, sensor.position_m) else {
         return Vec::new();
     };
+    // pixels per metre at the sensor: f / z for a pinhole; a fisheye's is smaller than f / z
+    // (for r = f θ: at most f θ / (D sin θ) < f / (D cos θ)), so this reach covers both
     let reach_px = (o.window_radius_m * camera.fx.max(camera.fy) / z).ceil() + 2.0;
     let (w, h) = (f64::from(camera.width), f64::from(camera.height));
     let umin = (u0 - reach_px).floor().max(0.0);
