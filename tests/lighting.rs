@@ -76,13 +76,8 @@ async fn client(addr: SocketAddr) -> Context {
 }
 
 /// Reads (desk lux, met flags, short, flags, power now, all on) once the loop has planned.
-async fn control_state(c: &mut Context) -> (Vec<f64>, Vec<u16>, u16, u16, f64, f64) {
-    let lux = floats_abcd(
-        &c.read_input_registers(addr::DESK_FLOAT, 16)
-            .await
-            .unwrap()
-            .unwrap(),
-    );
+/// The control status registers: desks met, then the short/flags/power block.
+async fn control_status(c: &mut Context) -> (Vec<u16>, Vec<u16>) {
     let met = c
         .read_input_registers(addr::DESK_MET, 8)
         .await
@@ -93,8 +88,26 @@ async fn control_state(c: &mut Context) -> (Vec<f64>, Vec<u16>, u16, u16, f64, f
         .await
         .unwrap()
         .unwrap();
-    let power = floats_abcd(&block[2..6]);
-    (lux, met, block[0], block[1], power[0], power[1])
+    (met, block)
+}
+
+async fn control_state(c: &mut Context) -> (Vec<f64>, Vec<u16>, u16, u16, f64, f64) {
+    // three requests are not one snapshot: the control status read before and after the lux
+    // must agree (a plan delivered between two reads would pair old lux with new flags)
+    loop {
+        let before = control_status(c).await;
+        let lux = floats_abcd(
+            &c.read_input_registers(addr::DESK_FLOAT, 16)
+                .await
+                .unwrap()
+                .unwrap(),
+        );
+        let (met, block) = control_status(c).await;
+        if (&met, &block) == (&before.0, &before.1) {
+            let power = floats_abcd(&block[2..6]);
+            return (lux, met, block[0], block[1], power[0], power[1]);
+        }
+    }
 }
 
 async fn wait_for<F: Fn(&(Vec<f64>, Vec<u16>, u16, u16, f64, f64)) -> bool>(

@@ -4,8 +4,8 @@
 //! An 8.0 × 6.0 × 2.8 m open-plan office: six desks in two rows, a cabinet, a door and a
 //! window band; six recessed 0.6 × 0.6 m luminaires of 4000 lm with a rotationally symmetric
 //! downlight distribution `I(γ) ∝ cos^1.4 γ`; a desk sensor at each desk centre and one on the
-//! floor of the walkway; a ceiling camera at the room centre looking down (a pinhole: the
-//! `sim-fisheye` board gives the same room through a fisheye).
+//! floor of the walkway; a ceiling camera at the room centre looking down (a pinhole: the sim
+//! board gives the same node a fisheye in its board file).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -171,10 +171,8 @@ pub fn demo_office() -> Scene {
         });
     }
 
-    // A pinhole ToF + colour node. It sees 2 of the 7 desk sensors; the wide-angle variant is the
-    // sim-fisheye board (issue 18: the fisheye demo's camera gain from the ambient light sensor
-    // is 2.0-2.7 % off, over issue 17's 2 %, so the sim board keeps the pinhole until that is
-    // understood).
+    // A pinhole ToF + colour node. It sees 2 of the 7 desk sensors (the in-process tests'
+    // camera); the sim board's file gives the node a fisheye that sees all 7 (docs/cameras.md).
     let camera = Camera {
         position_m: p(lx / 2.0, ly / 2.0, lz - 0.02),
         world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
