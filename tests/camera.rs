@@ -1626,16 +1626,8 @@ mod fisheye {
     fn the_live_section_finds_every_desk_through_the_fisheye() {
         // live light projects the desk sensors through the camera's lens: the sim-fisheye
         // board's camera sees all 7 demo desks, the pinhole demo camera 3
-        use luxnode::board::Board;
-        use luxnode::board::camera::CameraBoard;
         use luxnode::live::section::{SectionOptions, from_model};
-        let b = Board::load(std::path::Path::new("boards/sim-fisheye/board.toml")).unwrap();
-        let CameraBoard::Sim {
-            optics: Some(o), ..
-        } = &b.camera
-        else {
-            panic!("{:?}", b.camera);
-        };
+        let o = &board_optics("boards/sim-fisheye/board.toml");
         let world = luxnode::sim::camera::SimWorld::demo_office().unwrap();
         let mut scene = luxnode::sim::demo::demo_office();
         let pinhole = scene.camera.clone().unwrap();
@@ -1649,17 +1641,25 @@ mod fisheye {
         }
     }
 
+    /// The optics a simulated board's file gives its camera.
+    fn board_optics(path: &str) -> luxnode::board::camera::Optics {
+        use luxnode::board::Board;
+        use luxnode::board::camera::CameraBoard;
+        let b = Board::load(std::path::Path::new(path)).unwrap();
+        match b.camera {
+            CameraBoard::Sim {
+                optics: Some(o), ..
+            } => o,
+            c => panic!("{path}: {c:?}"),
+        }
+    }
+
     #[test]
     fn board_files_carry_checked_optics() {
         use luxnode::board::Board;
-        use luxnode::board::camera::CameraBoard;
-        let b = Board::load(std::path::Path::new("boards/sim-fisheye/board.toml")).unwrap();
-        let CameraBoard::Sim {
-            optics: Some(o), ..
-        } = &b.camera
-        else {
-            panic!("{:?}", b.camera);
-        };
+        let o = &board_optics("boards/sim-fisheye/board.toml");
+        // the sim board (the README's main job) has the same node optics
+        assert_eq!(&board_optics("boards/sim/board.toml"), o);
         assert_eq!(
             o.lens,
             Lens::KannalaBrandt {
