@@ -600,12 +600,20 @@ fn live_task(board: &Board) -> Option<luxnode::daemon::live::LiveTask> {
     let capture = match &board.camera {
         #[cfg(feature = "sim")]
         CameraBoard::Sim {
-            depth, luminance, ..
+            depth,
+            luminance,
+            optics,
+            ..
         } => {
             use luxnode::sim::camera::{SimWorld, world_settings};
-            let (scene_source, depth, luminance) =
-                (board.scene.clone(), depth.clone(), luminance.clone());
+            let (scene_source, depth, luminance, optics) = (
+                board.scene.clone(),
+                depth.clone(),
+                luminance.clone(),
+                optics.clone(),
+            );
             camera_source(move || -> Result<OpenedCameras, String> {
+                // the same camera as at commissioning: the board's optics
                 let scene = match &scene_source {
                     SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
                     SceneSource::Directory(dir) => {
@@ -613,6 +621,7 @@ fn live_task(board: &Board) -> Option<luxnode::daemon::live::LiveTask> {
                             .map_err(|e| e.to_string())?
                     }
                 };
+                let scene = with_optics(scene, optics.as_ref());
                 let world = SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
                 let d = world
                     .depth_camera(depth.clone())
