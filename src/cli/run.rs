@@ -612,58 +612,70 @@ fn live_task(board: &Board) -> Option<luxnode::daemon::live::LiveTask> {
                 luminance.clone(),
                 optics.clone(),
             );
-            camera_source(move || -> Result<OpenedCameras, String> {
-                // the same camera as at commissioning: the board's optics
-                let scene = match &scene_source {
-                    SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
-                    SceneSource::Directory(dir) => {
-                        luxnode::scene::Scene::load(dir, &Default::default())
-                            .map_err(|e| e.to_string())?
-                    }
-                };
-                let scene = with_optics(scene, optics.as_ref());
-                let world = SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
-                let d = world
-                    .depth_camera(depth.clone())
-                    .map_err(|e| e.to_string())?;
-                let c = world
-                    .luminance_camera(luminance.clone())
-                    .map_err(|e| e.to_string())?;
-                Ok((Box::new(d), Box::new(c), Some(Box::new(world))))
-            })
+            camera_source(
+                move || -> Result<OpenedCameras, String> {
+                    // the same camera as at commissioning: the board's optics
+                    let scene = match &scene_source {
+                        SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
+                        SceneSource::Directory(dir) => {
+                            luxnode::scene::Scene::load(dir, &Default::default())
+                                .map_err(|e| e.to_string())?
+                        }
+                    };
+                    let scene = with_optics(scene, optics.as_ref());
+                    let world =
+                        SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                    let d = world
+                        .depth_camera(depth.clone())
+                        .map_err(|e| e.to_string())?;
+                    let c = world
+                        .luminance_camera(luminance.clone())
+                        .map_err(|e| e.to_string())?;
+                    Ok((Box::new(d), Box::new(c), Some(Box::new(world))))
+                },
+                None,
+            )
         }
         CameraBoard::Replay { dir } => {
             let (dir, scene_source) = (dir.clone(), board.scene.clone());
-            camera_source(move || -> Result<OpenedCameras, String> {
-                let ids: Vec<u32> = match &scene_source {
-                    SceneSource::Directory(d) => {
-                        luxnode::scene::Scene::load(d, &Default::default())
-                            .map_err(|e| e.to_string())?
-                            .luminaires
-                            .iter()
-                            .map(|l| l.id)
-                            .collect()
-                    }
-                    SceneSource::DemoOffice => {
-                        return Err("a recorded capture needs the scene's directory".into());
-                    }
-                };
-                let world = ReplayWorld::open(&dir, &ids).map_err(|e| e.to_string())?;
-                Ok((
-                    Box::new(world.depth_camera()),
-                    Box::new(world.luminance_camera()),
-                    Some(Box::new(world)),
-                ))
-            })
+            camera_source(
+                move || -> Result<OpenedCameras, String> {
+                    let ids: Vec<u32> = match &scene_source {
+                        SceneSource::Directory(d) => {
+                            luxnode::scene::Scene::load(d, &Default::default())
+                                .map_err(|e| e.to_string())?
+                                .luminaires
+                                .iter()
+                                .map(|l| l.id)
+                                .collect()
+                        }
+                        SceneSource::DemoOffice => {
+                            return Err("a recorded capture needs the scene's directory".into());
+                        }
+                    };
+                    let world = ReplayWorld::open(&dir, &ids).map_err(|e| e.to_string())?;
+                    Ok((
+                        Box::new(world.depth_camera()),
+                        Box::new(world.luminance_camera()),
+                        Some(Box::new(world)),
+                    ))
+                },
+                None,
+            )
         }
         CameraBoard::Hardware { .. } => {
-            // the colour frames must be registered to the ToF grid like at commissioning; the
-            // run-time registration is not wired yet
-            tracing::warn!(
-                "live: run-time frames from hardware cameras are not supported yet; serving the \
-                 model only"
-            );
-            return None;
+            // the colour frames resampled onto the ToF grid through each frame's depth, with the
+            // calibration commissioning used (the board's, or the camera module's EEPROM record)
+            let camera = board.camera.clone();
+            let registration = board.camera.registration().cloned();
+            camera_source(
+                move || -> Result<OpenedCameras, String> {
+                    let (d, c) =
+                        luxnode::board::hardware::open(&camera).map_err(|e| e.to_string())?;
+                    Ok((d, c, None))
+                },
+                registration,
+            )
         }
     };
     Some(LiveTask {

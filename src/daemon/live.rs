@@ -44,11 +44,18 @@ pub type OpenedCameras = (
     Option<Box<dyn LightControl + Send>>,
 );
 
-/// A frame source over cameras opened at the first frame (and opened again after an error): the
-/// luminance frame, then the depth frame (a depth failure leaves the frame without depth: the
-/// estimator then judges covering from the luminance alone).
+/// A frame source over cameras opened at the first frame (and opened again after an error).
+///
+/// Without `registration` (simulated and recorded rooms: the colour frames are on the ToF grid
+/// already) the luminance frame, then the depth frame (a depth failure leaves the frame without
+/// depth: the estimator then judges covering from the luminance alone). With it (hardware: a
+/// colour camera of its own resolution and pose), the depth frame first, then the colour frame
+/// resampled onto the ToF grid through that depth exactly as at commissioning
+/// ([`Registration::register`](crate::camera::Registration::register)); without a depth frame
+/// there is nothing to register onto, and the frame is an error.
 pub fn camera_source(
     mut open: impl FnMut() -> Result<OpenedCameras, String> + Send + 'static,
+    registration: Option<crate::camera::Registration>,
 ) -> FrameSource {
     let mut cams: Option<OpenedCameras> = None;
     Box::new(move |levels: &[f64]| {
@@ -61,6 +68,21 @@ pub fn camera_source(
         if let Some(l) = lights.as_mut() {
             l.set_levels(levels).map_err(|e| e.to_string())?;
         }
+        let registered = match &registration {
+            None => None,
+            Some(r) => {
+                let d = match depth.capture_depth() {
+                    Ok(d) => d,
+                    Err(e) => {
+                        cams = None;
+                        return Err(format!(
+                            "ToF camera: {e} (the colour frame needs its depth)"
+                        ));
+                    }
+                };
+                Some((r, d))
+            }
+        };
         let lum = match colour.capture_luminance() {
             Ok(f) => f,
             Err(e) => {
@@ -68,12 +90,23 @@ pub fn camera_source(
                 return Err(format!("colour camera: {e}"));
             }
         };
-        let depth_mm = match depth.capture_depth() {
-            Ok(d) if d.width == lum.width && d.height == lum.height => Some(d.depth_mm),
-            Ok(_) => None,
-            Err(e) => {
-                tracing::debug!("live: ToF camera: {e}");
-                None
+        let (lum, depth_mm) = match registered {
+            Some((r, d)) => {
+                let lum = r
+                    .register(depth.camera(), &d.to_frame(), &lum)
+                    .map_err(|e| format!("registering the colour frame: {e}"))?;
+                (lum, Some(d.depth_mm))
+            }
+            None => {
+                let depth_mm = match depth.capture_depth() {
+                    Ok(d) if d.width == lum.width && d.height == lum.height => Some(d.depth_mm),
+                    Ok(_) => None,
+                    Err(e) => {
+                        tracing::debug!("live: ToF camera: {e}");
+                        None
+                    }
+                };
+                (lum, depth_mm)
             }
         };
         Ok(CapturedFrame {
@@ -249,5 +282,56 @@ pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
                 return;
             }
         }
+    }
+}
+
+#[cfg(all(test, feature = "sim"))]
+mod tests {
+    use super::*;
+    use crate::camera::Registration;
+    use crate::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld};
+
+    fn source(registration: Option<Registration>) -> FrameSource {
+        camera_source(
+            move || -> Result<OpenedCameras, String> {
+                let w = SimWorld::demo_office().map_err(|e| e.to_string())?;
+                let d = w
+                    .depth_camera(SimDepthOptions {
+                        dropout_chance: 0.0,
+                        flying_pixel_chance: 0.0,
+                        range_noise_rel: 0.0,
+                        ..SimDepthOptions::default()
+                    })
+                    .map_err(|e| e.to_string())?;
+                let c = w
+                    .luminance_camera(SimLuminanceOptions::default())
+                    .map_err(|e| e.to_string())?;
+                Ok((Box::new(d), Box::new(c), Some(Box::new(w))))
+            },
+            registration,
+        )
+    }
+
+    #[test]
+    fn registered_frames_come_through_the_depth_like_at_commissioning() {
+        let w = SimWorld::demo_office().unwrap();
+        let identity = Registration::identity(w.camera()).unwrap();
+        let levels = vec![1.0; w.luminaire_ids().len()];
+        let plain = source(None)(&levels).unwrap();
+        let reg = source(Some(identity))(&levels).unwrap();
+        assert_eq!((reg.width, reg.height), (plain.width, plain.height));
+        assert_eq!(reg.cd_m2_per_unit, plain.cd_m2_per_unit);
+        assert!(reg.depth_mm.is_some());
+        // the identity registration resamples every pixel with depth onto itself
+        let depth = reg.depth_mm.as_ref().unwrap();
+        let (mut same, mut with_depth) = (0usize, 0usize);
+        for ((a, b), z) in reg.luminance.iter().zip(&plain.luminance).zip(depth) {
+            if *z > 0 {
+                with_depth += 1;
+                same += usize::from(a.abs_diff(*b) <= 1);
+            }
+        }
+        assert!(with_depth > 70_000, "{with_depth}");
+        assert!(same * 1000 >= with_depth * 999, "{same} of {with_depth}");
     }
 }
