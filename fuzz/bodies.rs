@@ -24,6 +24,8 @@ pub const TARGETS: &[(&str, Body)] = &[
     ("capture_png", capture_png),
     ("board_toml", board_toml),
     ("flash_image", flash_image),
+    ("calibration_record", calibration_record),
+    ("live_section", live_section),
 ];
 
 fn scratch() -> &'static Path {
@@ -239,4 +241,90 @@ pub fn flash_image(data: &[u8]) {
             .map(|_| ())
             .map_err(|e| e.to_string())
     });
+}
+
+/// The camera module's EEPROM record (both layout versions): a record that decodes is valid,
+/// and encodes back to the same record (version 2).
+pub fn calibration_record(data: &[u8]) {
+    use luxnode::peripherals::calibration::{CameraCalibration, RECORD_LEN};
+    let mut b = [0xFFu8; RECORD_LEN];
+    let n = data.len().min(RECORD_LEN);
+    b[..n].copy_from_slice(&data[..n]);
+    if let Ok((c, g)) = CameraCalibration::decode(&b) {
+        assert!(c.validate().is_ok(), "{c:?}");
+        assert_eq!(CameraCalibration::decode(&c.encode(g)), Ok((c, g)));
+    }
+}
+
+/// The demo office's image without its live section, and that section's body (the seed).
+fn live_base() -> &'static (Vec<u8>, Vec<u8>) {
+    static BASE: OnceLock<(Vec<u8>, Vec<u8>)> = OnceLock::new();
+    BASE.get_or_init(|| {
+        use luxnode::image_build::{ImageOptions, build_image, encode_live};
+        use luxnode::live::section::{SectionOptions, from_model};
+        let world = luxnode::sim::camera::SimWorld::demo_office().expect("demo office");
+        let scene = luxnode::sim::demo::demo_office();
+        let image = build_image(world.model(), &ImageOptions::default()).expect("image");
+        // a coarse sample grid keeps the seed small (a few kB) for the fuzzer
+        let o = SectionOptions {
+            budget_bytes: 12 * 1024,
+            ..SectionOptions::default()
+        };
+        let (section, _) = from_model(&scene, world.model(), &o).expect("section");
+        (image, encode_live(&section).expect("live body"))
+    })
+}
+
+/// A live-light section body after a valid image (framed, so it reaches the decoder): a section
+/// that parses gives an estimator, which answers a frame of its camera's size (when that is
+/// at most 2^18 pixels) with finite values only, never a panic.
+pub fn live_section(data: &[u8]) {
+    use luxnode::live::{Live, LiveFrame, LiveModel, LiveSettings};
+    use luxnode::store::{Image, LIVE_MAGIC, frame_section};
+    let (base, _) = live_base();
+    let Some(framed) = frame_section(LIVE_MAGIC, luxnode::store::live::LIVE_VERSION, data) else {
+        return;
+    };
+    let mut bytes = base.clone();
+    bytes.extend_from_slice(&framed);
+    let Ok(image) = Image::parse(&bytes) else {
+        return;
+    };
+    let Ok(model) = LiveModel::new(&image) else {
+        return;
+    };
+    let (w, h) = model.frame_size();
+    let Ok(mut live) = Live::new(model, LiveSettings::default()) else {
+        return;
+    };
+    let pixels = (w as usize) * (h as usize);
+    if pixels > 1 << 18 {
+        return;
+    }
+    let luminance: Vec<u16> = (0..pixels)
+        .map(|i| u16::from(data.get(i % data.len().max(1)).copied().unwrap_or(0)) * 97)
+        .collect();
+    let depth: Vec<u16> = (0..pixels).map(|i| 1500 + (i % 1000) as u16).collect();
+    let levels = vec![1.0; image.luminaires()];
+    for (k, depth) in [None, Some(&depth[..])].into_iter().enumerate() {
+        let frame = LiveFrame {
+            width: w,
+            height: h,
+            luminance: &luminance,
+            cd_m2_per_unit: 0.02,
+            depth_mm: depth,
+            taken_s: k as f64,
+        };
+        if let Ok(desks) = live.update(&frame, &levels, k as f64) {
+            for d in desks {
+                let v = [d.total_lx, d.artificial_lx, d.daylight_lx, d.uncertainty_lx];
+                assert!(v.iter().all(|x| x.is_finite()), "{d:?}");
+            }
+        }
+    }
+}
+
+/// The seed of `live_section`: the demo office's own live section body.
+pub fn live_section_seed() -> Vec<u8> {
+    live_base().1.clone()
 }

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Coverage-guided fuzzing of luxnode's decoders with cargo-fuzz (libFuzzer, nightly toolchain).
 # Targets (fuzz/fuzz_targets/, bodies in fuzz/bodies.rs): modbus_pdu modbus_rtu eulumdat ies
-# obj_mtl scene_json capture_png board_toml flash_image. Corpora: fuzz/corpus/<target>/ (seeds
-# from fuzz/make-corpus.py; new finds go to fuzz/target/corpus-work/, not into the repository).
+# obj_mtl scene_json capture_png board_toml flash_image calibration_record live_section.
+# Corpora: fuzz/corpus/<target>/ (seeds from fuzz/make-corpus.py and docs/fuzzing.md; new finds go to fuzz/target/corpus-work/, not into the repository).
 #
 #   scripts/fuzz.sh smoke [SECONDS]        every target for SECONDS (default 5): CI's smoke
 #   scripts/fuzz.sh run TARGET [SECONDS]   one target for SECONDS (default 600), e.g. minutes
@@ -14,7 +14,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS=(modbus_pdu modbus_rtu eulumdat ies obj_mtl scene_json capture_png board_toml flash_image)
+TARGETS=(modbus_pdu modbus_rtu eulumdat ies obj_mtl scene_json capture_png board_toml flash_image calibration_record live_section)
 
 if ! cargo +nightly --version >/dev/null 2>&1; then
   echo "== fuzz: no nightly toolchain; the stable smoke (tests/fuzz_smoke.rs) covers every target's body"

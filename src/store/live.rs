@@ -47,6 +47,8 @@ use super::{ImageError, check, check_values};
 
 /// Magic of the live-light section's frame.
 pub const LIVE_MAGIC: [u8; 4] = *b"LXLV";
+/// The largest camera side a live section may give, pixels (the frames the node allocates).
+pub const MAX_SIDE_PX: u16 = 4096;
 /// Version of the live section's layout.
 pub const LIVE_VERSION: u16 = 1;
 /// `patch_emitter` value of a patch that is not a candidate emitter.
@@ -158,7 +160,11 @@ impl<'a> LiveV1<'a> {
             .chain(&c.world_from_camera)
             .all(|x| x.is_finite());
         check(
-            finite && c.width > 0 && c.height > 0 && c.fx > 0.0 && c.fy > 0.0,
+            finite
+                && (1..=MAX_SIDE_PX).contains(&c.width)
+                && (1..=MAX_SIDE_PX).contains(&c.height)
+                && c.fx > 0.0
+                && c.fy > 0.0,
             "live camera",
         )?;
         check(c.cd_m2_per_unit >= 0.0, "live camera gain")?;
