@@ -27,10 +27,11 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
           | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
           | binary(energy) | binary(ward) | binary(lighting)
           | (binary(control) & (test(every_desk) | test(a_day_of) | test(published) | test(closed_loop)))
-          | binary(live) | binary(report) | binary(open_plan_image)
+          | binary(live) | binary(live_cli) | binary(report) | binary(open_plan_image)
           | (binary(modbus) & not test(fuzzed))
           | binary(hil) | binary(hil_peripherals) | binary(ambient) | binary(field) | binary(fuzz_smoke)
           | binary(commission)
-          | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)))
+          | (binary(camera) & (test(/^sim_/) | test(demo_office) | test(capture_sequence)
+                             | test(the_live_section)))
           | (binary(office_a) & not test(default_settings))
           | (binary(store) & (test(image_answers) | test(at_every_precision))))' "$@"

@@ -52,6 +52,8 @@ enum Command {
     },
     /// The least-power dimming state that meets every desk's target (from an image).
     Control(Box<cli::control::Args>),
+    /// Live light from one frame: measured and inferred desk lux with the daylight split out.
+    Live(Box<cli::live::Args>),
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
     /// The commissioning report of an image: report.html (self-contained) and results.json.
@@ -79,6 +81,7 @@ fn main() -> ExitCode {
         #[cfg(feature = "bench")]
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),
         Command::Control(a) => cli::control::run(&a).map(|()| ExitCode::SUCCESS),
+        Command::Live(a) => cli::live::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
         #[cfg(feature = "report")]
         Command::Report(a) => cli::report::run(&a).map(|()| ExitCode::SUCCESS),

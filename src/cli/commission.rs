@@ -206,6 +206,8 @@ pub fn run(a: &Args) -> Result<()> {
         geometry: None,
     };
     let bytes = build_for_region(&c.model, &options, formfactors_region_bytes())?;
+    // live light: the section that turns run-time frames into desk lux (docs/live.md)
+    let bytes = luxnode::live::with_capture_section(bytes, &c, &cap);
     let image = Image::parse(&bytes)?;
     write_image_file(&a.out, &bytes)?;
     println!(

@@ -9,6 +9,7 @@ pub mod commission;
 pub mod control;
 pub mod hw;
 pub mod image;
+pub mod live;
 pub mod logging;
 pub mod modbus;
 pub mod photometry;

@@ -322,7 +322,7 @@ impl CommissionSource for CameraSource {
         options.sensor_flags = c.sensor_flags.clone();
         options.geometry = Some(self.report.section(&c.scene, &c.model));
         let image = build_for_region(&c.model, &options, formfactors_region_bytes())?;
-        let bytes = with_live_section(image, &c, &seq.capture);
+        let bytes = crate::live::with_capture_section(image, &c, &seq.capture);
         self.report.write(&bytes);
         if let (Some(a), Some(per)) = (&self.ambient, &c.report.ambient_response_lx)
             && let Ok(h) = crate::store::Header::parse(&bytes)
@@ -386,41 +386,6 @@ impl CameraSource {
                 "reads {lux:.2} lx with every luminaire on: too little light to calibrate on"
             )),
             None => Err(last),
-        }
-    }
-}
-
-/// The image with its live-light section (crate::live), or as it is when the section cannot be
-/// built or does not fit (the node then serves the model only, and says so).
-fn with_live_section(
-    image: Vec<u8>,
-    c: &commission::Commissioned,
-    capture: &crate::camera::capture::Capture,
-) -> Vec<u8> {
-    let o = crate::live::SectionOptions::default();
-    match crate::live::attach(
-        &image,
-        |o| crate::live::from_capture(c, capture, o),
-        &o,
-        formfactors_region_bytes(),
-    ) {
-        Ok(Some(bytes)) => {
-            tracing::info!(
-                "commission: live-light section of {} bytes added",
-                bytes.len() - image.len()
-            );
-            bytes
-        }
-        Ok(None) => {
-            tracing::warn!(
-                "commission: no room for the live-light section in the flash region; live light \
-                 is off"
-            );
-            image
-        }
-        Err(e) => {
-            tracing::warn!("commission: live-light section: {e}; live light is off");
-            image
         }
     }
 }

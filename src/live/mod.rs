@@ -140,3 +140,39 @@ pub fn attach(
         .map_err(|e| LiveError::Input(format!("live section: {e}")))?;
     Ok((bytes.len() <= region_bytes).then_some(bytes))
 }
+
+/// The image with the live-light section of a commissioning from `capture` added, within the
+/// formfactors flash region; the image as it is when the section cannot be built or does not fit
+/// (logged: the node then serves the model only).
+pub fn with_capture_section(
+    image: Vec<u8>,
+    c: &crate::commission::Commissioned,
+    capture: &crate::camera::capture::Capture,
+) -> Vec<u8> {
+    let o = SectionOptions::default();
+    match attach(
+        &image,
+        |o| from_capture(c, capture, o),
+        &o,
+        crate::image_build::formfactors_region_bytes(),
+    ) {
+        Ok(Some(bytes)) => {
+            tracing::info!(
+                "commission: live-light section of {} bytes added",
+                bytes.len() - image.len()
+            );
+            bytes
+        }
+        Ok(None) => {
+            tracing::warn!(
+                "commission: no room for the live-light section in the flash region; live light \
+                 is off"
+            );
+            image
+        }
+        Err(e) => {
+            tracing::warn!("commission: live-light section: {e}; live light is off");
+            image
+        }
+    }
+}

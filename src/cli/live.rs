@@ -1,0 +1,167 @@
+//! `luxnode live --image IMAGE --frame FRAME.png --arc A1,A2,...`: live light from one frame, for
+//! scripts and checks: the image's live-light section, a luminance frame in the capture set's
+//! 16-bit encoding (the camera and its gain are those stored in the image), the luminaires'
+//! DALI arc levels while it was taken, and optionally a depth frame (mm along the optical axis)
+//! for the covering check. Prints per desk sensor the total, artificial and daylight lux, where
+//! the value comes from (measured on the desk top, or inferred) and the flags.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use luxnode::camera::capture::read_frame16;
+use luxnode::dali::{ArcLevel, DimmingCurve};
+use luxnode::live::{Live, LiveFrame, LiveModel, LiveSettings, Source, flags};
+use luxnode::store::Image;
+use luxnode::store::file::read_image_file;
+
+use super::OutputFormat;
+
+/// `luxnode live`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The commissioned image (with its live-light section).
+    #[arg(long)]
+    image: PathBuf,
+    /// A luminance frame: 16-bit greyscale PNG, value × the image's camera gain = cd/m²,
+    /// 65535 saturated, 0 no data.
+    #[arg(long)]
+    frame: PathBuf,
+    /// One DALI arc level per luminaire while the frame was taken (0 off, 1..=254), in the
+    /// image's luminaire order.
+    #[arg(long, value_delimiter = ',', required = true)]
+    arc: Vec<String>,
+    /// The depth frame taken with it: 16-bit PNG, mm along the optical axis, 0 no return.
+    #[arg(long)]
+    depth: Option<PathBuf>,
+    /// The luminaires' dimming curve.
+    #[arg(long, value_enum, default_value_t = Curve::Logarithmic)]
+    curve: Curve,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]
+    format: OutputFormat,
+}
+
+/// `--curve`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Curve {
+    /// IEC 62386-102 logarithmic.
+    Logarithmic,
+    /// IEC 62386-207 linear.
+    Linear,
+}
+
+/// Runs `luxnode live`.
+pub fn run(a: &Args) -> Result<()> {
+    let bytes = read_image_file(&a.image)?;
+    let image = Image::parse(&bytes).with_context(|| format!("image {}", a.image.display()))?;
+    let model = LiveModel::new(&image).with_context(|| {
+        format!(
+            "image {}: no live light (an image commissioned without a camera, or by a build \
+             before live light)",
+            a.image.display()
+        )
+    })?;
+    let curve = match a.curve {
+        Curve::Logarithmic => DimmingCurve::Logarithmic,
+        Curve::Linear => DimmingCurve::Linear,
+    };
+    let n = image.luminaires();
+    if a.arc.len() != n {
+        bail!(
+            "--arc: {} levels given, the image has {n} luminaires",
+            a.arc.len()
+        );
+    }
+    let mut levels = Vec::with_capacity(n);
+    for s in &a.arc {
+        let arc: u8 = s
+            .trim()
+            .parse()
+            .ok()
+            .filter(|&x| x <= 254)
+            .with_context(|| format!("--arc {s:?}: an arc level is 0..=254"))?;
+        levels.push(ArcLevel(arc).fraction(curve).unwrap_or(0.0));
+    }
+    let (w, h) = model.frame_size();
+    let frame = read_frame16(&a.frame)?;
+    if (frame.width, frame.height) != (w, h) {
+        bail!(
+            "frame {}: {}x{} pixels, the image's camera takes {w}x{h}",
+            a.frame.display(),
+            frame.width,
+            frame.height
+        );
+    }
+    let depth = match &a.depth {
+        None => None,
+        Some(p) => {
+            let d = read_frame16(p)?;
+            if (d.width, d.height) != (w, h) {
+                bail!(
+                    "depth {}: {}x{} pixels, the image's camera takes {w}x{h}",
+                    p.display(),
+                    d.width,
+                    d.height
+                );
+            }
+            Some(d)
+        }
+    };
+    let gain = model.gain();
+    if !(gain.is_finite() && gain > 0.0) {
+        bail!(
+            "image {}: its camera has no luminance calibration (gain), so a frame cannot be read",
+            a.image.display()
+        );
+    }
+    let mut live = Live::new(model, LiveSettings::default())?;
+    let f = LiveFrame {
+        width: w,
+        height: h,
+        luminance: &frame.data,
+        cd_m2_per_unit: gain,
+        depth_mm: depth.as_ref().map(|d| &d.data[..]),
+        taken_s: 0.0,
+    };
+    let desks = live.update(&f, &levels, 0.0)?;
+    let source = |s: Source| match s {
+        Source::Model => "model",
+        Source::Measured => "measured",
+        Source::Inferred => "inferred",
+    };
+    match a.format {
+        OutputFormat::Csv => {
+            println!("sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx");
+            for d in desks {
+                println!(
+                    "{},{:.2},{:.2},{:.2},{},{},{:.2}",
+                    d.id,
+                    d.total_lx,
+                    d.artificial_lx,
+                    d.daylight_lx,
+                    source(d.source),
+                    flags::describe(d.flags),
+                    d.uncertainty_lx
+                );
+            }
+        }
+        OutputFormat::Json => {
+            let v: Vec<serde_json::Value> = desks
+                .iter()
+                .map(|d| {
+                    serde_json::json!({
+                        "sensor_id": d.id,
+                        "lux_total": d.total_lx,
+                        "lux_artificial": d.artificial_lx,
+                        "lux_daylight": d.daylight_lx,
+                        "uncertainty_lx": d.uncertainty_lx,
+                        "source": source(d.source),
+                        "flags": flags::describe(d.flags),
+                    })
+                })
+                .collect();
+            println!("{}", serde_json::to_string_pretty(&v)?);
+        }
+    }
+    Ok(())
+}

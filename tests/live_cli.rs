@@ -1,0 +1,227 @@
+//! `luxnode live` (issue 12): live light from one frame, for scripts and checks, on the
+//! reference office commissioned from its capture set with `luxnode commission` (which adds the
+//! live-light section). The frame is the capture's Radiance-rendered all-on frame, so the
+//! published totals are checked against Radiance's own truth at the sensors (`truth.csv`,
+//! scenario 9, every luminaire on).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
+
+fn office_a() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+}
+
+/// The office commissioned once for every test here: (its image, the temp dir holding it).
+fn image() -> &'static Path {
+    static IMG: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
+    &IMG.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let img = dir.path().join("office_a.img");
+        let s = office_a();
+        let out = Command::new(LUXNODE)
+            .arg("commission")
+            .arg("--capture")
+            .arg(s.join("capture"))
+            .arg("--luminaires")
+            .arg(s.join("luminaires.json"))
+            .arg("--sensors")
+            .arg(s.join("sensors.json"))
+            .arg("--desks")
+            .arg(s.join("desks.json"))
+            .arg("--out")
+            .arg(&img)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{log}");
+        assert!(log.contains("live-light section of"), "{log}");
+        (dir, img)
+    })
+    .1
+}
+
+fn live(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(LUXNODE)
+        .arg("live")
+        .arg("--image")
+        .arg(image())
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const ALL_ON: &str = "254,254,254,254,254,254,254,254";
+
+fn frame(name: &str) -> String {
+    office_a().join("capture").join(name).display().to_string()
+}
+
+/// Radiance's lux at each sensor with every luminaire on (truth.csv, scenario 9).
+fn truth_all_on() -> Vec<f64> {
+    let text = std::fs::read_to_string(office_a().join("truth.csv")).unwrap();
+    let mut v = vec![0.0; 8];
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[1] == "1;2;3;4;5;6;7;8" {
+            v[f[2].parse::<usize>().unwrap() - 1] = f[3].parse().unwrap();
+        }
+    }
+    v
+}
+
+#[test]
+fn the_all_on_frame_gives_the_desks_against_radiance() {
+    let (ok, out, err) = live(&[
+        "--frame",
+        &frame("luminance_all.png"),
+        "--arc",
+        ALL_ON,
+        "--depth",
+        &frame("depth_000.png"),
+    ]);
+    assert!(ok, "{err}");
+    let mut lines = out.lines();
+    assert_eq!(
+        lines.next(),
+        Some("sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx")
+    );
+    let truth = truth_all_on();
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    assert_eq!(rows.len(), 8, "{out}");
+    let (mut in_view, mut errs) = (0, Vec::new());
+    for r in &rows {
+        let id: usize = r[0].parse().unwrap();
+        let [total, art, day, unc]: [f64; 4] = [1, 2, 3, 6].map(|i| r[i].parse::<f64>().unwrap());
+        assert!(
+            [total, art, day, unc].iter().all(|x| x.is_finite()),
+            "{r:?}"
+        );
+        assert!((total - art - day).abs() < 0.02, "{r:?}");
+        // no daylight in the frame: the extraneous part is a fraction of a per cent
+        assert!(day.abs() <= 0.01 * total, "{r:?}");
+        // sensors 1 and 8 are out of the camera's view (groundtruth/sensor_pixels.csv)
+        let seen = !matches!(id, 1 | 8);
+        assert_eq!(r[4], if seen { "measured" } else { "inferred" }, "{r:?}");
+        if seen {
+            in_view += 1;
+            errs.push((total / truth[id - 1] - 1.0, id));
+        }
+        eprintln!(
+            "sensor {id}: {total:.1} lx ({}) vs Radiance {:.1} lx: {:+.1} %",
+            r[4],
+            truth[id - 1],
+            100.0 * (total / truth[id - 1] - 1.0)
+        );
+    }
+    assert_eq!(in_view, 6);
+    let mean = errs.iter().map(|e| e.0.abs()).sum::<f64>() / errs.len() as f64;
+    let worst = errs.iter().map(|e| e.0.abs()).fold(0.0, f64::max);
+    eprintln!(
+        "in view: mean {:.1} %, worst {:.1} %",
+        100.0 * mean,
+        100.0 * worst
+    );
+    // docs/live.md: measured 5.6 % mean and 18.0 % worst (sensor 3, 8 cm in front of a
+    // monitor: its window's plane fit takes in the monitor's shade); guards 1.5 ×
+    assert!(mean < 0.084, "mean {mean}");
+    assert!(worst < 0.27, "worst {worst}");
+}
+
+#[test]
+fn json_output_and_bad_input() {
+    let (ok, out, err) = live(&[
+        "--frame",
+        &frame("luminance_all.png"),
+        "--arc",
+        ALL_ON,
+        "--format",
+        "json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let desks = v.as_array().unwrap();
+    assert_eq!(desks.len(), 8);
+    assert!(
+        desks
+            .iter()
+            .all(|d| d["lux_total"].as_f64().unwrap().is_finite())
+    );
+    // without depth the desks say so
+    assert!(
+        desks
+            .iter()
+            .any(|d| d["flags"].as_str().unwrap().contains("no_depth")),
+        "{out}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let small = dir.path().join("small.png");
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(4, 3, vec![100; 12])
+        .unwrap()
+        .save(&small)
+        .unwrap();
+    let not_png = dir.path().join("frame.png");
+    std::fs::write(&not_png, b"not a png").unwrap();
+    let f = frame("luminance_all.png");
+    let s = small.display().to_string();
+    let n = not_png.display().to_string();
+    for (args, says) in [
+        (vec!["--frame", &f, "--arc", "254,254"], "8 luminaires"),
+        (
+            vec!["--frame", &f, "--arc", "254,254,254,254,254,254,254,255"],
+            "0..=254",
+        ),
+        (
+            vec!["--frame", &f, "--arc", "254,254,254,254,254,254,254,x"],
+            "0..=254",
+        ),
+        (vec!["--frame", &s, "--arc", ALL_ON], "4x3 pixels"),
+        (
+            vec!["--frame", &f, "--arc", ALL_ON, "--depth", &s],
+            "4x3 pixels",
+        ),
+        (vec!["--frame", &n, "--arc", ALL_ON], "frame.png"),
+        (
+            vec!["--frame", "/nonexistent.png", "--arc", ALL_ON],
+            "nonexistent",
+        ),
+    ] {
+        let (ok, _, err) = live(&args);
+        assert!(!ok, "{args:?}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    // an image without a live-light section: a clear error
+    let plain = dir.path().join("plain.img");
+    let out = Command::new(LUXNODE)
+        .args(["image", "build", "--scene"])
+        .arg(office_a())
+        .arg("--out")
+        .arg(&plain)
+        .args(["--preset", "fast"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = Command::new(LUXNODE)
+        .args(["live", "--image"])
+        .arg(&plain)
+        .args(["--frame", &f, "--arc", ALL_ON])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("no live light"), "{err}");
+}
