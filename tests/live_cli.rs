@@ -21,41 +21,41 @@ fn image() -> &'static Path {
         let dir = tempfile::tempdir().unwrap();
         let img = dir.path().join("office_a.img");
         let s = office_a();
-        let out = Command::new(LUXNODE)
-            .arg("commission")
-            .arg("--capture")
-            .arg(s.join("capture"))
-            .arg("--luminaires")
-            .arg(s.join("luminaires.json"))
-            .arg("--sensors")
-            .arg(s.join("sensors.json"))
-            .arg("--desks")
-            .arg(s.join("desks.json"))
-            .arg("--out")
-            .arg(&img)
-            .output()
-            .unwrap();
-        let log = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{log}");
+        let path = |p: &str| s.join(p).display().to_string();
+        let (ok, _, log) = luxnode([
+            "commission".to_string(),
+            "--capture".into(),
+            path("capture"),
+            "--luminaires".into(),
+            path("luminaires.json"),
+            "--sensors".into(),
+            path("sensors.json"),
+            "--desks".into(),
+            path("desks.json"),
+            "--out".into(),
+            img.display().to_string(),
+        ]);
+        assert!(ok, "{log}");
         assert!(log.contains("live-light section of"), "{log}");
         (dir, img)
     })
     .1
 }
 
-fn live(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(LUXNODE)
-        .arg("live")
-        .arg("--image")
-        .arg(image())
-        .args(args)
-        .output()
-        .unwrap();
+/// `luxnode ARGS`: (success, stdout, stderr).
+fn luxnode<S: AsRef<std::ffi::OsStr>>(args: impl IntoIterator<Item = S>) -> (bool, String, String) {
+    let out = Command::new(LUXNODE).args(args).output().unwrap();
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// `luxnode live --image <the commissioned office> ARGS`.
+fn live(args: &[&str]) -> (bool, String, String) {
+    let image = image().display().to_string();
+    luxnode(["live", "--image", &image].iter().chain(args))
 }
 
 const ALL_ON: &str = "254,254,254,254,254,254,254,254";
@@ -202,26 +202,13 @@ fn json_output_and_bad_input() {
     }
     // an image without a live-light section: a clear error
     let plain = dir.path().join("plain.img");
-    let out = Command::new(LUXNODE)
-        .args(["image", "build", "--scene"])
-        .arg(office_a())
-        .arg("--out")
-        .arg(&plain)
-        .args(["--preset", "fast"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let out = Command::new(LUXNODE)
-        .args(["live", "--image"])
-        .arg(&plain)
-        .args(["--frame", &f, "--arc", ALL_ON])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let plain = plain.display().to_string();
+    let scene = office_a().display().to_string();
+    let (ok, _, err) = luxnode([
+        "image", "build", "--scene", &scene, "--out", &plain, "--preset", "fast",
+    ]);
+    assert!(ok, "{err}");
+    let (ok, _, err) = luxnode(["live", "--image", &plain, "--frame", &f, "--arc", ALL_ON]);
+    assert!(!ok);
     assert!(err.contains("no live light"), "{err}");
 }
