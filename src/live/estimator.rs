@@ -866,8 +866,8 @@ impl Live {
         let g = frame.cd_m2_per_unit;
         let st = self.settings.clone();
         // 1. per sample: measured illuminance π L / ρ less the artificial part
-        let (mut used, mut occluded, mut with_depth, mut changed_n) =
-            (0usize, 0usize, 0usize, 0usize);
+        let (mut used, mut occluded, mut with_depth, mut with_ref, mut changed_n) =
+            (0usize, 0usize, 0usize, 0usize, 0usize);
         for i in 0..m.px.len() {
             let p = m.px[i] as usize;
             let v = frame.luminance[p];
@@ -875,6 +875,7 @@ impl Live {
             match frame.depth_mm {
                 Some(depth) => {
                     let (z, r) = (depth[p], m.depth_ref[i]);
+                    with_ref += usize::from(r > 0);
                     if z > 0 && r > 0 {
                         with_depth += 1;
                         let tol = (st.depth_tolerance_m * 1000.0)
@@ -935,6 +936,9 @@ impl Live {
                 _ => Verdict::Ok,
             }
         };
+        // a depth frame with a return on under a tenth of the samples (a dead or blinded ToF)
+        // is judged like no depth frame
+        let no_depth = frame.depth_mm.is_none() || with_depth * 10 < with_ref;
         let changed_fraction = if with_depth > 0 {
             changed_n as f64 / with_depth as f64
         } else {
@@ -992,7 +996,7 @@ impl Live {
         // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
         let (d_inferred, fit_residual, daylight_seen) = self.infer(&d_seen, &w_seen);
         // 4. ageing: night frames accumulate the luminaires' fit
-        let (night, ageing_updated) = self.ageing_step(&d_seen, &w_seen, &a_seen);
+        let (night, ageing_updated) = self.ageing_step(&d_seen, &w_seen, &a_seen, daylight_seen);
         // 5. desks: decided with the model borrowed, applied after
         let m = &self.model;
         let l = m.luminaires;
@@ -1000,7 +1004,7 @@ impl Live {
         for (s, &inferred) in d_inferred.iter().enumerate().take(m.sensors()) {
             let w = &m.windows[s];
             let mut extra = 0u16;
-            if frame.depth_mm.is_none() {
+            if no_depth {
                 extra |= flags::NO_DEPTH;
             }
             if self.ageing_flag(s) {
@@ -1046,8 +1050,7 @@ impl Live {
             let total_w = w.sample.len() as f64;
             let covered_depth = n_occ as f64 > st.occluded_fraction * total_w;
             // without depth: most of the window far darker than the luminaires make it
-            let covered_light =
-                frame.depth_mm.is_none() && n_dark as f64 > 0.5 * vals.len().max(1) as f64;
+            let covered_light = no_depth && n_dark as f64 > 0.5 * vals.len().max(1) as f64;
             let sat = n_sat as f64 > st.window_saturated_fraction * total_w;
             if n_chg as f64 > 0.5 * total_w {
                 extra |= flags::GEOMETRY_CHANGED;
@@ -1246,12 +1249,23 @@ impl Live {
         )
     }
 
-    /// The night test and the ageing fit. A frame is night when a joint fit of the luminaires
-    /// (one factor each) and the emitters to the measured light on the seen surfaces gives the
-    /// emitters less than [`LiveSettings::night_fraction`] of it; night frames accumulate the
+    /// The night test and the ageing fit. A frame is night when both fits of the unknown
+    /// emitters give them less than [`LiveSettings::night_fraction`] of the measured light on
+    /// the seen surfaces: the joint fit of the luminaires (one factor each) and the emitters,
+    /// and the emitters' fit at the current factors (`daylight_seen_lx`, from
+    /// [`Live::infer`]). The joint fit alone takes a window's light for luminaires brighter than
+    /// modelled (the two are nearly collinear on the seen surfaces: 15 % daylight was taken for
+    /// night); the fit at the current factors alone would take a luminaire brighter than its
+    /// factor (a new lamp) for daylight. Night frames accumulate the
     /// luminaires' fit; after [`LiveSettings::ageing_min_frames`] of them, the first day frame
     /// (or [`LiveSettings::ageing_max_frames`]) sets the ageing factors. Returns (night, updated).
-    fn ageing_step(&mut self, d_seen: &[f64], w_seen: &[f64], a_seen: &[f64]) -> (bool, bool) {
+    fn ageing_step(
+        &mut self,
+        d_seen: &[f64],
+        w_seen: &[f64],
+        a_seen: &[f64],
+        daylight_seen_lx: f64,
+    ) -> (bool, bool) {
         let l = self.model.luminaires;
         let n_seen = self.model.seen.len();
         // measured light per seen patch: the residual plus the artificial part at the current
@@ -1266,8 +1280,13 @@ impl Live {
             .collect();
         let signal: f64 = (0..n_seen).map(|r| w_seen[r] * meas[r].max(0.0)).sum();
         let positive: f64 = (0..n_seen).map(|r| w_seen[r] * d_seen[r].max(0.0)).sum();
+        let weight: f64 = w_seen.iter().sum();
+        let mean_measured = if weight > 0.0 { signal / weight } else { 0.0 };
         let mut night = false;
-        if signal > 0.0 && positive <= 0.25 * signal {
+        if signal > 0.0
+            && positive <= 0.25 * signal
+            && daylight_seen_lx <= self.settings.night_fraction * mean_measured
+        {
             // a candidate: fit luminaires and emitters together
             let k = self.model.k;
             let u = self.model.full_basis();
