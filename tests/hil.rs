@@ -527,3 +527,192 @@ fn the_bms_reads_measured_desk_lux_from_the_sim_boards_cameras() {
         }
     });
 }
+
+/// A simulated day on the sim board, as the BMS sees it (issue 12's HIL): the board's
+/// `[camera.sim] scenario` runs a night with luminaire 3 aged to 80 % and desk 6 moved, then a
+/// clear day through the window with a person leaning over desk 3 and a passing cloud. The
+/// node's live registers: the ageing factor found after the night, the daylight following the
+/// sun (zero at night, the world's own value at noon, a dip under the cloud), the person
+/// flagged, recommissioning advised for the moved desk. Scenario time starts when the node's
+/// live task first opens its cameras (within about a second of the node listening); the
+/// checks do not depend on the exact offset.
+#[test]
+fn the_bms_reads_a_simulated_day_of_live_light() {
+    use luxnode::modbus::regmap::{addr, live_flags, live_status};
+    use luxnode::sim::camera::{SimWorld, WorldExtras};
+    const SPH: f64 = 1.5; // seconds per simulated hour
+    const NOON_LM_M2: f64 = 3000.0;
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.bin");
+    let board = dir.path().join("board.toml");
+    std::fs::write(
+        dir.path().join("day.toml"),
+        format!(
+            "[day]\nseconds_per_hour = {SPH}\nstart_hour = 0.0\nsunrise_hour = 17.0\n\
+             sunset_hour = 31.0\nnoon_exitance_lm_m2 = {NOON_LM_M2}\n\
+             [[events]]\nat_s = 0.0\nkind = \"age\"\nluminaire = 3\nfactor = 0.8\n\
+             [[events]]\nat_s = 2.0\nkind = \"move_desk\"\ndesk = 6\ndx_m = 0.0\ndy_m = -0.9\n\
+             [[events]]\nat_s = 30.0\nkind = \"person\"\ndesk = 3\n\
+             [[events]]\nat_s = 33.0\nkind = \"person_leaves\"\ndesk = 3\n\
+             [[events]]\nat_s = 39.0\nkind = \"clouds\"\nfactor = 0.2\nduration_s = 2.5\n"
+        ),
+    )
+    .unwrap();
+    let sim = std::fs::read_to_string(sim_board()).unwrap();
+    let sim = sim.replacen(
+        "[camera.sim]\n",
+        "[camera.sim]\nscenario = \"day.toml\"\n",
+        1,
+    );
+    std::fs::write(&board, format!("{sim}\n[live]\nperiod_s = 1.0\n")).unwrap();
+    let n = node(&board, &flash, &[]);
+    // the world's own daylight at the sensors at noon (it does not depend on the camera)
+    let world = SimWorld::demo_office().unwrap();
+    let ones = vec![1.0; 6];
+    let noon = WorldExtras {
+        window_exitance_lm_m2: NOON_LM_M2,
+        ..WorldExtras::default()
+    };
+    let with_day = world.sensor_truth_lx(&ones, &noon);
+    let without = world.sensor_truth_lx(&ones, &WorldExtras::default());
+    let truth_day: Vec<f64> = with_day.iter().zip(&without).map(|(a, b)| a - b).collect();
+    struct Poll {
+        t_s: f64,
+        status: u16,
+        daylight: Vec<f64>,
+        flags: Vec<u16>,
+        ageing: Vec<u16>,
+        frame_age_s: u16,
+    }
+    let polls: Vec<Poll> = rt().block_on(async {
+        let mut c = bms(n.addr).await;
+        let t0 = Instant::now();
+        let mut polls = Vec::new();
+        let mut k = 0u32;
+        while t0.elapsed() < Duration::from_secs(54) {
+            let t = t0.elapsed().as_secs_f64();
+            if t < 24.0 {
+                // the night: a different mix of levels now and then (the ageing fit's data)
+                if k.is_multiple_of(4) {
+                    let arcs: Vec<u16> = (0..6u32)
+                        .map(|j| 170 + ((k / 4 + 1) * (j + 3) * 7 % 11) as u16 * 8)
+                        .collect();
+                    c.write_multiple_registers(addr::ARC_LEVEL, &arcs)
+                        .await
+                        .unwrap()
+                        .unwrap();
+                }
+            } else if k.is_multiple_of(4) {
+                c.write_multiple_registers(addr::ARC_LEVEL, &[254; 6])
+                    .await
+                    .unwrap()
+                    .unwrap();
+            }
+            k += 1;
+            polls.push(Poll {
+                t_s: t,
+                status: input(&mut c, addr::LIVE_STATUS, 1).await[0],
+                daylight: floats_abcd(&input(&mut c, addr::LIVE_DAYLIGHT_FLOAT, 14).await),
+                flags: input(&mut c, addr::LIVE_FLAGS, 7).await,
+                ageing: input(&mut c, addr::AGEING, 6).await,
+                frame_age_s: input(&mut c, addr::LIVE_LAST_FRAME_AGE, 1).await[0],
+            });
+            tokio::time::sleep(Duration::from_millis(400)).await;
+        }
+        polls
+    });
+    let sum = |p: &Poll| p.daylight.iter().sum::<f64>();
+    for p in polls.iter().step_by(5) {
+        eprintln!(
+            "t {:5.1} s status {:#06x} daylight {:7.1?} flags {:?} ageing {:?} age {} s",
+            p.t_s, p.status, p.daylight, p.flags, p.ageing, p.frame_age_s
+        );
+    }
+    // the frames keep coming: after the first seconds (before the first frame the floats read
+    // NaN, "not available"), every value finite and no frame older than 3 s
+    assert!(
+        polls
+            .iter()
+            .filter(|p| p.t_s > 5.0)
+            .all(|p| p.frame_age_s <= 3
+                && p.status & live_status::ON != 0
+                && p.daylight.iter().all(|x| x.is_finite())),
+        "stale frames"
+    );
+    // the night: no daylight, the night bit; the aged luminaire found within 3 % once the day
+    // starts, the others within 3 % of 1
+    let night: Vec<&Poll> = polls
+        .iter()
+        .filter(|p| (5.0..23.0).contains(&p.t_s))
+        .collect();
+    let peak = polls.iter().map(sum).fold(0.0, f64::max);
+    assert!(
+        night
+            .iter()
+            .all(|p| sum(p) < 0.02 * peak && p.status & live_status::NIGHT != 0),
+        "the night had daylight: {:?}",
+        night
+            .iter()
+            .filter(|p| sum(p) >= 0.02 * peak || p.status & live_status::NIGHT == 0)
+            .map(|p| (p.t_s, p.status, sum(p)))
+            .collect::<Vec<_>>()
+    );
+    let last = polls.last().unwrap();
+    eprintln!("ageing after the night: {:?}", last.ageing);
+    for (j, &a) in last.ageing.iter().enumerate() {
+        let truth = if j == 2 { 800.0 } else { 1000.0 };
+        assert!(
+            (f64::from(a) - truth).abs() <= 0.03 * truth,
+            "luminaire {}: ageing {a}/1000",
+            j + 1
+        );
+    }
+    // noon: each desk's largest daylight reading against the world's (the frame nearest noon
+    // is within 2 % of it); 15 % of max(total, 50 lx) as in tests/live.rs
+    for k in 0..7 {
+        let best = polls.iter().map(|p| p.daylight[k]).fold(0.0, f64::max);
+        eprintln!(
+            "desk {}: noon daylight {best:.1} lx, the world's {:.1} lx ({:+.1} % of the total)",
+            k + 1,
+            truth_day[k],
+            100.0 * (best - truth_day[k]) / with_day[k].max(50.0)
+        );
+        assert!(
+            (best - truth_day[k]).abs() < 0.15 * with_day[k].max(50.0),
+            "desk {}: noon daylight {best:.1} vs the world's {:.1}",
+            k + 1,
+            truth_day[k]
+        );
+    }
+    // the cloud: after the peak, a dip under a third of it, then the sun back over 45 %
+    let i_peak = polls.iter().position(|p| sum(p) == peak).unwrap();
+    let i_dip = (i_peak..polls.len())
+        .find(|&i| sum(&polls[i]) < peak / 3.0)
+        .expect("no dip under the cloud");
+    assert!(
+        polls[i_dip..].iter().any(|p| sum(p) > 0.45 * peak),
+        "the sun did not come back after the cloud"
+    );
+    assert!(polls[i_dip].t_s > 33.0, "dip at {} s", polls[i_dip].t_s);
+    // the person over desk 3: flagged while there (from the first frame), gone after
+    let covered: Vec<&Poll> = polls
+        .iter()
+        .filter(|p| p.flags[2] & live_flags::OCCLUDED != 0)
+        .collect();
+    assert!(!covered.is_empty(), "the person was never flagged");
+    assert!(
+        covered.iter().all(|p| (29.0..36.0).contains(&p.t_s)),
+        "desk 3 occluded at {:?}",
+        covered.iter().map(|p| p.t_s).collect::<Vec<_>>()
+    );
+    // the moved desk: flagged, and recommissioning advised after 30 frames of it
+    assert_ne!(last.flags[5] & live_flags::GEOMETRY_CHANGED, 0);
+    assert_ne!(last.status & live_status::RECOMMISSION, 0);
+    assert!(
+        polls
+            .iter()
+            .filter(|p| p.t_s < 28.0)
+            .all(|p| p.status & live_status::RECOMMISSION == 0),
+        "recommissioning advised before the change had lasted 30 frames"
+    );
+}

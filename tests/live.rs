@@ -260,8 +260,16 @@ fn the_node_publishes_live_registers_and_feeds_the_control_loop() {
         luminance: f.0.clone(),
         cd_m2_per_unit: f.1,
         depth_mm: Some(f.2.clone()),
+        levels: levels.clone(),
     };
-    let status = step(&mut live, &mut state, Ok(captured), 0.0, &mut node, 0.5);
+    let status = step(
+        &mut live,
+        &mut state,
+        Ok(captured.clone()),
+        0.0,
+        &mut node,
+        0.5,
+    );
     assert_eq!(status & live_status::ON, live_status::ON);
     assert_eq!(status & live_status::FRAME_REJECTED, 0);
     let truth = rig().world.sensor_truth_lx(&levels, &extras);
@@ -300,6 +308,34 @@ fn the_node_publishes_live_registers_and_feeds_the_control_loop() {
     for (a, d) in fresh.iter().zip(live.desks()) {
         assert_eq!(*a, d.daylight_lx);
     }
+    // the BMS dims while a frame is being taken: that frame is not used (it shows the old
+    // state), the desks keep their daylight at the new state, flagged held
+    let daylight: Vec<f64> = live.desks().iter().map(|d| d.daylight_lx).collect();
+    node.set_levels(&vec![Some(0.3); n]).unwrap();
+    let st = step(
+        &mut live,
+        &mut state,
+        Ok(captured.clone()),
+        5.0,
+        &mut node,
+        5.5,
+    );
+    assert_eq!(st & live_status::FRAME_REJECTED, 0);
+    for (k, d) in live.desks().iter().enumerate() {
+        assert_ne!(d.flags & live_flags::HELD, 0, "desk {k}");
+        assert_eq!(d.daylight_lx, daylight[k], "desk {k}");
+    }
+    node.set_levels(&levels.iter().map(|&x| Some(x)).collect::<Vec<_>>())
+        .unwrap();
+    // (the same frame again at its own levels: the state of the first step)
+    step(
+        &mut live,
+        &mut state,
+        Ok(captured.clone()),
+        0.0,
+        &mut node,
+        0.5,
+    );
     // the camera stops answering: values held, then stale, and the status says so
     let before: Vec<f64> = live.desks().iter().map(|d| d.total_lx).collect();
     let st = step(

@@ -7,6 +7,7 @@
 //! [camera.sim]              # every key optional: the defaults of camera::sim
 //! seed = 1
 //! range_noise_rel = 0.01
+//! scenario = "day.toml"     # optional: a scripted day (crate::sim::scenario), from serving on
 //! [camera.sim.faults]       # optional fault injection (camera::Faults)
 //! timeout_chance = 0.05
 //! [camera.sim.optics]       # optional: the installed camera's optics instead of the scene's
@@ -94,6 +95,9 @@ pub enum CameraBoard {
         faults: Option<Faults>,
         /// The installed camera's optics, replacing the scene's camera's (pose kept).
         optics: Option<Optics>,
+        /// A scripted day in the simulated room (daylight, people, ageing, a moved desk,
+        /// camera failures: `crate::sim::scenario`), started when the node starts serving.
+        scenario: Option<crate::sim::scenario::Scenario>,
     },
     /// A recorded capture directory.
     Replay {
@@ -504,6 +508,7 @@ struct SimToml {
     luminance_noise_rel: Option<f64>,
     faults: Option<FaultsToml>,
     optics: Option<OpticsToml>,
+    scenario: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -751,11 +756,19 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
                 .optics
                 .map(|o| optics(o, "camera.sim.optics"))
                 .transpose()?;
+            let scenario = s
+                .scenario
+                .map(|f| {
+                    crate::sim::scenario::Scenario::load(&base.join(f))
+                        .map_err(|e| format!("camera.sim.scenario: {e}"))
+                })
+                .transpose()?;
             Ok(CameraBoard::Sim {
                 depth,
                 luminance,
                 faults,
                 optics,
+                scenario,
             })
         }
         "replay" => {

@@ -777,6 +777,10 @@ mod camera_section_tests {
                 "[camera]\nsource = \"sim\"\n[camera.sim.faults]\ntimeout_chance = -1\n",
                 "timeout_chance",
             ),
+            (
+                "[camera]\nsource = \"sim\"\n[camera.sim]\nscenario = \"no-such-day.toml\"\n",
+                "camera.sim.scenario",
+            ),
             ("[camera]\nsource = \"replay\"\n", "camera.replay"),
             (
                 "[camera]\nsource = \"sim\"\n[camera.replay]\ndir = \"x\"\n",

@@ -287,6 +287,7 @@ pub(crate) fn rig(
             luminance,
             faults,
             optics,
+            ..
         } => {
             use luxnode::camera::FaultInjector;
             use luxnode::sim::camera::{SimWorld, world_settings};
@@ -603,28 +604,45 @@ fn live_task(board: &Board) -> Option<luxnode::daemon::live::LiveTask> {
             depth,
             luminance,
             optics,
+            scenario,
             ..
         } => {
             use luxnode::sim::camera::{SimWorld, world_settings};
-            let (scene_source, depth, luminance, optics) = (
+            let (scene_source, depth, luminance, optics, scenario) = (
                 board.scene.clone(),
                 depth.clone(),
                 luminance.clone(),
                 optics.clone(),
+                scenario.clone(),
             );
+            // one world for the node's life: cameras opened again after a failure see the same
+            // room, and a scenario runs on from where it was
+            let mut world: Option<SimWorld> = None;
             camera_source(
                 move || -> Result<OpenedCameras, String> {
-                    // the same camera as at commissioning: the board's optics
-                    let scene = match &scene_source {
-                        SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
-                        SceneSource::Directory(dir) => {
-                            luxnode::scene::Scene::load(dir, &Default::default())
-                                .map_err(|e| e.to_string())?
+                    if world.is_none() {
+                        // the same camera as at commissioning: the board's optics
+                        let scene = match &scene_source {
+                            SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
+                            SceneSource::Directory(dir) => {
+                                luxnode::scene::Scene::load(dir, &Default::default())
+                                    .map_err(|e| e.to_string())?
+                            }
+                        };
+                        let scene = with_optics(scene, optics.as_ref());
+                        let w =
+                            SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
+                        if let Some(s) = &scenario {
+                            tracing::info!(
+                                "live: the simulated room runs the board's scenario from now on"
+                            );
+                            w.start_scenario(s.clone());
                         }
+                        world = Some(w);
+                    }
+                    let Some(world) = world.clone() else {
+                        return Err("no simulated world".into());
                     };
-                    let scene = with_optics(scene, optics.as_ref());
-                    let world =
-                        SimWorld::new(scene, &world_settings()).map_err(|e| e.to_string())?;
                     let d = world
                         .depth_camera(depth.clone())
                         .map_err(|e| e.to_string())?;

@@ -30,6 +30,8 @@ pub struct CapturedFrame {
     pub cd_m2_per_unit: f64,
     /// Depth along the optical axis, mm, when the board has a depth frame.
     pub depth_mm: Option<Vec<u16>>,
+    /// The luminaires' levels when the frame was taken (the node's, read before the capture).
+    pub levels: Vec<f64>,
 }
 
 /// Takes one frame (blocking), given the luminaires' levels now (a simulated or recorded room
@@ -115,6 +117,7 @@ pub fn camera_source(
             luminance: lum.data,
             cd_m2_per_unit: lum.cd_m2_per_unit,
             depth_mm,
+            levels: levels.to_vec(),
         })
     })
 }
@@ -181,7 +184,20 @@ pub fn step(
     let levels: Vec<f64> = node.levels().to_vec();
     let mut status = live_status::ON;
     let known = node.dimming_known();
-    let result = match (&frame, known) {
+    // the levels changed while the frame was taken: the frame shows neither state (nor, on
+    // hardware, a fade between them), so it is not used; the desks keep their last daylight at
+    // the new state, flagged held, until the next frame
+    let moved = frame.as_ref().is_ok_and(|f| {
+        f.levels.len() != levels.len()
+            || f.levels
+                .iter()
+                .zip(&levels)
+                .any(|(a, b)| (a - b).abs() > 1e-9)
+    });
+    if moved {
+        tracing::debug!("live: the dimming state changed during the frame; frame skipped");
+    }
+    let result = match (&frame, known && !moved) {
         (Ok(f), true) => live.update(
             &LiveFrame {
                 width: f.width,
@@ -206,6 +222,15 @@ pub fn step(
         }
         Ok(_) if !known => {
             tracing::debug!("live: dimming state not known yet; frame skipped");
+        }
+        Ok(_) if moved => {
+            // no new frame used: the night bit stays that of the last frame used
+            if live
+                .report()
+                .is_some_and(|r| r.verdict == Verdict::Ok && r.night)
+            {
+                status |= live_status::NIGHT;
+            }
         }
         Ok(_) => match live.report() {
             Some(r) if r.verdict == Verdict::Ok => {

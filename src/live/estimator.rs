@@ -133,7 +133,7 @@ impl Default for LiveSettings {
             stale_after_s: 30.0,
             geometry_frames: 30,
             geometry_area_fraction: 0.05,
-            night_fraction: 0.02,
+            night_fraction: 0.005,
             ageing_min_frames: 20,
             ageing_max_frames: 2000,
             ageing_flag_share: 0.1,
@@ -1063,18 +1063,21 @@ impl Live {
                     } else {
                         0
                     };
-                if self.held[s].daylight.is_some() {
+                // held while the last good value is fresh (a person leaning over the desk);
+                // covered for longer (a box left on it, a desk moved away), the inferred
+                // daylight is the better value, as for a desk out of view
+                let fresh = self.held[s]
+                    .daylight
+                    .is_some_and(|(_, t, _)| frame.taken_s - t <= st.stale_after_s);
+                if fresh {
                     actions.push((s, Action::Hold(f)));
                 } else {
-                    // nothing measured yet: the inferred daylight, like a desk out of view
+                    // nothing measured lately: the inferred daylight, like a desk out of view
                     let art = self.artificial(s, levels);
                     let day = inferred.max(0.0);
                     let unc =
                         ((st.inferred_rel_uncertainty * day).powi(2) + (0.03 * art).powi(2)).sqrt();
-                    actions.push((
-                        s,
-                        Action::Set(art, day, unc, Source::Inferred, f | flags::HELD),
-                    ));
+                    actions.push((s, Action::Set(art, day, unc, Source::Inferred, f)));
                 }
                 continue;
             }
@@ -1093,6 +1096,12 @@ impl Live {
             .sqrt();
             actions.push((s, Action::Set(art, day, unc, Source::Measured, extra)));
         }
+        // a desk whose own window changed for good cannot be measured against the model
+        // any more: that alone advises recommissioning, whatever the area
+        let recommission = recommission
+            || actions.iter().any(|(_, a)| match a {
+                Action::Set(.., f) | Action::Hold(f) => f & flags::GEOMETRY_CHANGED != 0,
+            });
         for (s, a) in actions {
             match a {
                 Action::Set(art, day, unc, source, f) => {
@@ -1130,7 +1139,8 @@ impl Live {
         let art = finite_or(art, 0.0);
         let day = finite_or(day, 0.0);
         let unc = finite_or(unc, 0.0);
-        if f & flags::HELD == 0 {
+        // a held value is not new, and a covered desk's inferred one is not its own
+        if f & (flags::HELD | flags::OCCLUDED) == 0 {
             self.held[s].daylight = Some((day, taken_s, unc));
         }
         self.desks[s] = DeskLive {

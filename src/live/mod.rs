@@ -42,10 +42,14 @@
 //! **Held values.** A covered desk, a saturated window, a bad or stale frame: the desk keeps its
 //! last good daylight and gets the artificial part at the current dimming state (so with the
 //! dimming unchanged the value is exactly the last good one), flagged, with the age of the frame
-//! it comes from.
+//! it comes from. A desk covered for longer than [`LiveSettings::stale_after_s`] (a box left on
+//! it, the desk moved away) gets the inferred daylight instead, like a desk out of view, still
+//! flagged occluded.
 //!
-//! **Ageing.** A frame is *night* when a joint non-negative fit of one factor per luminaire and
-//! the emitters to the measured light on the seen surfaces gives the emitters less than 2 % of it.
+//! **Ageing.** A frame is *night* when two non-negative fits give the unknown emitters less than
+//! [`LiveSettings::night_fraction`] (0.5 %) of the measured light on the seen surfaces: a joint
+//! fit of one factor per luminaire and the emitters, and the emitters' fit at the current
+//! factors (the joint fit alone takes a window's light for brighter luminaires near it).
 //! Night frames accumulate the luminaires' least-squares fit; after enough of them, the first day
 //! frame sets each luminaire's ageing factor `a_l` (measured / commissioned light), which scales
 //! its column of the response matrix everywhere (live values, the core desk-lux block, the
@@ -53,8 +57,8 @@
 //!
 //! **Geometry.** A sample whose depth disagrees for [`LiveSettings::geometry_frames`] frames in a
 //! row has changed (a moved desk, not a person passing); a desk whose window has mostly changed is
-//! flagged; more than [`LiveSettings::geometry_area_fraction`] of the samples changed →
-//! recommissioning advised.
+//! flagged and recommissioning advised; so it is when more than
+//! [`LiveSettings::geometry_area_fraction`] of the samples changed.
 //!
 //! ## For the lighting control (`crate::control`)
 //!

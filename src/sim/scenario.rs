@@ -134,6 +134,14 @@ impl Scenario {
             path: path.display().to_string(),
             message,
         };
+        let len = std::fs::metadata(path)
+            .map_err(|e| bad(format!("cannot read: {e}")))?
+            .len();
+        if len > 1 << 20 {
+            return Err(bad(format!(
+                "{len} bytes: a scenario file is at most 1 MiB"
+            )));
+        }
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
         let s: Scenario = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
         s.validate().map_err(bad)?;
