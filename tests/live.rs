@@ -753,3 +753,45 @@ fn good_frame(f: &(Vec<u16>, f64, Vec<u16>), w: u32, h: u32) -> LiveFrame<'_> {
         taken_s: 7.0,
     }
 }
+
+/// `luxnode bench live` on the sim board (docs/live.md, "Cost"): it runs, prints its table, and
+/// the memory it states is the documented one (7.8 MB held between frames, 401 kB of flash),
+/// guarded at about twice. Its times are the bench's to print, not this test's to assert.
+#[test]
+fn the_live_bench_prints_its_table_and_the_documented_memory() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "live", "--frames", "12"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("| all | 12 |"), "{text}");
+    assert!(text.contains("frame 320 x 240 px"), "{text}");
+    let number_before = |unit: &str, after: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with("memory:")).unwrap();
+        let rest = &line[line.find(after).unwrap() + after.len()..];
+        let end = rest.find(unit).unwrap();
+        rest[..end].trim().parse().unwrap()
+    };
+    let flash_kb = number_before("kB", "the live section");
+    let held_mb = number_before("MB", "held between frames");
+    assert!(flash_kb > 100.0 && flash_kb < 800.0, "{flash_kb} kB");
+    assert!(held_mb > 2.0 && held_mb < 16.0, "{held_mb} MB");
+    // a board without simulated cameras is refused with a clear message
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["bench", "live", "--board", "boards/rpi4/board.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("simulated cameras"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

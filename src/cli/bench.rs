@@ -207,6 +207,17 @@ pub enum Command {
         #[arg(long, default_value_t = 3)]
         runs: usize,
     },
+    /// Live light's cost: one update of the estimator (frame in, desk values out) under
+    /// several conditions on a board's simulated room, commissioned from its cameras in
+    /// daylight; the boot cost and the memory held (docs/live.md).
+    Live {
+        /// A board file with simulated cameras (its scene and optics).
+        #[arg(long, default_value = "boards/sim/board.toml")]
+        board: PathBuf,
+        /// Timed updates in all (cycling through the conditions).
+        #[arg(long, default_value_t = 120)]
+        frames: usize,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -231,6 +242,7 @@ pub fn run(command: Command) -> Result<()> {
             capture,
             runs,
         } => dense(&scene, capture.as_deref(), runs)?,
+        Command::Live { board, frames } => live(&board, frames)?,
         Command::Engine {
             scene,
             runs,
@@ -1003,5 +1015,71 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         wall.as_secs_f64() * 1e3,
         cpu[cpu.len() / 2] * 1e3
     );
+    Ok(())
+}
+
+/// `luxnode bench live`.
+fn live(board: &Path, frames: usize) -> Result<()> {
+    use luxnode::bench::live as bl;
+    use luxnode::board::{Board, SceneSource, camera::CameraBoard};
+    let b = Board::load(board)?;
+    let CameraBoard::Sim { optics, .. } = &b.camera else {
+        bail!(
+            "board {}: bench live needs simulated cameras (camera.source = \"sim\")",
+            b.name
+        );
+    };
+    let mut scene = match &b.scene {
+        SceneSource::DemoOffice => luxnode::sim::demo::demo_office(),
+        SceneSource::Directory(dir) => load_scene(dir, &LoadOptions::default())?,
+    };
+    if let (Some(o), Some(c)) = (optics.as_ref(), scene.camera.as_ref()) {
+        scene.camera = Some(o.apply(c));
+    }
+    let threads = rayon::current_num_threads();
+    println!(
+        "# luxnode bench live: board {} ({}), {frames} updates, {threads} threads",
+        b.name,
+        board.display()
+    );
+    let r = bl::run(scene, frames).map_err(anyhow::Error::msg)?;
+    println!(
+        "\nframe {} x {} px, {} samples, {} of {} patches seen, {} unknown-emitter groups, \
+         {} desks, {} luminaires",
+        r.width,
+        r.height,
+        r.samples,
+        r.seen_patches,
+        r.patches,
+        r.emitters,
+        r.sensors,
+        r.luminaires
+    );
+    println!("\n| condition | updates | median (ms) | p95 (ms) | max (ms) |");
+    println!("|---|---:|---:|---:|---:|");
+    for c in &r.conditions {
+        let (m, p, x) = bl::stats(&c.update_ms);
+        println!(
+            "| {} | {} | {m:.1} | {p:.1} | {x:.1} |",
+            c.name,
+            c.update_ms.len()
+        );
+    }
+    let (m, p, x) = bl::stats(&r.all_ms());
+    println!("| all | {} | {m:.1} | {p:.1} | {x:.1} |", r.all_ms().len());
+    println!(
+        "\nboot (the live section decoded into the run-time model): {:.0} ms",
+        r.boot_ms
+    );
+    println!(
+        "memory: the live section {:.0} kB of flash; held between frames {:.1} MB (the model \
+         {:.1} MB)",
+        r.section_bytes as f64 / 1e3,
+        r.live_bytes as f64 / 1e6,
+        r.model_bytes as f64 / 1e6
+    );
+    if let Some(p) = luxnode::host::peak_memory_mib() {
+        println!("process peak resident memory (commissioning included): {p:.0} MiB");
+    }
     Ok(())
 }

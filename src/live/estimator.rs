@@ -335,7 +335,7 @@ pub struct LiveModel {
     emitter_src: Vec<f64>,
     v_seen: Vec<f64>,
     g_sensor: Vec<f64>,
-    // full-model basis at seen patches (the night test), computed when first needed
+    // full-model basis at seen patches (the night test), computed at boot
     u_seen: OnceLock<Vec<f64>>,
 }
 
@@ -443,6 +443,9 @@ impl LiveModel {
             u_seen: OnceLock::new(),
         };
         model.boundary_basis();
+        // the night test's basis too, at boot: built at the first night frame it took that
+        // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
+        let _ = model.full_basis();
         Ok(model)
     }
 
@@ -698,6 +701,19 @@ impl Live {
     /// The desks as last computed.
     pub fn desks(&self) -> &[DeskLive] {
         &self.desks
+    }
+
+    /// Bytes held between frames: the model and the state (the per-frame scratch of
+    /// [`Live::update`], proportional to the samples and the seen patches, comes on top).
+    pub fn memory_bytes(&self) -> usize {
+        let f = 8;
+        self.model.memory_bytes()
+            + (self.ageing.len() + self.b_boundary.len() + self.d.len()) * f
+            + self.held.len() * std::mem::size_of::<Held>()
+            + self.changed.len() * 2
+            + self.state.len()
+            + (self.acc.g.len() + self.acc.h.len()) * f
+            + self.desks.len() * std::mem::size_of::<DeskLive>()
     }
 
     /// What the last frame did.
