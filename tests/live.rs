@@ -6,15 +6,9 @@
 
 use std::sync::OnceLock;
 
-use luxnode::camera::{
-    DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
-};
-use luxnode::commission::{self, CommissionOptions};
-use luxnode::image_build::{ImageOptions, build_image, with_live};
-use luxnode::image_geometry::{CommissionRecord, section_of};
-use luxnode::live::{
-    self, Live, LiveFrame, LiveModel, LiveSettings, SectionOptions, Source, Verdict, flags,
-};
+use luxnode::camera::{DepthCamera, LightControl, LuminanceCamera};
+use luxnode::image_build::with_live;
+use luxnode::live::{self, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict, flags};
 use luxnode::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld, WorldExtras};
 use luxnode::sim::scenario::{Event, EventKind, Scenario};
 use luxnode::store::{Image, sensor_flags};
@@ -36,48 +30,14 @@ fn rig() -> &'static Rig {
             window_exitance_lm_m2: 1500.0,
             ..WorldExtras::default()
         });
-        let ids = world.luminaire_ids();
-        let mut depth = world.depth_camera(SimDepthOptions::default()).unwrap();
-        let mut lum = world
-            .luminance_camera(SimLuminanceOptions::default())
-            .unwrap();
-        let mut lights = world.clone();
-        let seq = capture_sequence_with(
-            &mut depth,
-            &mut lum,
-            &mut lights,
-            &ids,
-            &SequenceOptions::default(),
-            &mut |_, _, _| {},
-        )
-        .unwrap();
-        assert!(seq.capture.off.is_some());
-        let scene = world.scene();
-        let c = commission::from_capture(
-            &seq.capture,
-            scene.luminaires.clone(),
-            scene.sensors.clone(),
-            scene.desks.clone(),
-            &CommissionOptions::default(),
-        )
-        .unwrap();
-        let img = build_image(
-            &c.model,
-            &ImageOptions {
-                sensor_flags: c.sensor_flags.clone(),
-                geometry: Some(section_of(&c.scene, &c.model, &CommissionRecord::default())),
-                ..ImageOptions::default()
-            },
-        )
-        .unwrap();
-        let section = live::from_capture(&c, &seq.capture, &SectionOptions::default()).unwrap();
-        let image = with_live(&img, Some(&section)).unwrap();
+        let c = luxnode::bench::live::commission_in_daylight(&world, true).unwrap();
+        let image = c.image;
         assert!(Image::parse(&image).unwrap().geometry_bytes().is_some());
         Rig {
             world,
             image,
-            section,
-            flags: c.sensor_flags.clone(),
+            section: c.section,
+            flags: c.sensor_flags,
         }
     })
 }
@@ -590,92 +550,43 @@ fn bad_frames_are_flagged_and_the_last_good_values_held() {
     let cases: Vec<(&str, LiveFrame<'_>, Verdict, u16)> = vec![
         (
             "lens covered (all 0)",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &zeros,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&good.2),
-                taken_s: 5.0,
-            },
+            lf(w, h, &zeros, good.1, Some(&good.2), 5.0),
             Verdict::Dark,
             flags::BAD_FRAME,
         ),
         (
             "overexposed (all 65535)",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &full,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&good.2),
-                taken_s: 5.0,
-            },
+            lf(w, h, &full, good.1, Some(&good.2), 5.0),
             Verdict::Saturated,
             flags::BAD_FRAME | flags::SATURATED,
         ),
         (
             "one pixel short",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &short,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&good.2),
-                taken_s: 5.0,
-            },
+            lf(w, h, &short, good.1, Some(&good.2), 5.0),
             Verdict::WrongSize,
             flags::BAD_FRAME,
         ),
         (
             "another camera's size",
-            LiveFrame {
-                width: w - 1,
-                height: h,
-                luminance: &good.0[..n - h as usize],
-                cd_m2_per_unit: good.1,
-                depth_mm: None,
-                taken_s: 5.0,
-            },
+            lf(w - 1, h, &good.0[..n - h as usize], good.1, None, 5.0),
             Verdict::WrongSize,
             flags::BAD_FRAME,
         ),
         (
             "depth of another size",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &good.0,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&short),
-                taken_s: 5.0,
-            },
+            lf(w, h, &good.0, good.1, Some(&short), 5.0),
             Verdict::WrongSize,
             flags::BAD_FRAME,
         ),
         (
             "taken a minute ago",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &good.0,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&good.2),
-                taken_s: -55.0,
-            },
+            lf(w, h, &good.0, good.1, Some(&good.2), -55.0),
             Verdict::Stale,
             flags::STALE,
         ),
         (
             "taken at NaN",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &good.0,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&good.2),
-                taken_s: f64::NAN,
-            },
+            lf(w, h, &good.0, good.1, Some(&good.2), f64::NAN),
             Verdict::Stale,
             flags::STALE,
         ),
@@ -684,14 +595,7 @@ fn bad_frames_are_flagged_and_the_last_good_values_held() {
     for gain in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         all.push((
             "a bad gain",
-            LiveFrame {
-                width: w,
-                height: h,
-                luminance: &good.0,
-                cd_m2_per_unit: gain,
-                depth_mm: Some(&good.2),
-                taken_s: 5.0,
-            },
+            lf(w, h, &good.0, gain, Some(&good.2), 5.0),
             Verdict::WrongSize,
             flags::BAD_FRAME,
         ));
@@ -718,14 +622,7 @@ fn bad_frames_are_flagged_and_the_last_good_values_held() {
     let no_return = vec![0u16; n];
     let desks = live
         .update(
-            &LiveFrame {
-                width: w,
-                height: h,
-                luminance: &good.0,
-                cd_m2_per_unit: good.1,
-                depth_mm: Some(&no_return),
-                taken_s: 6.0,
-            },
+            &lf(w, h, &good.0, good.1, Some(&no_return), 6.0),
             &levels,
             6.0,
         )
@@ -740,6 +637,25 @@ fn bad_frames_are_flagged_and_the_last_good_values_held() {
     for bad in [vec![0.7; 5], vec![f64::NAN; 6], vec![1.5; 6]] {
         assert!(live.update(&good_frame(&good, w, h), &bad, 7.0).is_err());
         assert!(live.no_frame(&bad, 7.0).is_err());
+    }
+}
+
+/// A frame of these parts.
+fn lf<'a>(
+    width: u32,
+    height: u32,
+    luminance: &'a [u16],
+    cd_m2_per_unit: f64,
+    depth_mm: Option<&'a [u16]>,
+    taken_s: f64,
+) -> LiveFrame<'a> {
+    LiveFrame {
+        width,
+        height,
+        luminance,
+        cd_m2_per_unit,
+        depth_mm,
+        taken_s,
     }
 }
 

@@ -162,18 +162,26 @@ pub fn conditions(world: &SimWorld) -> Vec<Condition> {
     out
 }
 
-/// Runs the bench on `scene` (with the board's optics applied): `frames` timed updates in all.
-pub fn run(scene: Scene, frames: usize) -> Result<LiveBench, String> {
-    if !(1..=100_000).contains(&frames) {
-        return Err(format!("{frames} frames: 1..=100000"));
-    }
+/// A simulated room commissioned from its cameras as a first boot does (the world's extras as
+/// they are: daylight during the capture is subtracted with the all-off frame).
+pub struct DaylightCommissioning {
+    /// The image with its live section.
+    pub image: Vec<u8>,
+    /// The same image without it.
+    pub image_without_live: Vec<u8>,
+    /// The live section.
+    pub section: crate::image_build::LiveSectionData,
+    /// Per-sensor flags of the commissioning (out of view, ...).
+    pub sensor_flags: Vec<u8>,
+}
+
+/// Commissions `world` from its simulated cameras (default options), with the geometry section
+/// for reports when `geometry` is set.
+pub fn commission_in_daylight(
+    world: &SimWorld,
+    geometry: bool,
+) -> Result<DaylightCommissioning, String> {
     let e = |x: &dyn std::fmt::Display| x.to_string();
-    let world = SimWorld::new(scene, &world_settings()).map_err(|x| e(&x))?;
-    // commissioning in daylight, as on a first boot
-    world.set_extras(WorldExtras {
-        window_exitance_lm_m2: 1500.0,
-        ..WorldExtras::default()
-    });
     let ids = world.luminaire_ids();
     let mut depth = world
         .depth_camera(SimDepthOptions::default())
@@ -191,6 +199,9 @@ pub fn run(scene: Scene, frames: usize) -> Result<LiveBench, String> {
         &mut |_, _, _| {},
     )
     .map_err(|x| e(&x))?;
+    if seq.capture.off.is_none() {
+        return Err("the capture sequence took no all-off frame".into());
+    }
     let sc = world.scene();
     let c = commission::from_capture(
         &seq.capture,
@@ -204,13 +215,42 @@ pub fn run(scene: Scene, frames: usize) -> Result<LiveBench, String> {
         &c.model,
         &ImageOptions {
             sensor_flags: c.sensor_flags.clone(),
+            geometry: geometry.then(|| {
+                crate::image_geometry::section_of(
+                    &c.scene,
+                    &c.model,
+                    &crate::image_geometry::CommissionRecord::default(),
+                )
+            }),
             ..ImageOptions::default()
         },
     )
     .map_err(|x| e(&x))?;
     let section =
         live::from_capture(&c, &seq.capture, &SectionOptions::default()).map_err(|x| e(&x))?;
-    let bytes = with_live(&img, Some(&section)).map_err(|x| e(&x))?;
+    let image = with_live(&img, Some(&section)).map_err(|x| e(&x))?;
+    Ok(DaylightCommissioning {
+        image,
+        image_without_live: img,
+        section,
+        sensor_flags: c.sensor_flags,
+    })
+}
+
+/// Runs the bench on `scene` (with the board's optics applied): `frames` timed updates in all.
+pub fn run(scene: Scene, frames: usize) -> Result<LiveBench, String> {
+    if !(1..=100_000).contains(&frames) {
+        return Err(format!("{frames} frames: 1..=100000"));
+    }
+    let e = |x: &dyn std::fmt::Display| x.to_string();
+    let world = SimWorld::new(scene, &world_settings()).map_err(|x| e(&x))?;
+    // commissioning in daylight, as on a first boot
+    world.set_extras(WorldExtras {
+        window_exitance_lm_m2: 1500.0,
+        ..WorldExtras::default()
+    });
+    let c = commission_in_daylight(&world, false)?;
+    let (bytes, img) = (c.image, c.image_without_live);
     let image = Image::parse(&bytes).map_err(|x| e(&x))?;
     let t = Instant::now();
     let model = LiveModel::new(&image).map_err(|x| e(&x))?;
