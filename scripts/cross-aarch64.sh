@@ -27,7 +27,7 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
           | binary(documented_figures) | binary(table1) | (binary(fixture) & test(the_cli_))
           | binary(energy) | binary(ward) | binary(lighting)
           | (binary(control) & (test(every_desk) | test(a_day_of) | test(published) | test(closed_loop)))
-          | binary(live) | binary(live_cli) | binary(report) | binary(open_plan_image)
+          | binary(live) | binary(live_cli) | binary(live_radiance) | binary(report) | binary(open_plan_image)
           | (binary(modbus) & not test(fuzzed))
           | binary(hil) | binary(hil_peripherals) | binary(ambient) | binary(field) | binary(fuzz_smoke)
           | binary(commission)

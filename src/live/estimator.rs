@@ -202,6 +202,12 @@ impl LiveSettings {
     }
 }
 
+/// A seen patch whose unexplained light exceeds this multiple of the median is in direct sun.
+const SUN_FACTOR: f64 = 8.0;
+
+/// Ridge weight of the unknown-emitter fit, relative to the mean diagonal of its normal matrix.
+const RIDGE: f64 = 0.01;
+
 /// A frame on the commissioned camera's grid.
 #[derive(Debug, Clone, Copy)]
 pub struct LiveFrame<'a> {
@@ -1214,6 +1220,21 @@ impl Live {
         let mut w_use: Vec<f64> = w_seen.to_vec();
         let mut x = vec![0.0; k];
         let y: Vec<f64> = (0..n_seen).map(|r| d_seen[r] - c[r]).collect();
+        // direct sun: seen patches far brighter than the diffuse daylight of the rest (a sun
+        // patch on the floor gets tens of klx where the sky gives hundreds of lx) are measured
+        // and propagated as seen exitance above, but no diffuse emitter can explain them: left
+        // out of the fit, which they would otherwise drag to 1e5 lm/m² windows
+        let mut ys: Vec<f64> = (0..n_seen)
+            .filter(|&r| w_use[r] > 0.0)
+            .map(|r| y[r])
+            .collect();
+        if let Some(med) = median(&mut ys).filter(|m| *m > 0.0) {
+            for r in 0..n_seen {
+                if y[r] > SUN_FACTOR * med {
+                    w_use[r] = 0.0;
+                }
+            }
+        }
         let mut resid = vec![0.0; n_seen];
         for pass in 0..2 {
             if k > 0 {
@@ -1231,6 +1252,13 @@ impl Live {
                             g[a * k + bb] += wr * v[a] * v[bb];
                         }
                     }
+                }
+                // ridge: an emitter the seen surfaces hardly see cannot be estimated from them
+                // (unregularised, one such group reached 2e7 lm/m² and put 27 klx on a desk)
+                let mean_diag = (0..k).map(|a| g[a * k + a]).sum::<f64>() / k as f64;
+                let ridge = RIDGE * mean_diag;
+                for a in 0..k {
+                    g[a * k + a] += ridge;
                 }
                 x = nnls_gram(&g, &h, k);
             }
