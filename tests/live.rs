@@ -347,7 +347,11 @@ fn desk_in_view() -> (usize, u32) {
 }
 
 /// The world's extras with these scenario events in force, over this much window exitance.
-fn with_events(events: Vec<Event>, window_lm_m2: f64) -> WorldExtras {
+fn with_events(kinds: Vec<EventKind>, window_lm_m2: f64) -> WorldExtras {
+    let events = kinds
+        .into_iter()
+        .map(|kind| Event { at_s: 0.0, kind })
+        .collect();
     let scenario = Scenario { day: None, events };
     let mut x = scenario.extras_at(1.0, rig().world.scene());
     x.window_exitance_lm_m2 = window_lm_m2;
@@ -360,13 +364,7 @@ fn with_events(events: Vec<Event>, window_lm_m2: f64) -> WorldExtras {
 fn a_person_over_a_desk_is_flagged_in_the_first_frame_and_the_value_held() {
     let (k, id) = desk_in_view();
     let levels = vec![0.8; 6];
-    let person = with_events(
-        vec![Event {
-            at_s: 0.0,
-            kind: EventKind::Person { desk: id },
-        }],
-        1500.0,
-    );
+    let person = with_events(vec![EventKind::Person { desk: id }], 1500.0);
     let clear = with_events(Vec::new(), 1500.0);
     let mut live = live_state();
     let before = update(&mut live, &frame(&levels, &clear), &levels, 0.0).to_vec();
@@ -480,13 +478,10 @@ fn a_moved_desk_advises_recommissioning() {
     let (k, id) = desk_in_view();
     let levels = vec![1.0; 6];
     let moved = with_events(
-        vec![Event {
-            at_s: 0.0,
-            kind: EventKind::MoveDesk {
-                desk: id,
-                dx_m: 0.0,
-                dy_m: 0.9,
-            },
+        vec![EventKind::MoveDesk {
+            desk: id,
+            dx_m: 0.0,
+            dy_m: 0.9,
         }],
         0.0,
     );
