@@ -5,4 +5,8 @@
 #[path = "../bodies.rs"]
 mod bodies;
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| bodies::live_section(data));
+// the base image is built in `init`, outside libFuzzer's per-input timeout
+libfuzzer_sys::fuzz_target!(
+    init: bodies::live_section_init(),
+    |data: &[u8]| bodies::live_section(data)
+);
