@@ -258,6 +258,12 @@ fn true_rho_model(c: &Commissioned, capture: &Path) -> Result<Model, Table1Error
                     .unwrap_or(0.5)
             } else if part == Part::FloorFill {
                 floor
+            } else if let Part::HiddenFace(k) = part {
+                // a thin object's hidden face: the material of its seen face
+                part_med
+                    .get(&Part::Plane(k))
+                    .copied()
+                    .unwrap_or(c.scene.mesh.materials[t].rho.get())
             } else {
                 c.scene.mesh.materials[t].rho.get()
             }

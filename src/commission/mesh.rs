@@ -59,6 +59,9 @@ pub enum Part {
     Ceiling,
     /// A luminaire's opening (black).
     Opening(u32),
+    /// The hidden face of seen plane k, a thin object (a desk's underside, a monitor's back;
+    /// closure; the reflectance of plane k's seen face).
+    HiddenFace(u32),
 }
 
 impl Part {
@@ -76,6 +79,7 @@ impl Part {
             Part::Wall => "wall_inferred".into(),
             Part::Ceiling => "ceiling_inferred".into(),
             Part::Opening(id) => format!("luminaire_{id}"),
+            Part::HiddenFace(k) => format!("plane_{k}_hidden_face"),
         }
     }
 }

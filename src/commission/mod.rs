@@ -310,6 +310,8 @@ pub struct Report {
     pub inferred_area_m2: f64,
     /// The room box, when closed.
     pub room: Option<RoomBox>,
+    /// Seen planes modelled as thin objects with a hidden face (closure).
+    pub hidden_faces: usize,
     /// Reflectance estimate outcome.
     pub reflectance: Estimate,
     /// Patches of the final model.
@@ -564,6 +566,16 @@ pub fn from_capture(
 
     let st = Stage::start("closure", o.progress);
     if let Some(r) = &room {
+        let thin: Vec<(u32, DVec3)> = found
+            .iter()
+            .enumerate()
+            .filter(|&(k, p)| {
+                Some(k) != floor_idx && closure::is_thin_object(r, p.normal, p.origin_m)
+            })
+            .map(|(k, p)| (k as u32, p.normal))
+            .collect();
+        closure::hidden_faces(&mut reco, &thin);
+        report.hidden_faces = thin.len();
         closure::close(&mut reco, r, &luminaires, &o.mesh);
     }
     report.room = room;

@@ -370,7 +370,8 @@ fn sh_pixels(
 
 /// Per-triangle reflectances for a gain, iterating with interreflections. `tri_rho` holds the
 /// starting values (unseen triangles keep theirs, except the inferred floor, which takes the
-/// seen floor's). `floor_plane`: the part of the floor plane.
+/// seen floor's, and thin objects' hidden faces, which take their seen face's). `floor_plane`:
+/// the part of the floor plane.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate(
     samples: &Samples,
@@ -448,10 +449,13 @@ pub fn estimate(
                 }
             } else if part == Part::FloorFill {
                 out.floor_rho.unwrap_or(global)
+            } else if let Part::HiddenFace(k) = part {
+                // the seen face's material
+                part_median.get(&Part::Plane(k)).copied().unwrap_or(global)
             } else {
                 tri_rho_start[t]
             };
-            let r = if part.seen() || part == Part::FloorFill {
+            let r = if part.seen() || matches!(part, Part::FloorFill | Part::HiddenFace(_)) {
                 let c = raw.clamp(o.rho_min, o.rho_max);
                 if c != raw || !raw.is_finite() {
                     out.clamped += 1;
