@@ -433,9 +433,11 @@ fn capture_sequence_survives_transient_faults_and_reports_the_rest() {
     assert!(a.contains('t') && a.contains('g') && a.contains('o') && !a.contains('?'));
 }
 
-#[test]
-fn demo_office_commissions_from_simulated_cameras() {
-    let w = demo();
+/// Captures a simulated world through its cameras (5 depth frames, 2 per luminance frame) and
+/// commissions it at defaults; also the capture's time.
+fn commission_from_cameras(
+    w: &SimWorld,
+) -> (luxnode::commission::Commissioned, std::time::Duration) {
     let t0 = Instant::now();
     let ids = w.luminaire_ids();
     let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
@@ -461,8 +463,16 @@ fn demo_office_commissions_from_simulated_cameras() {
         &luxnode::commission::CommissionOptions::default(),
     )
     .unwrap();
+    (c, t_capture)
+}
+
+#[test]
+fn demo_office_commissions_from_simulated_cameras() {
+    let w = demo();
+    let t0 = Instant::now();
+    let (c, t_capture) = commission_from_cameras(w);
     let t_total = t0.elapsed();
-    let all_on = vec![1.0; ids.len()];
+    let all_on = vec![1.0; w.luminaire_ids().len()];
     let got = c.model.sensor_lux(&all_on).unwrap();
     let want = w.model().sensor_lux(&all_on).unwrap();
     let err: f64 = got
@@ -1649,32 +1659,8 @@ mod fisheye {
         let mut scene = base.scene().clone();
         scene.camera = Some(o.apply(scene.camera.as_ref().unwrap()));
         let w = super::SimWorld::from_model(scene, base.model().clone()).unwrap();
-        let ids = w.luminaire_ids();
-        let mut depth = w.depth_camera(super::SimDepthOptions::default()).unwrap();
-        let mut lum = w
-            .luminance_camera(super::SimLuminanceOptions::default())
-            .unwrap();
-        let mut lights = w.clone();
-        let capture = super::capture_sequence(
-            &mut depth,
-            &mut lum,
-            &mut lights,
-            &ids,
-            5,
-            2,
-            &mut |_, _, _| {},
-        )
-        .unwrap();
-        let scene = w.scene();
-        let c = luxnode::commission::from_capture(
-            &capture,
-            scene.luminaires.clone(),
-            scene.sensors.clone(),
-            scene.desks.clone(),
-            &luxnode::commission::CommissionOptions::default(),
-        )
-        .unwrap();
-        let all_on = vec![1.0; ids.len()];
+        let (c, _) = super::commission_from_cameras(&w);
+        let all_on = vec![1.0; w.luminaire_ids().len()];
         let got = c.model.sensor_lux(&all_on).unwrap();
         let want = w.model().sensor_lux(&all_on).unwrap();
         let err = got
