@@ -466,21 +466,28 @@ fn commission_from_cameras(
     (c, t_capture)
 }
 
+/// The commissioned model's all-on sensor error against the world's (mean abs / mean), with
+/// both readings.
+fn all_on_error(c: &luxnode::commission::Commissioned, w: &SimWorld) -> (f64, Vec<f64>, Vec<f64>) {
+    let all_on = vec![1.0; w.luminaire_ids().len()];
+    let got = c.model.sensor_lux(&all_on).unwrap();
+    let want = w.model().sensor_lux(&all_on).unwrap();
+    let err = got
+        .iter()
+        .zip(&want)
+        .map(|(g, t)| (g - t).abs())
+        .sum::<f64>()
+        / want.iter().sum::<f64>();
+    (err, got, want)
+}
+
 #[test]
 fn demo_office_commissions_from_simulated_cameras() {
     let w = demo();
     let t0 = Instant::now();
     let (c, t_capture) = commission_from_cameras(w);
     let t_total = t0.elapsed();
-    let all_on = vec![1.0; w.luminaire_ids().len()];
-    let got = c.model.sensor_lux(&all_on).unwrap();
-    let want = w.model().sensor_lux(&all_on).unwrap();
-    let err: f64 = got
-        .iter()
-        .zip(&want)
-        .map(|(g, t)| (g - t).abs())
-        .sum::<f64>()
-        / want.iter().sum::<f64>();
+    let (err, got, want) = all_on_error(&c, w);
     eprintln!(
         "demo office from simulated cameras: capture {:.0} ms, capture + commission {:.0} ms, \
          all-on sensor error {:.1} % (mean abs / mean), got {got:.0?}, world {want:.0?}",
@@ -1660,15 +1667,7 @@ mod fisheye {
         scene.camera = Some(o.apply(scene.camera.as_ref().unwrap()));
         let w = super::SimWorld::from_model(scene, base.model().clone()).unwrap();
         let (c, _) = super::commission_from_cameras(&w);
-        let all_on = vec![1.0; w.luminaire_ids().len()];
-        let got = c.model.sensor_lux(&all_on).unwrap();
-        let want = w.model().sensor_lux(&all_on).unwrap();
-        let err = got
-            .iter()
-            .zip(&want)
-            .map(|(g, t)| (g - t).abs())
-            .sum::<f64>()
-            / want.iter().sum::<f64>();
+        let (err, got, want) = super::all_on_error(&c, &w);
         eprintln!(
             "fisheye demo office: all-on sensor error {:.2} % (mean abs / mean), got {got:.0?}, \
              world {want:.0?}; {} thin objects with a hidden face",
