@@ -433,17 +433,13 @@ fn capture_sequence_survives_transient_faults_and_reports_the_rest() {
     assert!(a.contains('t') && a.contains('g') && a.contains('o') && !a.contains('?'));
 }
 
-/// Captures a simulated world through its cameras (5 depth frames, 2 per luminance frame) and
-/// commissions it at defaults; also the capture's time.
-fn commission_from_cameras(
-    w: &SimWorld,
-) -> (luxnode::commission::Commissioned, std::time::Duration) {
-    let t0 = Instant::now();
+/// A simulated world's capture set through its cameras (5 depth frames, 2 per luminance frame).
+fn capture_of(w: &SimWorld) -> luxnode::camera::capture::Capture {
     let ids = w.luminaire_ids();
     let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
     let mut lum = w.luminance_camera(SimLuminanceOptions::default()).unwrap();
     let mut lights = w.clone();
-    let capture = capture_sequence(
+    capture_sequence(
         &mut depth,
         &mut lum,
         &mut lights,
@@ -452,7 +448,16 @@ fn commission_from_cameras(
         2,
         &mut |_, _, _| {},
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// Captures a simulated world through its cameras and commissions it at defaults; also the
+/// capture's time.
+fn commission_from_cameras(
+    w: &SimWorld,
+) -> (luxnode::commission::Commissioned, std::time::Duration) {
+    let t0 = Instant::now();
+    let capture = capture_of(w);
     let t_capture = t0.elapsed();
     let scene = w.scene();
     let c = luxnode::commission::from_capture(
@@ -479,6 +484,93 @@ fn all_on_error(c: &luxnode::commission::Commissioned, w: &SimWorld) -> (f64, Ve
         .sum::<f64>()
         / want.iter().sum::<f64>();
     (err, got, want)
+}
+
+#[test]
+fn two_nodes_commission_the_demo_office_together() {
+    // two pinhole nodes over the two halves of the demo office (8 x 6 m): one room model from
+    // both capture sets, one image per node; each node serves the desks it sees
+    let base = demo();
+    let pinhole = base.scene().camera.clone().unwrap();
+    let world_at = |x: f64| {
+        let mut scene = base.scene().clone();
+        let mut cam = pinhole.clone();
+        cam.position_m.x = x;
+        scene.camera = Some(cam);
+        SimWorld::from_model(scene, base.model().clone()).unwrap()
+    };
+    let (wa, wb) = (world_at(2.0), world_at(6.0));
+    let (ca, cb) = (capture_of(&wa), capture_of(&wb));
+    let scene = base.scene();
+    let o = luxnode::commission::CommissionOptions::default();
+    let commission = |caps: &[luxnode::camera::capture::Capture]| {
+        luxnode::commission::from_captures(
+            caps,
+            scene.luminaires.clone(),
+            scene.sensors.clone(),
+            scene.desks.clone(),
+            &o,
+        )
+        .unwrap()
+    };
+    let nodes = commission(&[ca.clone(), cb.clone()]);
+    assert_eq!(nodes.len(), 2);
+    let (alone_a, alone_b) = (commission(&[ca]).remove(0), commission(&[cb]).remove(0));
+    // every node holds the same room model, with its own camera
+    assert_eq!(nodes[0].model.patches.len(), nodes[1].model.patches.len());
+    assert_eq!(
+        nodes[0].scene.camera.as_ref().unwrap().position_m.x,
+        2.0,
+        "node 1's camera"
+    );
+    assert_eq!(nodes[1].scene.camera.as_ref().unwrap().position_m.x, 6.0);
+    // the floor is modelled once: floor triangles cover the room box's floor, no more
+    let floor_area = |c: &luxnode::commission::Commissioned| -> f64 {
+        let r = &c.reco;
+        (0..r.tris.len())
+            .filter(|&t| {
+                let [a, b, cc] = r.tris[t].map(|i| r.positions_m[i as usize]);
+                let n = (b - a).cross(cc - a);
+                n.z > 0.0 && a.z.max(b.z).max(cc.z) < 0.05
+            })
+            .map(|t| r.area_m2(t))
+            .sum()
+    };
+    let room = nodes[0].report.room.unwrap();
+    let box_area = (room.xy_m[2] - room.xy_m[0]) * (room.xy_m[3] - room.xy_m[1]);
+    let merged_floor = floor_area(&nodes[0]);
+    assert!(
+        (merged_floor / box_area - 1.0).abs() < 0.02,
+        "floor {merged_floor:.2} m² in a {box_area:.2} m² box"
+    );
+    // between them the nodes see more desk sensors than either alone; a sensor one node sees is
+    // out of the other's view in that node's flags
+    let seen = |c: &luxnode::commission::Commissioned| -> Vec<bool> {
+        c.sensor_flags.iter().map(|&f| f == 0).collect()
+    };
+    let (sa, sb) = (seen(&nodes[0]), seen(&nodes[1]));
+    assert_eq!(sa, seen(&alone_a));
+    assert_eq!(sb, seen(&alone_b));
+    let either = sa.iter().zip(&sb).filter(|(a, b)| **a || **b).count();
+    let (na, nb) = (
+        sa.iter().filter(|&&x| x).count(),
+        sb.iter().filter(|&&x| x).count(),
+    );
+    assert!(either > na.max(nb), "{sa:?} {sb:?}");
+    // the room model against the world, all on
+    let (err, got, want) = all_on_error(&nodes[0], &wa);
+    let (err_a, _, _) = all_on_error(&alone_a, &wa);
+    let (err_b, _, _) = all_on_error(&alone_b, &wb);
+    eprintln!(
+        "two nodes on the demo office: sensors in view {na} + {nb} ({either} in all), all-on \
+         error {:.2} % (node 1 alone {:.2} %, node 2 alone {:.2} %); got {got:.0?}, world \
+         {want:.0?}; floor {merged_floor:.2} of {box_area:.2} m², {} patches",
+        100.0 * err,
+        100.0 * err_a,
+        100.0 * err_b,
+        nodes[0].model.patches.len()
+    );
+    assert!(err < 0.03, "{err}");
 }
 
 #[test]

@@ -466,3 +466,66 @@ fn report_from_an_image_and_a_states_file() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+#[test]
+fn commission_takes_one_capture_set_per_node() {
+    // two nodes at the same pose see the same room: the merged model is the single node's
+    // (ties go to the first node), and each node gets its own image
+    let s = "../shared/scenes/office_a";
+    let dir = tempfile::tempdir().unwrap();
+    let path = |f: &str| dir.path().join(f).to_string_lossy().into_owned();
+    let (a, b, one) = (path("a.img"), path("b.img"), path("one.img"));
+    let common = [
+        "commission",
+        "--luminaires",
+        &format!("{s}/luminaires.json"),
+        "--sensors",
+        &format!("{s}/sensors.json"),
+        "--truth",
+        &format!("{s}/truth.csv"),
+        "--states",
+        &format!("{s}/states.csv"),
+    ]
+    .map(String::from);
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&str> = common.iter().map(String::as_str).collect();
+        args.extend(extra);
+        luxnode(&args)
+    };
+    let cap = format!("{s}/capture");
+    let single = run(&["--capture", &cap, "--out", &one]);
+    let pair = run(&[
+        "--capture",
+        &cap,
+        "--capture",
+        &cap,
+        "--out",
+        &a,
+        "--out",
+        &b,
+    ]);
+    let text = |o: &Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        single.status.success() && pair.status.success(),
+        "{}",
+        text(&pair)
+    );
+    let error = |t: &str| -> f64 {
+        let line = t
+            .lines()
+            .find(|l| l.starts_with("error, all sensors:"))
+            .unwrap_or_else(|| panic!("{t}"));
+        line.split_whitespace().nth(3).unwrap().parse().unwrap()
+    };
+    let (e1, e2) = (error(&text(&single)), error(&text(&pair)));
+    assert!((e1 - e2).abs() < 0.05, "one node {e1} %, two {e2} %");
+    for img in [&a, &b] {
+        let len = std::fs::metadata(img).unwrap().len();
+        assert!(len > 1_000_000, "{img}: {len} bytes");
+    }
+    // one image per capture set
+    let o = run(&["--capture", &cap, "--capture", &cap, "--out", &a]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("one image per capture set"), "{err}");
+}

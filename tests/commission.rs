@@ -347,6 +347,7 @@ fn planes_of_synthetic_depth_have_the_known_heights_and_areas() {
         &commission::MeshOptions::default(),
         None,
         None,
+        &[],
     );
     let area: f64 = (0..m.tris.len()).map(|t| m.area_m2(t)).sum();
     assert!((area - 0.8).abs() < 0.08, "area {area}");

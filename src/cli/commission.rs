@@ -18,9 +18,11 @@ use super::{EngineArgs, OnOff, StoreArgs};
 /// `luxnode commission`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// The capture set directory (camera.json, depth_NNN.png, luminance_L<k>.png).
-    #[arg(long)]
-    capture: PathBuf,
+    /// The capture set directory (camera.json, depth_NNN.png, luminance_L<k>.png). Repeat it
+    /// for several nodes in one room (each camera.json with its pose in the room's frame and its
+    /// gain), with one --out per capture set, in the same order.
+    #[arg(long, required = true)]
+    capture: Vec<PathBuf>,
     /// luminaires.json (installed positions and photometry).
     #[arg(long)]
     luminaires: PathBuf,
@@ -30,9 +32,10 @@ pub struct Args {
     /// desks.json, for the report's desk outlines and desk lux.
     #[arg(long)]
     desks: Option<PathBuf>,
-    /// The flash image to write.
-    #[arg(long)]
-    out: PathBuf,
+    /// The flash image to write (one per --capture: node k's image holds the whole room and
+    /// node k's camera and desks).
+    #[arg(long, required = true)]
+    out: Vec<PathBuf>,
     /// Also write the mesh as PLY (grey = reflectance).
     #[arg(long, value_name = "FILE.ply")]
     export_mesh: Option<PathBuf>,
@@ -147,8 +150,22 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let o = a.options(lums.len())?;
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let cap = Capture::load(&a.capture, &ids)?;
-    let c = commission::from_capture(&cap, lums, sensors, desks, &o)?;
+    if a.out.len() != a.capture.len() {
+        anyhow::bail!(
+            "{} capture sets and {} --out images: one image per capture set (node)",
+            a.capture.len(),
+            a.out.len()
+        );
+    }
+    let caps = a
+        .capture
+        .iter()
+        .map(|d| Capture::load(d, &ids))
+        .collect::<Result<Vec<_>, _>>()?;
+    let nodes = commission::from_captures(&caps, lums, sensors, desks, &o)?;
+    let Some(c) = nodes.first() else {
+        anyhow::bail!("no capture set");
+    };
     let r = &c.report;
     for w in &r.warnings {
         tracing::warn!("{w}");
@@ -196,49 +213,60 @@ pub fn run(a: &Args) -> Result<()> {
             .map_or("-".into(), |v| format!("{v:.3}")),
         r.reflectance.clamped
     );
-    let flags = c.sensor_flags.clone();
     let st = a.store.store(a.engine.preset);
-    let options = ImageOptions {
-        precision: st.precision,
-        prune_below: st.prune_below,
-        scene_name: c.scene.name.clone(),
-        sensor_flags: flags.clone(),
-        geometry: None,
-    };
-    let bytes = build_for_region(&c.model, &options, formfactors_region_bytes())?;
-    // live light: the section that turns run-time frames into desk lux (docs/live.md)
-    let bytes = luxnode::live::with_capture_section(bytes, &c, &cap);
-    let image = Image::parse(&bytes)?;
-    write_image_file(&a.out, &bytes)?;
-    println!(
-        "{}: {} bytes, {} patches",
-        a.out.display(),
-        bytes.len(),
-        image.patches()
-    );
-    for (s, f) in c.model.sensor_ids.iter().zip(&flags) {
-        if *f != 0 {
-            println!(
-                "sensor {s}:{}{}",
-                if f & sensor_flags::OUT_OF_VIEW != 0 {
-                    " out of view"
-                } else {
-                    ""
-                },
-                if f & sensor_flags::ESTIMATED != 0 {
-                    " estimated"
-                } else {
-                    ""
-                }
-            );
+    for ((node, cap), out) in nodes.iter().zip(&caps).zip(&a.out) {
+        let flags = node.sensor_flags.clone();
+        let options = ImageOptions {
+            precision: st.precision,
+            prune_below: st.prune_below,
+            scene_name: node.scene.name.clone(),
+            sensor_flags: flags.clone(),
+            geometry: None,
+        };
+        let bytes = build_for_region(&node.model, &options, formfactors_region_bytes())?;
+        // live light: the section that turns run-time frames into desk lux (docs/live.md)
+        let bytes = luxnode::live::with_capture_section(bytes, node, cap);
+        let image = Image::parse(&bytes)?;
+        write_image_file(out, &bytes)?;
+        println!(
+            "{}: {} bytes, {} patches",
+            out.display(),
+            bytes.len(),
+            image.patches()
+        );
+        for (s, f) in node.model.sensor_ids.iter().zip(&flags) {
+            if *f != 0 {
+                println!(
+                    "sensor {s}:{}{}",
+                    if f & sensor_flags::OUT_OF_VIEW != 0 {
+                        " out of view"
+                    } else {
+                        ""
+                    },
+                    if f & sensor_flags::ESTIMATED != 0 {
+                        " estimated"
+                    } else {
+                        ""
+                    }
+                );
+            }
         }
     }
+    // for the error table: a sensor is in view when some node sees it
+    let flags: Vec<u8> = (0..c.sensor_flags.len())
+        .map(|k| {
+            let seen = nodes
+                .iter()
+                .any(|n| n.sensor_flags[k] & sensor_flags::OUT_OF_VIEW == 0);
+            if seen { 0 } else { c.sensor_flags[k] }
+        })
+        .collect();
     if let Some(p) = &a.export_mesh {
-        commission::output::write_ply(&c, p).with_context(|| format!("writing {}", p.display()))?;
+        commission::output::write_ply(c, p).with_context(|| format!("writing {}", p.display()))?;
     }
     #[cfg(feature = "report")]
     if let Some(p) = &a.report {
-        luxnode::render::camera_view::report_png(&c, p)
+        luxnode::render::camera_view::report_png(c, p)
             .with_context(|| format!("writing {}", p.display()))?;
     }
     if let (Some(t), Some(s)) = (&a.truth, &a.states) {

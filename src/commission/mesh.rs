@@ -177,8 +177,14 @@ pub fn plane_basis(n: DVec3) -> (DVec3, DVec3) {
 /// its grid neighbours, a splat against holes in far, sparsely sampled surfaces).
 pub const MAX_SPLAT_M: f64 = 0.15;
 
+/// Another camera's point counts for a plane within this distance of it, m.
+pub const ALSO_SEEN_DISTANCE_M: f64 = 0.05;
+
 /// Meshes one plane. `extent`: rasterise over this world box (x0, y0, x1, y1) instead of the
-/// nodes' bounds (horizontal planes only), filling unseen cells with `fill`.
+/// nodes' bounds (horizontal planes only), filling unseen cells with `fill`. `also_seen_m`:
+/// points on the plane that other cameras saw (another node's view of the floor); each marks
+/// its cell (the closing below fills one-cell gaps between them).
+#[allow(clippy::too_many_arguments)]
 pub fn mesh_plane(
     out: &mut RecoMesh,
     grid: &PointGrid,
@@ -187,6 +193,7 @@ pub fn mesh_plane(
     o: &MeshOptions,
     extent: Option<[f64; 4]>,
     fill: Option<Part>,
+    also_seen_m: &[DVec3],
 ) {
     let n = plane.normal;
     let (e1, e2) = plane_basis(n);
@@ -272,6 +279,16 @@ pub fn mesh_plane(
             for x in x0..=x1 {
                 occ[y * nx + x] = true;
             }
+        }
+    }
+    for p in also_seen_m {
+        if plane.distance_m(*p).abs() > ALSO_SEEN_DISTANCE_M {
+            continue;
+        }
+        let (a, b) = ((*p - org).dot(e1), (*p - org).dot(e2));
+        let (x, y) = (((a - a0) / ca).floor(), ((b - b0) / cb).floor());
+        if x >= 0.0 && y >= 0.0 && (x as usize) < nx && (y as usize) < ny {
+            occ[y as usize * nx + x as usize] = true;
         }
     }
     // closing: dilate then erode (one cell), fills one-cell holes and cracks

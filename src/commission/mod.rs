@@ -454,55 +454,150 @@ pub fn from_capture(
     desks: Option<Desks>,
     o: &CommissionOptions,
 ) -> Result<Commissioned, CommissionError> {
+    from_captures(std::slice::from_ref(capture), luminaires, sensors, desks, o)?
+        .into_iter()
+        .next()
+        .ok_or_else(|| CommissionError::Input("no capture set".into()))
+}
+
+/// At most this many nodes (capture sets) commission one room together.
+pub const MAX_NODES: usize = 16;
+
+/// Whether node `j` sees the world point `p`: it projects into `j`'s image, where the depth seen
+/// is within 5 cm + 3 % of the point's.
+fn node_sees(cam: &crate::scene::Camera, depth: &DepthMap, p: DVec3) -> bool {
+    let Some((u, v)) = cam.pixel_of(p) else {
+        return false;
+    };
+    let Some(q) = depth.point_m(cam, u, v) else {
+        return false;
+    };
+    let (dq, dp) = ((q - cam.position_m).length(), (p - cam.position_m).length());
+    (dq - dp).abs() <= 0.05 + 0.03 * dp
+}
+
+/// Commissions one room from the capture sets of several nodes (each camera with its pose in
+/// the room's frame): one room model, and one [`Commissioned`] per node with that node's camera,
+/// depth and sensor flags (each node serves the desks it sees; every node's model holds the
+/// whole room).
+///
+/// Each node's depth is meshed on its own. The floor is one plane for the room: the first node
+/// that found a floor meshes it over the room box, its cells seen where any node saw floor, the
+/// rest inferred. Every other seen triangle is kept by the node nearest to it among those that
+/// see it, so a surface two nodes see is modelled once. Reflectances come from every node's
+/// frames, each at its camera's gain (several nodes need their gains in camera.json).
+pub fn from_captures(
+    captures: &[Capture],
+    luminaires: Vec<Luminaire>,
+    sensors: Vec<Sensor>,
+    desks: Option<Desks>,
+    o: &CommissionOptions,
+) -> Result<Vec<Commissioned>, CommissionError> {
     o.validate()?;
+    let Some(first) = captures.first() else {
+        return Err(CommissionError::Input("no capture set".into()));
+    };
+    if captures.len() > MAX_NODES {
+        return Err(CommissionError::Input(format!(
+            "{} capture sets (at most {MAX_NODES} nodes in one room)",
+            captures.len()
+        )));
+    }
     let mut report = Report {
-        warnings: capture.warnings.clone(),
+        warnings: captures.iter().flat_map(|c| c.warnings.clone()).collect(),
         ..Report::default()
     };
     if luminaires.is_empty() {
         return Err(CommissionError::Input("no luminaires".into()));
     }
-    if capture.luminance.len() != luminaires.len()
-        || capture
-            .luminance
-            .iter()
-            .zip(&luminaires)
-            .any(|((id, _), l)| *id != l.id)
-    {
-        return Err(CommissionError::Input(
-            "the capture's luminance frames do not match the luminaires".into(),
-        ));
+    for (i, capture) in captures.iter().enumerate() {
+        let which = if captures.len() > 1 {
+            format!("capture set {} ({}): ", i + 1, capture.dir.display())
+        } else {
+            String::new()
+        };
+        if capture.luminance.len() != luminaires.len()
+            || capture
+                .luminance
+                .iter()
+                .zip(&luminaires)
+                .any(|((id, _), l)| *id != l.id)
+        {
+            return Err(CommissionError::Input(format!(
+                "{which}the capture's luminance frames do not match the luminaires"
+            )));
+        }
+        let cam = &capture.camera;
+        cam.check()
+            .map_err(|m| CommissionError::Input(format!("{which}camera intrinsics: {m}")))?;
+        if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
+            return Err(CommissionError::Input(format!(
+                "{which}camera position: not finite or more than 10 km away"
+            )));
+        }
+        if captures.len() > 1 {
+            if !matches!(o.gain, Gain::Camera) {
+                return Err(CommissionError::Input(
+                    "several capture sets: each camera's gain must come from its camera.json \
+                     (a luxmeter or ambient-sensor gain is for one node)"
+                        .into(),
+                ));
+            }
+            if !cam
+                .luminance_cd_m2_per_unit
+                .is_some_and(|g| g.is_finite() && g > 0.0)
+            {
+                return Err(CommissionError::Input(format!(
+                    "{which}camera.json has no luminance_cd_m2_per_unit (several nodes need \
+                     every camera's gain)"
+                )));
+            }
+        }
     }
-    let cam = capture.camera.clone();
-    cam.check()
-        .map_err(|m| CommissionError::Input(format!("camera intrinsics: {m}")))?;
-    if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
-        return Err(CommissionError::Input(
-            "camera position: not finite or more than 10 km away".into(),
-        ));
-    }
+    let cam = first.camera.clone();
 
     let st = Stage::start("depth", o.progress);
-    let depth = depth::fuse(&capture.depth_mm, &o.depth)?;
-    report.depth = depth.stats;
+    let depths: Vec<DepthMap> = captures
+        .iter()
+        .map(|c| depth::fuse(&c.depth_mm, &o.depth))
+        .collect::<Result<_, _>>()?;
+    report.depth = depths[0].stats;
     st.done(&mut report);
 
     let st = Stage::start("planes", o.progress);
-    let grid = grid::PointGrid::new(&depth, &cam, o.grid_stride_px, o.depth.edge_rel);
-    let found = planes::detect(&grid, &cam, &o.planes);
+    let grids: Vec<grid::PointGrid> = captures
+        .iter()
+        .zip(&depths)
+        .map(|(c, d)| grid::PointGrid::new(d, &c.camera, o.grid_stride_px, o.depth.edge_rel))
+        .collect();
+    let founds: Vec<Vec<planes::Plane>> = captures
+        .iter()
+        .zip(&grids)
+        .map(|(c, g)| planes::detect(g, &c.camera, &o.planes))
+        .collect();
     st.done(&mut report);
 
     let st = Stage::start("mesh", o.progress);
-    // the floor: the lowest large horizontal plane
-    let floor_idx = found
+    // the floor: the lowest large horizontal plane, per node
+    let floor_of: Vec<Option<usize>> = founds
         .iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_horizontal() && p.nodes.len() >= 100)
-        .min_by(|a, b| a.1.origin_m.z.total_cmp(&b.1.origin_m.z))
-        .map(|(k, _)| k);
-    let seen_pts: Vec<DVec3> = grid.points_m.iter().flatten().copied().collect();
-    let floor_z = match floor_idx {
-        Some(k) => found[k].origin_m.z,
+        .map(|found| {
+            found
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.is_horizontal() && p.nodes.len() >= 100)
+                .min_by(|a, b| a.1.origin_m.z.total_cmp(&b.1.origin_m.z))
+                .map(|(k, _)| k)
+        })
+        .collect();
+    // the node that meshes the room's floor
+    let floor_node = floor_of.iter().position(Option::is_some);
+    let seen_pts: Vec<DVec3> = grids
+        .iter()
+        .flat_map(|g| g.points_m.iter().flatten().copied())
+        .collect();
+    let floor_z = match floor_node.and_then(|i| floor_of[i].map(|k| founds[i][k].origin_m.z)) {
+        Some(z) => z,
         None => {
             report
                 .warnings
@@ -516,7 +611,10 @@ pub fn from_capture(
         .then(|| closure::room_box(&seen_pts, floor_z, &luminaires, &sensors, &o.closure));
     if let Some(r) = &room {
         // bounded work: a wrong calibration or pose never becomes a room of kilometres
-        r.check(cam.position_m).map_err(CommissionError::Input)?;
+        for c in captures {
+            r.check(c.camera.position_m)
+                .map_err(CommissionError::Input)?;
+        }
         let quads = r.closure_quads(o.mesh.patch_size_m);
         if quads > closure::MAX_CLOSURE_QUADS as f64 {
             return Err(CommissionError::Input(format!(
@@ -526,53 +624,120 @@ pub fn from_capture(
             )));
         }
     }
-    let mesh_options = MeshOptions {
-        wide_angle: o.mesh.wide_angle || cam.lens.is_fisheye(),
-        ..o.mesh
-    };
+    // floor seen by the other nodes: marks the floor node's raster
+    let other_floor_m: Vec<DVec3> = floor_of
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| Some(i) != floor_node)
+        .filter_map(|(i, k)| k.map(|k| (i, k)))
+        .flat_map(|(i, k)| {
+            founds[i][k]
+                .nodes
+                .iter()
+                .filter_map(|&n| grids[i].points_m[n])
+                .collect::<Vec<_>>()
+        })
+        .collect();
     let mut reco = RecoMesh::default();
-    let mut on_plane = vec![false; grid.points_m.len()];
-    for (k, p) in found.iter().enumerate() {
-        let before = reco.tris.len();
-        let is_floor = Some(k) == floor_idx;
-        mesh::mesh_plane(
-            &mut reco,
-            &grid,
-            p,
-            k as u32,
-            &mesh_options,
-            room.filter(|_| is_floor).map(|r| r.xy_m),
-            is_floor.then_some(Part::FloorFill),
-        );
-        for &i in &p.nodes {
-            on_plane[i] = true;
+    // per global plane index: (normal, origin), and the room's floor plane
+    let mut plane_at: Vec<(DVec3, DVec3)> = Vec::new();
+    let mut floor_idx: Option<usize> = None;
+    let mut node_meshes: Vec<RecoMesh> = Vec::with_capacity(captures.len());
+    for (i, capture) in captures.iter().enumerate() {
+        let node_cam = &capture.camera;
+        let mesh_options = MeshOptions {
+            wide_angle: o.mesh.wide_angle || node_cam.lens.is_fisheye(),
+            ..o.mesh
+        };
+        let (grid, found) = (&grids[i], &founds[i]);
+        let mut node = RecoMesh::default();
+        let mut on_plane = vec![false; grid.points_m.len()];
+        for (k, p) in found.iter().enumerate() {
+            let kg = plane_at.len() as u32;
+            plane_at.push((p.normal, p.origin_m));
+            let is_floor = Some(k) == floor_of[i];
+            let before = node.tris.len();
+            if is_floor && Some(i) == floor_node {
+                floor_idx = Some(kg as usize);
+            }
+            // another node's floor is the floor node's (marked in its raster)
+            if !is_floor || Some(i) == floor_node {
+                mesh::mesh_plane(
+                    &mut node,
+                    grid,
+                    p,
+                    kg,
+                    &mesh_options,
+                    room.filter(|_| is_floor).map(|r| r.xy_m),
+                    is_floor.then_some(Part::FloorFill),
+                    if is_floor { &other_floor_m } else { &[] },
+                );
+            }
+            for &n in &p.nodes {
+                on_plane[n] = true;
+            }
+            let tris = before..node.tris.len();
+            let area = tris
+                .clone()
+                .filter(|&t| node.part[t] == Part::Plane(kg))
+                .map(|t| node.area_m2(t))
+                .sum();
+            report.planes.push(PlaneSummary {
+                normal: p.normal,
+                origin_m: p.origin_m,
+                area_m2: area,
+                triangles: tris.len(),
+                rms_m: p.rms_m,
+            });
         }
-        let tris = before..reco.tris.len();
-        let area = tris
-            .clone()
-            .filter(|&t| reco.part[t] == Part::Plane(k as u32))
-            .map(|t| reco.area_m2(t))
-            .sum();
-        report.planes.push(PlaneSummary {
-            normal: p.normal,
-            origin_m: p.origin_m,
-            area_m2: area,
-            triangles: tris.len(),
-            rms_m: p.rms_m,
-        });
+        mesh::mesh_rest(&mut node, grid, &on_plane, node_cam.position_m, &o.mesh);
+        node_meshes.push(node);
     }
-    mesh::mesh_rest(&mut reco, &grid, &on_plane, cam.position_m, &o.mesh);
+    if node_meshes.len() == 1 {
+        reco = node_meshes.pop().unwrap_or_default();
+    } else {
+        // a surface several nodes see is kept by the nearest of them
+        for (i, node) in node_meshes.iter().enumerate() {
+            for (t, tri) in node.tris.iter().enumerate() {
+                let part = node.part[t];
+                let [a, b, c] = tri.map(|v| node.positions_m[v as usize]);
+                let centre = (a + b + c) / 3.0;
+                let on_floor = matches!(part, Part::FloorFill)
+                    || Some(part) == floor_idx.map(|k| Part::Plane(k as u32));
+                let d_i = (centre - captures[i].camera.position_m).length();
+                let nearer_elsewhere =
+                    captures
+                        .iter()
+                        .zip(&depths)
+                        .enumerate()
+                        .any(|(j, (cj, dj))| {
+                            j != i && {
+                                let d_j = (centre - cj.camera.position_m).length();
+                                (d_j < d_i || (d_j == d_i && j < i))
+                                    && node_sees(&cj.camera, dj, centre)
+                            }
+                        });
+                if !on_floor && nearer_elsewhere {
+                    continue;
+                }
+                let base = reco.positions_m.len() as u32;
+                reco.positions_m.extend([a, b, c]);
+                reco.tris.push([base, base + 1, base + 2]);
+                reco.part.push(part);
+            }
+        }
+    }
     st.done(&mut report);
 
     let st = Stage::start("closure", o.progress);
     if let Some(r) = &room {
-        let thin: Vec<(u32, DVec3)> = found
+        let thin: Vec<(u32, DVec3)> = plane_at
             .iter()
             .enumerate()
-            .filter(|&(k, p)| {
-                Some(k) != floor_idx && closure::is_thin_object(r, p.normal, p.origin_m)
+            .filter(|&(k, &(normal, origin))| {
+                Some(k) != floor_idx && closure::is_thin_object(r, normal, origin)
             })
-            .map(|(k, p)| (k as u32, p.normal))
+            .map(|(k, &(normal, _))| (k as u32, normal))
             .collect();
         closure::hidden_faces(&mut reco, &thin);
         report.hidden_faces = thin.len();
@@ -612,7 +777,7 @@ pub fn from_capture(
         })
         .collect();
     let make_scene = |rho: &[f64]| Scene {
-        name: capture
+        name: first
             .dir
             .canonicalize()
             .ok()
@@ -647,14 +812,21 @@ pub fn from_capture(
 
         let st = Stage::start("reflectances", o.progress);
         let caster = RayCaster::new(&pass_model.patches);
-        let samples = reflectance::sample(
-            capture,
+        let mut samples = reflectance::sample(
+            first,
             &luminaires,
             &pass_model,
             &caster,
             &reco,
             &o.reflectance,
         );
+        // the other nodes' pixels, in the first camera's units
+        let g0 = cam.luminance_cd_m2_per_unit.unwrap_or(1.0);
+        for c in &captures[1..] {
+            let more =
+                reflectance::sample(c, &luminaires, &pass_model, &caster, &reco, &o.reflectance);
+            samples.extend(more, c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0);
+        }
         let floor_part = floor_idx.map(|k| Part::Plane(k as u32));
         let run = |gain: f64| {
             reflectance::estimate(
@@ -677,7 +849,7 @@ pub fn from_capture(
                 response,
                 ..
             } => match ambient::direct_gain(
-                capture,
+                first,
                 response,
                 DVec3::from_array(*normal),
                 *lux_lx,
@@ -875,15 +1047,26 @@ pub fn from_capture(
     }
     st.done(&mut report);
 
-    let flags = sensor_flags_for(&scene, &depth, &reco, &model);
-    Ok(Commissioned {
-        scene,
-        model,
-        reco,
-        depth,
-        sensor_flags: flags,
-        report,
-    })
+    // one per node: its camera, depth and view of the desks; the room's model
+    Ok(captures
+        .iter()
+        .zip(depths)
+        .map(|(c, depth)| {
+            let scene = Scene {
+                camera: Some(c.camera.clone()),
+                ..scene.clone()
+            };
+            let flags = sensor_flags_for(&scene, &depth, &reco, &model);
+            Commissioned {
+                scene,
+                model: model.clone(),
+                reco: reco.clone(),
+                depth,
+                sensor_flags: flags,
+                report: report.clone(),
+            }
+        })
+        .collect())
 }
 
 /// Flags per sensor: out of view when the camera does not see its position (outside the

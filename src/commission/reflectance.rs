@@ -92,6 +92,23 @@ pub struct Samples {
     pub e_dir_lx: Vec<Vec<f64>>,
 }
 
+impl Samples {
+    /// Appends another camera's samples, their frame values times `scale` (its gain over this
+    /// camera's).
+    pub fn extend(&mut self, other: Samples, scale: f64) {
+        self.pixel.extend(other.pixel);
+        self.patch.extend(other.patch);
+        self.tri.extend(other.tri);
+        self.value.extend(
+            other
+                .value
+                .into_iter()
+                .map(|v| v.into_iter().map(|x| x * scale).collect::<Vec<f64>>()),
+        );
+        self.e_dir_lx.extend(other.e_dir_lx);
+    }
+}
+
 /// Outcome of an estimate.
 #[derive(Debug, Clone, Default)]
 pub struct Estimate {
