@@ -459,3 +459,53 @@ fn spherical_harmonic_reflectance_fit_on_the_clean_capture() {
     let floor = c.report.reflectance.floor_rho.expect("floor");
     assert!((floor - 0.25).abs() < 0.02, "floor {floor}");
 }
+
+#[test]
+fn several_capture_sets_are_checked_before_any_work() {
+    let d = scene_dir();
+    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
+        .expect("luminaires");
+    let (sensors, _) =
+        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
+    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
+    let cap = Capture::load(&d.join("capture"), &ids).expect("capture");
+    let go = |caps: &[Capture], o: &CommissionOptions| {
+        commission::from_captures(caps, lums.clone(), sensors.clone(), None, o)
+            .map(|v| v.len())
+            .map_err(|e| e.to_string())
+    };
+    let o = CommissionOptions::default();
+    assert!(go(&[], &o).unwrap_err().contains("no capture set"));
+    // more nodes than one room takes: refused at once, nothing fused
+    let t0 = std::time::Instant::now();
+    let many = vec![cap.clone(); commission::MAX_NODES + 1];
+    assert!(go(&many, &o).unwrap_err().contains("at most 16 nodes"));
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+    // a luxmeter gain is for one node
+    let lux = CommissionOptions {
+        gain: Gain::Luxmeter {
+            sensor_id: 7,
+            lux_lx: 1000.0,
+            levels: vec![1.0; 8],
+        },
+        ..CommissionOptions::default()
+    };
+    let pair = [cap.clone(), cap.clone()];
+    assert!(go(&pair, &lux).unwrap_err().contains("camera.json"));
+    // every camera needs its gain
+    let mut no_gain = cap.clone();
+    no_gain.camera.luminance_cd_m2_per_unit = None;
+    let e = go(&[cap.clone(), no_gain], &o).unwrap_err();
+    assert!(
+        e.contains("capture set 2") && e.contains("luminance_cd_m2_per_unit"),
+        "{e}"
+    );
+    // a camera at a wrong pose in the second set: which set says so
+    let mut far = cap.clone();
+    far.camera.position_m.x = f64::NAN;
+    let e = go(&[cap, far], &o).unwrap_err();
+    assert!(
+        e.contains("capture set 2") && e.contains("camera position"),
+        "{e}"
+    );
+}
