@@ -716,3 +716,160 @@ fn the_bms_reads_a_simulated_day_of_live_light() {
         "recommissioning advised before the change had lasted 30 frames"
     );
 }
+
+/// Two nodes in one room (issue 18): two simulated pinhole nodes over the two halves of the
+/// demo office each capture the room with their own cameras (`luxnode run --capture-to`); the
+/// capture sets are commissioned together on "a laptop" (`luxnode commission --board --capture
+/// A --capture B --out a.img --out b.img`); each node installs its image (`--image`) and
+/// serves. The BMS reads both: the same room model in both nodes' core registers, and between
+/// them more desks measured by a camera than either node alone sees.
+#[test]
+fn two_nodes_in_one_room_each_serve_their_desks() {
+    use luxnode::modbus::regmap::addr;
+    let dir = tempfile::tempdir().unwrap();
+    let sim = std::fs::read_to_string(sim_board()).unwrap();
+    // the demo office's own pinhole camera, moved over each half of the room
+    let board_at = |name: &str, x: f64| {
+        let text = sim
+            .replace("model = \"kannala_brandt\"", "model = \"pinhole\"")
+            .replace("fx = 105.0", "fx = 160.0")
+            .replace("fy = 105.0", "fy = 160.0")
+            .replace("k = [0.03, -0.008, 0.0005, 0.0]\n", "")
+            .replace(
+                "tilt_deg = 0.0",
+                &format!("tilt_deg = 0.0\nposition_m = [{x}, 3.0, 2.78]"),
+            );
+        assert!(text.contains("position_m = [") && !text.contains("k = ["));
+        let p = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&p, format!("{text}\n[live]\nperiod_s = 1.0\n")).unwrap();
+        p
+    };
+    let (board_a, board_b) = (board_at("a", 2.0), board_at("b", 6.0));
+    let path = |f: &str| dir.path().join(f);
+    for (board, cap) in [(&board_a, "cap_a"), (&board_b, "cap_b")] {
+        let flash = path(&format!("{cap}.flash"));
+        let out = Command::new(LUXNODE)
+            .args(["run", "--board"])
+            .arg(board)
+            .arg("--flash")
+            .arg(&flash)
+            .arg("--capture-to")
+            .arg(path(cap))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(path(cap).join("camera.json").exists());
+        assert!(!flash.exists(), "capturing writes no image");
+    }
+    let out = Command::new(LUXNODE)
+        .args(["commission", "--board"])
+        .arg(&board_a)
+        .arg("--capture")
+        .arg(path("cap_a"))
+        .arg("--capture")
+        .arg(path("cap_b"))
+        .arg("--out")
+        .arg(path("a.img"))
+        .arg("--out")
+        .arg(path("b.img"))
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{log}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // a file that is not an image is refused before the node starts
+    std::fs::write(path("junk.img"), b"not an image").unwrap();
+    let (code, text) = node_to_exit(&board_a, &path("junk.flash"), &["--image", "x"]);
+    assert_ne!(code, Some(0), "{text}");
+    let (code, text) = node_to_exit(
+        &board_a,
+        &path("junk.flash"),
+        &["--image", path("junk.img").to_str().unwrap()],
+    );
+    assert_ne!(code, Some(0));
+    assert!(text.contains("not a valid flash image"), "{text}");
+
+    let na = node(
+        &board_a,
+        &path("a.flash"),
+        &["--image", path("a.img").to_str().unwrap()],
+    );
+    let nb = node(
+        &board_b,
+        &path("b.flash"),
+        &["--image", path("b.img").to_str().unwrap()],
+    );
+    rt().block_on(async {
+        let (mut ca, mut cb) = (bms(na.addr).await, bms(nb.addr).await);
+        for c in [&mut ca, &mut cb] {
+            c.write_multiple_registers(addr::ARC_LEVEL, &[254; 6])
+                .await
+                .unwrap()
+                .unwrap();
+        }
+        tokio::time::sleep(Duration::from_secs(3)).await;
+        let read = async |c: &mut Context| {
+            (
+                floats_abcd(&input(c, addr::DESK_FLOAT, 14).await),
+                floats_abcd(&input(c, addr::LIVE_TOTAL_FLOAT, 14).await),
+                input(c, addr::LIVE_SOURCE, 7).await,
+            )
+        };
+        let t0 = Instant::now();
+        let ((model_a, live_a, src_a), (model_b, live_b, src_b)) = loop {
+            let (a, b) = (read(&mut ca).await, read(&mut cb).await);
+            let measured = |s: &[u16]| s.iter().filter(|&&x| x == 1).count();
+            if (measured(&a.2) >= 2 && measured(&b.2) >= 2) || t0.elapsed().as_secs() > 60 {
+                break (a, b);
+            }
+            tokio::time::sleep(Duration::from_millis(500)).await;
+        };
+        eprintln!(
+            "node a: model {model_a:.1?} live {live_a:.1?} source {src_a:?}\n\
+             node b: model {model_b:.1?} live {live_b:.1?} source {src_b:?}"
+        );
+        // one room model in both nodes
+        for k in 0..7 {
+            assert!(
+                (model_a[k] / model_b[k] - 1.0).abs() < 1e-3,
+                "desk {k}: {} vs {}",
+                model_a[k],
+                model_b[k]
+            );
+        }
+        let measured_a: Vec<usize> = (0..7).filter(|&k| src_a[k] == 1).collect();
+        let measured_b: Vec<usize> = (0..7).filter(|&k| src_b[k] == 1).collect();
+        let either = (0..7)
+            .filter(|k| measured_a.contains(k) || measured_b.contains(k))
+            .count();
+        assert!(
+            measured_a.len() >= 2 && measured_b.len() >= 2,
+            "{src_a:?} {src_b:?}"
+        );
+        assert!(
+            either > measured_a.len().max(measured_b.len()),
+            "{src_a:?} {src_b:?}"
+        );
+        for (m, live, model) in [
+            (&measured_a, &live_a, &model_a),
+            (&measured_b, &live_b, &model_b),
+        ] {
+            for &k in m.iter() {
+                let e = live[k] / model[k] - 1.0;
+                assert!(
+                    e.abs() < 0.12,
+                    "desk {k}: live {} model {}",
+                    live[k],
+                    model[k]
+                );
+            }
+        }
+    });
+}

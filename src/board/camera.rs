@@ -20,6 +20,7 @@
 //! cy = 119.5
 //! k = [0.02, -0.005, 0.0, 0.0]     # Kannala-Brandt k1..k4 (fisheye only)
 //! tilt_deg = 0.0            # optional tilt of the optical axis about the camera's x axis
+//! position_m = [2.0, 3.0, 2.78]  # optional: the camera's place in the room (one of several nodes)
 //! [camera.replay]
 //! dir = "../../../shared/scenes/office_a/capture_clean"
 //! [camera.tof]              # source = "hardware"
@@ -114,7 +115,7 @@ pub enum CameraBoard {
 }
 
 /// A camera's optics from a board file: intrinsics, lens and a tilt, applied to a scene's
-/// camera (its position and orientation kept, then tilted).
+/// camera (its orientation kept, then tilted; its position kept unless given).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Optics {
     /// Image width, pixels.
@@ -127,6 +128,9 @@ pub struct Optics {
     pub lens: crate::scene::Lens,
     /// Rotation of the optical axis about the camera's x axis, rad.
     pub tilt_rad: f64,
+    /// Where the camera is in the room, m (one of several nodes in a room); None: the
+    /// scene's camera's position.
+    pub position_m: Option<[f64; 3]>,
 }
 
 impl Optics {
@@ -143,6 +147,9 @@ impl Optics {
             height: self.height,
             lens: self.lens,
             world_from_camera: base.world_from_camera * tilt,
+            position_m: self
+                .position_m
+                .map_or(base.position_m, glam::DVec3::from_array),
             ..base.clone()
         }
     }
@@ -527,11 +534,16 @@ struct OpticsToml {
     k: Option<[f64; 4]>,
     #[serde(default)]
     tilt_deg: f64,
+    #[serde(default)]
+    position_m: Option<[f64; 3]>,
 }
 
 fn default_model() -> String {
     "pinhole".into()
 }
+
+/// A board's camera position coordinate, at most, m (a building's floor, not a city).
+pub const MAX_CAMERA_COORDINATE_M: f64 = 1000.0;
 
 #[cfg_attr(not(feature = "sim"), allow(dead_code))]
 fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
@@ -550,12 +562,23 @@ fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
             o.tilt_deg
         ));
     }
+    if let Some(p) = o.position_m
+        && !p
+            .iter()
+            .all(|x| x.is_finite() && x.abs() <= MAX_CAMERA_COORDINATE_M)
+    {
+        return err(format!(
+            "{what}.position_m {p:?} must be finite and within ±{MAX_CAMERA_COORDINATE_M} m \
+             (the camera's place in the room's frame)"
+        ));
+    }
     Ok(Optics {
         width: o.width,
         height: o.height,
         intrinsics_px: [o.fx, o.fy, o.cx, o.cy],
         lens,
         tilt_rad: o.tilt_deg.to_radians(),
+        position_m: o.position_m,
     })
 }
 

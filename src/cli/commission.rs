@@ -24,11 +24,14 @@ pub struct Args {
     #[arg(long, required = true)]
     capture: Vec<PathBuf>,
     /// luminaires.json (installed positions and photometry).
-    #[arg(long)]
-    luminaires: PathBuf,
+    #[arg(long, required_unless_present = "board")]
+    luminaires: Option<PathBuf>,
     /// sensors.json (the desk points to answer for).
-    #[arg(long)]
-    sensors: PathBuf,
+    #[arg(long, required_unless_present = "board")]
+    sensors: Option<PathBuf>,
+    /// The luminaires, sensors and desks of this board file's room instead (its `[scene]`).
+    #[arg(long, conflicts_with_all = ["luminaires", "sensors", "desks"])]
+    board: Option<PathBuf>,
     /// desks.json, for the report's desk outlines and desk lux.
     #[arg(long)]
     desks: Option<PathBuf>,
@@ -139,15 +142,26 @@ impl Args {
 pub fn run(a: &Args) -> Result<()> {
     let t0 = std::time::Instant::now();
     let load = LoadOptions::default();
-    let (lums, w1) = load_luminaires_file(&a.luminaires, &load)?;
-    let (sensors, w2) = load_sensors_file(&a.sensors, &load)?;
-    let desks = match &a.desks {
-        Some(p) => Some(load_desks_file(p, &load)?),
-        None => None,
+    let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
+        (Some(b), _, _) => {
+            let board = luxnode::board::Board::load(b)?;
+            let scene = super::run::board_scene(&board)?;
+            (scene.luminaires, scene.sensors, scene.desks)
+        }
+        (None, Some(l), Some(s)) => {
+            let (lums, w1) = load_luminaires_file(l, &load)?;
+            let (sensors, w2) = load_sensors_file(s, &load)?;
+            for w in w1.iter().chain(&w2) {
+                tracing::warn!("{w}");
+            }
+            let desks = match &a.desks {
+                Some(p) => Some(load_desks_file(p, &load)?),
+                None => None,
+            };
+            (lums, sensors, desks)
+        }
+        _ => anyhow::bail!("--luminaires and --sensors, or --board"),
     };
-    for w in w1.iter().chain(&w2) {
-        tracing::warn!("{w}");
-    }
     let o = a.options(lums.len())?;
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
     if a.out.len() != a.capture.len() {

@@ -58,6 +58,15 @@ pub struct Args {
     /// Commission from the board's CAD scene instead of its cameras.
     #[arg(long)]
     pub cad: bool,
+    /// Capture the room with the board's cameras (the commissioning sequence), save the capture
+    /// set in this directory and exit, without commissioning: the node's part of commissioning
+    /// several nodes of one room together (`luxnode commission --capture A --capture B ...`).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["cad", "image"])]
+    pub capture_to: Option<PathBuf>,
+    /// Install this flash image (commissioned elsewhere: the room's nodes together) as the next
+    /// generation, then serve it.
+    #[arg(long, value_name = "IMAGE", conflicts_with = "cad")]
+    pub image: Option<PathBuf>,
     /// Test only (HIL): the simulated power fails after this many bytes of the image write.
     #[cfg(feature = "sim")]
     #[arg(long, hide = true)]
@@ -250,21 +259,94 @@ fn commission_source(
         luminaires: scene.luminaires.clone(),
         sensors: scene.sensors.clone(),
         desks: scene.desks.clone(),
-        sequence: match &board.camera {
-            // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
-            CameraBoard::Hardware { .. } => SequenceOptions {
-                registration: board.camera.registration().cloned(),
-                settle: Duration::from_millis(500),
-                discard_after_switch: 2,
-                ..SequenceOptions::default()
-            },
-            _ => SequenceOptions::default(),
-        },
+        sequence: sequence_options(board),
         commission,
         image,
         report,
         ambient,
     }))
+}
+
+/// The room a board serves: its luminaires, sensors and desks (and, simulated, its geometry).
+pub(crate) fn board_scene(board: &Board) -> Result<Scene> {
+    Ok(match &board.scene {
+        SceneSource::DemoOffice => demo_office()?,
+        SceneSource::Directory(dir) => luxnode::scene::Scene::load(dir, &Default::default())
+            .with_context(|| format!("board {} scene", board.name))?,
+    })
+}
+
+/// The capture sequence's settings for a board's cameras.
+fn sequence_options(board: &Board) -> SequenceOptions {
+    match &board.camera {
+        // lamp run-up / DALI fade, and auto exposure catching up, on real hardware
+        CameraBoard::Hardware { .. } => SequenceOptions {
+            registration: board.camera.registration().cloned(),
+            settle: Duration::from_millis(500),
+            discard_after_switch: 2,
+            ..SequenceOptions::default()
+        },
+        _ => SequenceOptions::default(),
+    }
+}
+
+/// `--capture-to`: the commissioning capture with the board's cameras and lights, saved.
+fn capture_to(board: &Board, scene: &Scene, dir: &std::path::Path) -> Result<ExitCode> {
+    let light: LightSlot = Arc::new(Mutex::new(None));
+    let mut hook = None;
+    let Some((what, mut depth, mut colour, mut lights)) =
+        rig(board, scene, None, &light, &mut hook)?
+    else {
+        bail!(
+            "board {}: capturing switches the luminaires one at a time through the DALI \
+             gateway, and the board has no [gateway]",
+            board.name
+        );
+    };
+    let ids: Vec<u32> = scene.luminaires.iter().map(|l| l.id).collect();
+    let t0 = std::time::Instant::now();
+    let seq = luxnode::camera::capture_sequence_with(
+        depth.as_mut(),
+        colour.as_mut(),
+        lights.as_mut(),
+        &ids,
+        &sequence_options(board),
+        &mut |_, _, _| {},
+    )?;
+    luxnode::camera::save_capture(dir, &seq.capture, seq.all_on.as_ref())
+        .with_context(|| format!("saving the capture set in {}", dir.display()))?;
+    println!(
+        "{}: {} depth frames and {} luminance frames from {what} in {:.2} s, {} retries",
+        dir.display(),
+        seq.capture.depth_mm.len(),
+        seq.capture.luminance.len(),
+        t0.elapsed().as_secs_f64(),
+        seq.retries_used
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The largest image file `--image` reads, bytes (a flash image region is a few MiB).
+const MAX_IMAGE_FILE_BYTES: u64 = 64 << 20;
+
+/// `--image`: the image file, read within bounds and checked.
+fn image_file(path: &std::path::Path) -> Result<luxnode::daemon::ImageFile> {
+    let len = std::fs::metadata(path)
+        .with_context(|| format!("--image {}", path.display()))?
+        .len();
+    if len > MAX_IMAGE_FILE_BYTES {
+        bail!(
+            "--image {}: {len} bytes, more than any flash image ({MAX_IMAGE_FILE_BYTES})",
+            path.display()
+        );
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("--image {}", path.display()))?;
+    luxnode::store::Image::parse(&bytes)
+        .map_err(|e| anyhow::anyhow!("--image {}: not a valid flash image: {e}", path.display()))?;
+    Ok(luxnode::daemon::ImageFile {
+        path: path.to_path_buf(),
+        bytes,
+    })
 }
 
 /// The board's cameras and lights over `scene` (the simulated world with the board's optics, a
@@ -379,11 +461,10 @@ pub fn run(args: &Args) -> Result<ExitCode> {
             ))
         );
     }
-    let scene = match &board.scene {
-        SceneSource::DemoOffice => demo_office()?,
-        SceneSource::Directory(dir) => luxnode::scene::Scene::load(dir, &Default::default())
-            .with_context(|| format!("board {} scene", board.name))?,
-    };
+    let scene = board_scene(&board)?;
+    if let Some(dir) = &args.capture_to {
+        return capture_to(&board, &scene, dir);
+    }
     let image = {
         let st = board.preset.store();
         ImageOptions {
@@ -464,6 +545,9 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         &light,
         &mut peripherals.levels_hook,
     )?;
+    if let Some(p) = &args.image {
+        source = Box::new(image_file(p)?);
+    }
     let seconds = args
         .seconds
         .map(|s| {
@@ -503,7 +587,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         flash_path,
         serve,
         companion,
-        recommission: args.recommission,
+        recommission: args.recommission || args.image.is_some(),
         reload: Some(reload),
         sensor_probe: sensor_probe(&board),
         live: live_task(&board),

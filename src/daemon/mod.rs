@@ -178,6 +178,25 @@ impl CommissionSource for Unavailable {
     }
 }
 
+/// An image commissioned elsewhere (several nodes of one room merged on a laptop or another
+/// node), checked when read, installed as the next generation.
+pub struct ImageFile {
+    /// Where it came from, for the log.
+    pub path: std::path::PathBuf,
+    /// The image.
+    pub bytes: Vec<u8>,
+}
+
+impl CommissionSource for ImageFile {
+    fn describe(&self) -> String {
+        format!("the image {}", self.path.display())
+    }
+
+    fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
+        Ok(self.bytes.clone())
+    }
+}
+
 /// A task that runs beside the servers once they listen (the sim board's simulated controller),
 /// given the bound Modbus TCP address.
 pub type Companion = Box<dyn FnOnce(SocketAddr) -> Pin<Box<dyn Future<Output = ()> + Send>> + Send>;
