@@ -1823,6 +1823,16 @@ mod fisheye {
                 "not known",
             ),
             ("width = 320", "width = 100000", "image size"),
+            (
+                "tilt_deg = 0.0",
+                "tilt_deg = 0.0\nposition_m = [1e9, 3.0, 2.78]",
+                "position_m",
+            ),
+            (
+                "tilt_deg = 0.0",
+                "tilt_deg = 0.0\nposition_m = [nan, 3.0, 2.78]",
+                "position_m",
+            ),
         ] {
             assert!(text.contains(from), "{from}");
             let f = dir.path().join("board.toml");
@@ -1830,5 +1840,20 @@ mod fisheye {
             let e = Board::load(&f).unwrap_err().to_string();
             assert!(e.contains(says), "{to}: {e}");
         }
+        // a node's place in the room moves the camera, nothing else
+        let f = dir.path().join("board.toml");
+        std::fs::write(
+            &f,
+            text.replace(
+                "tilt_deg = 0.0",
+                "tilt_deg = 0.0\nposition_m = [2.0, 3.0, 2.78]",
+            ),
+        )
+        .unwrap();
+        let moved = board_optics(f.to_str().unwrap());
+        let base = luxnode::sim::demo::demo_office().camera.unwrap();
+        let (c0, c1) = (o.apply(&base), moved.apply(&base));
+        assert_eq!(c1.position_m, DVec3::new(2.0, 3.0, 2.78));
+        assert_eq!((c1.fx, c1.world_from_camera), (c0.fx, c0.world_from_camera));
     }
 }
