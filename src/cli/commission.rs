@@ -204,8 +204,9 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     println!(
-        "mesh: {} triangles, seen {:.1} m², inferred {:.1} m²; {} patches in the final model",
-        r.triangles, r.seen_area_m2, r.inferred_area_m2, r.patches
+        "mesh: {} triangles, seen {:.1} m², inferred {:.1} m² (desk tops nobody saw {:.2} m²); \
+         {} patches in the final model",
+        r.triangles, r.seen_area_m2, r.inferred_area_m2, r.inferred_desk_m2, r.patches
     );
     if let Some(room) = &r.room {
         println!(

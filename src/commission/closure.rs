@@ -222,6 +222,123 @@ pub fn hidden_faces(out: &mut RecoMesh, thin: &[(u32, DVec3)]) {
     }
 }
 
+/// A desk sensor this far above the floor or more stands on furniture, m.
+pub const DESK_SENSOR_MIN_HEIGHT_M: f64 = 0.3;
+
+/// Side of the desk top inferred under a desk sensor that is on no desk of desks.json, m.
+pub const DEFAULT_DESK_SIDE_M: f64 = 0.6;
+
+/// Raster cell for finding the unseen part of a desk top, m.
+const DESK_CELL_M: f64 = 0.05;
+
+/// A seen surface within this height of a desk top is that desk top, m.
+const DESK_HEIGHT_TOLERANCE_M: f64 = 0.05;
+
+/// The desk tops to model, x0, x1, y0, y1 and height, m: every desk of desks.json, and a
+/// [`DEFAULT_DESK_SIDE_M`] square under each desk sensor that stands on none of them (on
+/// furniture: at least [`DESK_SENSOR_MIN_HEIGHT_M`] above the floor), inside the room box.
+pub fn desk_tops(
+    room: &RoomBox,
+    desks: &[crate::scene::Desk],
+    sensors: &[Sensor],
+) -> Vec<([f64; 2], [f64; 2], f64)> {
+    let [x0, y0, x1, y1] = room.xy_m;
+    let mut out: Vec<([f64; 2], [f64; 2], f64)> =
+        desks.iter().map(|d| (d.x_m, d.y_m, d.z_m)).collect();
+    for s in sensors {
+        let p = s.position_m;
+        let on_a_desk = out.iter().any(|(x, y, z)| {
+            (x[0]..=x[1]).contains(&p.x)
+                && (y[0]..=y[1]).contains(&p.y)
+                && (p.z - z).abs() < DESK_HEIGHT_TOLERANCE_M
+        });
+        if on_a_desk || p.z - room.floor_z_m < DESK_SENSOR_MIN_HEIGHT_M || s.normal.z < 0.9 {
+            continue;
+        }
+        let h = 0.5 * DEFAULT_DESK_SIDE_M;
+        let x = [(p.x - h).max(x0), (p.x + h).min(x1)];
+        let y = [(p.y - h).max(y0), (p.y + h).min(y1)];
+        if x[1] > x[0] && y[1] > y[0] {
+            out.push((x, y, p.z - 0.001));
+        }
+    }
+    out
+}
+
+/// Adds the parts of these desk tops that no seen surface covers ([`Part::DeskFill`], with a
+/// hidden face [`HIDDEN_FACE_DEPTH_M`] below): a desk the camera does not see still shades the
+/// floor and reflects light. A raster cell of a top is seen when a seen, upward-facing triangle
+/// within 5 cm of its height covers the cell's centre. Returns the area added, m².
+pub fn inferred_desk_tops(
+    out: &mut RecoMesh,
+    tops: &[([f64; 2], [f64; 2], f64)],
+    patch_size_m: f64,
+) -> f64 {
+    let seen: Vec<[DVec3; 3]> = (0..out.tris.len())
+        .filter(|&t| out.part[t].seen())
+        .map(|t| out.tris[t].map(|i| out.positions_m[i as usize]))
+        .filter(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero().z > 0.9)
+        .collect();
+    let inside = |p: DVec3, [a, b, c]: &[DVec3; 3]| {
+        let s = |u: DVec3, v: DVec3| (v.x - u.x) * (p.y - u.y) - (v.y - u.y) * (p.x - u.x);
+        let (d1, d2, d3) = (s(*a, *b), s(*b, *c), s(*c, *a));
+        (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+    };
+    let max_cells = (patch_size_m / DESK_CELL_M).floor().max(1.0) as usize;
+    let mut area = 0.0;
+    for &([x0, x1], [y0, y1], z) in tops {
+        if !(x1 > x0 && y1 > y0) {
+            continue;
+        }
+        let nx = (((x1 - x0) / DESK_CELL_M).ceil() as usize).clamp(1, 400);
+        let ny = (((y1 - y0) / DESK_CELL_M).ceil() as usize).clamp(1, 400);
+        let (cx, cy) = ((x1 - x0) / nx as f64, (y1 - y0) / ny as f64);
+        let near: Vec<&[DVec3; 3]> = seen
+            .iter()
+            .filter(|t| {
+                t.iter().all(|p| (p.z - z).abs() < DESK_HEIGHT_TOLERANCE_M)
+                    && t.iter().any(|p| p.x >= x0 - 1.0 && p.x <= x1 + 1.0)
+            })
+            .collect();
+        let unseen: Vec<bool> = (0..nx * ny)
+            .map(|i| {
+                let p = DVec3::new(
+                    x0 + ((i % nx) as f64 + 0.5) * cx,
+                    y0 + ((i / nx) as f64 + 0.5) * cy,
+                    z,
+                );
+                !near.iter().any(|t| inside(p, t))
+            })
+            .collect();
+        for (x, y, w, h) in rect_cover(&unseen, nx, ny, max_cells) {
+            let c = |i: usize, j: usize, zz: f64| {
+                DVec3::new(x0 + i as f64 * cx, y0 + j as f64 * cy, zz)
+            };
+            let (zt, zb) = (z, z - HIDDEN_FACE_DEPTH_M);
+            out.push_quad(
+                [
+                    c(x, y, zt),
+                    c(x + w, y, zt),
+                    c(x + w, y + h, zt),
+                    c(x, y + h, zt),
+                ],
+                Part::DeskFill,
+            );
+            out.push_quad(
+                [
+                    c(x, y, zb),
+                    c(x, y + h, zb),
+                    c(x + w, y + h, zb),
+                    c(x + w, y, zb),
+                ],
+                Part::DeskFill,
+            );
+            area += (w as f64 * cx) * (h as f64 * cy);
+        }
+    }
+    area
+}
+
 /// Adds walls, ceiling and black luminaire openings.
 pub fn close(out: &mut RecoMesh, room: &RoomBox, luminaires: &[Luminaire], o: &MeshOptions) {
     let [x0, y0, x1, y1] = room.xy_m;
@@ -339,5 +456,86 @@ mod tests {
                 assert!((p.z - (z - HIDDEN_FACE_DEPTH_M)).abs() < 1e-12);
             }
         }
+    }
+
+    #[test]
+    fn a_desk_top_is_inferred_where_nobody_saw_it() {
+        let r = room();
+        let desk = crate::scene::Desk {
+            id: 1,
+            group: "desk_1".into(),
+            x_m: [1.0, 2.6],
+            y_m: [1.0, 1.8],
+            z_m: 0.75,
+        };
+        // a sensor on a sideboard against the wall (on no desk), one on the floor, one on the desk
+        let sensor = |x: f64, y: f64, z: f64| Sensor {
+            id: 0,
+            position_m: DVec3::new(x, y, z),
+            normal: DVec3::Z,
+            note: String::new(),
+            response: Default::default(),
+        };
+        let sensors = [
+            sensor(0.1, 3.0, 0.801),
+            sensor(3.0, 3.0, 0.001),
+            sensor(1.5, 1.4, 0.751),
+        ];
+        let tops = desk_tops(&r, std::slice::from_ref(&desk), &sensors);
+        assert_eq!(tops.len(), 2, "{tops:?}");
+        // the sideboard's square is clipped by the wall at x = 0
+        let (x, y, z) = tops[1];
+        assert!(
+            (x[0] - 0.0).abs() < 1e-12 && (x[1] - 0.4).abs() < 1e-12,
+            "{x:?}"
+        );
+        assert!((y[1] - y[0] - DEFAULT_DESK_SIDE_M).abs() < 1e-12 && (z - 0.8).abs() < 1e-9);
+        // the camera saw the desk's left half: only the right half is inferred, top and
+        // underside
+        let mut m = RecoMesh::default();
+        let z = 0.75;
+        m.push_quad(
+            [
+                DVec3::new(1.0, 1.0, z),
+                DVec3::new(1.8, 1.0, z),
+                DVec3::new(1.8, 1.8, z),
+                DVec3::new(1.0, 1.8, z),
+            ],
+            Part::Plane(2),
+        );
+        let area = inferred_desk_tops(&mut m, &tops[..1], 1.0);
+        assert!((area - 0.64).abs() < 0.02, "{area}");
+        let (mut up, mut down) = (0.0, 0.0);
+        for t in 0..m.tris.len() {
+            if m.part[t] != Part::DeskFill {
+                continue;
+            }
+            let [a, b, c] = m.tris[t].map(|i| m.positions_m[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(a.x >= 1.75 && b.x >= 1.75 && c.x >= 1.75, "{a} {b} {c}");
+            if n.z > 0.0 {
+                up += m.area_m2(t);
+            } else {
+                down += m.area_m2(t);
+            }
+        }
+        assert!(
+            (up - area).abs() < 1e-9 && (down - area).abs() < 1e-9,
+            "{up} {down}"
+        );
+        // a desk fully seen adds nothing
+        let mut seen = m.clone();
+        seen.push_quad(
+            [
+                DVec3::new(1.8, 1.0, z),
+                DVec3::new(2.6, 1.0, z),
+                DVec3::new(2.6, 1.8, z),
+                DVec3::new(1.8, 1.8, z),
+            ],
+            Part::Plane(2),
+        );
+        let n = seen.tris.len();
+        assert_eq!(inferred_desk_tops(&mut seen, &tops[..1], 1.0), 0.0);
+        assert_eq!(seen.tris.len(), n);
     }
 }

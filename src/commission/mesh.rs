@@ -59,6 +59,9 @@ pub enum Part {
     Ceiling,
     /// A luminaire's opening (black).
     Opening(u32),
+    /// A desk top nobody saw, at its height from desks.json or under a desk sensor (closure;
+    /// the seen desk tops' reflectance).
+    DeskFill,
     /// The hidden face of seen plane k, a thin object (a desk's underside, a monitor's back;
     /// closure; the reflectance of plane k's seen face).
     HiddenFace(u32),
@@ -80,6 +83,7 @@ impl Part {
             Part::Ceiling => "ceiling_inferred".into(),
             Part::Opening(id) => format!("luminaire_{id}"),
             Part::HiddenFace(k) => format!("plane_{k}_hidden_face"),
+            Part::DeskFill => "desk_inferred".into(),
         }
     }
 }

@@ -312,6 +312,8 @@ pub struct Report {
     pub room: Option<RoomBox>,
     /// Seen planes modelled as thin objects with a hidden face (closure).
     pub hidden_faces: usize,
+    /// Desk top area nobody saw, modelled from desks.json and the desk sensors (closure), m².
+    pub inferred_desk_m2: f64,
     /// Reflectance estimate outcome.
     pub reflectance: Estimate,
     /// Patches of the final model.
@@ -741,6 +743,10 @@ pub fn from_captures(
             .collect();
         closure::hidden_faces(&mut reco, &thin);
         report.hidden_faces = thin.len();
+        let desk_list = desks.as_ref().map_or(&[][..], |d| &d.desks[..]);
+        let tops = closure::desk_tops(r, desk_list, &sensors);
+        report.inferred_desk_m2 =
+            closure::inferred_desk_tops(&mut reco, &tops, o.mesh.patch_size_m);
         closure::close(&mut reco, r, &luminaires, &o.mesh);
     }
     report.room = room;
@@ -828,6 +834,13 @@ pub fn from_captures(
             samples.extend(more, c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0);
         }
         let floor_part = floor_idx.map(|k| Part::Plane(k as u32));
+        // seen furniture tops: the inferred desk tops take their reflectance
+        let tops_seen: Vec<Part> = plane_at
+            .iter()
+            .enumerate()
+            .filter(|&(k, &(n, _))| Some(k) != floor_idx && n.z > 0.98)
+            .map(|(k, _)| Part::Plane(k as u32))
+            .collect();
         let run = |gain: f64| {
             reflectance::estimate(
                 &samples,
@@ -835,6 +848,7 @@ pub fn from_captures(
                 &reco,
                 &start_rho,
                 floor_part,
+                &tops_seen,
                 gain,
                 &pass,
                 &o.reflectance,

@@ -387,8 +387,9 @@ fn sh_pixels(
 
 /// Per-triangle reflectances for a gain, iterating with interreflections. `tri_rho` holds the
 /// starting values (unseen triangles keep theirs, except the inferred floor, which takes the
-/// seen floor's, and thin objects' hidden faces, which take their seen face's). `floor_plane`:
-/// the part of the floor plane.
+/// seen floor's, thin objects' hidden faces, which take their seen face's, and inferred desk
+/// tops, which take the seen furniture tops' `tops_seen`). `floor_plane`: the part of the floor
+/// plane.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate(
     samples: &Samples,
@@ -396,6 +397,7 @@ pub fn estimate(
     reco: &RecoMesh,
     tri_rho_start: &[f64],
     floor_plane: Option<Part>,
+    tops_seen: &[Part],
     gain: f64,
     settings: &Settings,
     o: &ReflectanceOptions,
@@ -447,6 +449,13 @@ pub fn estimate(
         }
         let mut all: Vec<f64> = by_part.values().flatten().copied().collect();
         let global = median(&mut all).unwrap_or(0.5);
+        let mut top_px: Vec<f64> = tops_seen
+            .iter()
+            .filter_map(|p| by_part.get(p))
+            .flatten()
+            .copied()
+            .collect();
+        let desk_rho = median(&mut top_px);
         let part_median: std::collections::HashMap<Part, f64> = by_part
             .into_iter()
             .map(|(k, mut v)| (k, median(&mut v).unwrap_or(global)))
@@ -466,13 +475,17 @@ pub fn estimate(
                 }
             } else if part == Part::FloorFill {
                 out.floor_rho.unwrap_or(global)
+            } else if part == Part::DeskFill {
+                desk_rho.unwrap_or(tri_rho_start[t])
             } else if let Part::HiddenFace(k) = part {
                 // the seen face's material
                 part_median.get(&Part::Plane(k)).copied().unwrap_or(global)
             } else {
                 tri_rho_start[t]
             };
-            let r = if part.seen() || matches!(part, Part::FloorFill | Part::HiddenFace(_)) {
+            let r = if part.seen()
+                || matches!(part, Part::FloorFill | Part::HiddenFace(_) | Part::DeskFill)
+            {
                 let c = raw.clamp(o.rho_min, o.rho_max);
                 if c != raw || !raw.is_finite() {
                     out.clamped += 1;
