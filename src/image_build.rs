@@ -470,6 +470,109 @@ pub fn build_for_region(
     Ok(bytes)
 }
 
+/// Room kept after the model for the sections that follow it (the live-light section) when an
+/// image is shrunk to fit, bytes. The live-light section adapts to the room it gets; below this
+/// it samples the seen surfaces too coarsely.
+pub const SECTION_RESERVE_BYTES: usize = 128 * 1024;
+
+/// The prune threshold [`fit_steps`] tries: free on office_a (docs/tradeoffs.md: 4 % fewer
+/// entries, the same error).
+pub const FIT_PRUNE_BELOW: f64 = 1e-4;
+
+/// The storage steps [`build_to_fit`] tries, in order: `options` as given; pruning at
+/// [`FIT_PRUNE_BELOW`]; 8-bit form factors; both. Each step is at least as small as the one
+/// before; none changes the geometry or the patches. u8 is as accurate as u16 on office_a
+/// (docs/tradeoffs.md) with less margin for rooms of high reflectance.
+pub fn fit_steps(options: &ImageOptions) -> Vec<ImageOptions> {
+    let prune = options.prune_below.max(FIT_PRUNE_BELOW);
+    let smaller = |p: Precision| {
+        if p.width() > Precision::U8.width() {
+            Precision::U8
+        } else {
+            p
+        }
+    };
+    let mut out = vec![options.clone()];
+    for (precision, prune_below) in [
+        (options.precision, prune),
+        (smaller(options.precision), options.prune_below),
+        (smaller(options.precision), prune),
+    ] {
+        let step = ImageOptions {
+            precision,
+            prune_below,
+            ..options.clone()
+        };
+        if !out.contains(&step) {
+            out.push(step);
+        }
+    }
+    out
+}
+
+/// An image shrunk to fit ([`build_to_fit`]).
+#[derive(Debug, Clone)]
+pub struct Fitted {
+    /// The image.
+    pub bytes: Vec<u8>,
+    /// The storage options it was built with.
+    pub options: ImageOptions,
+    /// The step of [`fit_steps`] used: 0 means `options` as given.
+    pub step: usize,
+    /// The size at `options` as given, bytes (when it was built).
+    pub first_bytes: Option<usize>,
+}
+
+/// Builds the image of a model to fit a flash region of `region_bytes` with `reserve_bytes`
+/// left for the sections that follow ([`SECTION_RESERVE_BYTES`]): the first of
+/// [`fit_steps`] that does; else the first that fits without the reserve; else the error of
+/// `options` as given, which names the knobs that would shrink the model itself (patch size,
+/// rays). Commissioning takes this when the engineer has not chosen a storage precision: a
+/// larger room, seen by several nodes, should not fail for a choice the node can make.
+pub fn build_to_fit(
+    model: &Model,
+    options: &ImageOptions,
+    region_bytes: usize,
+    reserve_bytes: usize,
+) -> Result<Fitted, BuildError> {
+    let mut first_fit: Option<Fitted> = None;
+    let mut first_error: Option<BuildError> = None;
+    let mut first_bytes: Option<usize> = None;
+    for (step, o) in fit_steps(options).into_iter().enumerate() {
+        match build_for_region(model, &o, region_bytes) {
+            Ok(bytes) => {
+                if step == 0 {
+                    first_bytes = Some(bytes.len());
+                }
+                let roomy = bytes.len().saturating_add(reserve_bytes) <= region_bytes;
+                let fitted = Fitted {
+                    bytes,
+                    options: o,
+                    step,
+                    first_bytes,
+                };
+                if roomy {
+                    return Ok(fitted);
+                }
+                if first_fit.is_none() {
+                    first_fit = Some(fitted);
+                }
+            }
+            Err(BuildError::TooLarge(m)) => {
+                if first_error.is_none() {
+                    first_error = Some(BuildError::TooLarge(m));
+                }
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    match (first_fit, first_error) {
+        (Some(f), _) => Ok(f),
+        (None, Some(e)) => Err(e),
+        (None, None) => Err(BuildError::Limits("no storage step to try".into())),
+    }
+}
+
 /// The `FORMFACTORS` region of `memory.x`, bytes.
 pub fn formfactors_region_bytes() -> usize {
     usize::try_from(crate::layout::FORMFACTORS_LEN_BYTES).unwrap_or(usize::MAX)

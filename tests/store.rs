@@ -469,3 +469,43 @@ fn runtime_rejects_bad_requests_without_writing() {
     .unwrap();
     assert_eq!(levels, [0.0, 1.0]);
 }
+
+/// An image that does not fit its region is shrunk by storage alone (pruning, then 8-bit form
+/// factors), keeping room for the sections after it, and still answers like the model; a region
+/// no storage step fits is the error that names the knobs.
+#[test]
+fn an_image_is_shrunk_to_fit_its_region_by_storage_alone() {
+    use luxnode::image_build::{BuildError, build_to_fit};
+    let model = office_a_model();
+    let o = ImageOptions::default();
+    let full = build_image(&model, &o).unwrap().len();
+    let reserve = 64 * 1024;
+    // room for the image as given: step 0, as build_image makes it
+    let f = build_to_fit(&model, &o, full + reserve, reserve).unwrap();
+    assert_eq!((f.step, f.bytes.len()), (0, full));
+    // a region 10 % short: a smaller step, within the region and its reserve
+    let region = full * 9 / 10;
+    let f = build_to_fit(&model, &o, region, reserve).unwrap();
+    assert!(f.step > 0, "step {}", f.step);
+    assert!(f.bytes.len() + reserve <= region, "{} bytes", f.bytes.len());
+    assert_eq!(f.first_bytes, None, "the image as given did not fit");
+    println!(
+        "{full} bytes at u16 -> {} bytes at {} with prune {:e} (step {})",
+        f.bytes.len(),
+        f.options.precision.name(),
+        f.options.prune_below,
+        f.step
+    );
+    let image = Image::parse(&f.bytes).unwrap();
+    let all_on = vec![1.0; model.luminaire_ids.len()];
+    let want = model.sensor_lux(&all_on).unwrap();
+    for (x, y) in want.iter().zip(lux(&image, &all_on)) {
+        // docs/tradeoffs.md: u8 and pruning at 1e-4 move office_a's error by < 0.01 points
+        assert!((x - y).abs() <= 2e-3 * x, "{x} vs {y}");
+    }
+    // a region no step fits: the error of the image as given
+    match build_to_fit(&model, &o, full / 4, reserve) {
+        Err(BuildError::TooLarge(m)) => assert!(m.contains("FORMFACTORS"), "{m}"),
+        other => panic!("{:?}", other.map(|f| f.bytes.len())),
+    }
+}

@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use luxnode::commission::{self, Capture, CommissionOptions, Gain, ReflectanceMethod};
 use luxnode::evaluate::{per_sensor, pooled, readings};
-use luxnode::image_build::{ImageOptions, build_for_region, formfactors_region_bytes};
+use luxnode::image_build::{
+    ImageOptions, SECTION_RESERVE_BYTES, build_for_region, build_to_fit, formfactors_region_bytes,
+};
 use luxnode::scene::{
     LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
 };
@@ -238,7 +240,29 @@ pub fn run(a: &Args) -> Result<()> {
             sensor_flags: flags.clone(),
             geometry: None,
         };
-        let bytes = build_for_region(&node.model, &options, formfactors_region_bytes())?;
+        let region = formfactors_region_bytes();
+        let bytes = if a.store.explicit() {
+            build_for_region(&node.model, &options, region)?
+        } else {
+            // the engineer chose no storage: shrink it to fit, keeping room for live light
+            let f = build_to_fit(&node.model, &options, region, SECTION_RESERVE_BYTES)?;
+            if f.step > 0 {
+                println!(
+                    "{}: stored at {} with form factors below {:.0e} dropped to fit the {:.2} MiB \
+                     flash region{} (--precision/--prune choose)",
+                    out.display(),
+                    f.options.precision.name(),
+                    f.options.prune_below,
+                    region as f64 / 1048576.0,
+                    f.first_bytes.map_or(String::new(), |b| format!(
+                        " with room for live light ({} would be {:.2} MiB)",
+                        options.precision.name(),
+                        b as f64 / 1048576.0
+                    ))
+                );
+            }
+            f.bytes
+        };
         // live light: the section that turns run-time frames into desk lux (docs/live.md)
         let bytes = luxnode::live::with_capture_section(bytes, node, cap);
         let image = Image::parse(&bytes)?;
@@ -265,6 +289,20 @@ pub fn run(a: &Args) -> Result<()> {
                     }
                 );
             }
+        }
+    }
+    if !r.uncertainty.is_empty() {
+        println!("sensor,stated_uncertainty_pct,all_on_lx,largest_source,its_share_pct");
+        for u in &r.uncertainty {
+            let (c, share) = u.dominant();
+            println!(
+                "{},{:.1},{:.0},{},{:.0}",
+                u.sensor_id,
+                100.0 * u.rel,
+                u.all_on_lx,
+                c.name(),
+                100.0 * share
+            );
         }
     }
     // for the error table: a sensor is in view when some node sees it

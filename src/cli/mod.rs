@@ -197,6 +197,12 @@ impl StoreArgs {
         set(&mut s.prune_below, self.prune);
         s
     }
+
+    /// True when the command line chose the storage (then an image that does not fit is an
+    /// error, not shrunk).
+    pub fn explicit(&self) -> bool {
+        self.precision.is_some() || self.prune.is_some()
+    }
 }
 
 /// `--precision`.

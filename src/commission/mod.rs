@@ -22,6 +22,7 @@ pub mod mesh;
 pub mod output;
 pub mod planes;
 pub mod reflectance;
+pub mod uncertainty;
 
 use std::time::{Duration, Instant};
 
@@ -127,6 +128,8 @@ pub struct CommissionOptions {
     pub gain: Gain,
     /// The final engine run.
     pub engine: Settings,
+    /// Standard uncertainties of the inferred reflectances, for each desk's stated uncertainty.
+    pub uncertainty: uncertainty::UncertaintyOptions,
     /// Spinners on stderr.
     pub progress: bool,
 }
@@ -144,6 +147,7 @@ impl Default for CommissionOptions {
             estimate_reflectances: true,
             gain: Gain::Camera,
             engine: Settings::default(),
+            uncertainty: uncertainty::UncertaintyOptions::default(),
             progress: false,
         }
     }
@@ -164,6 +168,9 @@ impl CommissionOptions {
                 return bad(name, format!("{v} must be a reflectance in [0, 1)"));
             }
         }
+        self.uncertainty
+            .check()
+            .map_err(|m| CommissionError::Input(format!("uncertainty: {m}")))?;
         let m = &self.mesh;
         if !(m.patch_size_m.is_finite() && (0.05..=100.0).contains(&m.patch_size_m)) {
             return bad(
@@ -324,6 +331,9 @@ pub struct Report {
     /// The ambient light sensor's direct comparison with the camera, where it sees only what the
     /// camera sees (then the gain came from it).
     pub ambient_direct: Option<ambient::DirectGain>,
+    /// Each desk sensor's stated uncertainty from what was inferred (empty when it could not
+    /// be computed: a warning says why).
+    pub uncertainty: Vec<uncertainty::SensorUncertainty>,
     /// Warnings (also those of the capture).
     pub warnings: Vec<String>,
 }
@@ -626,12 +636,24 @@ pub fn from_captures(
             )));
         }
     }
-    // floor seen by the other nodes: marks the floor node's raster
-    let other_floor_m: Vec<DVec3> = floor_of
+    // Floor is every horizontal plane at the floor's height: a desk island or a wall of
+    // cabinets splits the floor a camera sees into several components, and each node sees its
+    // own. With the room closed, the floor node meshes the room's floor once, and the other
+    // components only mark its raster as seen (meshing them too would model that floor twice).
+    let main_floor = floor_node.and_then(|i| floor_of[i].map(|k| (i, k)));
+    let is_floor_like = |i: usize, k: usize| {
+        let p = &founds[i][k];
+        if room.is_some() {
+            p.is_horizontal() && (p.origin_m.z - floor_z).abs() <= mesh::ALSO_SEEN_DISTANCE_M
+        } else {
+            floor_of[i] == Some(k)
+        }
+    };
+    let other_floor_m: Vec<DVec3> = founds
         .iter()
         .enumerate()
-        .filter(|&(i, _)| Some(i) != floor_node)
-        .filter_map(|(i, k)| k.map(|k| (i, k)))
+        .flat_map(|(i, found)| (0..found.len()).map(move |k| (i, k)))
+        .filter(|&(i, k)| Some((i, k)) != main_floor && is_floor_like(i, k))
         .flat_map(|(i, k)| {
             founds[i][k]
                 .nodes
@@ -657,13 +679,13 @@ pub fn from_captures(
         for (k, p) in found.iter().enumerate() {
             let kg = plane_at.len() as u32;
             plane_at.push((p.normal, p.origin_m));
-            let is_floor = Some(k) == floor_of[i];
+            let is_floor = Some((i, k)) == main_floor;
             let before = node.tris.len();
-            if is_floor && Some(i) == floor_node {
+            if is_floor {
                 floor_idx = Some(kg as usize);
             }
-            // another node's floor is the floor node's (marked in its raster)
-            if !is_floor || Some(i) == floor_node {
+            // any other floor component is the room floor's (marked in its raster)
+            if is_floor || !is_floor_like(i, k) {
                 mesh::mesh_plane(
                     &mut node,
                     grid,
@@ -1058,6 +1080,15 @@ pub fn from_captures(
             response,
         );
         report.ambient_response_lx = p.per_luminaire_lx.into_iter().next();
+    }
+    st.done(&mut report);
+
+    let st = Stage::start("uncertainty", o.progress);
+    match uncertainty::per_sensor(&model, &reco, &o.uncertainty) {
+        Ok(u) => report.uncertainty = u,
+        Err(e) => report
+            .warnings
+            .push(format!("the desks' stated uncertainty: {e}")),
     }
     st.done(&mut report);
 

@@ -226,5 +226,80 @@ pub fn detect(grid: &PointGrid, cam: &Camera, o: &PlaneOptions) -> Vec<Plane> {
             rejected_rounds += 1;
         }
     }
+    absorb(grid, &mut planes, &free, o, ABSORB_ROUNDS);
     planes
+}
+
+/// Rounds of [`absorb`]: how far (in grid nodes) a plane grows into the nodes around it.
+pub const ABSORB_ROUNDS: usize = 3;
+/// [`absorb`] fills holes: a node is taken when at least this many of its 8 neighbours are
+/// on the plane (a plane's edge, with at most 3 or 4, does not grow onto what lies beside it).
+pub const ABSORB_MIN_NEIGHBOURS: u32 = 5;
+/// The loose normal test of [`absorb`]: a node's normal within this angle of the plane's, rad.
+pub const ABSORB_NORMAL_ANGLE_RAD: f64 = 45.0 * core::f64::consts::PI / 180.0;
+
+/// Grows each plane into the free nodes next to it that lie on it within the inlier distance,
+/// whatever their normal, `rounds` times. A normal from neighbouring nodes a few centimetres
+/// apart is noisy (ToF range noise of 1 % is 3 cm at a 3 m ceiling), so RANSAC's normal test
+/// leaves scattered holes in a floor; each hole would become grid triangles and split the
+/// plane's rectangles around it (on a 12 × 7 m open-plan zone, 1 200 of 2 700 triangles).
+/// Distance alone keeps depth edges apart: a desk top 0.75 m above the floor is not on it.
+fn absorb(grid: &PointGrid, planes: &mut [Plane], free: &[bool], o: &PlaneOptions, rounds: usize) {
+    let n_nodes = grid.points_m.len();
+    let mut owner: Vec<u32> = vec![u32::MAX; n_nodes];
+    for (k, p) in planes.iter().enumerate() {
+        for &j in &p.nodes {
+            owner[j] = k as u32;
+        }
+    }
+    let mut open: Vec<bool> = (0..n_nodes)
+        .map(|i| free[i] && owner[i] == u32::MAX && grid.points_m[i].is_some())
+        .collect();
+    let cos_loose = ABSORB_NORMAL_ANGLE_RAD.cos();
+    for _ in 0..rounds {
+        let mut taken: Vec<(usize, u32)> = Vec::new();
+        for i in (0..n_nodes).filter(|&i| open[i]) {
+            let Some(p) = grid.points_m[i] else { continue };
+            let tol = o.dist_m + o.dist_rel * grid.z_m[i];
+            let (c, r) = ((i % grid.cols) as i64, (i / grid.cols) as i64);
+            // the plane most of the 8 neighbours are on: a hole in it, not its edge
+            let mut count: [(u32, u32); 8] = [(u32::MAX, 0); 8];
+            for dr in -1..=1 {
+                for dc in -1..=1 {
+                    let (c2, r2) = (c + dc, r + dr);
+                    if c2 < 0 || r2 < 0 || c2 >= grid.cols as i64 || r2 >= grid.rows as i64 {
+                        continue;
+                    }
+                    let k = owner[grid.index(c2 as usize, r2 as usize)];
+                    if k == u32::MAX {
+                        continue;
+                    }
+                    if let Some(e) = count.iter_mut().find(|e| e.0 == k || e.0 == u32::MAX) {
+                        e.0 = k;
+                        e.1 += 1;
+                    }
+                }
+            }
+            let best = count
+                .iter()
+                .filter(|e| e.0 != u32::MAX && e.1 >= ABSORB_MIN_NEIGHBOURS)
+                .find(|e| {
+                    let pl = &planes[e.0 as usize];
+                    pl.distance_m(p).abs() <= tol
+                        && grid.normals[i].is_none_or(|n| n.dot(pl.normal).abs() >= cos_loose)
+                })
+                .map(|e| ((), e.0));
+            if let Some((_, k)) = best {
+                taken.push((i, k));
+            }
+        }
+        if taken.is_empty() {
+            break;
+        }
+        for (i, k) in taken {
+            owner[i] = k;
+            open[i] = false;
+            planes[k as usize].nodes.push(i);
+        }
+    }
 }

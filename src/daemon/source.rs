@@ -13,7 +13,7 @@ use crate::camera::{
     CameraError, DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
 };
 use crate::commission::{self, CommissionOptions};
-use crate::image_build::{ImageOptions, build_for_region, formfactors_region_bytes};
+use crate::image_build::{ImageOptions, formfactors_region_bytes};
 use crate::modbus::gateway::GatewayWriter;
 use crate::scene::{Desks, Luminaire, Sensor};
 
@@ -321,7 +321,21 @@ impl CommissionSource for CameraSource {
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
         options.geometry = Some(self.report.section(&c.scene, &c.model));
-        let image = build_for_region(&c.model, &options, formfactors_region_bytes())?;
+        let image = crate::image_build::build_to_fit(
+            &c.model,
+            &options,
+            formfactors_region_bytes(),
+            crate::image_build::SECTION_RESERVE_BYTES,
+        )?;
+        if image.step > 0 {
+            tracing::warn!(
+                "commission: the model is stored at {} with form factors below {:.0e} dropped, to \
+                 fit the flash region with room for live light",
+                image.options.precision.name(),
+                image.options.prune_below
+            );
+        }
+        let image = image.bytes;
         let bytes = crate::live::with_capture_section(image, &c, &seq.capture);
         self.report.write(&bytes);
         if let (Some(a), Some(per)) = (&self.ambient, &c.report.ambient_response_lx)

@@ -950,6 +950,65 @@ impl Model {
         Ok((finite(lux)?, report))
     }
 
+    /// How the sensor readings of a dimming state change when the patches' reflectances
+    /// change from the model's to `rho` (the same length, each in [0, 1)), lx per sensor, by
+    /// re-solving the radiosity system with each: `Δ_s = g_s · (B' − B)`, `g_s` sensor s's
+    /// gather row. With a final gather the first bounce moves with the reflectance too, and it
+    /// is `g_s · (Δρ E_dir)` to the gather's accuracy, which this difference includes. Direct
+    /// light does not depend on reflectance. For sensitivity studies (what an inferred
+    /// reflectance's uncertainty does to a desk): two solves, no allocation beyond vectors of
+    /// the patch count.
+    pub fn reflectance_sensitivity_lx(
+        &self,
+        levels: &[f64],
+        rho: &[f64],
+    ) -> Result<Vec<f64>, EngineError> {
+        self.check_levels(levels)?;
+        let n = self.patches.len();
+        if rho.len() != n {
+            return Err(EngineError::State(format!(
+                "{} reflectances for {n} patches",
+                rho.len()
+            )));
+        }
+        if let Some(r) = rho
+            .iter()
+            .find(|r| !(r.is_finite() && (0.0..1.0).contains(*r)))
+        {
+            return Err(EngineError::State(format!(
+                "reflectance {r} is outside [0, 1)"
+            )));
+        }
+        let mut e = vec![0.0; n];
+        for (l, x) in levels.iter().enumerate() {
+            for (ei, d) in e.iter_mut().zip(&self.direct_patch_lx[l]) {
+                *ei += x * d;
+            }
+        }
+        let solve = |rho: &[f64]| -> Result<Vec<f64>, EngineError> {
+            let system = CsrSystem {
+                f: self.ff.f.view(),
+                rho,
+            };
+            let mut b = vec![0.0; n];
+            solver::gauss_seidel(&system, &e, &mut b, self.settings.solve).map_err(|source| {
+                EngineError::Solve {
+                    what: "reflectance sensitivity".into(),
+                    source,
+                }
+            })?;
+            Ok(b)
+        };
+        let b0 = solve(&self.patches.rho)?;
+        let b1 = solve(rho)?;
+        let db: Vec<f64> = b1.iter().zip(&b0).map(|(a, b)| a - b).collect();
+        finite(
+            (0..self.sensors())
+                .map(|s| gather_dot(&self.gather, s, &db))
+                .collect(),
+        )
+    }
+
     /// Incident illuminance on each patch (lx) for a dimming state: `E_dir + F B`.
     pub fn patch_lux(&self, levels: &[f64]) -> Result<Vec<f64>, EngineError> {
         self.check_levels(levels)?;

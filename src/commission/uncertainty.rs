@@ -1,0 +1,233 @@
+//! The uncertainty of what commissioning inferred, per desk sensor (issue 18).
+//!
+//! A model from the cameras rests on inferences: the walls and ceiling nobody sees take default
+//! reflectances, the floor out of view takes the seen floor's, a desk top nobody saw takes the
+//! seen tops', a thin object's hidden face takes its seen face's. Each inference has a standard
+//! uncertainty `σ_c` of its reflectance ([`UncertaintyOptions`]); a desk's stated uncertainty is
+//! what those do to its reading, by first-order propagation with the model itself:
+//!
+//! `u_s = √(Σ_c Δ_sc²) / E_s`,  `Δ_sc = E_s(ρ + σ_c 1_c) − E_s(ρ)`
+//!
+//! at the all-on state, each `Δ_sc` from two radiosity solves
+//! ([`crate::engine::Model::reflectance_sensitivity_lx`]). The classes are independent
+//! (different surfaces, different sources of error), so their squares add. Seen surfaces enter
+//! too, with the measurement's uncertainty (gain and pixels). What this does not cover, and the
+//! docs say: objects nobody saw that shadow a desk (the direct light of an out-of-view desk is
+//! exact only when nothing unseen stands between it and a luminaire), and luminaire photometry.
+//!
+//! The defaults are the spread of the reflectances offices have about the default values, which
+//! sit at the low end of them: a reflectance uniform over `[a, b]` deviates from `a` by
+//! `(b − a)/√3` RMS. Ceiling 0.7..0.9 (EN 12464-1's useful range) → 0.115; walls 0.5..0.7 (the
+//! lower part of EN 12464-1's 0.5..0.8, where office walls mostly are) → 0.115.
+
+use super::mesh::{Part, RecoMesh};
+use crate::engine::{EngineError, Model};
+
+/// Largest reflectance a perturbed patch is given (the engine needs ρ < 1).
+pub const MAX_PERTURBED_RHO: f64 = 0.95;
+
+/// What was inferred: one class of surfaces whose reflectance shares one source of error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Inferred {
+    /// Walls nobody saw (default reflectance).
+    Walls,
+    /// The ceiling (default reflectance).
+    Ceiling,
+    /// Floor out of view (the seen floor's reflectance).
+    UnseenFloor,
+    /// Desk tops nobody saw (the seen tops' reflectance).
+    DeskTops,
+    /// Hidden faces of thin objects (their seen faces' reflectance).
+    HiddenFaces,
+    /// Surfaces the camera saw (measured reflectance: gain and pixel noise).
+    Seen,
+}
+
+impl Inferred {
+    /// Every class, in report order.
+    pub const ALL: [Inferred; 6] = [
+        Inferred::Walls,
+        Inferred::Ceiling,
+        Inferred::UnseenFloor,
+        Inferred::DeskTops,
+        Inferred::HiddenFaces,
+        Inferred::Seen,
+    ];
+
+    /// The class of a mesh part; `None` for black openings (their reflectance is known: 0).
+    pub fn of(part: Part) -> Option<Inferred> {
+        match part {
+            Part::Plane(_) | Part::Surface => Some(Inferred::Seen),
+            Part::FloorFill => Some(Inferred::UnseenFloor),
+            Part::Wall => Some(Inferred::Walls),
+            Part::Ceiling => Some(Inferred::Ceiling),
+            Part::Opening(_) => None,
+            Part::DeskFill => Some(Inferred::DeskTops),
+            Part::HiddenFace(_) => Some(Inferred::HiddenFaces),
+        }
+    }
+
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Inferred::Walls => "walls",
+            Inferred::Ceiling => "ceiling",
+            Inferred::UnseenFloor => "unseen floor",
+            Inferred::DeskTops => "inferred desk tops",
+            Inferred::HiddenFaces => "hidden faces",
+            Inferred::Seen => "seen surfaces",
+        }
+    }
+}
+
+/// Standard uncertainties of the inferred reflectances (absolute).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UncertaintyOptions {
+    /// Walls at their default (offices: 0.5..0.7 → 0.115).
+    pub wall_rho: f64,
+    /// Ceiling at its default (0.7..0.9 → 0.115).
+    pub ceiling_rho: f64,
+    /// Unseen floor at the seen floor's value (one floor finish over a room, mostly).
+    pub floor_rho: f64,
+    /// Unseen desk tops at the seen tops' value (desks in one room vary 0.3..0.6).
+    pub desk_rho: f64,
+    /// Hidden faces at their seen face's value (undersides, backs).
+    pub hidden_rho: f64,
+    /// Seen surfaces: the reflectance estimate (median |Δρ| 0.009 on office_a, docs/commissioning.md)
+    /// and a calibrated gain's few per cent.
+    pub seen_rho: f64,
+}
+
+impl Default for UncertaintyOptions {
+    fn default() -> Self {
+        Self {
+            wall_rho: 0.115,
+            ceiling_rho: 0.115,
+            floor_rho: 0.05,
+            desk_rho: 0.1,
+            hidden_rho: 0.1,
+            seen_rho: 0.02,
+        }
+    }
+}
+
+impl UncertaintyOptions {
+    /// The σ of one class.
+    pub fn sigma(&self, c: Inferred) -> f64 {
+        match c {
+            Inferred::Walls => self.wall_rho,
+            Inferred::Ceiling => self.ceiling_rho,
+            Inferred::UnseenFloor => self.floor_rho,
+            Inferred::DeskTops => self.desk_rho,
+            Inferred::HiddenFaces => self.hidden_rho,
+            Inferred::Seen => self.seen_rho,
+        }
+    }
+
+    /// Each σ finite and in [0, 0.5].
+    pub fn check(&self) -> Result<(), String> {
+        for c in Inferred::ALL {
+            let s = self.sigma(c);
+            if !(s.is_finite() && (0.0..=0.5).contains(&s)) {
+                return Err(format!(
+                    "the reflectance uncertainty of the {} is {s}: it must be in [0, 0.5]",
+                    c.name()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One desk sensor's stated uncertainty.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorUncertainty {
+    /// Sensor id.
+    pub sensor_id: u32,
+    /// The model's reading with every luminaire at full, lx.
+    pub all_on_lx: f64,
+    /// Per class, the reading's change for one σ of its reflectance, lx (in
+    /// [`Inferred::ALL`]'s order).
+    pub by_class_lx: [f64; 6],
+    /// The relative standard uncertainty, `√(Σ Δ²) / E`.
+    pub rel: f64,
+}
+
+impl SensorUncertainty {
+    /// The class that contributes most, and its share of the variance.
+    pub fn dominant(&self) -> (Inferred, f64) {
+        let total: f64 = self.by_class_lx.iter().map(|d| d * d).sum();
+        let (k, d) = self
+            .by_class_lx
+            .iter()
+            .enumerate()
+            .fold(
+                (0, 0.0),
+                |a, (k, d)| if d.abs() > a.1 { (k, d.abs()) } else { a },
+            );
+        let share = if total > 0.0 { d * d / total } else { 0.0 };
+        (Inferred::ALL[k], share)
+    }
+}
+
+/// The stated uncertainty of every sensor of `model`, whose patches come from `reco`'s
+/// triangles (`model.patches.source_triangle`).
+pub fn per_sensor(
+    model: &Model,
+    reco: &RecoMesh,
+    o: &UncertaintyOptions,
+) -> Result<Vec<SensorUncertainty>, EngineError> {
+    o.check().map_err(EngineError::Settings)?;
+    let levels = vec![1.0; model.luminaires()];
+    let lux = model.sensor_lux(&levels)?;
+    let class: Vec<Option<Inferred>> = model
+        .patches
+        .source_triangle
+        .iter()
+        .map(|&t| reco.part.get(t as usize).copied().and_then(Inferred::of))
+        .collect();
+    let mut by_class = vec![[0.0; 6]; model.sensors()];
+    for (ci, c) in Inferred::ALL.into_iter().enumerate() {
+        let sigma = o.sigma(c);
+        if sigma == 0.0 || !class.contains(&Some(c)) {
+            continue;
+        }
+        let rho: Vec<f64> = model
+            .patches
+            .rho
+            .iter()
+            .zip(&class)
+            .map(|(&r, k)| {
+                if *k == Some(c) {
+                    (r + sigma).min(MAX_PERTURBED_RHO).max(r)
+                } else {
+                    r
+                }
+            })
+            .collect();
+        let d = model.reflectance_sensitivity_lx(&levels, &rho)?;
+        for (s, v) in d.into_iter().enumerate() {
+            by_class[s][ci] = v;
+        }
+    }
+    Ok(model
+        .sensor_ids
+        .iter()
+        .zip(lux)
+        .zip(by_class)
+        .map(|((&sensor_id, all_on_lx), by_class_lx)| {
+            let var: f64 = by_class_lx.iter().map(|d| d * d).sum();
+            let rel = if all_on_lx > 0.0 {
+                var.sqrt() / all_on_lx
+            } else {
+                0.0
+            };
+            SensorUncertainty {
+                sensor_id,
+                all_on_lx,
+                by_class_lx,
+                rel,
+            }
+        })
+        .collect())
+}
