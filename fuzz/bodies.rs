@@ -68,6 +68,7 @@ pub fn modbus_rtu(data: &[u8]) {
         sensor_ids: vec![1, 2],
         luminaire_ids: vec![1, 2],
         sensor_flags: vec![0, 1],
+        model_rel_uncertainty: vec![0.05, f64::NAN],
         generation: 1,
         luminaire_flux_lm: vec![3000.0, 3000.0],
     };

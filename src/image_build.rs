@@ -656,6 +656,9 @@ pub struct LiveSectionData {
     pub windows: Vec<Vec<(u32, i16, i16)>>,
     /// Camera-calibrated response, lx: `[sensor][luminaire]`.
     pub sensor_response_lx: Vec<Vec<f64>>,
+    /// Stated relative standard uncertainty of each sensor's modelled light (not finite: not
+    /// stated).
+    pub model_rel_uncertainty: Vec<f64>,
     /// Candidate emitter group per patch ([`crate::store::live::NO_EMITTER`]: none).
     pub patch_emitter: Vec<u8>,
     /// Number of emitter groups.
@@ -674,6 +677,7 @@ impl LiveSectionData {
             + 8 * w
             + 4 * (self.windows.len() + 1)
             + 8 * self.sensor_response_lx.len() * l
+            + 2 * self.model_rel_uncertainty.len()
             + self.patch_emitter.len()
     }
 }
@@ -707,6 +711,26 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
     let ptr = u32_bytes(&ptr);
     let wsample = u32_bytes(&wsample);
     let response = f64_bytes(&d.sensor_response_lx);
+    if d.model_rel_uncertainty.len() != d.windows.len() {
+        return Err(BuildError::Limits(format!(
+            "live section: {} stated uncertainties for {} sensors",
+            d.model_rel_uncertainty.len(),
+            d.windows.len()
+        )));
+    }
+    let uncertainty: Vec<u8> = d
+        .model_rel_uncertainty
+        .iter()
+        .flat_map(|u| {
+            use crate::store::live::{MAX_UNCERTAINTY_HUNDREDTHS, NOT_STATED};
+            let v = if u.is_finite() && *u >= 0.0 {
+                (u * 1e4).round().min(f64::from(MAX_UNCERTAINTY_HUNDREDTHS)) as u16
+            } else {
+                NOT_STATED
+            };
+            v.to_le_bytes()
+        })
+        .collect();
     let live = crate::store::LiveV1 {
         version: crate::store::live::LIVE_VERSION,
         camera: d.camera,
@@ -726,6 +750,7 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
         window_sample: Bytes(&wsample),
         window_offset_mm: Bytes(&woff),
         sensor_response_lx: Bytes(&response),
+        sensor_model_uncertainty: Bytes(&uncertainty),
         patch_emitter: Bytes(&d.patch_emitter),
         n_emitters: d.n_emitters,
     };

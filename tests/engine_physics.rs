@@ -472,3 +472,57 @@ fn consistent_sensor_estimator_reproduces_direct_light() {
         "the paper's weighting should be visibly off"
     );
 }
+
+/// The first-order reflectance sensitivity (what commissioning states each desk's uncertainty
+/// from) against two full engine runs: office_a with its walls at 0.6 and at 0.7. The model's
+/// prediction re-solves with the first model's form factors and final gather; the second run
+/// recomputes everything, the first bounce included.
+#[test]
+fn reflectance_sensitivity_matches_a_second_engine_run() {
+    use luxnode::scene::{LoadOptions, Scene};
+    use luxnode::units::Reflectance;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let s0 = Scene::load(&dir, &LoadOptions::default()).unwrap();
+    let settings = Settings::default();
+    let m0 = engine::compute_model(&s0, &settings).unwrap();
+    let wall = s0
+        .mesh
+        .materials
+        .iter()
+        .position(|m| m.name == "wall")
+        .expect("a wall material");
+    let mut s1 = s0.clone();
+    let rho_wall = s1.mesh.materials[wall].rho.get();
+    s1.mesh.materials[wall].rho = Reflectance::new(rho_wall + 0.1).unwrap();
+    let m1 = engine::compute_model(&s1, &settings).unwrap();
+    assert_eq!(m0.patches.len(), m1.patches.len(), "the same patches");
+    // the same patches in the same order: the second run's reflectances are the first's with
+    // the walls raised
+    let rho = m1.patches.rho.clone();
+    let all_on = vec![1.0; m0.luminaires()];
+    let predicted = m0.reflectance_sensitivity_lx(&all_on, &rho).unwrap();
+    let (e0, e1) = (
+        m0.sensor_lux(&all_on).unwrap(),
+        m1.sensor_lux(&all_on).unwrap(),
+    );
+    for k in 0..m0.sensors() {
+        let actual = e1[k] - e0[k];
+        println!(
+            "sensor {}: {:.1} lx -> {:.1} lx, change {actual:.2} lx, predicted {:.2} lx",
+            m0.sensor_ids[k], e0[k], e1[k], predicted[k]
+        );
+        // walls brighter: every desk brighter, and the prediction within 3 % of the change
+        assert!(actual > 0.0 && predicted[k] > 0.0);
+        assert!(
+            (predicted[k] - actual).abs() <= 0.03 * actual + 0.05,
+            "sensor {}: {} vs {actual}",
+            m0.sensor_ids[k],
+            predicted[k]
+        );
+    }
+    // bad input: wrong length, a reflectance of 1
+    assert!(m0.reflectance_sensitivity_lx(&all_on, &rho[1..]).is_err());
+    let mut bad = rho.clone();
+    bad[0] = 1.0;
+    assert!(m0.reflectance_sensitivity_lx(&all_on, &bad).is_err());
+}

@@ -756,6 +756,7 @@ fn dali_level_1_and_254_in_f32_and_u16_registers() {
                     id: k as u32 + 1,
                     lux: *v,
                     quality: Quality::Ok,
+                    model_rel_uncertainty: f64::NAN,
                 })
                 .unwrap();
         }

@@ -139,16 +139,20 @@ def states() -> list[tuple[int, list[int]]]:
     return [(1, ids), (2, west), (3, checker), (4, [23])]
 
 
-def write_scene() -> None:
-    OUT.mkdir(parents=True, exist_ok=True)
-    mats = dict(RHO, luminaire_opening=0.0)
-    with open(OUT / "scene.mtl", "w") as f:
+def write_scene_files(out: Path, name: str, rho: dict, quads_, luminaires_, sensors_, desks_,
+                      states_, grid_step_m: float) -> None:
+    """The luxnode scene files of a scene given as quads: scene.obj/.mtl, luminaires.json,
+    sensors.json, desks.json (with a grid of points on each desk top, `grid_step_m` apart),
+    states.csv. Shared by the scenes this directory generates."""
+    out.mkdir(parents=True, exist_ok=True)
+    mats = dict(rho, luminaire_opening=0.0)
+    with open(out / "scene.mtl", "w") as f:
         for m, r in mats.items():
             f.write(f"newmtl {m}\nKa 0 0 0\nKd {r:.4f} {r:.4f} {r:.4f}\nKs 0 0 0\n\n")
-    lines = ["# reference scene 'open_plan' (bench/radiance/open_plan.py): metres, z up, CCW front faces",
+    lines = [f"# reference scene '{name}' (bench/radiance/{name}.py): metres, z up, CCW front faces",
              "mtllib scene.mtl"]
     faces, nv, group = [], 0, None
-    for g, m, c in quads():
+    for g, m, c in quads_:
         if g != group:
             faces.append(f"g {g}\nusemtl {m}")
             group = g
@@ -156,24 +160,30 @@ def write_scene() -> None:
             lines.append("v {:.6f} {:.6f} {:.6f}".format(*p))
         faces.append(f"f {nv + 1} {nv + 2} {nv + 3}\nf {nv + 1} {nv + 3} {nv + 4}")
         nv += 4
-    (OUT / "scene.obj").write_text("\n".join(lines + faces) + "\n")
-    (OUT / "luminaires.json").write_text(json.dumps(luminaires(), indent=1) + "\n")
-    (OUT / "sensors.json").write_text(json.dumps(sensors(), indent=1) + "\n")
+    (out / "scene.obj").write_text("\n".join(lines + faces) + "\n")
+    (out / "luminaires.json").write_text(json.dumps(luminaires_, indent=1) + "\n")
+    (out / "sensors.json").write_text(json.dumps(sensors_, indent=1) + "\n")
     grid = []
-    for d in desks():
-        x = d["x0"] + 0.125
+    half = grid_step_m / 2
+    for d in desks_:
+        x = d["x0"] + half
         while x < d["x1"]:
-            y = d["y0"] + 0.125
+            y = d["y0"] + half
             while y < d["y1"]:
                 grid.append({"desk_id": d["id"], "x": round(x, 3), "y": round(y, 3), "z": 0.751})
-                y += 0.25
-            x += 0.25
-    (OUT / "desks.json").write_text(json.dumps({"desks": desks(), "grid_step_m": 0.25,
+                y += grid_step_m
+            x += grid_step_m
+    (out / "desks.json").write_text(json.dumps({"desks": desks_, "grid_step_m": grid_step_m,
                                                 "grid_points": grid}) + "\n")
-    with open(OUT / "states.csv", "w") as f:
+    with open(out / "states.csv", "w") as f:
         f.write("scenario_id,luminaires_on\n")
-        for sid, on in states():
+        for sid, on in states_:
             f.write(f"{sid},{';'.join(map(str, on))}\n")
+
+
+def write_scene() -> None:
+    write_scene_files(OUT, "open_plan", RHO, quads(), luminaires(), sensors(), desks(), states(),
+                      0.25)
     # Radiance files: materials and geometry (luminaires added per state)
     rad = OUT / "radiance"
     rad.mkdir(exist_ok=True)

@@ -66,6 +66,7 @@ except ImportError:  # pragma: no cover
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from daylight import noisy_depth, quantise, write_png16  # noqa: E402
+from open_plan import write_scene_files  # noqa: E402
 
 BIN = Path(pyradiance.BINPATH)
 HERE = Path(__file__).resolve().parent
@@ -208,42 +209,10 @@ def poly(mat: str, name: str, pts) -> str:
 
 
 def write_scene() -> None:
-    OUT.mkdir(parents=True, exist_ok=True)
+    write_scene_files(OUT, "open_plan_nodes", RHO, quads(), luminaires(), sensors(), desks(),
+                      states(), 0.2)
     for f in ("luminaire.ldt", "luminaire.ies"):
         shutil.copy(OPEN_PLAN / f, OUT / f)
-    mats = dict(RHO, luminaire_opening=0.0)
-    with open(OUT / "scene.mtl", "w") as f:
-        for m, r in mats.items():
-            f.write(f"newmtl {m}\nKa 0 0 0\nKd {r:.4f} {r:.4f} {r:.4f}\nKs 0 0 0\n\n")
-    lines = ["# reference scene 'open_plan_nodes' (bench/radiance/open_plan_nodes.py): metres, z up",
-             "mtllib scene.mtl"]
-    faces, nv, group = [], 0, None
-    for g, m, c in quads():
-        if g != group:
-            faces.append(f"g {g}\nusemtl {m}")
-            group = g
-        for p in c:
-            lines.append("v {:.6f} {:.6f} {:.6f}".format(*p))
-        faces.append(f"f {nv + 1} {nv + 2} {nv + 3}\nf {nv + 1} {nv + 3} {nv + 4}")
-        nv += 4
-    (OUT / "scene.obj").write_text("\n".join(lines + faces) + "\n")
-    (OUT / "luminaires.json").write_text(json.dumps(luminaires(), indent=1) + "\n")
-    (OUT / "sensors.json").write_text(json.dumps(sensors(), indent=1) + "\n")
-    grid = []
-    for d in desks():
-        x = d["x0"] + 0.1
-        while x < d["x1"]:
-            y = d["y0"] + 0.1
-            while y < d["y1"]:
-                grid.append({"desk_id": d["id"], "x": round(x, 3), "y": round(y, 3), "z": 0.751})
-                y += 0.2
-            x += 0.2
-    (OUT / "desks.json").write_text(json.dumps({"desks": desks(), "grid_step_m": 0.2,
-                                                "grid_points": grid}) + "\n")
-    with open(OUT / "states.csv", "w") as f:
-        f.write("scenario_id,luminaires_on\n")
-        for sid, on in states():
-            f.write(f"{sid},{';'.join(map(str, on))}\n")
     rad = OUT / "radiance"
     rad.mkdir(exist_ok=True)
     for f in ("luminaire.rad", "luminaire.dat"):
@@ -331,30 +300,49 @@ def rtrace(opts: list[str], oct_: Path, rays: str, rad: Path | None = None) -> l
     return [[float(x) for x in ln.split()] for ln in p.stdout.splitlines() if ln.strip()]
 
 
-def render(cam: str, k: int | None, work: Path) -> None:
-    name = f"{cam}_depth" if k is None else f"{cam}_L{k}"
+def render_frame(c: dict, name: str, files: list[str], work: Path, depth: bool,
+                 rad: Path | None = None) -> None:
+    """One frame of camera `c` (a camera.json) into work/<name>.npy: the depth along the optical
+    axis, m, or the luminance, cd/m^2; pixels with no ray (beyond a fisheye's field) 0."""
     out = work / f"{name}.npy"
     if out.exists():
         print(f"{name}: exists, skipped")
         return
-    c = json.loads((OUT / cam / "camera.json").read_text())
     d, ok, axis = pixel_rays(c)
     o = np.array(c["position"], dtype=float)
     rays = "".join("%.6f %.6f %.6f %.7f %.7f %.7f\n" % (*o, *di) for di in d[ok])
-    oct_ = octree(scene_files(set() if k is None else {k}), work, name)
+    oct_ = octree(files, work, name, rad)
     t0 = time.time()
     full = np.zeros(len(d))
-    if k is None:
-        t = np.array([v[0] for v in rtrace(["-h", "-oL", "-ab", "0", "-dt", "1"], oct_, rays)])
+    if depth:
+        t = np.array([v[0] for v in rtrace(["-h", "-oL", "-ab", "0", "-dt", "1"], oct_, rays, rad)])
         z = t * (d[ok] @ axis)
         z[~np.isfinite(z) | (t <= 0) | (t > 1e3)] = 0.0
         full[ok] = z
     else:
+        # a few dummy rays first shift rtrace's time-seeded random stream between parallel runs
         dummy = "60 60 1.5 0 0 1\n" * (sum(map(ord, name)) % 97)
-        vals = rtrace(FRAME_OPTS, oct_, dummy + rays)[dummy.count("\n"):]
+        vals = rtrace(FRAME_OPTS, oct_, dummy + rays, rad)[dummy.count("\n"):]
         full[ok] = EFFICACY * (np.array(vals) @ np.array(RGB_Y))
     np.save(out, full.reshape(c["height"], c["width"]))
     print(f"{name}: {time.time() - t0:.0f} s", flush=True)
+
+
+def assemble_set(d: Path, work: Path, cam: str, luminaire_ids: list[int], seed: int) -> None:
+    """Capture set `d` from the frames of camera `cam`: 3 noisy depth frames (seeds `seed`..),
+    one quantised luminance frame per luminaire."""
+    z = np.load(work / f"{cam}_depth.npy")
+    for k in range(3):
+        write_png16(d / f"depth_{k:03d}.png", noisy_depth(z, seed + k))
+    for k in luminaire_ids:
+        write_png16(d / f"luminance_L{k}.png", quantise(np.load(work / f"{cam}_L{k}.npy"), GAIN))
+    print(f"wrote {d}")
+
+
+def render(cam: str, k: int | None, work: Path) -> None:
+    c = json.loads((OUT / cam / "camera.json").read_text())
+    name = f"{cam}_depth" if k is None else f"{cam}_L{k}"
+    render_frame(c, name, scene_files(set() if k is None else {k}), work, k is None)
 
 
 def cameras() -> list[str]:
@@ -370,15 +358,9 @@ def render_all(a) -> None:
 
 
 def assemble(a) -> None:
+    ids = [l["id"] for l in luminaires()]
     for n, cam in enumerate(cameras()):
-        d = OUT / cam
-        z = np.load(a.work / f"{cam}_depth.npy")
-        for k in range(3):
-            write_png16(d / f"depth_{k:03d}.png", noisy_depth(z, 200 + 10 * n + k))
-        for l in luminaires():
-            lum = np.load(a.work / f"{cam}_L{l['id']}.npy")
-            write_png16(d / f"luminance_L{l['id']}.png", quantise(lum, GAIN))
-        print(f"wrote {d}")
+        assemble_set(OUT / cam, a.work, cam, ids, 200 + 10 * n)
 
 
 # ------------------------------------------------------------------ truth

@@ -148,6 +148,7 @@ mod tests {
             sensor_ids: vec![1],
             luminaire_ids: vec![1],
             sensor_flags: vec![0],
+            model_rel_uncertainty: vec![f64::NAN],
             generation: 1,
             luminaire_flux_lm: vec![1000.0],
         };

@@ -121,8 +121,10 @@ pub struct LiveSettings {
     /// Relative standard uncertainty of a measured total from reflectance and gain: the RMS
     /// error of the desks in view against Radiance (`tests/live_radiance.rs`, 7 %).
     pub measured_rel_uncertainty: f64,
-    /// Relative standard uncertainty of the model's artificial light at a desk it infers (the
-    /// same bench, desks out of view at night: 4 % to 8 %).
+    /// Relative standard uncertainty of the model's artificial light at a desk it infers, when
+    /// the image states none for it (a CAD model; the same bench, desks out of view at night:
+    /// 4 % to 8 %). An image commissioned from cameras states one per desk
+    /// (`crate::commission::uncertainty`).
     pub model_rel_uncertainty: f64,
 }
 
@@ -341,6 +343,7 @@ pub struct LiveModel {
     // sensors
     response: Vec<f64>,
     calibrated: Vec<f64>,
+    model_rel: Vec<f64>,
     windows: Vec<Window>,
     // emitters: boundary basis (seen exitance fixed), at seen patches and sensors
     k: usize,
@@ -447,6 +450,9 @@ impl LiveModel {
             gather,
             response,
             calibrated,
+            model_rel: (0..s)
+                .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
+                .collect(),
             windows,
             k: k_em,
             emitter_src,
@@ -459,6 +465,16 @@ impl LiveModel {
         // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
         let _ = model.full_basis();
         Ok(model)
+    }
+
+    /// Sensor `s`'s stated relative uncertainty of its modelled light (commissioning's, from
+    /// what it inferred), or `default` when the image states none.
+    fn model_rel_uncertainty(&self, s: usize, default: f64) -> f64 {
+        self.model_rel
+            .get(s)
+            .copied()
+            .filter(|u| u.is_finite())
+            .unwrap_or(default)
     }
 
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is
@@ -1044,7 +1060,7 @@ impl Live {
                 let day = inferred.max(0.0);
                 let unc = ((st.inferred_rel_uncertainty * day).powi(2)
                     + (fit_residual * day).powi(2)
-                    + (st.model_rel_uncertainty * art).powi(2))
+                    + (m.model_rel_uncertainty(s, st.model_rel_uncertainty) * art).powi(2))
                 .sqrt();
                 actions.push((s, Action::Set(art, day, unc, Source::Inferred, extra)));
                 continue;
@@ -1104,7 +1120,7 @@ impl Live {
                     let art = self.artificial(s, levels);
                     let day = inferred.max(0.0);
                     let unc = ((st.inferred_rel_uncertainty * day).powi(2)
-                        + (st.model_rel_uncertainty * art).powi(2))
+                        + (m.model_rel_uncertainty(s, st.model_rel_uncertainty) * art).powi(2))
                     .sqrt();
                     actions.push((s, Action::Set(art, day, unc, Source::Inferred, f)));
                 }

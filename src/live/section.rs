@@ -569,6 +569,19 @@ pub fn from_capture(
             (z * 1000.0).round().clamp(0.0, 65535.0) as u16
         })
         .collect();
+    // each sensor's stated uncertainty from what commissioning inferred (by sensor id)
+    let model_rel_uncertainty = c
+        .model
+        .sensor_ids
+        .iter()
+        .map(|id| {
+            c.report
+                .uncertainty
+                .iter()
+                .find(|u| u.sensor_id == *id)
+                .map_or(f64::NAN, |u| u.rel)
+        })
+        .collect();
     Ok(LiveSectionData {
         camera: record(camera, Some(gain)),
         source: live_source::CAPTURE,
@@ -579,6 +592,7 @@ pub fn from_capture(
         artificial_lx: artificial,
         windows: lay.windows,
         sensor_response_lx: response,
+        model_rel_uncertainty,
         patch_emitter: lay.patch_emitter,
         n_emitters: lay.n_emitters,
     })
@@ -693,6 +707,7 @@ pub fn from_model(
             patch: lay.samples.iter().map(|s| s.1.patch).collect(),
             depth_mm,
             artificial_lx: artificial,
+            model_rel_uncertainty: vec![f64::NAN; model.sensors()],
             windows: lay.windows,
             sensor_response_lx: response,
             patch_emitter: lay.patch_emitter,

@@ -70,6 +70,7 @@ pub fn sample_map() -> RegisterMap {
             id: k + 1,
             lux,
             quality: Quality::Ok,
+            model_rel_uncertainty: if k == 2 { f64::NAN } else { 0.05 },
         });
         let _ = m.luminaire_ids.push(k + 1);
         let _ = m.arc.push(254);

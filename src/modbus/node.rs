@@ -55,6 +55,8 @@ pub struct NodeModel {
     pub luminaire_ids: Vec<u32>,
     /// Per-sensor flags of the image.
     pub sensor_flags: Vec<u8>,
+    /// Per sensor, the stated relative uncertainty of its modelled light (NaN: not stated).
+    pub model_rel_uncertainty: Vec<f64>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
     /// Rated flux per luminaire, lm (the power model's default).
@@ -103,6 +105,15 @@ impl NodeModel {
             sensor_ids: (0..s).map(|k| image.sensor_id(k)).collect(),
             luminaire_ids: (0..l).map(|j| image.luminaire_id(j)).collect(),
             sensor_flags: (0..s).map(|k| image.sensor_flags(k)).collect(),
+            model_rel_uncertainty: (0..s)
+                .map(|k| {
+                    image
+                        .live
+                        .as_ref()
+                        .and_then(|l| l.model_rel_uncertainty(k))
+                        .unwrap_or(f64::NAN)
+                })
+                .collect(),
             generation,
             luminaire_flux_lm: (0..l)
                 .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
@@ -246,6 +257,11 @@ impl Node {
                 id,
                 lux: f64::NAN,
                 quality: model.quality(k),
+                model_rel_uncertainty: model
+                    .model_rel_uncertainty
+                    .get(k)
+                    .copied()
+                    .unwrap_or(f64::NAN),
             });
         }
         for &id in &model.luminaire_ids {
@@ -917,6 +933,7 @@ mod tests {
             sensor_ids: vec![7, 9],
             luminaire_ids: vec![1, 2, 3],
             sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
+            model_rel_uncertainty: vec![0.03, f64::NAN],
             generation: 5,
             luminaire_flux_lm: vec![1200.0; 3],
         }

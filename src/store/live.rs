@@ -32,7 +32,9 @@
 //! Per desk sensor: its *window* (the samples on the desk top within a few centimetres of it, with
 //! their offsets from it in the plane, mm) and its camera-calibrated response per luminaire at
 //! 100 % (`sensor_response_lx`: the artificial irradiance at the sensor's point from the window's
-//! samples; 0 for a sensor the camera does not see). Per patch: the group it belongs to as a
+//! samples; 0 for a sensor the camera does not see), and the stated relative uncertainty of its
+//! modelled light from what commissioning inferred (`sensor_model_uncertainty`, 0.01 %;
+//! `crate::commission::uncertainty`; [`NOT_STATED`] for a CAD model). Per patch: the group it belongs to as a
 //! candidate *unknown emitter* (daylight through a window, any unmodelled light: walls, floor
 //! and other surfaces the camera does not see, grouped by plane and position), or
 //! [`NO_EMITTER`].
@@ -45,12 +47,17 @@ use serde::{Deserialize, Serialize};
 use super::values::{Bytes, Precision, Values};
 use super::{ImageError, check, check_values};
 
+/// A sensor's stated uncertainty that is not stated.
+pub const NOT_STATED: u16 = u16::MAX;
+/// The largest stated uncertainty, 0.01 % units (100 %).
+pub const MAX_UNCERTAINTY_HUNDREDTHS: u16 = 10_000;
+
 /// Magic of the live-light section's frame.
 pub const LIVE_MAGIC: [u8; 4] = *b"LXLV";
 /// The largest camera side a live section may give, pixels (the frames the node allocates).
 pub const MAX_SIDE_PX: u16 = 4096;
 /// Version of the live section's layout.
-pub const LIVE_VERSION: u16 = 1;
+pub const LIVE_VERSION: u16 = 2;
 /// `patch_emitter` value of a patch that is not a candidate emitter.
 pub const NO_EMITTER: u8 = 0xFF;
 /// Most candidate emitter groups.
@@ -91,7 +98,8 @@ pub struct CameraRecord {
     pub lens_k: Option<[f64; 4]>,
 }
 
-/// Version 1 of the live section.
+/// The live section (version [`LIVE_VERSION`]; version 1 lacked
+/// `sensor_model_uncertainty` and is skipped).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LiveV1<'a> {
     /// [`LIVE_VERSION`].
@@ -130,6 +138,11 @@ pub struct LiveV1<'a> {
     /// `[sensor][luminaire]` (0 for a sensor without a window).
     #[serde(borrow)]
     pub sensor_response_lx: Bytes<'a>,
+    /// Stated relative standard uncertainty of each sensor's modelled artificial light from
+    /// what commissioning inferred, 0.01 % units, u16 LE, one per sensor
+    /// ([`NOT_STATED`]: none, e.g. a CAD model).
+    #[serde(borrow)]
+    pub sensor_model_uncertainty: Bytes<'a>,
     /// Candidate emitter group per patch (u8, [`NO_EMITTER`] for none).
     #[serde(borrow)]
     pub patch_emitter: Bytes<'a>,
@@ -227,6 +240,17 @@ impl<'a> LiveV1<'a> {
             check(x.is_finite() && x >= 0.0, "live sensor response")?;
         }
         check(
+            self.sensor_model_uncertainty.count(2) == Some(s),
+            "live sensor uncertainty",
+        )?;
+        for k in 0..s {
+            let u = self.sensor_model_uncertainty.u16_at(k);
+            check(
+                u == NOT_STATED || u <= MAX_UNCERTAINTY_HUNDREDTHS,
+                "live sensor uncertainty",
+            )?;
+        }
+        check(
             self.patch_emitter.count(1) == Some(patches),
             "live patch emitters",
         )?;
@@ -290,6 +314,13 @@ impl<'a> LiveV1<'a> {
     /// luminaires).
     pub fn sensor_response_lx(&self, s: usize, l: usize, luminaires: usize) -> f64 {
         self.sensor_response_lx.f64_at(s * luminaires + l)
+    }
+
+    /// Stated relative standard uncertainty of sensor `s`'s modelled artificial light (`None`:
+    /// not stated).
+    pub fn model_rel_uncertainty(&self, s: usize) -> Option<f64> {
+        let u = self.sensor_model_uncertainty.u16_at(s);
+        (u != NOT_STATED).then(|| f64::from(u) * 1e-4)
     }
 
     /// Candidate emitter group of patch `p`.

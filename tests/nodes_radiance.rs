@@ -1,10 +1,16 @@
-//! Several nodes and wide optics against Radiance (issue 18): the open-plan zone of
-//! `scenes/open_plan_nodes` (12 × 7 m, 8 luminaires, 8 desks and a cabinet, two ceiling nodes),
-//! whose capture sets and truth `bench/radiance/open_plan_nodes.py` rendered with Radiance.
-//! Each configuration is commissioned from its captures alone and scored on the 12 scenarios
-//! of `truth.csv`: desks in view (some node sees the sensor), out of view, all.
+//! Several nodes and wide optics against Radiance (issue 18), on two scenes:
 //!
-//! `cargo nextest run --release --test open_plan_nodes --no-capture` prints the table of
+//! - the open-plan zone of `scenes/open_plan_nodes` (12 × 7 m, 8 luminaires, 8 desks and a
+//!   cabinet, two ceiling nodes), whose capture sets and truth `bench/radiance/open_plan_nodes.py`
+//!   rendered with Radiance;
+//! - the reference office `../shared/scenes/office_a` (its own capture and truth), with the
+//!   capture sets of other cameras that `bench/radiance/office_a_nodes.py` rendered with
+//!   Radiance from office_a's own Radiance scene (`scenes/office_a_nodes`).
+//!
+//! Each configuration is commissioned from its captures alone and scored on the scenarios of
+//! the scene's `truth.csv`: desks in view (some node sees the sensor), out of view, all.
+//!
+//! `cargo nextest run --release --test nodes_radiance --no-capture` prints the tables of
 //! docs/commissioning.md.
 
 use std::path::{Path, PathBuf};
@@ -21,9 +27,19 @@ fn scene_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open_plan_nodes")
 }
 
+fn office_a() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+}
+
 /// Commissions the zone from the named capture sets together; one `Commissioned` per node.
 fn commission(sets: &[&str]) -> Vec<Commissioned> {
     let d = scene_dir();
+    let sets: Vec<PathBuf> = sets.iter().map(|s| d.join(s)).collect();
+    commission_in(&d, &sets)
+}
+
+/// Commissions the room of scene directory `d` from the capture sets `sets` together.
+fn commission_in(d: &Path, sets: &[PathBuf]) -> Vec<Commissioned> {
     let load = LoadOptions::default();
     let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &load).expect("luminaires");
     let (sensors, _) = load_sensors_file(&d.join("sensors.json"), &load).expect("sensors");
@@ -31,7 +47,7 @@ fn commission(sets: &[&str]) -> Vec<Commissioned> {
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
     let caps: Vec<Capture> = sets
         .iter()
-        .map(|s| Capture::load(&d.join(s), &ids).expect("capture"))
+        .map(|s| Capture::load(s, &ids).expect("capture"))
         .collect();
     commission::from_captures(
         &caps,
@@ -54,7 +70,10 @@ struct Score {
 }
 
 fn score(nodes: &[Commissioned]) -> Score {
-    let d = scene_dir();
+    score_in(&scene_dir(), nodes)
+}
+
+fn score_in(d: &Path, nodes: &[Commissioned]) -> Score {
     let states = read_states(&d.join("states.csv")).expect("states");
     let truth = read_truth(&d.join("truth.csv")).expect("truth");
     let m = &nodes[0].model;
@@ -74,7 +93,7 @@ fn score(nodes: &[Commissioned]) -> Score {
     })
     .expect("readings");
     let errors = per_sensor(&computed, &truth, &m.sensor_ids);
-    assert_eq!(errors.len(), 9, "truth for every sensor");
+    assert_eq!(errors.len(), m.sensor_ids.len(), "truth for every sensor");
     let seen = |id: u32| {
         let k = m.sensor_ids.iter().position(|s| *s == id).expect("sensor");
         nodes
@@ -103,6 +122,16 @@ fn score(nodes: &[Commissioned]) -> Score {
         worst,
         per,
     }
+}
+
+/// A published figure's guard: at most 1.5 times the measured value.
+fn guard(what: &str, got: f64, measured: f64) {
+    assert!(
+        got <= 1.5 * measured,
+        "{what}: {:.2} % against {:.2} % measured",
+        100.0 * got,
+        100.0 * measured
+    );
 }
 
 fn print(name: &str, s: &Score) {
@@ -134,7 +163,7 @@ fn print(name: &str, s: &Score) {
 #[test]
 fn the_open_plan_zone_by_one_and_two_nodes_pinhole_and_fisheye() {
     println!(
-        "| nodes | sensors in view | in view | out of view | all 9 | worst | per sensor (* out of view), % |"
+        "| nodes | sensors in view | in view | out of view | all | worst | per sensor (* out of view), % |"
     );
     let mut scores = Vec::new();
     for (name, sets) in [
@@ -147,6 +176,30 @@ fn the_open_plan_zone_by_one_and_two_nodes_pinhole_and_fisheye() {
         let s = score(&nodes);
         print(name, &s);
         scores.push(s);
+    }
+    // each desk's stated uncertainty (commissioning's, from what it inferred) covers its error
+    for (name, nodes) in [("node A, pinhole", commission(&["pinhole_a"]))] {
+        let s = score(&nodes);
+        let u = &nodes[0].report.uncertainty;
+        assert_eq!(u.len(), 9, "{name}: one per sensor");
+        for (e, _) in &s.per {
+            let st = u.iter().find(|x| x.sensor_id == e.sensor).expect("stated");
+            println!(
+                "{name}, sensor {}: error {:.1} %, stated {:.1} % ({} {:.0} %)",
+                e.sensor,
+                100.0 * e.error(),
+                100.0 * st.rel,
+                st.dominant().0.name(),
+                100.0 * st.dominant().1
+            );
+            assert!(
+                (0.01..=0.15).contains(&st.rel) && e.error() <= st.rel,
+                "{name}, sensor {}: {:.2} % against a stated {:.2} %",
+                e.sensor,
+                100.0 * e.error(),
+                100.0 * st.rel
+            );
+        }
     }
     let seen = |s: &Score| s.per.iter().filter(|p| p.1).count();
     // what each configuration sees: a pinhole node its own island, two pinholes every desk
@@ -171,15 +224,7 @@ fn the_open_plan_zone_by_one_and_two_nodes_pinhole_and_fisheye() {
             );
         }
     }
-    // the published figures (docs/commissioning.md), guarded at 1.5 times the measured value
-    let guard = |what: &str, got: f64, measured: f64| {
-        assert!(
-            got <= 1.5 * measured,
-            "{what}: {:.2} % against {:.2} % measured",
-            100.0 * got,
-            100.0 * measured
-        );
-    };
+    // the published figures (docs/commissioning.md)
     guard("one pinhole node, all", scores[0].all, 0.0156);
     guard(
         "one pinhole node, out of view",
@@ -238,6 +283,27 @@ fn two_fisheye_nodes_commission_through_the_binary_into_images_that_fit() {
         patches.push(image.patches());
     }
     assert_eq!(patches[0], patches[1], "one room model in both");
+    // each desk's stated uncertainty is in the image and in the registers (800 + k, 0.1 %)
+    let bytes = std::fs::read(&a).expect("image");
+    let image = luxnode::store::Image::parse(&bytes).expect("parses");
+    let node = luxnode::modbus::node::NodeModel::from_image(&image, 1);
+    for (k, u) in node.model_rel_uncertainty.iter().enumerate() {
+        let stated = image
+            .live
+            .as_ref()
+            .and_then(|l| l.model_rel_uncertainty(k))
+            .expect("stated in the live section");
+        assert!(
+            (u - stated).abs() < 1e-12 && (0.01..=0.15).contains(u),
+            "{k}: {u}"
+        );
+    }
+    let uncertainty_line = text
+        .lines()
+        .skip_while(|l| !l.starts_with("sensor,stated_uncertainty_pct"))
+        .nth(1)
+        .expect("the stated uncertainties are printed");
+    println!("{uncertainty_line}");
     let line = text
         .lines()
         .find(|l| l.starts_with("error, all sensors"))
@@ -251,4 +317,52 @@ fn two_fisheye_nodes_commission_through_the_binary_into_images_that_fit() {
         .expect("a percentage");
     assert!(all <= 1.5 * 2.21, "{line}");
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// office_a with and without a fisheye, with one and two nodes: its own capture (one pinhole
+/// node), and the capture sets `bench/radiance/office_a_nodes.py` rendered from its Radiance
+/// scene, against its own 31-scenario truth.
+#[test]
+fn office_a_by_one_and_two_nodes_pinhole_and_fisheye() {
+    let d = office_a();
+    let ours = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/office_a_nodes");
+    println!(
+        "| nodes | sensors in view | in view | out of view | all | worst | per sensor (* out of view), % |"
+    );
+    let mut scores = Vec::new();
+    for (name, sets) in [
+        (
+            "one pinhole node (office_a's capture)",
+            vec![d.join("capture")],
+        ),
+        ("one fisheye node, same pose", vec![ours.join("fisheye_c")]),
+        (
+            "two pinhole nodes",
+            vec![ours.join("pinhole_s"), ours.join("pinhole_n")],
+        ),
+        (
+            "two fisheye nodes",
+            vec![ours.join("fisheye_s"), ours.join("fisheye_n")],
+        ),
+    ] {
+        let nodes = commission_in(&d, &sets);
+        let s = score_in(&d, &nodes);
+        print(name, &s);
+        scores.push(s);
+    }
+    let seen = |s: &Score| s.per.iter().filter(|p| p.1).count();
+    // a fisheye sees all 8 sensors from one node; the two pinholes miss sensors 5 and 8
+    assert_eq!(scores.iter().map(seen).collect::<Vec<_>>(), [6, 8, 6, 8]);
+    // the published figures (docs/commissioning.md)
+    guard("one pinhole node, all", scores[0].all, 0.0414);
+    guard("one pinhole node, in view", scores[0].in_view, 0.0360);
+    // every desk but sensor 3 (2 cm in front of a dark monitor whose front face these cameras
+    // see at a grazing angle: its reconstruction falls apart and the desk loses the monitor's
+    // shadow; docs/commissioning.md): measured worst 4.2 %, 7.7 % (sensor 1), 4.2 %
+    for (k, all, worst) in [(1, 0.0738, 0.042), (2, 0.0726, 0.077), (3, 0.0796, 0.042)] {
+        guard("office_a, all", scores[k].all, all);
+        for (e, _) in scores[k].per.iter().filter(|(e, _)| e.sensor != 3) {
+            guard("office_a, a desk but sensor 3", e.error(), worst);
+        }
+    }
 }
