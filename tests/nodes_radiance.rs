@@ -270,7 +270,8 @@ fn two_fisheye_nodes_commission_through_the_binary_into_images_that_fit() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         o.status.success(),
-        "{text}{}",
+        "{}: {text}{}",
+        o.status,
         String::from_utf8_lossy(&o.stderr)
     );
     let region = luxnode::image_build::formfactors_region_bytes();
