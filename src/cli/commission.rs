@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use luxnode::commission::refit::Reading;
 use luxnode::commission::{self, Capture, CommissionOptions, Gain, ReflectanceMethod};
 use luxnode::evaluate::{per_sensor, pooled, readings};
 use luxnode::image_build::{
@@ -70,6 +71,11 @@ pub struct Args {
     /// luminaires on.
     #[arg(long, value_name = "ID:LUX")]
     luxmeter: Option<String>,
+    /// A luxmeter reading with every luminaire at full, SENSOR_ID:LUX (repeat for more desks):
+    /// the readings set the reflectance of the walls and ceiling the camera did not see
+    /// (with camera.json's gain; docs/commissioning.md).
+    #[arg(long, value_name = "ID:LUX", conflicts_with = "luxmeter")]
+    luxmeter_rho: Vec<String>,
     /// Estimate reflectances (off: every seen surface gets --start-rho).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     reflectances: OnOff,
@@ -117,8 +123,22 @@ impl Args {
                 }
             }
         };
+        let luxmeter_rho = self
+            .luxmeter_rho
+            .iter()
+            .map(|s| {
+                let (id, lux) = s
+                    .split_once(':')
+                    .context("--luxmeter-rho wants SENSOR_ID:LUX")?;
+                Ok(Reading {
+                    sensor_id: id.trim().parse().context("--luxmeter-rho sensor id")?,
+                    lux_lx: lux.trim().parse().context("--luxmeter-rho lux")?,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
         let mut o = CommissionOptions {
             gain,
+            readings: luxmeter_rho,
             engine: self.engine.settings(),
             progress: true,
             start_rho: self.start_rho,
@@ -230,6 +250,28 @@ pub fn run(a: &Args) -> Result<()> {
             .map_or("-".into(), |v| format!("{v:.3}")),
         r.reflectance.clamped
     );
+    if let Some(f) = &r.reflectance_fit {
+        println!(
+            "luxmeter readings set walls {:.3} -> {:.3} (±{:.3}), ceiling {:.3} -> {:.3} (±{:.3})",
+            f.wall_rho.0,
+            f.wall_rho.1,
+            f.sigma_after.0,
+            f.ceiling_rho.0,
+            f.ceiling_rho.1,
+            f.sigma_after.1
+        );
+        println!("sensor,luxmeter_lx,model_before_lx,model_after_lx");
+        let after = c.model.sensor_lux(&vec![1.0; c.model.luminaires()])?;
+        for (id, read, before) in &f.readings {
+            let now = c
+                .model
+                .sensor_ids
+                .iter()
+                .position(|s| s == id)
+                .map_or("-".into(), |k| format!("{:.0}", after[k]));
+            println!("{id},{read:.0},{before:.0},{now}");
+        }
+    }
     let st = a.store.store(a.engine.preset);
     for ((node, cap), out) in nodes.iter().zip(&caps).zip(&a.out) {
         let flags = node.sensor_flags.clone();

@@ -21,6 +21,7 @@ pub mod grid;
 pub mod mesh;
 pub mod output;
 pub mod planes;
+pub mod refit;
 pub mod reflectance;
 pub mod uncertainty;
 
@@ -130,6 +131,9 @@ pub struct CommissionOptions {
     pub engine: Settings,
     /// Standard uncertainties of the inferred reflectances, for each desk's stated uncertainty.
     pub uncertainty: uncertainty::UncertaintyOptions,
+    /// Luxmeter readings with every luminaire at full that set the unseen walls' and ceiling's
+    /// reflectance ([`refit`]; with camera.json's gain only).
+    pub readings: Vec<refit::Reading>,
     /// Spinners on stderr.
     pub progress: bool,
 }
@@ -148,6 +152,7 @@ impl Default for CommissionOptions {
             gain: Gain::Camera,
             engine: Settings::default(),
             uncertainty: uncertainty::UncertaintyOptions::default(),
+            readings: Vec::new(),
             progress: false,
         }
     }
@@ -331,6 +336,8 @@ pub struct Report {
     /// The ambient light sensor's direct comparison with the camera, where it sees only what the
     /// camera sees (then the gain came from it).
     pub ambient_direct: Option<ambient::DirectGain>,
+    /// What luxmeter readings set ([`CommissionOptions::readings`]).
+    pub reflectance_fit: Option<refit::ReflectanceFit>,
     /// Each desk sensor's stated uncertainty from what was inferred (empty when it could not
     /// be computed: a warning says why).
     pub uncertainty: Vec<uncertainty::SensorUncertainty>,
@@ -488,6 +495,57 @@ fn node_sees(cam: &crate::scene::Camera, depth: &DepthMap, p: DVec3) -> bool {
     (dq - dp).abs() <= 0.05 + 0.03 * dp
 }
 
+/// [`from_captures`] with luxmeter readings ([`refit`]): commissions at the default wall and
+/// ceiling reflectances, fits them to the readings, and commissions again with the fitted ones
+/// (and their posterior uncertainty in each desk's stated uncertainty).
+fn with_readings(
+    captures: &[Capture],
+    luminaires: Vec<Luminaire>,
+    sensors: Vec<Sensor>,
+    desks: Option<Desks>,
+    o: &CommissionOptions,
+) -> Result<Vec<Commissioned>, CommissionError> {
+    let ids: Vec<u32> = sensors.iter().map(|s| s.id).collect();
+    refit::check(&o.readings, &ids).map_err(CommissionError::Input)?;
+    if !matches!(o.gain, Gain::Camera) {
+        return Err(CommissionError::Input(
+            "luxmeter readings set the walls' and ceiling's reflectance with camera.json's gain; \
+             with the gain from a luxmeter or the ambient light sensor they cannot set both"
+                .into(),
+        ));
+    }
+    let mut plain = o.clone();
+    plain.readings.clear();
+    let first = from_captures(
+        captures,
+        luminaires.clone(),
+        sensors.clone(),
+        desks.clone(),
+        &plain,
+    )?;
+    let Some(r) = first.first().map(|c| &c.report) else {
+        return Err(CommissionError::Input("no capture set".into()));
+    };
+    let f = refit::fit(
+        &r.uncertainty,
+        o.uncertainty.wall_rho,
+        o.uncertainty.ceiling_rho,
+        o.closure.wall_rho,
+        o.closure.ceiling_rho,
+        &o.readings,
+    )
+    .map_err(CommissionError::Input)?;
+    plain.closure.wall_rho = f.wall_rho.1;
+    plain.closure.ceiling_rho = f.ceiling_rho.1;
+    plain.uncertainty.wall_rho = f.sigma_after.0;
+    plain.uncertainty.ceiling_rho = f.sigma_after.1;
+    let mut nodes = from_captures(captures, luminaires, sensors, desks, &plain)?;
+    for n in &mut nodes {
+        n.report.reflectance_fit = Some(f.clone());
+    }
+    Ok(nodes)
+}
+
 /// Commissions one room from the capture sets of several nodes (each camera with its pose in
 /// the room's frame): one room model, and one [`Commissioned`] per node with that node's camera,
 /// depth and sensor flags (each node serves the desks it sees; every node's model holds the
@@ -506,6 +564,9 @@ pub fn from_captures(
     o: &CommissionOptions,
 ) -> Result<Vec<Commissioned>, CommissionError> {
     o.validate()?;
+    if !o.readings.is_empty() {
+        return with_readings(captures, luminaires, sensors, desks, o);
+    }
     let Some(first) = captures.first() else {
         return Err(CommissionError::Input("no capture set".into()));
     };

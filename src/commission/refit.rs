@@ -1,0 +1,250 @@
+//! Luxmeter readings that set the reflectance of the walls and the ceiling nobody sees.
+//!
+//! With a calibrated camera (camera.json's gain), what a model from the cameras gets most wrong
+//! is the reflectance of the surfaces the camera does not see: the walls and the ceiling take
+//! defaults (0.5, 0.7; docs/commissioning.md: on office_a, whose walls and ceiling are 0.6 and
+//! 0.8, every desk reads a few per cent low for it). A commissioning engineer who has a
+//! luxmeter, as with DIALux, reads a few desks with every luminaire on; those readings then set
+//! the two reflectances, rather than the gain (which the camera's calibration already fixes).
+//!
+//! The estimate is a maximum a posteriori step on the linearised model: with the sensitivities
+//! `J_ic = Δ_ic / σ_c` of reading i to class c's reflectance (from the desk uncertainty
+//! computation, [`super::uncertainty`]), the prior `x_c ~ N(0, σ_c²)` about the defaults (the
+//! spread of office reflectances) and readings of relative standard uncertainty
+//! [`READING_REL_UNCERTAINTY`],
+//!
+//! `(Jᵀ W J + diag(1/σ²)) x = Jᵀ W (R − E₀)`,  `W = diag(1 / (u R_i)²)`,
+//!
+//! then the room is commissioned again with `ρ_c + x_c` (clamped to
+//! [`MIN_RHO`]..[`MAX_RHO`]). One reading fits mostly the walls, which dominate; two or more at
+//! different distances from the walls separate them from the ceiling. The model is linear in
+//! these reflectances to about 1 % (`tests/engine_physics.rs`), so one step is enough.
+
+use super::uncertainty::{Inferred, SensorUncertainty};
+
+/// Relative standard uncertainty of a reading: a class B luxmeter's few per cent, and what the
+/// model gets wrong besides the two reflectances.
+pub const READING_REL_UNCERTAINTY: f64 = 0.03;
+/// Lowest fitted reflectance.
+pub const MIN_RHO: f64 = 0.2;
+/// Highest fitted reflectance.
+pub const MAX_RHO: f64 = 0.9;
+/// Lowest reading over the model's (before the fit) that is taken as a reading at all.
+pub const MIN_RATIO: f64 = 0.5;
+/// Highest reading over the model's.
+pub const MAX_RATIO: f64 = 2.0;
+/// Most readings.
+pub const MAX_READINGS: usize = 64;
+
+/// One luxmeter reading with every luminaire at full.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// The desk sensor it was taken at.
+    pub sensor_id: u32,
+    /// The reading, lx.
+    pub lux_lx: f64,
+}
+
+/// What the readings set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReflectanceFit {
+    /// Walls' reflectance: (before, after).
+    pub wall_rho: (f64, f64),
+    /// Ceiling's reflectance: (before, after).
+    pub ceiling_rho: (f64, f64),
+    /// Standard uncertainty of the fitted walls' and ceiling's reflectances (the posterior's:
+    /// what the readings leave of the prior σ).
+    pub sigma_after: (f64, f64),
+    /// Per reading: (sensor id, reading lx, model before lx).
+    pub readings: Vec<(u32, f64, f64)>,
+}
+
+/// Checks readings before any work: finite, positive, at most [`MAX_READINGS`], each sensor
+/// once and known.
+pub fn check(readings: &[Reading], sensor_ids: &[u32]) -> Result<(), String> {
+    if readings.len() > MAX_READINGS {
+        return Err(format!(
+            "{} luxmeter readings: at most {MAX_READINGS}",
+            readings.len()
+        ));
+    }
+    for (k, r) in readings.iter().enumerate() {
+        if !(r.lux_lx.is_finite() && r.lux_lx > 0.0 && r.lux_lx < 1e6) {
+            return Err(format!(
+                "luxmeter reading {} lx at sensor {}: a number of lux above 0",
+                r.lux_lx, r.sensor_id
+            ));
+        }
+        if !sensor_ids.contains(&r.sensor_id) {
+            return Err(format!(
+                "luxmeter reading at sensor {}: no such sensor",
+                r.sensor_id
+            ));
+        }
+        if readings[..k].iter().any(|q| q.sensor_id == r.sensor_id) {
+            return Err(format!("two luxmeter readings at sensor {}", r.sensor_id));
+        }
+    }
+    Ok(())
+}
+
+/// The fitted wall and ceiling reflectances from the first commissioning's stated
+/// sensitivities (`uncertainty`, with the σ of each class), the reflectances it used and the
+/// readings.
+pub fn fit(
+    uncertainty: &[SensorUncertainty],
+    sigma_wall: f64,
+    sigma_ceiling: f64,
+    wall_rho: f64,
+    ceiling_rho: f64,
+    readings: &[Reading],
+) -> Result<ReflectanceFit, String> {
+    let iw = Inferred::ALL
+        .iter()
+        .position(|c| *c == Inferred::Walls)
+        .unwrap_or(0);
+    let ic = Inferred::ALL
+        .iter()
+        .position(|c| *c == Inferred::Ceiling)
+        .unwrap_or(1);
+    if !(sigma_wall > 0.0 && sigma_ceiling > 0.0) {
+        return Err("the wall and ceiling reflectance uncertainties must be > 0".into());
+    }
+    // normal equations of the MAP step, 2 × 2
+    let mut a = [
+        [1.0 / (sigma_wall * sigma_wall), 0.0],
+        [0.0, 1.0 / (sigma_ceiling * sigma_ceiling)],
+    ];
+    let mut b = [0.0; 2];
+    let mut rows = Vec::with_capacity(readings.len());
+    for r in readings {
+        let u = uncertainty
+            .iter()
+            .find(|u| u.sensor_id == r.sensor_id)
+            .ok_or_else(|| format!("no model reading at sensor {}", r.sensor_id))?;
+        let j = [
+            u.by_class_lx[iw] / sigma_wall,
+            u.by_class_lx[ic] / sigma_ceiling,
+        ];
+        // a reading twice or half the model's is not a wall's reflectance: a wrong sensor,
+        // unit (klx) or dimming state
+        let ratio = r.lux_lx / u.all_on_lx;
+        if !(u.all_on_lx > 0.0 && (MIN_RATIO..=MAX_RATIO).contains(&ratio)) {
+            return Err(format!(
+                "luxmeter reading {:.0} lx at sensor {} is {ratio:.2} times the model's {:.0} lx \
+                 with every luminaire at full: wrong sensor, unit or dimming state?",
+                r.lux_lx, r.sensor_id, u.all_on_lx
+            ));
+        }
+        // weighted by the model's value: an absurd reading cannot discount itself
+        let w = 1.0 / (READING_REL_UNCERTAINTY * u.all_on_lx).powi(2);
+        let res = r.lux_lx - u.all_on_lx;
+        for p in 0..2 {
+            b[p] += w * j[p] * res;
+            for q in 0..2 {
+                a[p][q] += w * j[p] * j[q];
+            }
+        }
+        rows.push((r.sensor_id, r.lux_lx, u.all_on_lx));
+    }
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    if !(det.is_finite() && det > 0.0) {
+        return Err("the reflectance fit is singular".into());
+    }
+    let x = [
+        (a[1][1] * b[0] - a[0][1] * b[1]) / det,
+        (a[0][0] * b[1] - a[1][0] * b[0]) / det,
+    ];
+    let clamp = |v: f64| {
+        if v.is_finite() {
+            v.clamp(MIN_RHO, MAX_RHO)
+        } else {
+            MIN_RHO
+        }
+    };
+    Ok(ReflectanceFit {
+        wall_rho: (wall_rho, clamp(wall_rho + x[0])),
+        ceiling_rho: (ceiling_rho, clamp(ceiling_rho + x[1])),
+        sigma_after: ((a[1][1] / det).sqrt(), (a[0][0] / det).sqrt()),
+        readings: rows,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn u(id: u32, lux: f64, dw: f64, dc: f64) -> SensorUncertainty {
+        SensorUncertainty {
+            sensor_id: id,
+            all_on_lx: lux,
+            by_class_lx: [dw, dc, 0.0, 0.0, 0.0, 0.0],
+            rel: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_linear_room_is_recovered_and_the_prior_holds_what_readings_cannot_see() {
+        // reading = 1000 + 400 Δρ_wall + 200 Δρ_ceiling at sensor 1, 800 + 100 Δρ_w + 500 Δρ_c
+        // at sensor 2 (per unit ρ); truth Δρ = (0.1, 0.1); σ = 0.115 each
+        let s = 0.115;
+        let us = [
+            u(1, 1000.0, 400.0 * s, 200.0 * s),
+            u(2, 800.0, 100.0 * s, 500.0 * s),
+        ];
+        let readings = [
+            Reading {
+                sensor_id: 1,
+                lux_lx: 1000.0 + 40.0 + 20.0,
+            },
+            Reading {
+                sensor_id: 2,
+                lux_lx: 800.0 + 10.0 + 50.0,
+            },
+        ];
+        let f = fit(&us, s, s, 0.5, 0.7, &readings).unwrap();
+        // the prior pulls a little toward the defaults (3 % readings against 0.115)
+        assert!((f.wall_rho.1 - 0.6).abs() < 0.03, "{f:?}");
+        assert!((f.ceiling_rho.1 - 0.8).abs() < 0.03, "{f:?}");
+        // a reading that says nothing about the ceiling leaves it at its default
+        let us = [u(1, 1000.0, 400.0 * s, 0.0)];
+        let f = fit(&us, s, s, 0.5, 0.7, &readings[..1]).unwrap();
+        assert_eq!(f.ceiling_rho.1, 0.7);
+        assert!(f.wall_rho.1 > 0.6, "{f:?}");
+        // a high reading is clamped to a plausible reflectance, never NaN
+        let high = |lux_lx| Reading {
+            sensor_id: 1,
+            lux_lx,
+        };
+        let f = fit(&us, s, s, 0.5, 0.7, &[high(1500.0)]).unwrap();
+        assert_eq!(f.wall_rho.1, MAX_RHO);
+        // an absurd one (klx typed as lx, another desk's) is an error
+        for lux in [1e5, 400.0] {
+            assert!(fit(&us, s, s, 0.5, 0.7, &[high(lux)]).is_err(), "{lux}");
+        }
+    }
+
+    #[test]
+    fn bad_readings_are_refused_before_any_work() {
+        let ok = Reading {
+            sensor_id: 1,
+            lux_lx: 500.0,
+        };
+        assert!(check(&[ok], &[1, 2]).is_ok());
+        for (r, ids) in [
+            (
+                vec![Reading {
+                    lux_lx: f64::NAN,
+                    ..ok
+                }],
+                vec![1],
+            ),
+            (vec![Reading { lux_lx: 0.0, ..ok }], vec![1]),
+            (vec![ok], vec![2]),
+            (vec![ok, ok], vec![1]),
+        ] {
+            assert!(check(&r, &ids).is_err(), "{r:?}");
+        }
+        assert!(check(&vec![ok; MAX_READINGS + 1], &[1]).is_err());
+    }
+}
