@@ -55,6 +55,9 @@ pub struct Variant {
     pub store: StoreSettings,
     /// Room closure (capture commissioning only).
     pub closure: bool,
+    /// Desk sensors read by a luxmeter with every luminaire at full, from the truth (capture
+    /// commissioning only; `commission::refit`).
+    pub luxmeter_at: Vec<u32>,
 }
 
 impl Variant {
@@ -65,6 +68,7 @@ impl Variant {
             engine,
             store: StoreSettings::default(),
             closure: true,
+            luxmeter_at: Vec::new(),
         }
     }
 }
@@ -413,6 +417,24 @@ pub fn measure_capture(
         ..crate::commission::CommissionOptions::default()
     };
     o.closure.enabled = v.closure;
+    if !v.luxmeter_at.is_empty() {
+        // the readings are the truth's with every luminaire on
+        let ids: Vec<u32> = inputs.luminaires.iter().map(|l| l.id).collect();
+        let all_on = scenarios
+            .iter()
+            .find(|s| ids.iter().all(|i| s.on.contains(i)))
+            .ok_or(StudyError::NoTruth)?;
+        for id in &v.luxmeter_at {
+            let row = truth
+                .iter()
+                .find(|r| r.scenario == all_on.id && r.sensor == *id)
+                .ok_or(StudyError::NoTruth)?;
+            o.readings.push(crate::commission::refit::Reading {
+                sensor_id: *id,
+                lux_lx: row.lux,
+            });
+        }
+    }
     let t0 = Instant::now();
     let c = crate::commission::from_capture(
         &inputs.capture,
@@ -471,6 +493,16 @@ pub fn capture_variants() -> Vec<Variant> {
                 prune_below: 0.0,
             },
             ..Variant::new("storage precision", p.name(), d.clone())
+        });
+    }
+    // the engineer's time on site against the unseen walls' and ceiling's bias
+    for (label, at) in [
+        ("1 (sensor 7)", vec![7]),
+        ("3 (sensors 1, 4, 8)", vec![1, 4, 8]),
+    ] {
+        v.push(Variant {
+            luxmeter_at: at,
+            ..Variant::new("luxmeter readings", label, d.clone())
         });
     }
     v
@@ -612,7 +644,12 @@ pub fn run_capture(
     out: &mut dyn FnMut(&Measured),
 ) -> Result<Vec<Measured>, StudyError> {
     let mut all = Vec::new();
-    for v in capture_variants() {
+    // the luxmeter points read office_a's desks: another room's bench skips them
+    let known = |id: &u32| inputs.sensors.iter().any(|s| s.id == *id);
+    for v in capture_variants()
+        .into_iter()
+        .filter(|v| v.luxmeter_at.iter().all(known))
+    {
         let m = measure_capture(inputs, &v, scenarios, truth)?;
         out(&m);
         all.push(m);
@@ -663,6 +700,7 @@ pub fn write_plots(
                     "solver tolerance",
                     "rectification (closure)",
                     "room closure",
+                    "luxmeter readings",
                     "grid",
                     "preset",
                 ],
