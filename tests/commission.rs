@@ -19,7 +19,8 @@ const SH_IN_VIEW_BOUND: f64 = 0.045;
 use luxnode::engine::raycast::{Hit, RayCaster};
 use luxnode::scene::Camera;
 use luxnode::scene::{
-    LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
+    LoadOptions, Luminaire, Sensor, load_desks_file, load_luminaires_file, load_sensors_file,
+    read_states, read_truth,
 };
 use luxnode::store::sensor_flags;
 
@@ -27,15 +28,21 @@ fn scene_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
 }
 
-fn run(capture: &str, o: &CommissionOptions) -> Commissioned {
+/// office_a's luminaires, sensors and the capture set `capture`.
+fn inputs(capture: &str) -> (Vec<Luminaire>, Vec<Sensor>, Capture) {
     let d = scene_dir();
     let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
         .expect("luminaires");
     let (sensors, _) =
         load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
-    let desks = load_desks_file(&d.join("desks.json"), &LoadOptions::default()).ok();
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
     let cap = Capture::load(&d.join(capture), &ids).expect("capture");
+    (lums, sensors, cap)
+}
+
+fn run(capture: &str, o: &CommissionOptions) -> Commissioned {
+    let (lums, sensors, cap) = inputs(capture);
+    let desks = load_desks_file(&scene_dir().join("desks.json"), &LoadOptions::default()).ok();
     commission::from_capture(&cap, lums, sensors, desks, o).expect("commissions")
 }
 
@@ -387,13 +394,7 @@ fn luxmeter_readings_set_the_unseen_walls_and_ceiling() {
         }
     }
     // bad readings are refused before any work, never fitted
-    let d = scene_dir();
-    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
-        .expect("luminaires");
-    let (sensors, _) =
-        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
-    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let cap = Capture::load(&d.join("capture"), &ids).expect("capture");
+    let (lums, sensors, cap) = inputs("capture");
     for o in [
         CommissionOptions {
             readings: vec![Reading {
@@ -614,13 +615,7 @@ fn spherical_harmonic_reflectance_fit_on_the_clean_capture() {
 
 #[test]
 fn several_capture_sets_are_checked_before_any_work() {
-    let d = scene_dir();
-    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
-        .expect("luminaires");
-    let (sensors, _) =
-        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
-    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let cap = Capture::load(&d.join("capture"), &ids).expect("capture");
+    let (lums, sensors, cap) = inputs("capture");
     let go = |caps: &[Capture], o: &CommissionOptions| {
         commission::from_captures(caps, lums.clone(), sensors.clone(), None, o)
             .map(|v| v.len())
