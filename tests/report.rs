@@ -393,3 +393,63 @@ fn first_boot_writes_the_report_next_to_the_flash() {
         json["states"][0]["sensors_lx"]
     );
 }
+
+/// A room commissioned from its cameras on a laptop (`luxnode commission`) gets the report the
+/// engineer signs: the image carries the geometry, and the report says where each desk
+/// sensor's value comes from and its stated uncertainty (the image's, commissioning's).
+#[test]
+fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertainty() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("office_a.img");
+    let s = office_a();
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .arg("commission")
+        .arg("--capture")
+        .arg(s.join("capture"))
+        .arg("--luminaires")
+        .arg(s.join("luminaires.json"))
+        .arg("--sensors")
+        .arg(s.join("sensors.json"))
+        .arg("--desks")
+        .arg(s.join("desks.json"))
+        .arg("--out")
+        .arg(&img)
+        .args(["--maintenance-factor", "0.75"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("report");
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .arg("report")
+        .arg("--image")
+        .arg(&img)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["maintenance_factor"], 0.75);
+    assert_eq!(json["desks"].as_array().unwrap().len(), 5);
+    let bytes = std::fs::read(&img).unwrap();
+    let image = Image::parse(&bytes).unwrap();
+    let live = image.live.as_ref().expect("live section");
+    let rows = json["sensors"].as_array().unwrap();
+    assert_eq!(rows.len(), 8);
+    for (k, r) in rows.iter().enumerate() {
+        let id = r["id"].as_u64().unwrap();
+        assert_eq!(id, u64::from(image.sensor_id(k)));
+        // sensors 1 and 8 are out of the capture's view (groundtruth/sensor_pixels.csv)
+        assert_eq!(r["in_view"].as_bool().unwrap(), !matches!(id, 1 | 8), "{r}");
+        let u = r["stated_rel_uncertainty"].as_f64().unwrap();
+        let stated = live.model_rel_uncertainty(k).expect("stated");
+        assert!((u - stated).abs() < 1e-9, "{u} {stated}");
+        // docs/commissioning.md: 4.9 % to 10.9 % on office_a's capture
+        assert!((0.04..=0.12).contains(&u), "{r}");
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("<h2>Desk sensors</h2>"));
+    assert!(html.contains("<td>S1</td><td>out of view</td>"), "sensor 1");
+    assert_eq!(html.matches("± ").count(), 8);
+}

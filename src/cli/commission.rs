@@ -96,6 +96,14 @@ pub struct Args {
     engine: EngineArgs,
     #[command(flatten)]
     store: StoreArgs,
+    /// Leave out the geometry section (patch corners, camera, desks, luminaires with their
+    /// photometry) that `luxnode report` needs: a smaller image for the run time only.
+    #[arg(long)]
+    no_geometry: bool,
+    /// The installation's maintenance factor, recorded for reports (EN 12464-1 maintained
+    /// values).
+    #[arg(long, default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
+    maintenance_factor: f64,
 }
 
 /// `--reflectance-method`.
@@ -185,6 +193,7 @@ pub fn run(a: &Args) -> Result<()> {
         _ => anyhow::bail!("--luminaires and --sensors, or --board"),
     };
     let o = a.options(lums.len())?;
+    luxnode::en12464::check_maintenance_factor(a.maintenance_factor)?;
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
     if a.out.len() != a.capture.len() {
         anyhow::bail!(
@@ -280,7 +289,18 @@ pub fn run(a: &Args) -> Result<()> {
             prune_below: st.prune_below,
             scene_name: node.scene.name.clone(),
             sensor_flags: flags.clone(),
-            geometry: None,
+            // what `luxnode report` draws and checks: the commissioned room as modelled
+            geometry: (!a.no_geometry).then(|| {
+                luxnode::image_geometry::section_of(
+                    &node.scene,
+                    &node.model,
+                    &luxnode::image_geometry::CommissionRecord {
+                        preset: a.engine.preset.name().into(),
+                        maintenance_factor: a.maintenance_factor,
+                        ..Default::default()
+                    },
+                )
+            }),
         };
         let region = formfactors_region_bytes();
         let bytes = if a.store.explicit() {

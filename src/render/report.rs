@@ -190,6 +190,20 @@ pub struct StateResult {
     pub sensors_lx: Vec<(u32, f64)>,
 }
 
+/// One desk sensor: where its published value comes from and how far to trust it.
+#[derive(Debug, Clone, Serialize)]
+pub struct SensorRow {
+    /// Id.
+    pub id: u32,
+    /// The camera sees it (the model there rests on what the camera saw).
+    pub in_view: bool,
+    /// Its surroundings were partly inferred (commissioning's flag).
+    pub estimated: bool,
+    /// The stated relative standard uncertainty of its modelled light from what commissioning
+    /// inferred (the image's live section; none for a CAD model).
+    pub stated_rel_uncertainty: Option<f64>,
+}
+
 /// Everything the report says, as `results.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct Results {
@@ -225,6 +239,8 @@ pub struct Results {
     pub desks: Vec<DeskResult>,
     /// Every state.
     pub states: Vec<StateResult>,
+    /// The desk sensors.
+    pub sensors: Vec<SensorRow>,
     /// All desks pass.
     pub pass: bool,
     /// Seconds the report took (computing, not writing).
@@ -781,6 +797,20 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         room: room_result,
         desks,
         states: state_results,
+        sensors: (0..image.sensors())
+            .map(|k| {
+                let f = image.sensor_flags(k);
+                SensorRow {
+                    id: image.sensor_id(k),
+                    in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
+                    estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
+                    stated_rel_uncertainty: image
+                        .live
+                        .as_ref()
+                        .and_then(|l| l.model_rel_uncertainty(k)),
+                }
+            })
+            .collect(),
         pass,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -988,6 +1018,22 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
             let _ = write!(h, "<td>{v:.0}</td>");
         }
         h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n<h2>Desk sensors</h2>\n<p>Where each desk sensor's value comes from, and its stated relative standard uncertainty: what the surfaces commissioning inferred (walls and ceiling nobody saw, floor out of view, desk tops, hidden faces) can do to its modelled light (first-order, at the all-on state). A model from a CAD scene states none.</p>\n<table><tr><th>sensor</th><th>camera</th><th>surroundings</th><th>stated uncertainty</th></tr>\n");
+    for r in &x.sensors {
+        let _ = writeln!(
+            h,
+            "<tr><td>S{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            r.id,
+            if r.in_view { "in view" } else { "out of view" },
+            if r.estimated {
+                "partly inferred"
+            } else {
+                "seen"
+            },
+            r.stated_rel_uncertainty
+                .map_or("not stated".into(), |u| format!("± {:.1} %", 100.0 * u))
+        );
     }
     h.push_str("</table>\n<h2>Surfaces</h2>\n<table><tr><th>surface</th><th>area (m²)</th><th>ρ</th><th>patches</th></tr>\n");
     for s in &x.surfaces {
