@@ -986,3 +986,62 @@ fn a_kill_at_every_stage_of_commissioning_and_write_loses_nothing() {
         table.join("\n")
     );
 }
+
+/// A board's luxmeter readings (`[commissioning] luxmeter_rho`) reach the first boot's
+/// commissioning from the cameras: the walls and ceiling are fitted to them with the hooded
+/// ambient light sensor's directly measured gain, whose run-time reference is still written. A
+/// reading at a sensor the room does not have is refused before any capture.
+#[test]
+fn a_boards_luxmeter_readings_reach_first_boot_commissioning() {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("flash.img");
+    let run = |board: &Path, seconds: &str| {
+        Command::new(LUXNODE)
+            .args(["run", "--no-controller", "--bind", "127.0.0.1:0"])
+            .args(["--seconds", seconds, "--board"])
+            .arg(board)
+            .arg("--flash")
+            .arg(&flash)
+            .output()
+            .unwrap()
+    };
+    let t0 = Instant::now();
+    let out = run(
+        &board(dir.path(), "[commissioning]\nluxmeter_rho = [\"99:600\"]\n"),
+        "1",
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("sensor 99: no such sensor"), "{err}");
+    assert!(
+        !err.contains("capture:"),
+        "refused before any capture: {err}"
+    );
+    assert!(t0.elapsed() < Duration::from_secs(10));
+    for bad in ["\"2\"", "\"2:-5\"", "\"2:600\", \"2:610\""] {
+        let out = run(
+            &board(
+                dir.path(),
+                &format!("[commissioning]\nluxmeter_rho = [{bad}]\n"),
+            ),
+            "1",
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{bad}: {err}");
+        assert!(err.contains("commissioning.luxmeter_rho"), "{bad}: {err}");
+    }
+    // the demo office's CAD model reads 684 lx at sensor 2 with every luminaire on
+    // (`luxnode image eval`): the luxmeter here
+    let out = run(
+        &board(dir.path(), "[commissioning]\nluxmeter_rho = [\"2:684\"]\n"),
+        "2",
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("1 luxmeter readings set the walls"), "{err}");
+    assert!(err.contains("the camera's gain measured directly"), "{err}");
+    assert!(
+        dir.path().join("ambient-reference.json").exists(),
+        "the ALS check's reference: {err}"
+    );
+}

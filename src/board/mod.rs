@@ -50,6 +50,11 @@ pub struct Board {
     pub live: LiveBoard,
     /// The status LED (`[led]`), if any.
     pub led: Option<crate::board::camera::LedBoard>,
+    /// Luxmeter readings with every luminaire at full (`[commissioning] luxmeter_rho =
+    /// ["SENSOR_ID:LUX", ...]`): commissioning fits the unseen walls' and ceiling's reflectance
+    /// to them (`crate::commission::refit`; the camera's own gain, not the ambient light
+    /// sensor's).
+    pub luxmeter_rho: Vec<crate::commission::refit::Reading>,
 }
 
 /// `[live]`: live light, the cameras at run time (`crate::live`).
@@ -83,6 +88,14 @@ struct LiveToml {
     enabled: Option<bool>,
     #[serde(default)]
     period_s: Option<f64>,
+}
+
+/// `[commissioning]`: what the engineer measured on site.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct CommissioningToml {
+    #[serde(default)]
+    luxmeter_rho: Vec<String>,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -302,6 +315,8 @@ struct BoardToml {
     live: LiveToml,
     #[serde(default)]
     led: Option<crate::board::camera::LedBoard>,
+    #[serde(default)]
+    commissioning: CommissioningToml,
 }
 
 #[derive(Deserialize)]
@@ -481,7 +496,26 @@ impl Board {
         if let Some(l) = &t.led {
             l.validate().map_err(|e| bad(e.0))?;
         }
+        if t.commissioning.luxmeter_rho.len() > crate::commission::refit::MAX_READINGS {
+            return Err(bad(format!(
+                "commissioning.luxmeter_rho: {} readings, at most {}",
+                t.commissioning.luxmeter_rho.len(),
+                crate::commission::refit::MAX_READINGS
+            )));
+        }
+        let luxmeter_rho = t
+            .commissioning
+            .luxmeter_rho
+            .iter()
+            .map(|s| crate::commission::refit::parse_reading(s))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| bad(format!("commissioning.luxmeter_rho: {e}")))?;
+        // the sensors are the scene's, checked when it is loaded; here the values and repeats
+        let ids: Vec<u32> = luxmeter_rho.iter().map(|r| r.sensor_id).collect();
+        crate::commission::refit::check(&luxmeter_rho, &ids)
+            .map_err(|e| bad(format!("commissioning.luxmeter_rho: {e}")))?;
         Ok(Board {
+            luxmeter_rho,
             control,
             live,
             preset,

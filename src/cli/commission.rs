@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use luxnode::commission::refit::Reading;
+use luxnode::commission::refit::parse_reading;
 use luxnode::commission::{self, Capture, CommissionOptions, Gain, ReflectanceMethod};
 use luxnode::evaluate::{per_sensor, pooled, readings};
 use luxnode::image_build::{
@@ -134,15 +134,7 @@ impl Args {
         let luxmeter_rho = self
             .luxmeter_rho
             .iter()
-            .map(|s| {
-                let (id, lux) = s
-                    .split_once(':')
-                    .context("--luxmeter-rho wants SENSOR_ID:LUX")?;
-                Ok(Reading {
-                    sensor_id: id.trim().parse().context("--luxmeter-rho sensor id")?,
-                    lux_lx: lux.trim().parse().context("--luxmeter-rho lux")?,
-                })
-            })
+            .map(|s| parse_reading(s).map_err(|e| anyhow::anyhow!("--luxmeter-rho: {e}")))
             .collect::<Result<Vec<_>>>()?;
         let mut o = CommissionOptions {
             gain,
@@ -172,10 +164,12 @@ impl Args {
 pub fn run(a: &Args) -> Result<()> {
     let t0 = std::time::Instant::now();
     let load = LoadOptions::default();
+    let mut board_readings = Vec::new();
     let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
         (Some(b), _, _) => {
             let board = luxnode::board::Board::load(b)?;
             let scene = super::run::board_scene(&board)?;
+            board_readings = board.luxmeter_rho.clone();
             (scene.luminaires, scene.sensors, scene.desks)
         }
         (None, Some(l), Some(s)) => {
@@ -192,7 +186,11 @@ pub fn run(a: &Args) -> Result<()> {
         }
         _ => anyhow::bail!("--luminaires and --sensors, or --board"),
     };
-    let o = a.options(lums.len())?;
+    let mut o = a.options(lums.len())?;
+    if o.readings.is_empty() && a.luxmeter.is_none() {
+        // the board file's [commissioning] luxmeter_rho, unless the command line gives some
+        o.readings = board_readings;
+    }
     luxnode::en12464::check_maintenance_factor(a.maintenance_factor)?;
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
     if a.out.len() != a.capture.len() {

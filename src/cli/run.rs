@@ -237,9 +237,14 @@ fn commission_source(
             report,
         }));
     }
+    // the board's luxmeter readings, checked against the room's sensors before any capture
+    let sensor_ids: Vec<u32> = scene.sensors.iter().map(|s| s.id).collect();
+    luxnode::commission::refit::check(&board.luxmeter_rho, &sensor_ids)
+        .map_err(|e| anyhow::anyhow!("board {}: commissioning.luxmeter_rho: {e}", board.name))?;
     let commission = CommissionOptions {
         engine: preset.engine(),
         progress: true,
+        readings: board.luxmeter_rho.clone(),
         ..CommissionOptions::default()
     };
     let Some((what, depth, colour, lights)) =

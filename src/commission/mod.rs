@@ -507,10 +507,11 @@ fn with_readings(
 ) -> Result<Vec<Commissioned>, CommissionError> {
     let ids: Vec<u32> = sensors.iter().map(|s| s.id).collect();
     refit::check(&o.readings, &ids).map_err(CommissionError::Input)?;
-    if !matches!(o.gain, Gain::Camera) {
+    if matches!(o.gain, Gain::Luxmeter { .. }) {
         return Err(CommissionError::Input(
-            "luxmeter readings set the walls' and ceiling's reflectance with camera.json's gain; \
-             with the gain from a luxmeter or the ambient light sensor they cannot set both"
+            "luxmeter readings set the walls' and ceiling's reflectance with the camera's own \
+             gain (camera.json, or a hooded ambient light sensor's); a gain from a luxmeter \
+             reading goes through the model, and both cannot be set from the readings"
                 .into(),
         ));
     }
@@ -526,6 +527,15 @@ fn with_readings(
     let Some(r) = first.first().map(|c| &c.report) else {
         return Err(CommissionError::Input("no capture set".into()));
     };
+    if matches!(o.gain, Gain::Ambient { .. }) && r.ambient_direct.is_none() {
+        // a bare sensor's gain comes through the model, whose walls the readings change
+        return Err(CommissionError::Input(
+            "luxmeter readings combine with the ambient light sensor's gain only where it is \
+             measured directly (a hooded sensor the camera sees around); here it came through \
+             the model"
+                .into(),
+        ));
+    }
     let f = refit::fit(
         &r.uncertainty,
         o.uncertainty.wall_rho,

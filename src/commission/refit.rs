@@ -59,6 +59,24 @@ pub struct ReflectanceFit {
     pub readings: Vec<(u32, f64, f64)>,
 }
 
+/// One reading written `SENSOR_ID:LUX` (the CLI's `--luxmeter-rho`, a board file's
+/// `[commissioning] luxmeter_rho`).
+pub fn parse_reading(s: &str) -> Result<Reading, String> {
+    let (id, lux) = s
+        .split_once(':')
+        .ok_or_else(|| format!("luxmeter reading {s:?}: write SENSOR_ID:LUX"))?;
+    Ok(Reading {
+        sensor_id: id
+            .trim()
+            .parse()
+            .map_err(|e| format!("luxmeter reading {s:?}: sensor id: {e}"))?,
+        lux_lx: lux
+            .trim()
+            .parse()
+            .map_err(|e| format!("luxmeter reading {s:?}: lux: {e}"))?,
+    })
+}
+
 /// Checks readings before any work: finite, positive, at most [`MAX_READINGS`], each sensor
 /// once and known.
 pub fn check(readings: &[Reading], sensor_ids: &[u32]) -> Result<(), String> {
@@ -221,6 +239,20 @@ mod tests {
         // an absurd one (klx typed as lx, another desk's) is an error
         for lux in [1e5, 400.0] {
             assert!(fit(&us, s, s, 0.5, 0.7, &[high(lux)]).is_err(), "{lux}");
+        }
+    }
+
+    #[test]
+    fn readings_parse_or_say_why() {
+        assert_eq!(
+            parse_reading(" 7 : 1282.5").unwrap(),
+            Reading {
+                sensor_id: 7,
+                lux_lx: 1282.5
+            }
+        );
+        for bad in ["7", "x:500", "7:lots", ":", "-1:500"] {
+            assert!(parse_reading(bad).is_err(), "{bad}");
         }
     }
 

@@ -275,13 +275,28 @@ impl CommissionSource for CameraSource {
             }
         }
         self.ambient = ambient;
-        let c = commission::from_capture(
-            &seq.capture,
-            self.luminaires.clone(),
-            self.sensors.clone(),
-            self.desks.clone(),
-            &options,
-        )?;
+        let go = |o: &CommissionOptions| {
+            commission::from_capture(
+                &seq.capture,
+                self.luminaires.clone(),
+                self.sensors.clone(),
+                self.desks.clone(),
+                o,
+            )
+        };
+        let c = match go(&options) {
+            // the board's luxmeter readings need a gain they do not change: the sensor's,
+            // measured directly, or else the camera's own
+            Err(e)
+                if !options.readings.is_empty()
+                    && matches!(options.gain, commission::Gain::Ambient { .. }) =>
+            {
+                tracing::warn!("commission: {e}; the camera's own gain instead");
+                options.gain = commission::Gain::Camera;
+                go(&options)?
+            }
+            r => r?,
+        };
         if let commission::Gain::Ambient { .. } = options.gain {
             let g = c.report.reflectance.gain_cd_m2_per_unit;
             match camera_gain {
@@ -305,6 +320,19 @@ impl CommissionSource for CameraSource {
             }
         }
         let r = &c.report;
+        if let Some(f) = &r.reflectance_fit {
+            tracing::info!(
+                "commission: {} luxmeter readings set the walls {:.3} -> {:.3} (± {:.3}), the \
+                 ceiling {:.3} -> {:.3} (± {:.3})",
+                f.readings.len(),
+                f.wall_rho.0,
+                f.wall_rho.1,
+                f.sigma_after.0,
+                f.ceiling_rho.0,
+                f.ceiling_rho.1,
+                f.sigma_after.1
+            );
+        }
         for (name, dt) in &r.timings {
             tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
         }
