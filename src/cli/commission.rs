@@ -258,15 +258,7 @@ pub fn run(a: &Args) -> Result<()> {
         r.reflectance.clamped
     );
     if let Some(f) = &r.reflectance_fit {
-        println!(
-            "luxmeter readings set walls {:.3} -> {:.3} (±{:.3}), ceiling {:.3} -> {:.3} (±{:.3})",
-            f.wall_rho.0,
-            f.wall_rho.1,
-            f.sigma_after.0,
-            f.ceiling_rho.0,
-            f.ceiling_rho.1,
-            f.sigma_after.1
-        );
+        println!("{f}");
         println!("sensor,luxmeter_lx,model_before_lx,model_after_lx");
         let after = c.model.sensor_lux(&vec![1.0; c.model.luminaires()])?;
         for (id, read, before) in &f.readings {

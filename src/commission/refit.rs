@@ -77,6 +77,23 @@ pub fn parse_reading(s: &str) -> Result<Reading, String> {
     })
 }
 
+impl core::fmt::Display for ReflectanceFit {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "{} luxmeter readings set the walls {:.3} -> {:.3} (± {:.3}), the ceiling {:.3} -> \
+             {:.3} (± {:.3})",
+            self.readings.len(),
+            self.wall_rho.0,
+            self.wall_rho.1,
+            self.sigma_after.0,
+            self.ceiling_rho.0,
+            self.ceiling_rho.1,
+            self.sigma_after.1
+        )
+    }
+}
+
 /// Checks readings before any work: finite, positive, at most [`MAX_READINGS`], each sensor
 /// once and known.
 pub fn check(readings: &[Reading], sensor_ids: &[u32]) -> Result<(), String> {

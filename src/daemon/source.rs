@@ -321,17 +321,7 @@ impl CommissionSource for CameraSource {
         }
         let r = &c.report;
         if let Some(f) = &r.reflectance_fit {
-            tracing::info!(
-                "commission: {} luxmeter readings set the walls {:.3} -> {:.3} (± {:.3}), the \
-                 ceiling {:.3} -> {:.3} (± {:.3})",
-                f.readings.len(),
-                f.wall_rho.0,
-                f.wall_rho.1,
-                f.sigma_after.0,
-                f.ceiling_rho.0,
-                f.ceiling_rho.1,
-                f.sigma_after.1
-            );
+            tracing::info!("commission: {f}");
         }
         for (name, dt) in &r.timings {
             tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
