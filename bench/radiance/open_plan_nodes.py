@@ -66,7 +66,7 @@ except ImportError:  # pragma: no cover
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from daylight import noisy_depth, quantise, write_png16  # noqa: E402
-from open_plan import write_scene_files  # noqa: E402
+from open_plan import box, write_scene_files  # noqa: E402
 
 BIN = Path(pyradiance.BINPATH)
 HERE = Path(__file__).resolve().parent
@@ -136,19 +136,6 @@ def sensors() -> list[dict]:
     out.append({"id": 9, "position": [9.0, 0.25, round(h + 0.001, 3)], "normal": [0.0, 0.0, 1.0],
                 "note": "cabinet top"})
     return out
-
-
-def box(group, mat, x0, x1, y0, y1, z0, z1):
-    f = [
-        [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)],
-        [(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)],
-        [(x1, y1, z0), (x0, y1, z0), (x0, y1, z1), (x1, y1, z1)],
-        [(x0, y1, z0), (x0, y0, z0), (x0, y0, z1), (x0, y1, z1)],
-        [(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)],
-    ]
-    if z0 > 1e-9:
-        f.append([(x0, y1, z0), (x1, y1, z0), (x1, y0, z0), (x0, y0, z0)])
-    return [(group, mat, c) for c in f]
 
 
 def quads():

@@ -8,8 +8,8 @@
 //!
 //! `u_s = √(Σ_c Δ_sc²) / E_s`,  `Δ_sc = E_s(ρ + σ_c 1_c) − E_s(ρ)`
 //!
-//! at the all-on state, each `Δ_sc` from two radiosity solves
-//! ([`crate::engine::Model::reflectance_sensitivity_lx`]). The classes are independent
+//! at the all-on state, each `Δ_sc` from one radiosity solve against the model's own, solved
+//! once ([`crate::engine::Model::reflectance_sensitivities_lx`]). The classes are independent
 //! (different surfaces, different sources of error), so their squares add. Seen surfaces enter
 //! too, with the measurement's uncertainty (gain and pixels). What this does not cover, and the
 //! docs say: objects nobody saw that shadow a desk (the direct light of an out-of-view desk is
@@ -186,7 +186,8 @@ pub fn per_sensor(
         .iter()
         .map(|&t| reco.part.get(t as usize).copied().and_then(Inferred::of))
         .collect();
-    let mut by_class = vec![[0.0; 6]; model.sensors()];
+    // every class's perturbed reflectances, then one batch of solves (the model's own once)
+    let mut perturbed: Vec<(usize, Vec<f64>)> = Vec::new();
     for (ci, c) in Inferred::ALL.into_iter().enumerate() {
         let sigma = o.sigma(c);
         if sigma == 0.0 || !class.contains(&Some(c)) {
@@ -205,9 +206,14 @@ pub fn per_sensor(
                 }
             })
             .collect();
-        let d = model.reflectance_sensitivity_lx(&levels, &rho)?;
+        perturbed.push((ci, rho));
+    }
+    let rhos: Vec<&[f64]> = perturbed.iter().map(|(_, r)| r.as_slice()).collect();
+    let deltas = model.reflectance_sensitivities_lx(&levels, &rhos)?;
+    let mut by_class = vec![[0.0; 6]; model.sensors()];
+    for ((ci, _), d) in perturbed.iter().zip(deltas) {
         for (s, v) in d.into_iter().enumerate() {
-            by_class[s][ci] = v;
+            by_class[s][*ci] = v;
         }
     }
     Ok(model

@@ -963,21 +963,35 @@ impl Model {
         levels: &[f64],
         rho: &[f64],
     ) -> Result<Vec<f64>, EngineError> {
+        let mut d = self.reflectance_sensitivities_lx(levels, std::slice::from_ref(&rho))?;
+        Ok(d.pop().unwrap_or_default())
+    }
+
+    /// [`Model::reflectance_sensitivity_lx`] for several sets of reflectances, the model's own
+    /// solve done once: one vector of sensor changes per set, in order.
+    pub fn reflectance_sensitivities_lx<R: AsRef<[f64]>>(
+        &self,
+        levels: &[f64],
+        rhos: &[R],
+    ) -> Result<Vec<Vec<f64>>, EngineError> {
         self.check_levels(levels)?;
         let n = self.patches.len();
-        if rho.len() != n {
-            return Err(EngineError::State(format!(
-                "{} reflectances for {n} patches",
-                rho.len()
-            )));
-        }
-        if let Some(r) = rho
-            .iter()
-            .find(|r| !(r.is_finite() && (0.0..1.0).contains(*r)))
-        {
-            return Err(EngineError::State(format!(
-                "reflectance {r} is outside [0, 1)"
-            )));
+        for rho in rhos {
+            let rho = rho.as_ref();
+            if rho.len() != n {
+                return Err(EngineError::State(format!(
+                    "{} reflectances for {n} patches",
+                    rho.len()
+                )));
+            }
+            if let Some(r) = rho
+                .iter()
+                .find(|r| !(r.is_finite() && (0.0..1.0).contains(*r)))
+            {
+                return Err(EngineError::State(format!(
+                    "reflectance {r} is outside [0, 1)"
+                )));
+            }
         }
         let mut e = vec![0.0; n];
         for (l, x) in levels.iter().enumerate() {
@@ -1000,13 +1014,17 @@ impl Model {
             Ok(b)
         };
         let b0 = solve(&self.patches.rho)?;
-        let b1 = solve(rho)?;
-        let db: Vec<f64> = b1.iter().zip(&b0).map(|(a, b)| a - b).collect();
-        finite(
-            (0..self.sensors())
-                .map(|s| gather_dot(&self.gather, s, &db))
-                .collect(),
-        )
+        rhos.iter()
+            .map(|rho| {
+                let b1 = solve(rho.as_ref())?;
+                let db: Vec<f64> = b1.iter().zip(&b0).map(|(a, b)| a - b).collect();
+                finite(
+                    (0..self.sensors())
+                        .map(|s| gather_dot(&self.gather, s, &db))
+                        .collect(),
+                )
+            })
+            .collect()
     }
 
     /// Incident illuminance on each patch (lx) for a dimming state: `E_dir + F B`.
