@@ -288,8 +288,8 @@ fn absorb(grid: &PointGrid, planes: &mut [Plane], free: &[bool], o: &PlaneOption
                     pl.distance_m(p).abs() <= tol
                         && grid.normals[i].is_none_or(|n| n.dot(pl.normal).abs() >= cos_loose)
                 })
-                .map(|e| ((), e.0));
-            if let Some((_, k)) = best {
+                .map(|e| e.0);
+            if let Some(k) = best {
                 taken.push((i, k));
             }
         }

@@ -106,13 +106,7 @@ impl NodeModel {
             luminaire_ids: (0..l).map(|j| image.luminaire_id(j)).collect(),
             sensor_flags: (0..s).map(|k| image.sensor_flags(k)).collect(),
             model_rel_uncertainty: (0..s)
-                .map(|k| {
-                    image
-                        .live
-                        .as_ref()
-                        .and_then(|l| l.model_rel_uncertainty(k))
-                        .unwrap_or(f64::NAN)
-                })
+                .map(|k| image.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
             generation,
             luminaire_flux_lm: (0..l)

@@ -804,10 +804,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
                     id: image.sensor_id(k),
                     in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
                     estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
-                    stated_rel_uncertainty: image
-                        .live
-                        .as_ref()
-                        .and_then(|l| l.model_rel_uncertainty(k)),
+                    stated_rel_uncertainty: image.model_rel_uncertainty(k),
                 }
             })
             .collect(),

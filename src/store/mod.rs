@@ -495,6 +495,12 @@ impl<'a> Image<'a> {
         self.payload.sensor_flags.0[k]
     }
 
+    /// Sensor `k`'s stated relative uncertainty of its modelled light, from what commissioning
+    /// inferred (the live section's; `None` without one, or not stated: a CAD model).
+    pub fn model_rel_uncertainty(&self, k: usize) -> Option<f64> {
+        self.live.as_ref().and_then(|l| l.model_rel_uncertainty(k))
+    }
+
     /// Response of sensor `s` to luminaire `l` at 100 %, lx.
     pub fn response_lx(&self, s: usize, l: usize) -> f64 {
         self.payload.response_lx.f64_at(s * self.luminaires() + l)
