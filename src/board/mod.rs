@@ -52,8 +52,8 @@ pub struct Board {
     pub led: Option<crate::board::camera::LedBoard>,
     /// Luxmeter readings with every luminaire at full (`[commissioning] luxmeter_rho =
     /// ["SENSOR_ID:LUX", ...]`): commissioning fits the unseen walls' and ceiling's reflectance
-    /// to them (`crate::commission::refit`; the camera's own gain, not the ambient light
-    /// sensor's).
+    /// to them (`crate::commission::refit`; with the camera's own gain or a hooded ambient
+    /// light sensor's, measured directly).
     pub luxmeter_rho: Vec<crate::commission::refit::Reading>,
 }
 
@@ -495,13 +495,6 @@ impl Board {
         };
         if let Some(l) = &t.led {
             l.validate().map_err(|e| bad(e.0))?;
-        }
-        if t.commissioning.luxmeter_rho.len() > crate::commission::refit::MAX_READINGS {
-            return Err(bad(format!(
-                "commissioning.luxmeter_rho: {} readings, at most {}",
-                t.commissioning.luxmeter_rho.len(),
-                crate::commission::refit::MAX_READINGS
-            )));
         }
         let luxmeter_rho = t
             .commissioning
