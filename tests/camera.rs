@@ -292,6 +292,114 @@ fn sim_is_deterministic_for_a_seed() {
     assert_ne!(c.capture_depth().unwrap().depth_mm, a1.depth_mm);
 }
 
+/// A colour camera in a room whose daylight brightens while the capture runs: frame j (0 the
+/// first) gets a uniform `base · (1 + step · j)` cd/m² on top of the room's own light.
+struct DriftingDaylight<C> {
+    inner: C,
+    base_cd_m2: f64,
+    step: f64,
+    calls: usize,
+}
+
+impl<C: LuminanceCamera> LuminanceCamera for DriftingDaylight<C> {
+    fn capture_luminance(&mut self) -> Result<luxnode::camera::LuminanceFrame, CameraError> {
+        let mut f = self.inner.capture_luminance()?;
+        let add = self.base_cd_m2 * (1.0 + self.step * self.calls as f64) / f.cd_m2_per_unit;
+        for v in &mut f.data {
+            *v = (f64::from(*v) + add).round().min(65535.0) as u16;
+        }
+        self.calls += 1;
+        Ok(f)
+    }
+}
+
+#[test]
+fn daylight_drifting_during_the_capture_is_taken_out_of_each_luminaires_frame() {
+    let w = demo();
+    let ids = w.luminaire_ids();
+    let take = |base_cd_m2: f64, step: f64| {
+        let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
+        let mut lum = DriftingDaylight {
+            inner: w.luminance_camera(SimLuminanceOptions::default()).unwrap(),
+            base_cd_m2,
+            step,
+            calls: 0,
+        };
+        let mut lights = w.clone();
+        capture_sequence_with(
+            &mut depth,
+            &mut lum,
+            &mut lights,
+            &ids,
+            &SequenceOptions {
+                depth_frames: 1,
+                ..SequenceOptions::default()
+            },
+            &mut |_, _, _| {},
+        )
+        .unwrap()
+    };
+    let dark = take(0.0, 0.0);
+    // 20 cd/m² of daylight, +2 % a frame: + 2 (n + 2) % by the closing all-off frame
+    let (base, step) = (20.0, 0.02);
+    let day = take(base, step);
+    let end = day.capture.off_end.as_ref().expect("the closing all-off frame");
+    assert_eq!(end.position, ids.len() + 2, "after the all-on frame");
+    let drift = day.daylight_drift.unwrap();
+    let by_end = step * (ids.len() + 2) as f64;
+    assert!((drift - by_end).abs() < 0.01, "{drift} vs {by_end}");
+    assert!(day.capture.warnings.iter().any(|x| x.contains("daylight changed")));
+    let gain = day.capture.camera.luminance_cd_m2_per_unit.unwrap();
+    let mut without = day.capture.clone();
+    without.off_end = None;
+    let (mut worst, mut worst_without, mut n) = (0.0f64, 0.0f64, 0usize);
+    for k in 0..ids.len() {
+        for (i, &x) in dark.capture.luminance[k].1.data.iter().enumerate() {
+            if x < 200 || x == u16::MAX {
+                continue;
+            }
+            let truth = f64::from(x);
+            let (Some(a), Some(b)) = (
+                day.capture.luminaire_value(k, i),
+                without.luminaire_value(k, i),
+            ) else {
+                continue;
+            };
+            worst = worst.max((a - truth).abs());
+            worst_without = worst_without.max((b - truth).abs());
+            n += 1;
+        }
+    }
+    assert!(n > 10_000, "{n}");
+    // interpolated: rounding only (three frames, half a unit each)
+    assert!(worst <= 1.5, "{worst}");
+    // the first off frame alone leaves the drift in: up to (n + 1) · step · base
+    let expect = ids.len() as f64 * step * base / gain;
+    assert!(worst_without > 0.9 * expect, "{worst_without} vs {expect}");
+    // the capture set on disk keeps the closing frame and its place
+    let tmp = tempfile::tempdir().unwrap();
+    luxnode::camera::save_capture(tmp.path(), &day.capture, day.all_on.as_ref()).unwrap();
+    let back = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap();
+    assert_eq!(back.off_end.as_ref().map(|e| e.position), Some(ids.len() + 2));
+    assert_eq!(
+        back.luminaire_value(0, 1000),
+        day.capture.luminaire_value(0, 1000)
+    );
+    // saved without the all-on frame, camera.json still says where the closing frame was
+    let tmp = tempfile::tempdir().unwrap();
+    luxnode::camera::save_capture(tmp.path(), &day.capture, None).unwrap();
+    let back = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap();
+    assert_eq!(back.off_end.as_ref().map(|e| e.position), Some(ids.len() + 2));
+    // a place the sequence cannot have had is a clear error
+    let path = tmp.path().join("camera.json");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let key = format!("\"luminance_off_end_position\": {}", ids.len() + 2);
+    assert!(text.contains(&key), "{text}");
+    std::fs::write(&path, text.replace(&key, "\"luminance_off_end_position\": 99")).unwrap();
+    let e = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap_err();
+    assert!(e.to_string().contains("luminance_off_end_position"), "{e}");
+}
+
 #[test]
 fn capture_sequence_survives_transient_faults_and_reports_the_rest() {
     let w = demo();
@@ -1614,6 +1722,7 @@ mod fisheye {
             }],
             luminance: Vec::new(),
             off: None,
+            off_end: None,
             warnings: Vec::new(),
         };
         let out = dir.path().join("cap");

@@ -33,16 +33,33 @@ struct Rig {
     sensor_ids: Vec<u32>,
 }
 
-/// The office commissioned from its daylight capture set, with (`luxmeter`) or without one
-/// luxmeter reading at sensor 7 with every luminaire at full (Radiance's, the luminaires alone:
-/// at night, or a reading with the lights on less one with them off).
-fn rig(luxmeter: bool) -> &'static Rig {
-    static PLAIN: OnceLock<Rig> = OnceLock::new();
-    static READ: OnceLock<Rig> = OnceLock::new();
-    (if luxmeter { &READ } else { &PLAIN }).get_or_init(|| build_rig(luxmeter))
+/// How the office is commissioned from its daylight capture set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Commissioning {
+    /// The capture set as it is, cameras only.
+    Plain,
+    /// With one luxmeter reading at sensor 7 with every luminaire at full (Radiance's, the
+    /// luminaires alone: at night, or a reading with the lights on less one with them off).
+    Luxmeter,
+    /// Without the closing all-off frame: the first off frame alone is subtracted, the
+    /// daylight's drift during the capture stays in the luminaires' frames.
+    FirstOffFrameOnly,
 }
 
-fn build_rig(luxmeter: bool) -> Rig {
+fn rig(c: Commissioning) -> &'static Rig {
+    static PLAIN: OnceLock<Rig> = OnceLock::new();
+    static READ: OnceLock<Rig> = OnceLock::new();
+    static FIRST: OnceLock<Rig> = OnceLock::new();
+    match c {
+        Commissioning::Plain => &PLAIN,
+        Commissioning::Luxmeter => &READ,
+        Commissioning::FirstOffFrameOnly => &FIRST,
+    }
+    .get_or_init(|| build_rig(c))
+}
+
+fn build_rig(c: Commissioning) -> Rig {
+    let luxmeter = c == Commissioning::Luxmeter;
     {
         let s = scene();
         let load = LoadOptions::default();
@@ -51,8 +68,12 @@ fn build_rig(luxmeter: bool) -> Rig {
         let desks = load_desks_file(&s.join("desks.json"), &load).unwrap();
         let luminaire_ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
         let sensor_ids: Vec<u32> = sensors.iter().map(|x| x.id).collect();
-        let cap = Capture::load(&s.join("capture"), &luminaire_ids).unwrap();
+        let mut cap = Capture::load(&s.join("capture"), &luminaire_ids).unwrap();
         assert!(cap.off.is_some(), "the capture set has its all-off frame");
+        assert!(cap.off_end.is_some(), "and its closing one");
+        if c == Commissioning::FirstOffFrameOnly {
+            cap.off_end = None;
+        }
         let mut o = CommissionOptions::default();
         if luxmeter {
             let text = std::fs::read_to_string(s.join("live/truth.csv")).unwrap();
@@ -194,6 +215,7 @@ const SKIES: [&str; 5] = [
 #[derive(Default)]
 struct Acc {
     sum: f64,
+    sum_sq: f64,
     n: usize,
     worst: f64,
 }
@@ -201,11 +223,15 @@ struct Acc {
 impl Acc {
     fn add(&mut self, e: f64) {
         self.sum += e;
+        self.sum_sq += e * e;
         self.n += 1;
         self.worst = self.worst.max(e);
     }
     fn mean(&self) -> f64 {
         self.sum / self.n.max(1) as f64
+    }
+    fn rms(&self) -> f64 {
+        (self.sum_sq / self.n.max(1) as f64).sqrt()
     }
 }
 
@@ -285,9 +311,10 @@ fn bench(r: &Rig) -> Scores {
         }
     }
     eprintln!(
-        "desks in view: mean {:.1} %, worst {:.1} %; overcast, all desks: mean {:.1} %, worst {:.1} %; \
+        "desks in view: mean {:.1} % (RMS {:.1} %), worst {:.1} %; overcast, all desks: mean {:.1} %, worst {:.1} %; \
          clear with sun, all desks: mean {:.1} %, worst {:.1} %; daylight part: mean {:.1} %, worst {:.1} % of the total",
         100.0 * view.mean(),
+        100.0 * view.rms(),
         100.0 * view.worst,
         100.0 * overcast.mean(),
         100.0 * overcast.worst,
@@ -324,28 +351,29 @@ fn live_light_against_radiance_with_daylight() {
         day_part,
         c1,
         c2,
-    } = bench(rig(false));
+    } = bench(rig(Commissioning::Plain));
     assert!(view.n > 0 && overcast.n > 0 && clear.n > 0);
-    // measured 70 % and 92 % (a normal error: 68 % and 95 %); with the earlier 2 % and 3 %
-    // relative uncertainties, 20 % and 35 %: the register understated the error
+    // measured 71 % and 99 % (a normal error: 68 % and 95 %) with the measured desks' relative
+    // uncertainty at 4 %, this bench's RMS error in view (3.8 %); at 7 %, before the closing
+    // all-off frame and the narrowing window, 91 % and 100 %: the register overstated it
     assert!((0.55..=0.9).contains(&c1), "within one uncertainty: {c1}");
-    assert!(c2 >= 0.88, "within two uncertainties: {c2}");
-    // docs/live.md, "Radiance yardstick": measured 6.8 % (worst 15.5 %) in view, 7.9 % overcast,
-    // 8.9 % clear with sun, the daylight part 7.2 % of the total; guarded at 1.5 times
-    assert!(view.mean() < 0.096, "in view: mean {}", view.mean());
-    assert!(view.worst < 0.225, "in view: worst {}", view.worst);
+    assert!(c2 >= 0.95, "within two uncertainties: {c2}");
+    // docs/live.md, "Radiance yardstick": measured 3.5 % (worst 10.5 %) in view, 6.4 % overcast,
+    // 7.0 % clear with sun, the daylight part 5.8 % of the total; guarded at 1.4 times
+    assert!(view.mean() < 0.049, "in view: mean {}", view.mean());
+    assert!(view.worst < 0.147, "in view: worst {}", view.worst);
     assert!(
-        overcast.mean() < 0.114,
+        overcast.mean() < 0.089,
         "overcast: mean {}",
         overcast.mean()
     );
     assert!(
-        clear.mean() < 0.132,
+        clear.mean() < 0.097,
         "clear with sun: mean {}",
         clear.mean()
     );
     assert!(
-        day_part.mean() < 0.107,
+        day_part.mean() < 0.081,
         "daylight part: mean {}",
         day_part.mean()
     );
@@ -356,8 +384,8 @@ fn live_light_against_radiance_with_daylight() {
 /// measured desk, in daylight too (docs/live.md).
 #[test]
 fn a_luxmeter_reading_at_commissioning_with_daylight() {
-    let plain = bench(rig(false));
-    let read = bench(rig(true));
+    let plain = bench(rig(Commissioning::Plain));
+    let read = bench(rig(Commissioning::Luxmeter));
     eprintln!(
         "in view {:.2} -> {:.2} % (worst {:.1} -> {:.1} %); overcast {:.2} -> {:.2} %; clear \
          {:.2} -> {:.2} %; daylight part {:.2} -> {:.2} %; within one {:.0} -> {:.0} %, two \
@@ -377,11 +405,35 @@ fn a_luxmeter_reading_at_commissioning_with_daylight() {
         100.0 * plain.c2,
         100.0 * read.c2,
     );
-    // docs/live.md: measured in view 6.80 -> 5.99 %, overcast 7.85 -> 7.50 %, clear 8.93 ->
-    // 8.06 %, the daylight part 7.16 -> 6.92 %, within two stated uncertainties 92 -> 99 %
-    assert!(read.view.mean() < 0.066, "in view {}", read.view.mean());
+    // docs/live.md: measured in view 3.49 -> 2.62 % (issue 12's target: 3 %), overcast 6.38 ->
+    // 7.30 %, clear 6.96 -> 6.30 %, the daylight part 5.78 -> 6.19 %, within two stated
+    // uncertainties 99 -> 100 %; guarded at about 1.1 times
+    assert!(read.view.mean() < 0.029, "in view {}", read.view.mean());
     assert!(read.view.mean() < plain.view.mean() - 0.005);
-    assert!(read.overcast.mean() < 0.083 && read.clear.mean() < 0.089);
-    assert!(read.day_part.mean() < 0.077);
+    assert!(read.overcast.mean() < 0.081 && read.clear.mean() < 0.07);
+    assert!(read.day_part.mean() < 0.069);
     assert!(read.c2 >= 0.95, "within two: {}", read.c2);
+}
+
+/// The closing all-off frame takes the daylight's drift during the capture out of the
+/// luminaires' frames (the bench's sky brightens by 6 % over the capture, faster as it goes, so
+/// the linear interpolation is not exact; docs/live.md).
+#[test]
+fn the_closing_all_off_frame_takes_the_drift_out() {
+    let first = bench(rig(Commissioning::FirstOffFrameOnly));
+    let both = bench(rig(Commissioning::Plain));
+    eprintln!(
+        "in view {:.2} -> {:.2} % (worst {:.1} -> {:.1} %); overcast {:.2} -> {:.2} %; clear \
+         {:.2} -> {:.2} %",
+        100.0 * first.view.mean(),
+        100.0 * both.view.mean(),
+        100.0 * first.view.worst,
+        100.0 * both.view.worst,
+        100.0 * first.overcast.mean(),
+        100.0 * both.overcast.mean(),
+        100.0 * first.clear.mean(),
+        100.0 * both.clear.mean(),
+    );
+    // docs/live.md: measured in view 5.48 -> 3.49 %
+    assert!(both.view.mean() < first.view.mean() - 0.01);
 }

@@ -4,7 +4,12 @@
 //! (every luminaire off: the daylight and any other light during the capture, in the same
 //! encoding). With an off frame, commissioning subtracts it from each one-luminaire frame, so a
 //! capture taken in daylight gives the luminaires' own light; a set without one (the reference
-//! captures, taken in the dark) reads as before. `groundtruth/` is never read here.
+//! captures, taken in the dark) reads as before. With `luminance_off_end.png` too (every
+//! luminaire off again at the end of the sequence), the daylight subtracted from each frame is
+//! interpolated linearly between the two off frames by the frame's place in the sequence
+//! (`off`, `L<k>` in order, `all` when `luminance_all.png` is there, `off_end`): daylight that
+//! drifts steadily during the capture is taken out of the luminaires' light. `groundtruth/` is
+//! never read here.
 //!
 //! Loading checks what would otherwise panic or silently mislead later stages: missing frames,
 //! frames of another size than `camera.json` says, 8-bit or colour frames, depth frames with no
@@ -53,8 +58,50 @@ pub struct Capture {
     /// The frame with every luminaire off (daylight, other light), same encoding; `None` for a
     /// capture taken in the dark (the reference sets).
     pub off: Option<Frame>,
+    /// The frame with every luminaire off again at the end of the sequence, and its place in
+    /// the sequence (the first off frame is 0, luminaire frame `k` is `k + 1`, the all-on frame
+    /// when taken the one after the last): the daylight's drift during the capture. Used only
+    /// with `off`.
+    pub off_end: Option<OffEnd>,
     /// Non-fatal findings.
     pub warnings: Vec<String>,
+}
+
+/// The closing all-off frame of a capture ([`Capture::off_end`]).
+#[derive(Debug, Clone)]
+pub struct OffEnd {
+    /// The frame, same encoding as the others.
+    pub frame: Frame,
+    /// Its place in the sequence (> the number of luminaire frames).
+    pub position: usize,
+}
+
+/// The closing all-off frame's place in the sequence: camera.json's
+/// `luminance_off_end_position`, or, without it, the one after the all-on frame when
+/// `luminance_all.png` is there and after the last luminaire frame when not.
+fn off_end_position(dir: &Path, luminaires: usize) -> Result<usize, CaptureError> {
+    let path = dir.join("camera.json");
+    let bad = |message: String| CaptureError {
+        path: path.clone(),
+        message,
+    };
+    let text = std::fs::read_to_string(&path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let j: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    match j.get("luminance_off_end_position") {
+        None => Ok(luminaires + 1 + usize::from(dir.join("luminance_all.png").exists())),
+        Some(v) => match v.as_u64() {
+            Some(p) if (luminaires as u64 + 1..=luminaires as u64 + 2).contains(&p) => {
+                Ok(p as usize)
+            }
+            _ => Err(bad(format!(
+                "luminance_off_end_position {v}: the closing all-off frame comes right after \
+                 the {luminaires} luminaire frames or the all-on frame ({} or {})",
+                luminaires + 1,
+                luminaires + 2
+            ))),
+        },
+    }
 }
 
 /// Reads a 16-bit greyscale PNG frame (the capture format's encoding).
@@ -174,32 +221,59 @@ impl Capture {
         } else {
             None
         };
+        let end_path = dir.join("luminance_off_end.png");
+        let off_end = if off.is_some() && end_path.exists() {
+            let f = read_frame16(&end_path)?;
+            check_size(&end_path, &f, &camera)?;
+            let position = off_end_position(dir, luminance.len())?;
+            Some(OffEnd { frame: f, position })
+        } else {
+            None
+        };
         Ok(Capture {
             dir: dir.to_path_buf(),
             camera,
             depth_mm,
             luminance,
             off,
+            off_end,
             warnings,
         })
     }
 
-    /// The value of luminaire frame `k` at pixel `i` with the off frame subtracted, in frame
-    /// units: `None` where either frame is saturated, or the difference is not positive (no light
-    /// from the luminaire there, or daylight noise larger than it).
+    /// The value of luminaire frame `k` at pixel `i` with the daylight subtracted
+    /// ([`Self::daylight_value`]), in frame units: `None` where a frame is saturated, or the
+    /// difference is not positive (no light from the luminaire there, or daylight noise larger
+    /// than it).
     pub fn luminaire_value(&self, k: usize, i: usize) -> Option<f64> {
         let x = *self.luminance.get(k)?.1.data.get(i)?;
         if x == SATURATED || x == 0 {
             return None;
         }
-        let off = match &self.off {
-            Some(f) => match f.data.get(i) {
-                Some(&SATURATED) | None => return None,
-                Some(&o) => f64::from(o),
-            },
-            None => 0.0,
-        };
-        let v = f64::from(x) - off;
+        let v = f64::from(x) - self.daylight_value(k, i)?;
         (v > 0.0).then_some(v)
+    }
+
+    /// The daylight in luminaire frame `k` at pixel `i`, frame units: 0 without an off frame;
+    /// the off frame's value; with a closing off frame, the two interpolated linearly by the
+    /// frame's place in the sequence (clamped at 0). `None` where an off frame is saturated or
+    /// the pixel is outside the frame.
+    pub fn daylight_value(&self, k: usize, i: usize) -> Option<f64> {
+        let Some(first) = &self.off else {
+            return Some(0.0);
+        };
+        let o = match first.data.get(i) {
+            Some(&SATURATED) | None => return None,
+            Some(&o) => f64::from(o),
+        };
+        let Some(end) = &self.off_end else {
+            return Some(o);
+        };
+        let e = match end.frame.data.get(i) {
+            Some(&SATURATED) | None => return None,
+            Some(&e) => f64::from(e),
+        };
+        let t = (k + 1) as f64 / end.position.max(k + 2) as f64;
+        Some((o + t * (e - o)).max(0.0))
     }
 }

@@ -7,9 +7,12 @@
 //! ```
 //!
 //! The all-off frames make commissioning work with daylight in the room: commissioning
-//! subtracts the first from every one-luminaire frame (`capture::Capture::luminaire_value`).
-//! The last one is compared with the first: daylight that changed during the capture by more
-//! than [`DAYLIGHT_DRIFT_WARNING`] is a warning (the subtraction is then off by that much).
+//! subtracts the daylight from every one-luminaire frame (`capture::Capture::luminaire_value`),
+//! interpolated linearly between the first and the last off frame by the frame's place in the
+//! sequence, so a steady drift of the daylight during the capture cancels. The last one is also
+//! compared with the first: daylight that changed during the capture by more than
+//! [`DAYLIGHT_DRIFT_WARNING`] is a warning (a change that is not steady, a cloud passing, is
+//! not taken out).
 //!
 //! A frame that fails with a transient error (timeout, garbage) is retried up to `retries`
 //! times; each retry is counted in the capture's warnings. Any other error, or a frame still
@@ -22,7 +25,7 @@ use std::time::Duration;
 
 use super::register::{Registration, RegistrationMap, median_depth};
 use super::{CameraError, DepthCamera, LightControl, LuminanceCamera, LuminanceFrame};
-use crate::camera::capture::{Capture, Frame};
+use crate::camera::capture::{Capture, Frame, OffEnd};
 use crate::scene::Camera;
 
 /// Knobs of the sequence beyond the interface's arguments.
@@ -305,6 +308,7 @@ fn run(
         step += 1;
     }
     let mut daylight_drift = None;
+    let mut off_end = None;
     if let Some(first) = &off {
         let what = "luminance frame, all off again (daylight drift)";
         progress(step, total, what);
@@ -313,12 +317,16 @@ fn run(
         daylight_drift = drift(first, &last);
         if let Some(d) = daylight_drift.filter(|d| *d > DAYLIGHT_DRIFT_WARNING) {
             warnings.push(format!(
-                "the daylight changed by {:.0} % during the capture: the one-luminaire frames \
-                 are off by up to that much of the daylight (commission again when the light is \
-                 steady, or at night)",
+                "the daylight changed by {:.0} % during the capture: a steady change is taken \
+                 out of the one-luminaire frames, any other is not (commission again when the \
+                 light is steady, or at night)",
                 100.0 * d
             ));
         }
+        off_end = Some(OffEnd {
+            frame: last,
+            position: n + 1 + usize::from(all_on.is_some()),
+        });
         step += 1;
     }
     progress(step, total, "done");
@@ -330,6 +338,7 @@ fn run(
             depth_mm,
             luminance,
             off,
+            off_end,
             warnings,
         },
         all_on,
@@ -462,10 +471,14 @@ pub fn save_capture(
             "depth_png": "uint16 millimetres along the camera optical axis (z_cam), 0 = no return",
             "luminance_png": "uint16 linear, luminance_cd_per_m2 = value * luminance_cd_m2_per_unit, clipped at 65535",
             "luminance_off_png": "as luminance_png, every luminaire off (the daylight during the capture); commissioning subtracts it from each luminance_L<k>.png",
+            "luminance_off_end_png": "as luminance_png, every luminaire off again at the end of the sequence, frame luminance_off_end_position of it (luminance_off.png is 0, luminance_L<k> the k-th after it, then the all-on frame if taken; without the key: after luminance_all.png when there is one); the daylight subtracted from each frame is interpolated linearly between the two off frames by its place",
         },
     });
     if let Some(s) = c.luminance_cd_m2_per_unit {
         j["luminance_cd_m2_per_unit"] = serde_json::json!(s);
+    }
+    if let Some(e) = &capture.off_end {
+        j["luminance_off_end_position"] = serde_json::json!(e.position);
     }
     if c.lens.is_fisheye() {
         j["model"] = serde_json::json!(c.lens.model_name());
@@ -482,6 +495,9 @@ pub fn save_capture(
     }
     if let Some(f) = &capture.off {
         write_png16(&dir.join("luminance_off.png"), f)?;
+    }
+    if let Some(e) = &capture.off_end {
+        write_png16(&dir.join("luminance_off_end.png"), &e.frame)?;
     }
     if let Some(f) = all_on {
         write_png16(&dir.join("luminance_all.png"), f)?;

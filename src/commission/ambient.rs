@@ -168,23 +168,24 @@ pub fn direct_gain(
     })
 }
 
-/// The frame value at pixel `i` for the dimming state, `None` where a frame is saturated.
+/// The frame value at pixel `i` for the dimming state (the daylight of the first off frame and
+/// each luminaire's own light, its frame less the daylight at its time), `None` where a frame
+/// is saturated.
 fn pixel_value(capture: &Capture, levels: &[f64], i: usize) -> Option<f64> {
-    let off = match &capture.off {
+    let mut x = match &capture.off {
         Some(f) => match f.data[i] {
             SATURATED => return None,
             o => f64::from(o),
         },
         None => 0.0,
     };
-    let mut x = off;
-    for ((_, f), &level) in capture.luminance.iter().zip(levels) {
+    for (k, ((_, f), &level)) in capture.luminance.iter().zip(levels).enumerate() {
         if level == 0.0 {
             continue;
         }
         match f.data[i] {
             SATURATED => return None,
-            v => x += level * (f64::from(v) - off),
+            v => x += level * (f64::from(v) - capture.daylight_value(k, i)?),
         }
     }
     Some(x.max(0.0))
@@ -236,6 +237,7 @@ mod tests {
             depth_mm: vec![],
             luminance: vec![(1, frame(value)), (2, frame(value))],
             off: off.map(frame),
+            off_end: None,
             camera: cam,
             warnings: vec![],
         }
