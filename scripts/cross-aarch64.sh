@@ -30,6 +30,7 @@ cargo nextest run --release --target aarch64-unknown-linux-gnu --no-fail-fast \
        | binary(architecture) | binary(deploy) | binary(engine_physics) | binary(flash)
        | binary(peripherals) | binary(photometry) | binary(scene) | binary(v4l2_stream)
        | (binary(camera) & not (test(/^sim_/) | test(demo_office) | test(capture_sequence)
+                                | test(daylight_drifting)
                                 | test(the_live_section)))
        | (binary(control) & not (test(every_desk) | test(a_day_of) | test(published)
                                  | test(closed_loop)))

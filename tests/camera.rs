@@ -343,12 +343,21 @@ fn daylight_drifting_during_the_capture_is_taken_out_of_each_luminaires_frame() 
     // 20 cd/m² of daylight, +2 % a frame: + 2 (n + 2) % by the closing all-off frame
     let (base, step) = (20.0, 0.02);
     let day = take(base, step);
-    let end = day.capture.off_end.as_ref().expect("the closing all-off frame");
+    let end = day
+        .capture
+        .off_end
+        .as_ref()
+        .expect("the closing all-off frame");
     assert_eq!(end.position, ids.len() + 2, "after the all-on frame");
     let drift = day.daylight_drift.unwrap();
     let by_end = step * (ids.len() + 2) as f64;
     assert!((drift - by_end).abs() < 0.01, "{drift} vs {by_end}");
-    assert!(day.capture.warnings.iter().any(|x| x.contains("daylight changed")));
+    assert!(
+        day.capture
+            .warnings
+            .iter()
+            .any(|x| x.contains("daylight changed"))
+    );
     let gain = day.capture.camera.luminance_cd_m2_per_unit.unwrap();
     let mut without = day.capture.clone();
     without.off_end = None;
@@ -380,7 +389,10 @@ fn daylight_drifting_during_the_capture_is_taken_out_of_each_luminaires_frame() 
     let tmp = tempfile::tempdir().unwrap();
     luxnode::camera::save_capture(tmp.path(), &day.capture, day.all_on.as_ref()).unwrap();
     let back = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap();
-    assert_eq!(back.off_end.as_ref().map(|e| e.position), Some(ids.len() + 2));
+    assert_eq!(
+        back.off_end.as_ref().map(|e| e.position),
+        Some(ids.len() + 2)
+    );
     assert_eq!(
         back.luminaire_value(0, 1000),
         day.capture.luminaire_value(0, 1000)
@@ -389,13 +401,20 @@ fn daylight_drifting_during_the_capture_is_taken_out_of_each_luminaires_frame() 
     let tmp = tempfile::tempdir().unwrap();
     luxnode::camera::save_capture(tmp.path(), &day.capture, None).unwrap();
     let back = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap();
-    assert_eq!(back.off_end.as_ref().map(|e| e.position), Some(ids.len() + 2));
+    assert_eq!(
+        back.off_end.as_ref().map(|e| e.position),
+        Some(ids.len() + 2)
+    );
     // a place the sequence cannot have had is a clear error
     let path = tmp.path().join("camera.json");
     let text = std::fs::read_to_string(&path).unwrap();
     let key = format!("\"luminance_off_end_position\": {}", ids.len() + 2);
     assert!(text.contains(&key), "{text}");
-    std::fs::write(&path, text.replace(&key, "\"luminance_off_end_position\": 99")).unwrap();
+    std::fs::write(
+        &path,
+        text.replace(&key, "\"luminance_off_end_position\": 99"),
+    )
+    .unwrap();
     let e = luxnode::camera::capture::Capture::load(tmp.path(), &ids).unwrap_err();
     assert!(e.to_string().contains("luminance_off_end_position"), "{e}");
 }
