@@ -510,6 +510,27 @@ pub fn sensor_reading_lx(
     patch_rho: &[f64],
     settings: &Settings,
 ) -> f64 {
+    reading_over_row(
+        model,
+        levels,
+        patch_rho,
+        settings,
+        |l| model.direct_sensor_lx[s][l],
+        || model.gather.row(s),
+    )
+}
+
+/// A receiver's reading for a dimming state: `Σ_l x_l (direct_l + row · B_l)`, with `B_l` the
+/// pass model's exitance from luminaire `l` alone at these patch reflectances (a failed solve
+/// leaves what it reached; the reading stays finite).
+fn reading_over_row<R: IntoIterator<Item = (u32, f64)>>(
+    model: &Model,
+    levels: &[f64],
+    patch_rho: &[f64],
+    settings: &Settings,
+    direct_lx: impl Fn(usize) -> f64,
+    row: impl Fn() -> R,
+) -> f64 {
     let sys = CsrSystem {
         f: model.ff.f.view(),
         rho: patch_rho,
@@ -521,8 +542,8 @@ pub fn sensor_reading_lx(
         }
         let mut b = vec![0.0; patch_rho.len()];
         let _ = solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve);
-        let g: f64 = model.gather.row(s).map(|(j, w)| w * b[j as usize]).sum();
-        total += x * (model.direct_sensor_lx[s][l] + g);
+        let g: f64 = row().into_iter().map(|(j, w)| w * b[j as usize]).sum();
+        total += x * (direct_lx(l) + g);
     }
     total
 }
@@ -580,20 +601,13 @@ impl PointReceiver {
         patch_rho: &[f64],
         settings: &Settings,
     ) -> f64 {
-        let sys = CsrSystem {
-            f: model.ff.f.view(),
-            rho: patch_rho,
-        };
-        let mut total = 0.0;
-        for (l, &x) in levels.iter().enumerate() {
-            if x == 0.0 {
-                continue;
-            }
-            let mut b = vec![0.0; patch_rho.len()];
-            let _ = solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve);
-            let g: f64 = self.row.iter().map(|(j, w)| w * b[*j as usize]).sum();
-            total += x * (self.direct_lx.get(l).copied().unwrap_or(0.0) + g);
-        }
-        total
+        reading_over_row(
+            model,
+            levels,
+            patch_rho,
+            settings,
+            |l| self.direct_lx.get(l).copied().unwrap_or(0.0),
+            || self.row.iter().copied(),
+        )
     }
 }
