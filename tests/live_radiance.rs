@@ -246,6 +246,29 @@ struct Scores {
     c2: f64,
 }
 
+/// Prints how each score moved from `a` to `b`.
+fn print_change(a: &Scores, b: &Scores) {
+    eprintln!(
+        "in view {:.2} -> {:.2} % (worst {:.1} -> {:.1} %); overcast {:.2} -> {:.2} %; clear \
+         {:.2} -> {:.2} %; daylight part {:.2} -> {:.2} %; within one {:.0} -> {:.0} %, two \
+         {:.0} -> {:.0} %",
+        100.0 * a.view.mean(),
+        100.0 * b.view.mean(),
+        100.0 * a.view.worst,
+        100.0 * b.view.worst,
+        100.0 * a.overcast.mean(),
+        100.0 * b.overcast.mean(),
+        100.0 * a.clear.mean(),
+        100.0 * b.clear.mean(),
+        100.0 * a.day_part.mean(),
+        100.0 * b.day_part.mean(),
+        100.0 * a.c1,
+        100.0 * b.c1,
+        100.0 * a.c2,
+        100.0 * b.c2,
+    );
+}
+
 /// Every sky × dimming state through live light; prints docs/live.md's table.
 fn bench(r: &Rig) -> Scores {
     let n = r.luminaire_ids.len();
@@ -386,25 +409,7 @@ fn live_light_against_radiance_with_daylight() {
 fn a_luxmeter_reading_at_commissioning_with_daylight() {
     let plain = bench(rig(Commissioning::Plain));
     let read = bench(rig(Commissioning::Luxmeter));
-    eprintln!(
-        "in view {:.2} -> {:.2} % (worst {:.1} -> {:.1} %); overcast {:.2} -> {:.2} %; clear \
-         {:.2} -> {:.2} %; daylight part {:.2} -> {:.2} %; within one {:.0} -> {:.0} %, two \
-         {:.0} -> {:.0} %",
-        100.0 * plain.view.mean(),
-        100.0 * read.view.mean(),
-        100.0 * plain.view.worst,
-        100.0 * read.view.worst,
-        100.0 * plain.overcast.mean(),
-        100.0 * read.overcast.mean(),
-        100.0 * plain.clear.mean(),
-        100.0 * read.clear.mean(),
-        100.0 * plain.day_part.mean(),
-        100.0 * read.day_part.mean(),
-        100.0 * plain.c1,
-        100.0 * read.c1,
-        100.0 * plain.c2,
-        100.0 * read.c2,
-    );
+    print_change(&plain, &read);
     // docs/live.md: measured in view 3.49 -> 2.62 % (issue 12's target: 3 %), overcast 6.38 ->
     // 7.30 %, clear 6.96 -> 6.30 %, the daylight part 5.78 -> 6.19 %, within two stated
     // uncertainties 99 -> 100 %; guarded at about 1.1 times
@@ -422,18 +427,7 @@ fn a_luxmeter_reading_at_commissioning_with_daylight() {
 fn the_closing_all_off_frame_takes_the_drift_out() {
     let first = bench(rig(Commissioning::FirstOffFrameOnly));
     let both = bench(rig(Commissioning::Plain));
-    eprintln!(
-        "in view {:.2} -> {:.2} % (worst {:.1} -> {:.1} %); overcast {:.2} -> {:.2} %; clear \
-         {:.2} -> {:.2} %",
-        100.0 * first.view.mean(),
-        100.0 * both.view.mean(),
-        100.0 * first.view.worst,
-        100.0 * both.view.worst,
-        100.0 * first.overcast.mean(),
-        100.0 * both.overcast.mean(),
-        100.0 * first.clear.mean(),
-        100.0 * both.clear.mean(),
-    );
+    print_change(&first, &both);
     // docs/live.md: measured in view 5.48 -> 3.49 %
     assert!(both.view.mean() < first.view.mean() - 0.01);
 }
