@@ -22,9 +22,11 @@
 //! 5 cm and 3 %: a person, a box), or where it is saturated.
 //!
 //! * **A desk the camera sees** (its window has samples): `D̂` = the weighted median of `D` over
-//!   the window (Gaussian weights, σ = 5 cm); artificial `Â = Σ_l x_l a_l Ẽ_l` with `Ẽ_l` the
-//!   desk's camera-calibrated response (the plane fit of `E_l` over the window at the sensor,
-//!   stored at commissioning); **total = Â + D̂** (*measured*). Daylight = max(D̂, 0); a negative
+//!   the window (Gaussian weights of twice the fit's σ: 5 cm in the open); artificial
+//!   `Â = Σ_l x_l a_l Ẽ_l` with `Ẽ_l` the desk's camera-calibrated response (the plane fit of
+//!   `E_l` over the window at the sensor, stored at commissioning, with σ chosen per desk by
+//!   [`section::window_sigma_m`]: 2.5 cm in the open, narrower at a shade's edge);
+//!   **total = Â + D̂** (*measured*). Daylight = max(D̂, 0); a negative
 //!   residual (the luminaires give less than the model says) counts against the artificial part.
 //! * **A desk the camera does not see**, or a covered one with nothing measured before:
 //!   artificial = the radiosity model `Σ_l x_l a_l R_l`; daylight **inferred**:

@@ -37,7 +37,8 @@ pub struct SectionOptions {
     /// Largest section, bytes, when the stride is chosen.
     pub budget_bytes: usize,
     /// Radius of a desk sensor's window, m (5 cm: a 10 cm window took in a monitor's shade
-    /// 8 cm from a reference sensor and read it 18 % low; docs/live.md).
+    /// 8 cm from a reference sensor and read it 18 % low; within it the fit's width narrows
+    /// further at a shade's edge, [`window_sigma_m`]; docs/live.md).
     pub window_radius_m: f64,
     /// A window sample lies within this of the sensor's plane, m.
     pub window_plane_m: f64,
