@@ -13,7 +13,7 @@ use serde::Deserialize;
 /// Where the room model comes from.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum SceneSource {
-    /// The built-in demo office ([`crate::demo`]).
+    /// The built-in demo office (`sim::demo`).
     DemoOffice,
     /// A scene directory (CAD input), relative paths resolved against the board file.
     Directory(PathBuf),

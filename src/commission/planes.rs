@@ -230,12 +230,12 @@ pub fn detect(grid: &PointGrid, cam: &Camera, o: &PlaneOptions) -> Vec<Plane> {
     planes
 }
 
-/// Rounds of [`absorb`]: how far (in grid nodes) a plane grows into the nodes around it.
+/// Rounds of `absorb`: how far (in grid nodes) a plane grows into the nodes around it.
 pub const ABSORB_ROUNDS: usize = 3;
-/// [`absorb`] fills holes: a node is taken when at least this many of its 8 neighbours are
+/// `absorb` fills holes: a node is taken when at least this many of its 8 neighbours are
 /// on the plane (a plane's edge, with at most 3 or 4, does not grow onto what lies beside it).
 pub const ABSORB_MIN_NEIGHBOURS: u32 = 5;
-/// The loose normal test of [`absorb`]: a node's normal within this angle of the plane's, rad.
+/// The loose normal test of `absorb`: a node's normal within this angle of the plane's, rad.
 pub const ABSORB_NORMAL_ANGLE_RAD: f64 = 45.0 * core::f64::consts::PI / 180.0;
 
 /// Grows each plane into the free nodes next to it that lie on it within the inlier distance,

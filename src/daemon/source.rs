@@ -2,7 +2,7 @@
 //!
 //! The sequence is the issue's: depth frames, then one luminaire on at a time (and all on, as
 //! a consistency check), all off at the end ([`crate::camera::capture_sequence_with`]); then
-//! commissioning from that capture ([`crate::commission::commission`]) with the luminaires'
+//! commissioning from that capture ([`crate::commission::from_captures`]) with the luminaires'
 //! installed positions and photometry and the desk sensors (known: luminaires.json,
 //! sensors.json), and the flash image with the sensors' quality flags.
 

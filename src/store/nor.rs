@@ -1,5 +1,5 @@
 //! The A/B slots on any `embedded-storage` NOR flash: [`Nor`] turns a
-//! [`NorFlash`](embedded_storage::nor_flash::NorFlash) driver (a microcontroller's internal
+//! [`NorFlash`] driver (a microcontroller's internal
 //! flash, an SPI NOR chip's driver) into the [`FlashDevice`] the slots run on. `no_std`, no
 //! heap.
 //!
