@@ -699,7 +699,7 @@ impl Watch {
                                     "less light than modelled"
                                 },
                                 if reading.lux_lx > predicted {
-                                    "daylight or another source: the published desk values are the luminaires' light only"
+                                    "daylight or another source: the model's desk values are the luminaires' light only (live light, where on, measures the rest)"
                                 } else {
                                     "a luminaire gives less than modelled, or the room changed"
                                 }
