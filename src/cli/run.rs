@@ -386,17 +386,23 @@ pub(crate) fn rig(
             )
             .with_context(|| format!("board {}: simulated cameras", board.name))?;
             if let Some(a) = &ambient {
-                // the simulated ALS reads what the world sends up to it at the current levels
+                // the simulated ALS reads what the world sends up to it at the current levels,
+                // with the running scenario's ageing and daylight
                 let (p, n) = a.pose;
-                let per = world.receiver_lx(
-                    glam::DVec3::from_array(p),
-                    glam::DVec3::from_array(n),
-                    &a.response,
-                    20_000,
-                );
+                let (p, n) = (glam::DVec3::from_array(p), glam::DVec3::from_array(n));
+                let per = world.receiver_lx(p, n, &a.response, 20_000);
+                let day = world.receiver_daylight_lx(p, n, &a.response, 20_000);
                 let w = world.clone();
                 *light.lock().unwrap_or_else(|p| p.into_inner()) = Some(Box::new(move || {
-                    w.levels().iter().zip(&per).map(|(x, e)| x * e).sum()
+                    let x = w.extras();
+                    let art: f64 = w
+                        .levels()
+                        .iter()
+                        .zip(&per)
+                        .enumerate()
+                        .map(|(l, (level, e))| level * x.ageing.get(l).copied().unwrap_or(1.0) * e)
+                        .sum();
+                    art + x.window_exitance_lm_m2 * day
                 }));
                 let w = world.clone();
                 *levels_hook = Some(Box::new(move |l: &[f64]| w.follow_levels(l)));

@@ -14,9 +14,12 @@
 //! walls' default reflectance moves it: on the demo office, walls at 0.5 → 0.6 move that gain
 //! by −18 % (docs/peripherals.md).
 //!
-//! The frame is the one the sensor read: `Σ_k level_k (L_k − O) + O` from the capture set's
-//! one-luminaire frames `L_k` and its all-off frame `O` (daylight during the capture; none for a
-//! set taken in the dark), so daylight is in both. `Δω_i` is the area of the pixel's footprint
+//! Both sides are the luminaires' own light. The sensor's reading is one with the luminaires at
+//! `levels` less one with them all off (`daemon::source`), and the frame is
+//! `Σ_k level_k (L_k − O_k)` from the capture set's one-luminaire frames `L_k` less the daylight
+//! in each (`O_k`: the all-off frames interpolated, [`Capture::daylight_value`]; nothing for a
+//! set taken in the dark). Daylight that changes between the capture and the reading therefore
+//! enters neither. `Δω_i` is the area of the pixel's footprint
 //! on the unit sphere, from the lens's rays through the pixel's edges (pinhole or fisheye
 //! alike). Parallax between the sensor and the camera (about 1 cm against metres) is ignored.
 
@@ -168,17 +171,10 @@ pub fn direct_gain(
     })
 }
 
-/// The frame value at pixel `i` for the dimming state (the daylight of the first off frame and
-/// each luminaire's own light, its frame less the daylight at its time), `None` where a frame
-/// is saturated.
+/// The luminaires' own light at pixel `i` for the dimming state, frame units: each
+/// luminaire's frame less the daylight at its time. `None` where a frame is saturated.
 fn pixel_value(capture: &Capture, levels: &[f64], i: usize) -> Option<f64> {
-    let mut x = match &capture.off {
-        Some(f) => match f.data[i] {
-            SATURATED => return None,
-            o => f64::from(o),
-        },
-        None => 0.0,
-    };
+    let mut x = 0.0;
     for (k, ((_, f), &level)) in capture.luminance.iter().zip(levels).enumerate() {
         if level == 0.0 {
             continue;
@@ -276,9 +272,10 @@ mod tests {
             assert!((r.gain_cd_m2_per_unit / g - 1.0).abs() < 2e-3, "{r:?}");
             assert!(r.covered > 0.999 && r.saturated == 0.0, "{r:?}");
         }
-        // daylight: off frame 400, one-luminaire frames 1000 (600 of luminaire light each)
+        // daylight: off frame 400, one-luminaire frames 1000 (600 of luminaire light each); the
+        // sensor's lights-on less lights-off reading is the luminaire's 600 alone
         let c = capture(camera(Lens::Pinhole, 160.0), 1000, Some(400));
-        let lux = g * (400.0 + 600.0) * hood.projected_solid_angle_sr();
+        let lux = g * 600.0 * hood.projected_solid_angle_sr();
         let r = direct_gain(&c, &hood, DVec3::NEG_Z, lux, &[1.0, 0.0]).unwrap();
         assert!((r.gain_cd_m2_per_unit / g - 1.0).abs() < 2e-3, "{r:?}");
     }

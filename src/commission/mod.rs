@@ -77,8 +77,9 @@ pub enum Gain {
         levels: Vec<f64>,
     },
     /// The node's ambient light sensor (`crate::peripherals`): mounted at `position_m`,
-    /// facing `normal` (down), with angular response `response`, it read `lux_lx` with the
-    /// luminaires at `levels`. Where the sensor sees only what the camera sees (a hooded
+    /// facing `normal` (down), with angular response `response`, it read `lux_lx` of the
+    /// luminaires' own light at `levels` (a reading at `levels` less one with every luminaire
+    /// off: the daylight in neither). Where the sensor sees only what the camera sees (a hooded
     /// sensor), the gain is measured directly against the frames ([`ambient::direct_gain`]);
     /// otherwise it is the one for which the model predicts that reading.
     Ambient {

@@ -258,7 +258,7 @@ impl CommissionSource for CameraSource {
             match self.read_ambient(a) {
                 Ok(lux) => {
                     tracing::info!(
-                        "ambient light sensor: {lux:.2} lx with every luminaire on; the camera's \
+                        "ambient light sensor: the luminaires give it {lux:.2} lx; the camera's \
                          absolute gain comes from it"
                     );
                     options.gain = commission::Gain::Ambient {
@@ -385,39 +385,48 @@ impl CommissionSource for CameraSource {
 }
 
 impl CameraSource {
-    /// The ALS with every luminaire on (after the settle time), then the lights off.
+    /// The luminaires' own light at the ALS: a reading with every luminaire on less one with
+    /// them all off (each after the settle time), so daylight during commissioning enters
+    /// neither the gain nor the reference. Leaves the lights off.
     fn read_ambient(&mut self, a: &AmbientAtCommissioning) -> Result<f64, String> {
         let n = self.luminaires.len();
-        self.lights
-            .set_levels(&vec![1.0; n])
-            .map_err(|e| e.to_string())?;
-        std::thread::sleep(self.sequence.settle);
-        let mut last = String::new();
-        let mut got = None;
-        for _ in 0..AMBIENT_TRIES {
-            let r = a
-                .sensor
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .measure_precise(AMBIENT_CONVERSIONS);
-            match r {
-                Ok(r) => {
-                    got = Some(r.lux_lx);
-                    break;
+        let mut read_at = |level: f64| -> Result<f64, String> {
+            self.lights
+                .set_levels(&vec![level; n])
+                .map_err(|e| format!("switching the lights to {level}: {e}"))?;
+            std::thread::sleep(self.sequence.settle);
+            let mut last = String::new();
+            for _ in 0..AMBIENT_TRIES {
+                let r = a
+                    .sensor
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .measure_precise(AMBIENT_CONVERSIONS);
+                match r {
+                    Ok(r) => return Ok(r.lux_lx),
+                    Err(e) => last = e,
                 }
-                Err(e) => last = e,
             }
+            Err(last)
+        };
+        let on = read_at(1.0);
+        // the lights go off whatever the first reading did
+        let off = read_at(0.0);
+        let (on, off) = (on?, off?);
+        let lux = on - off;
+        if off > 0.5 {
+            tracing::info!(
+                "ambient light sensor: {on:.2} lx with every luminaire on, {off:.2} lx with them \
+                 off (daylight): the luminaires give {lux:.2} lx"
+            );
         }
-        let off = self.lights.set_levels(&vec![0.0; n]);
-        if let Err(e) = off {
-            return Err(format!("switching the lights off: {e}"));
-        }
-        match got {
-            Some(lux) if lux > 0.5 => Ok(lux),
-            Some(lux) => Err(format!(
-                "reads {lux:.2} lx with every luminaire on: too little light to calibrate on"
-            )),
-            None => Err(last),
+        if lux > 0.5 && lux.is_finite() {
+            Ok(lux)
+        } else {
+            Err(format!(
+                "the luminaires give {lux:.2} lx at the sensor ({on:.2} lx on, {off:.2} lx off): \
+                 too little light to calibrate on"
+            ))
         }
     }
 }

@@ -484,6 +484,52 @@ impl SimWorld {
             .collect()
     }
 
+    /// What the same receiver reads of the window's daylight per lm/m² of window exitance, lx:
+    /// over the same cosine-distributed rays, the luminance of the first surface hit by the
+    /// daylight as the cameras see it (`ρ E_day / π`, the glazing its own exitance `B / π`).
+    pub fn receiver_daylight_lx(
+        &self,
+        position: DVec3,
+        normal: DVec3,
+        response: &crate::lsc::AngularResponse,
+        rays: usize,
+    ) -> f64 {
+        use crate::engine::rayset::{RaySet, frame, to_world};
+        let s = &self.shared;
+        let m = &s.model;
+        let (incident, b) = self.daylight_basis();
+        let set = RaySet::new(m.settings.ray_set, rays.max(1));
+        let fr = frame(normal, 0.0);
+        let origin = s.caster.offset(position, normal);
+        let scale = std::f64::consts::PI / set.len() as f64;
+        let per_ray: Vec<f64> = set
+            .dirs
+            .par_iter()
+            .map(|d| {
+                let cos = d.z.max(1e-12);
+                let w = scale * response.response(cos.acos()) / cos;
+                if w <= 0.0 {
+                    return 0.0;
+                }
+                match s.caster.closest(origin, to_world(&fr, *d)) {
+                    Hit::Front { patch, .. } => {
+                        let p = patch as usize;
+                        let exitance = if self.group_of(p).is_some_and(|g| g.starts_with("window"))
+                        {
+                            b[p]
+                        } else {
+                            m.patches.rho[p] * incident[p]
+                        };
+                        w * exitance / std::f64::consts::PI
+                    }
+                    _ => 0.0,
+                }
+            })
+            .collect();
+        // summed in ray order: the same result for any thread count
+        per_ray.iter().sum()
+    }
+
     /// Sets the levels (luminaire order; clamped to [0, 1], extra or missing entries ignored),
     /// as the room's controller would: the simulated board's light model follows the node.
     pub fn follow_levels(&self, levels: &[f64]) {
