@@ -15,11 +15,43 @@ use luxnode::peripherals::sim::{SimBus, SimClock, SimDelay, SimVeml7700};
 use luxnode::peripherals::veml7700::{self, Veml7700};
 use luxnode::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld};
 
+/// The world commissioned from `capture` with the camera's gain from a sensor 1 cm below the
+/// camera facing down (`response`), which read `lux_lx` of the luminaires' own light with every
+/// luminaire on; the unseen walls defaulted to `wall_rho`.
+fn commission_with_als(
+    w: &SimWorld,
+    capture: &luxnode::camera::capture::Capture,
+    als_at: DVec3,
+    response: &AngularResponse,
+    lux_lx: f64,
+    wall_rho: f64,
+) -> luxnode::commission::Commissioned {
+    let scene = w.scene();
+    let mut o = CommissionOptions {
+        gain: Gain::Ambient {
+            position_m: als_at.to_array(),
+            normal: [0.0, 0.0, -1.0],
+            lux_lx,
+            levels: vec![1.0; scene.luminaires.len()],
+            response: response.clone(),
+        },
+        ..CommissionOptions::default()
+    };
+    o.closure.wall_rho = wall_rho;
+    luxnode::commission::from_capture(
+        capture,
+        scene.luminaires.clone(),
+        scene.sensors.clone(),
+        scene.desks.clone(),
+        &o,
+    )
+    .unwrap()
+}
+
 #[test]
 fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
     let w = SimWorld::demo_office().unwrap();
     let ids = w.luminaire_ids();
-    let n = ids.len();
     let mut depth = w.depth_camera(SimDepthOptions::default()).unwrap();
     let lum_opts = SimLuminanceOptions::default();
     let true_gain = lum_opts.cd_m2_per_unit;
@@ -40,8 +72,6 @@ fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
     let als_at = cam - DVec3::new(0.0, 0.0, 0.01);
     let down = DVec3::new(0.0, 0.0, -1.0);
     let hood = AngularResponse::Table(Lsc::hooded(35f64.to_radians()).unwrap());
-    let scene = w.scene();
-    let levels = vec![1.0; n];
     let commission = |response: &AngularResponse, wall_rho: f64| {
         let per_lum = w.receiver_lx(als_at, down, response, 20_000);
         let truth: f64 = per_lum.iter().sum();
@@ -58,25 +88,7 @@ fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
             "{} vs {truth}",
             reading.lux_lx
         );
-        let mut o = CommissionOptions {
-            gain: Gain::Ambient {
-                position_m: als_at.to_array(),
-                normal: down.to_array(),
-                lux_lx: reading.lux_lx,
-                levels: levels.clone(),
-                response: response.clone(),
-            },
-            ..CommissionOptions::default()
-        };
-        o.closure.wall_rho = wall_rho;
-        let c = luxnode::commission::from_capture(
-            &capture,
-            scene.luminaires.clone(),
-            scene.sensors.clone(),
-            scene.desks.clone(),
-            &o,
-        )
-        .unwrap();
+        let c = commission_with_als(&w, &capture, als_at, response, reading.lux_lx, wall_rho);
         let gain = c.report.reflectance.gain_cd_m2_per_unit;
         let err = gain / true_gain - 1.0;
         eprintln!(
@@ -115,8 +127,8 @@ fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
         );
     }
     // Bare (cosine): the sensor sees walls the camera does not, the gain comes through the model
-    // and its unseen walls' default reflectance moves it (docs/peripherals.md: +2.65 % at 0.5,
-    // -13.8 % at 0.6, the walls being 0.6 and the window 0.1 in this room).
+    // and its unseen walls' default reflectance moves it (docs/peripherals.md: -4.00 % at 0.5,
+    // -18.9 % at 0.6, the walls being 0.6 and the window 0.1 in this room).
     let (bare_05, c, _) = commission(&AngularResponse::Cosine, 0.5);
     assert!(c.report.ambient_direct.is_none());
     assert!(
@@ -150,7 +162,6 @@ fn in_daylight_the_hooded_sensor_gives_the_gain_it_gives_in_the_dark() {
     use luxnode::sim::camera::WorldExtras;
     let w = SimWorld::demo_office().unwrap();
     let ids = w.luminaire_ids();
-    let n = ids.len();
     let lum_opts = SimLuminanceOptions::default();
     let true_gain = lum_opts.cd_m2_per_unit;
     let cam = w.camera().position_m;
@@ -199,25 +210,7 @@ fn in_daylight_the_hooded_sensor_gives_the_gain_it_gives_in_the_dark() {
         // the sensor read after the capture, the daylight brighter again: on less off
         let day_now = lum.exitance_lm_m2 * 1.05 * day_per_lm;
         let (on, off) = (lamps + day_now, day_now);
-        let scene = w.scene();
-        let o = CommissionOptions {
-            gain: Gain::Ambient {
-                position_m: als_at.to_array(),
-                normal: down.to_array(),
-                lux_lx: on - off,
-                levels: vec![1.0; n],
-                response: hood.clone(),
-            },
-            ..CommissionOptions::default()
-        };
-        let c = luxnode::commission::from_capture(
-            &capture,
-            scene.luminaires.clone(),
-            scene.sensors.clone(),
-            scene.desks.clone(),
-            &o,
-        )
-        .unwrap();
+        let c = commission_with_als(&w, &capture, als_at, &hood, on - off, 0.5);
         assert!(c.report.ambient_direct.is_some());
         let g = c.report.reflectance.gain_cd_m2_per_unit;
         eprintln!(

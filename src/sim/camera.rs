@@ -424,7 +424,6 @@ impl SimWorld {
         response: &crate::lsc::AngularResponse,
         rays: usize,
     ) -> Vec<f64> {
-        use crate::engine::rayset::{RaySet, frame, to_world};
         let s = &self.shared;
         let m = &s.model;
         let receiver = match response {
@@ -438,48 +437,64 @@ impl SimWorld {
             .collect();
         let probes: Vec<Vec<DVec3>> = lums.iter().map(visibility_probes).collect();
         let indirect = self.indirect_lx();
-        let set = RaySet::new(m.settings.ray_set, rays.max(1));
-        let fr = frame(normal, 0.0);
-        let origin = s.caster.offset(position, normal);
-        let scale = std::f64::consts::PI / set.len() as f64;
-        let seen: Vec<f64> = set
-            .dirs
+        let seen: Vec<Vec<f64>> = self
+            .receiver_rays(position, normal, response, rays)
             .par_iter()
-            .map(|d| {
-                let mut out = vec![0.0; lums.len()];
-                let cos = d.z.max(1e-12);
-                let w = scale * response.response(cos.acos()) / cos;
-                if w <= 0.0 {
-                    return out;
-                }
-                let dw = to_world(&fr, *d);
-                if let Hit::Front { patch, t_m } = s.caster.closest(origin, dw) {
-                    let p = patch as usize;
-                    let x = origin + dw * t_m;
-                    let n = m.patches.normal[p];
-                    let k = w * m.patches.rho[p] / std::f64::consts::PI;
-                    for (j, l) in lums.iter().enumerate() {
-                        let e =
-                            direct_lx(l, &points[j], &probes[j], x, n, &s.caster) + indirect[j][p];
-                        out[j] = k * e;
-                    }
-                }
-                out
+            .map(|&(p, x, w)| {
+                let n = m.patches.normal[p];
+                let k = w * m.patches.rho[p] / std::f64::consts::PI;
+                lums.iter()
+                    .enumerate()
+                    .map(|(j, l)| {
+                        k * (direct_lx(l, &points[j], &probes[j], x, n, &s.caster) + indirect[j][p])
+                    })
+                    .collect()
             })
-            .collect::<Vec<Vec<f64>>>()
-            .into_iter()
-            // summed in ray order: the same result for any thread count
-            .fold(vec![0.0; lums.len()], |mut a, b| {
-                for (x, y) in a.iter_mut().zip(b) {
-                    *x += y;
-                }
-                a
-            });
+            .collect();
+        // summed in ray order: the same result for any thread count
+        let seen = seen.into_iter().fold(vec![0.0; lums.len()], |mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+            a
+        });
         lums.iter()
             .zip(&points)
             .zip(seen)
             .map(|((l, pts), e)| {
                 e + direct::illuminance_lx(l, pts, position, normal, receiver, &s.caster)
+            })
+            .collect()
+    }
+
+    /// The receiver's gather rays that hit a surface's front, in ray order: (patch, hit point,
+    /// weight `(π/N) s(θ)/cos θ` of `rays` cosine-distributed directions).
+    fn receiver_rays(
+        &self,
+        position: DVec3,
+        normal: DVec3,
+        response: &crate::lsc::AngularResponse,
+        rays: usize,
+    ) -> Vec<(usize, DVec3, f64)> {
+        use crate::engine::rayset::{RaySet, frame, to_world};
+        let s = &self.shared;
+        let set = RaySet::new(s.model.settings.ray_set, rays.max(1));
+        let fr = frame(normal, 0.0);
+        let origin = s.caster.offset(position, normal);
+        let scale = std::f64::consts::PI / set.len() as f64;
+        set.dirs
+            .par_iter()
+            .filter_map(|d| {
+                let cos = d.z.max(1e-12);
+                let w = scale * response.response(cos.acos()) / cos;
+                if w <= 0.0 {
+                    return None;
+                }
+                let dw = to_world(&fr, *d);
+                match s.caster.closest(origin, dw) {
+                    Hit::Front { patch, t_m } => Some((patch as usize, origin + dw * t_m, w)),
+                    _ => None,
+                }
             })
             .collect()
     }
@@ -494,40 +509,20 @@ impl SimWorld {
         response: &crate::lsc::AngularResponse,
         rays: usize,
     ) -> f64 {
-        use crate::engine::rayset::{RaySet, frame, to_world};
-        let s = &self.shared;
-        let m = &s.model;
+        let m = &self.shared.model;
         let (incident, b) = self.daylight_basis();
-        let set = RaySet::new(m.settings.ray_set, rays.max(1));
-        let fr = frame(normal, 0.0);
-        let origin = s.caster.offset(position, normal);
-        let scale = std::f64::consts::PI / set.len() as f64;
-        let per_ray: Vec<f64> = set
-            .dirs
-            .par_iter()
-            .map(|d| {
-                let cos = d.z.max(1e-12);
-                let w = scale * response.response(cos.acos()) / cos;
-                if w <= 0.0 {
-                    return 0.0;
-                }
-                match s.caster.closest(origin, to_world(&fr, *d)) {
-                    Hit::Front { patch, .. } => {
-                        let p = patch as usize;
-                        let exitance = if self.group_of(p).is_some_and(|g| g.starts_with("window"))
-                        {
-                            b[p]
-                        } else {
-                            m.patches.rho[p] * incident[p]
-                        };
-                        w * exitance / std::f64::consts::PI
-                    }
-                    _ => 0.0,
-                }
+        self.receiver_rays(position, normal, response, rays)
+            .iter()
+            .map(|&(p, _, w)| {
+                let exitance = if self.group_of(p).is_some_and(|g| g.starts_with("window")) {
+                    b[p]
+                } else {
+                    m.patches.rho[p] * incident[p]
+                };
+                w * exitance / std::f64::consts::PI
             })
-            .collect();
-        // summed in ray order: the same result for any thread count
-        per_ray.iter().sum()
+            // summed in ray order: the same result for any thread count
+            .sum()
     }
 
     /// Sets the levels (luminaire order; clamped to [0, 1], extra or missing entries ignored),
