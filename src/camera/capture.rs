@@ -259,20 +259,19 @@ impl Capture {
     /// frame's place in the sequence (clamped at 0). `None` where an off frame is saturated or
     /// the pixel is outside the frame.
     pub fn daylight_value(&self, k: usize, i: usize) -> Option<f64> {
+        // a frame's value at the pixel, `None` where saturated or outside
+        let at = |f: &Frame| match f.data.get(i) {
+            Some(&SATURATED) | None => None,
+            Some(&x) => Some(f64::from(x)),
+        };
         let Some(first) = &self.off else {
             return Some(0.0);
         };
-        let o = match first.data.get(i) {
-            Some(&SATURATED) | None => return None,
-            Some(&o) => f64::from(o),
-        };
+        let o = at(first)?;
         let Some(end) = &self.off_end else {
             return Some(o);
         };
-        let e = match end.frame.data.get(i) {
-            Some(&SATURATED) | None => return None,
-            Some(&e) => f64::from(e),
-        };
+        let e = at(&end.frame)?;
         let t = (k + 1) as f64 / end.position.max(k + 2) as f64;
         Some((o + t * (e - o)).max(0.0))
     }
