@@ -30,13 +30,13 @@
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/TLS/RTU servers, who may write and how each client reads (access), health, DALI gateway link (std) |
-//! | 5 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
+//! | 5 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
 //! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
 //! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
 //! | 10 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
-//! | 11 | `render`, `live` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; live light: the cameras at run time (measured desk lux, daylight, occlusion, ageing) and the image section it needs |
+//! | 11 | `render`, `live_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model |
 //! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
 //! | 14 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
@@ -112,6 +112,8 @@ pub mod image_build;
 pub mod image_geometry;
 #[cfg(feature = "std")]
 pub mod live;
+#[cfg(feature = "std")]
+pub mod live_section;
 #[cfg(feature = "std")]
 pub mod lsc;
 #[cfg(feature = "std")]

@@ -354,7 +354,7 @@ impl CommissionSource for CameraSource {
             );
         }
         let image = image.bytes;
-        let bytes = crate::live::with_capture_section(image, &c, &seq.capture);
+        let bytes = crate::live_section::with_capture_section(image, &c, &seq.capture);
         self.report.write(&bytes);
         if let (Some(a), Some(per)) = (&self.ambient, &c.report.ambient_response_lx)
             && let Ok(h) = crate::store::Header::parse(&bytes)

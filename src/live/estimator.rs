@@ -2,12 +2,13 @@
 //! in, per-desk total, artificial and daylight lux out, with their source, flags and
 //! uncertainty. The method is in the module docs of [`crate::live`]; this file is its code.
 
-use std::sync::OnceLock;
-
+use crate::solver::{
+    self, Csr, CsrSystem, RhsState, Rows, SolveError, SolveOptions, SolveReport, Workspace,
+};
 use crate::store::Image;
 
 use super::nnls::nnls_gram;
-use super::section::window_sigma_m;
+use super::window::window_sigma_m;
 use super::{LiveError, flags};
 
 /// Where a desk's value comes from.
@@ -234,84 +235,46 @@ pub struct LiveFrame<'a> {
     pub taken_s: f64,
 }
 
-/// A sparse matrix decoded once from the image (f32 values: the stored precision is at most
+/// A stored sparse matrix decoded once at boot (f32 values: the stored precision is at most
 /// that of u16 fractions for the form factors).
-#[derive(Debug, Clone, Default)]
-struct Csr32 {
-    ptr: Vec<u32>,
-    col: Vec<u32>,
-    val: Vec<f32>,
+fn decode(s: &crate::store::Sparse<'_>) -> Csr<f32> {
+    Csr::from_row_fn(s.rows as usize, |i| {
+        s.row_range(i)
+            .map(move |k| (s.col_at(k) as u32, s.values.get(k, i) as f32))
+    })
 }
 
-impl Csr32 {
-    fn from_sparse(s: &crate::store::Sparse<'_>) -> Self {
-        let rows = s.rows as usize;
-        let mut out = Csr32 {
-            ptr: Vec::with_capacity(rows + 1),
-            col: Vec::with_capacity(s.nnz()),
-            val: Vec::with_capacity(s.nnz()),
-        };
-        out.ptr.push(0);
-        for i in 0..rows {
-            for k in s.row_range(i) {
-                out.col.push(s.col_at(k) as u32);
-                out.val.push(s.values.get(k, i) as f32);
-            }
-            out.ptr.push(out.col.len() as u32);
-        }
-        out
-    }
+/// The stop rule of live light's solves: the relative change and residual of 1e-7 reach the
+/// published lux's fourth digit within a few dozen sweeps over the unseen patches.
+const LIVE_SOLVE: SolveOptions = SolveOptions {
+    tolerance: 1e-7,
+    max_iterations: 300,
+};
 
-    fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let r = self.ptr[i] as usize..self.ptr[i + 1] as usize;
-        self.col[r.clone()]
-            .iter()
-            .zip(&self.val[r])
-            .map(|(&c, &v)| (c as usize, f64::from(v)))
-    }
-
-    fn bytes(&self) -> usize {
-        4 * self.ptr.len() + 4 * self.col.len() + 4 * self.val.len()
-    }
-}
-
-/// Gauss-Seidel for `k` right-hand sides at once over `rows`: `b_i = s_i + ρ_i Σ_j F_ij b_j`
-/// (b laid out `[patch][k]`; rows not listed keep their values). Stops when the largest change
-/// is below `tol` of the largest value, or after `max_sweeps`.
-fn multi_gs(
-    ff: &Csr32,
+/// Solves `B_i = M_i + ρ_i Σ_j F_ij B_j` over `rows` for the `k` right-hand sides of `b`
+/// (patch-major; the other rows held), through the run-time core's iteration.
+fn solve_rows(
+    ff: &Csr<f32>,
     rho: &[f64],
-    rows: &[u32],
-    src: &[f64],
+    rows: Rows<'_>,
+    m: &[f64],
     b: &mut [f64],
     k: usize,
-    max_sweeps: usize,
-) -> usize {
-    let mut acc = vec![0.0; k];
-    for sweep in 1..=max_sweeps {
-        let mut maxd = 0.0f64;
-        let mut maxb = 0.0f64;
-        for &i in rows {
-            let i = i as usize;
-            acc.iter_mut().for_each(|a| *a = 0.0);
-            for (c, v) in ff.row(i) {
-                let bc = &b[c * k..c * k + k];
-                for (a, x) in acc.iter_mut().zip(bc) {
-                    *a += v * x;
-                }
-            }
-            for q in 0..k {
-                let new = src[i * k + q] + rho[i] * acc[q];
-                maxd = maxd.max((new - b[i * k + q]).abs());
-                maxb = maxb.max(new.abs());
-                b[i * k + q] = new;
-            }
-        }
-        if maxd <= 1e-7 * maxb || maxb == 0.0 {
-            return sweep;
-        }
-    }
-    max_sweeps
+) -> Result<SolveReport, SolveError> {
+    let system = CsrSystem { f: ff.view(), rho };
+    let (mut acc, mut state) = (vec![0.0; k], vec![RhsState::default(); k]);
+    let work = Workspace {
+        acc: &mut acc,
+        state: &mut state,
+    };
+    solver::solve(
+        &system,
+        rows,
+        solver::Source::Exitance(m),
+        b,
+        work,
+        LIVE_SOLVE,
+    )
 }
 
 /// A desk's window: samples and their weights.
@@ -339,8 +302,8 @@ pub struct LiveModel {
     seen: Vec<u32>,
     seen_range: Vec<(u32, u32)>,
     unseen: Vec<u32>,
-    ff: Csr32,
-    gather: Csr32,
+    ff: Csr<f32>,
+    gather: Csr<f32>,
     // sensors
     response: Vec<f64>,
     calibrated: Vec<f64>,
@@ -352,7 +315,7 @@ pub struct LiveModel {
     v_seen: Vec<f64>,
     g_sensor: Vec<f64>,
     // full-model basis at seen patches (the night test), computed at boot
-    u_seen: OnceLock<Vec<f64>>,
+    u_seen: Vec<f64>,
 }
 
 impl LiveModel {
@@ -404,7 +367,7 @@ impl LiveModel {
                 let entries: Vec<(usize, f64, f64)> =
                     live.window(sensor).map(|e| live.window_entry(e)).collect();
                 // the residual's Gaussian weights: twice the commissioned fit's width (5 cm in
-                // the open, narrower by a shade's edge: section::window_sigma_m on the
+                // the open, narrower by a shade's edge: window::window_sigma_m on the
                 // commissioned all-on irradiance; the window's radius is its farthest pixel)
                 let radius_m = entries
                     .iter()
@@ -438,8 +401,8 @@ impl LiveModel {
             .flat_map(|sn| (0..l).map(move |j| (sn, j)))
             .map(|(sn, j)| live.sensor_response_lx(sn, j, l))
             .collect();
-        let ff = Csr32::from_sparse(&image.payload.ff);
-        let gather = Csr32::from_sparse(&image.payload.gather);
+        let ff = decode(&image.payload.ff);
+        let gather = decode(&image.payload.gather);
         // emitter groups on unseen patches only
         let k_em = usize::from(live.n_emitters);
         let mut emitter_src = vec![0.0; n_p * k_em];
@@ -474,12 +437,12 @@ impl LiveModel {
             emitter_src,
             v_seen: Vec::new(),
             g_sensor: Vec::new(),
-            u_seen: OnceLock::new(),
+            u_seen: Vec::new(),
         };
-        model.boundary_basis();
+        model.boundary_basis().map_err(LiveError::Solve)?;
         // the night test's basis too, at boot: built at the first night frame it took that
         // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
-        let _ = model.full_basis();
+        model.u_seen = model.full_basis().map_err(LiveError::Solve)?;
         Ok(model)
     }
 
@@ -496,40 +459,31 @@ impl LiveModel {
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is
     /// measured), interreflected over the unseen patches; its incident light at the seen patches
     /// and the sensors' reading of it.
-    fn boundary_basis(&mut self) {
+    fn boundary_basis(&mut self) -> Result<(), SolveError> {
         let (n_p, k) = (self.rho.len(), self.k);
         if k == 0 {
-            return;
+            return Ok(());
         }
         let mut b = vec![0.0; n_p * k];
-        multi_gs(
-            &self.ff,
-            &self.rho,
-            &self.unseen,
-            &self.emitter_src,
-            &mut b,
-            k,
-            300,
-        );
+        let unseen = Rows::Listed(&self.unseen);
+        solve_rows(&self.ff, &self.rho, unseen, &self.emitter_src, &mut b, k)?;
         self.v_seen = incident(&self.ff, &self.seen, &b, k);
         let s = self.ids.len();
         let rows: Vec<u32> = (0..s as u32).collect();
         self.g_sensor = incident(&self.gather, &rows, &b, k);
+        Ok(())
     }
 
     /// The full-model basis at the seen patches: unit emission of each group with every patch
     /// reflecting (for the night test).
-    fn full_basis(&self) -> &[f64] {
-        self.u_seen.get_or_init(|| {
-            let (n_p, k) = (self.rho.len(), self.k);
-            if k == 0 {
-                return Vec::new();
-            }
-            let mut b = vec![0.0; n_p * k];
-            let all: Vec<u32> = (0..n_p as u32).collect();
-            multi_gs(&self.ff, &self.rho, &all, &self.emitter_src, &mut b, k, 300);
-            incident(&self.ff, &self.seen, &b, k)
-        })
+    fn full_basis(&self) -> Result<Vec<f64>, SolveError> {
+        let (n_p, k) = (self.rho.len(), self.k);
+        if k == 0 {
+            return Ok(Vec::new());
+        }
+        let mut b = vec![0.0; n_p * k];
+        solve_rows(&self.ff, &self.rho, Rows::All, &self.emitter_src, &mut b, k)?;
+        Ok(incident(&self.ff, &self.seen, &b, k))
     }
 
     /// Samples.
@@ -589,22 +543,19 @@ impl LiveModel {
                 .map(|w| w.sample.len() * (4 + f))
                 .sum::<usize>()
             + (self.emitter_src.len() + self.v_seen.len() + self.g_sensor.len()) * f
-            + self
-                .u_seen
-                .get()
-                .map_or(self.seen.len() * self.k * f, |u| u.len() * f)
+            + self.u_seen.len() * f
     }
 }
 
 /// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
-fn incident(m: &Csr32, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
+fn incident(m: &Csr<f32>, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
     let mut out = vec![0.0; rows.len() * k];
-    for (r, &i) in rows.iter().enumerate() {
-        for (c, v) in m.row(i as usize) {
-            for q in 0..k {
-                out[r * k + q] += v * b[c * k + q];
-            }
-        }
+    if k == 0 {
+        return out;
+    }
+    let view = m.view();
+    for (o, &i) in out.chunks_exact_mut(k).zip(rows) {
+        view.row_dot_k(i as usize, b, o);
     }
     out
 }
@@ -884,6 +835,29 @@ impl Live {
         };
     }
 
+    /// A frame not used: every desk held at its last good daylight, flagged.
+    fn reject(&mut self, verdict: Verdict, levels: &[f64], now_s: f64) {
+        let f = match verdict {
+            Verdict::Stale => flags::STALE,
+            Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
+            _ => flags::BAD_FRAME,
+        };
+        for s in 0..self.desks.len() {
+            self.hold(s, levels, now_s, f);
+        }
+        self.report = Some(FrameReport {
+            verdict,
+            samples_used: 0,
+            samples_occluded: 0,
+            changed_fraction: 0.0,
+            recommission: self.report.is_some_and(|r| r.recommission),
+            night: false,
+            ageing_updated: false,
+            fit_residual: 0.0,
+            daylight_seen_lx: 0.0,
+        });
+    }
+
     /// One frame: the measurement, the split, the inference, the flags. `levels`: each
     /// luminaire's output in [0, 1] at the time of the frame (from the arc levels).
     pub fn update(
@@ -895,25 +869,7 @@ impl Live {
         self.check_levels(levels)?;
         let verdict = self.check_frame(frame, now_s);
         if verdict != Verdict::Ok {
-            let f = match verdict {
-                Verdict::Stale => flags::STALE,
-                Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
-                _ => flags::BAD_FRAME,
-            };
-            for s in 0..self.desks.len() {
-                self.hold(s, levels, now_s, f);
-            }
-            self.report = Some(FrameReport {
-                verdict,
-                samples_used: 0,
-                samples_occluded: 0,
-                changed_fraction: 0.0,
-                recommission: self.report.is_some_and(|r| r.recommission),
-                night: false,
-                ageing_updated: false,
-                fit_residual: 0.0,
-                daylight_seen_lx: 0.0,
-            });
+            self.reject(verdict, levels, now_s);
             return Ok(&self.desks);
         }
         let m = &self.model;
@@ -1054,7 +1010,16 @@ impl Live {
             }
         }
         // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
-        let (d_inferred, fit_residual, daylight_seen) = self.infer(&d_seen, &w_seen);
+        let (d_inferred, fit_residual, daylight_seen) = match self.infer(&d_seen, &w_seen) {
+            Ok(inferred) => inferred,
+            Err(e) => {
+                // the stored system was checked at boot, so this is a broken invariant: no
+                // value of this frame is published, every desk is held and flagged
+                tracing::warn!("live light: the daylight propagation failed ({e}); frame dropped");
+                self.reject(Verdict::Unusable, levels, now_s);
+                return Ok(&self.desks);
+            }
+        };
         // 4. ageing: night frames accumulate the luminaires' fit
         let (night, ageing_updated) = self.ageing_step(&d_seen, &w_seen, &a_seen, daylight_seen);
         // 5. desks: decided with the model borrowed, applied after
@@ -1237,7 +1202,11 @@ impl Live {
     /// `ρ D` propagated over the unseen patches (Gauss-Seidel, warm), plus unknown emitters
     /// fitted to what that leaves unexplained on the seen surfaces (robust NNLS). Returns
     /// (daylight per sensor, relative RMS residual, mean fitted daylight on the seen surfaces).
-    fn infer(&mut self, d_seen: &[f64], w_seen: &[f64]) -> (Vec<f64>, f64, f64) {
+    fn infer(
+        &mut self,
+        d_seen: &[f64],
+        w_seen: &[f64],
+    ) -> Result<(Vec<f64>, f64, f64), SolveError> {
         let m = &self.model;
         let (k, n_seen, s_count) = (m.k, m.seen.len(), m.sensors());
         // seen exitance fixed, unseen solved
@@ -1251,7 +1220,7 @@ impl Live {
             };
         }
         let zeros = vec![0.0; b.len()];
-        multi_gs(&m.ff, &m.rho, &m.unseen, &zeros, b, 1, 200);
+        solve_rows(&m.ff, &m.rho, Rows::Listed(&m.unseen), &zeros, b, 1)?;
         let c = incident(&m.ff, &m.seen, b, 1);
         let rows: Vec<u32> = (0..s_count as u32).collect();
         let from_seen = incident(&m.gather, &rows, b, 1);
@@ -1335,11 +1304,11 @@ impl Live {
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
-        (
+        Ok((
             out,
             finite_or(rel, 0.0),
             if sw > 0.0 { fitted / sw } else { 0.0 },
-        )
+        ))
     }
 
     /// The night test and the ageing fit. A frame is night when both fits of the unknown
@@ -1382,7 +1351,7 @@ impl Live {
         {
             // a candidate: fit luminaires and emitters together
             let k = self.model.k;
-            let u = self.model.full_basis();
+            let u = &self.model.u_seen;
             let nv = l + k;
             let mut g = vec![0.0; nv * nv];
             let mut h = vec![0.0; nv];
