@@ -37,6 +37,8 @@ pub mod values;
 #[cfg(feature = "std")]
 pub mod devices;
 #[cfg(feature = "std")]
+pub mod encode;
+#[cfg(feature = "std")]
 pub mod file;
 #[cfg(feature = "std")]
 pub mod geometry;
