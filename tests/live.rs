@@ -67,19 +67,25 @@ fn update<'a>(
     t: f64,
 ) -> &'a [live::DeskLive] {
     let (w, h) = live.model().frame_size();
-    live.update(
-        &LiveFrame {
-            width: w,
-            height: h,
-            luminance: &f.0,
-            cd_m2_per_unit: f.1,
-            depth_mm: Some(&f.2),
-            taken_s: t,
-        },
-        levels,
-        t,
-    )
-    .unwrap()
+    let frame = LiveFrame {
+        width: w,
+        height: h,
+        luminance: &f.0,
+        cd_m2_per_unit: f.1,
+        depth_mm: Some(&f.2),
+        taken_s: t,
+    };
+    live.update(&frame, levels, t).unwrap();
+    // every frame of the simulated room is a view of this room, whatever its daylight, people
+    // and dimming: the checks against foreign frames never reject one
+    let verdict = live.report().map(|r| r.verdict);
+    let agreement = live.edge_agreement(&frame);
+    eprintln!("frame at {t} s: {verdict:?}, edges agree {agreement:?}");
+    assert!(
+        !matches!(verdict, Some(Verdict::NotThisRoom | Verdict::Underexposed)),
+        "a frame of this room rejected: {verdict:?}, edges agree {agreement:?}"
+    );
+    live.desks()
 }
 
 #[test]
@@ -587,6 +593,49 @@ fn bad_frames_are_flagged_and_the_last_good_values_held() {
         ),
     ];
     let mut all = cases;
+    // frames that are not a view of this room (issue 34): their luminance is plausible, their
+    // edges are not where the room's are, or their exposure is not what the gain says
+    let rotated: Vec<u16> = good.0.iter().rev().copied().collect();
+    let mirrored: Vec<u16> = good
+        .0
+        .chunks(w as usize)
+        .flat_map(|row| row.iter().rev().copied())
+        .collect();
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let noise: Vec<u16> = (0..n)
+        .map(|_| {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 48) as u16 % 60_000
+        })
+        .collect();
+    let tenth: Vec<u16> = good.0.iter().map(|v| v / 10).collect();
+    let foreign: [(&str, &[u16], Verdict); 6] = [
+        ("rotated 180 degrees", &rotated, Verdict::NotThisRoom),
+        ("mirrored", &mirrored, Verdict::NotThisRoom),
+        ("noise", &noise, Verdict::NotThisRoom),
+        (
+            "the depth image as luminance",
+            &good.2,
+            Verdict::NotThisRoom,
+        ),
+        ("a tenth of the exposure", &tenth, Verdict::Underexposed),
+        (
+            "a tenth of the exposure, no depth",
+            &tenth,
+            Verdict::Underexposed,
+        ),
+    ];
+    for (k, (what, lum, verdict)) in foreign.into_iter().enumerate() {
+        let depth = (k < 5).then_some(&good.2[..]);
+        all.push((
+            what,
+            lf(w, h, lum, good.1, depth, 5.0),
+            verdict,
+            flags::BAD_FRAME,
+        ));
+    }
     for gain in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         all.push((
             "a bad gain",

@@ -72,6 +72,13 @@ pub enum Verdict {
     Saturated,
     /// Too few usable samples (a depth frame that disagrees everywhere, a frame of zeros).
     Unusable,
+    /// Far below the light the luminaires alone give at the commissioned gain: an exposure
+    /// the frame's gain does not describe (a tenth of it), or luminaires far dimmer than
+    /// their levels say.
+    Underexposed,
+    /// The frame's edges are not where the room's are: rotated, mirrored, another camera's
+    /// view, noise, a depth image passed as luminance.
+    NotThisRoom,
 }
 
 impl Verdict {
@@ -84,6 +91,8 @@ impl Verdict {
             Verdict::Dark => "dark",
             Verdict::Saturated => "saturated",
             Verdict::Unusable => "unusable",
+            Verdict::Underexposed => "underexposed",
+            Verdict::NotThisRoom => "not this room",
         }
     }
 }
@@ -316,6 +325,8 @@ pub struct LiveModel {
     g_sensor: Vec<f64>,
     // full-model basis at seen patches (the night test), computed at boot
     u_seen: Vec<f64>,
+    // neighbouring samples across an edge of the commissioned luminance: (i, j, ln L_i/L_j)
+    edges: Vec<(u32, u32, f32)>,
 }
 
 impl LiveModel {
@@ -438,7 +449,9 @@ impl LiveModel {
             v_seen: Vec::new(),
             g_sensor: Vec::new(),
             u_seen: Vec::new(),
+            edges: Vec::new(),
         };
+        model.edges = model.luminance_edges();
         model.boundary_basis().map_err(LiveError::Solve)?;
         // the night test's basis too, at boot: built at the first night frame it took that
         // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
@@ -484,6 +497,45 @@ impl LiveModel {
         let mut b = vec![0.0; n_p * k];
         solve_rows(&self.ff, &self.rho, Rows::All, &self.emitter_src, &mut b, k)?;
         Ok(incident(&self.ff, &self.seen, &b, k))
+    }
+
+    /// Pairs of neighbouring samples (on the camera grid, at most [`EDGE_REACH_PX`] apart,
+    /// right and down) across an edge of the commissioned luminance with every luminaire on:
+    /// `|ln L_i / L_j| ≥ `[`EDGE_MIN_LN`]. The luminance is the stored one, `ρ Σ_l E_l / π` per
+    /// sample (a texture of the room's surfaces and the luminaires' light, not a model's).
+    fn luminance_edges(&self) -> Vec<(u32, u32, f32)> {
+        let l = self.luminaires;
+        let at: std::collections::HashMap<u32, u32> = self
+            .px
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| (p, i as u32))
+            .collect();
+        let lum = |i: usize| -> f64 {
+            let e: f64 = self.art[i * l..(i + 1) * l]
+                .iter()
+                .map(|&v| f64::from(v))
+                .sum();
+            e / self.pi_over_rho[i]
+        };
+        let (w, h) = (self.width, self.height);
+        let mut out = Vec::new();
+        for (i, &p) in self.px.iter().enumerate() {
+            let (x, y) = (p % w, p / w);
+            let right = (1..=EDGE_REACH_PX)
+                .take_while(|d| x + d < w)
+                .find_map(|d| at.get(&(p + d)));
+            let down = (1..=EDGE_REACH_PX)
+                .take_while(|d| y + d < h)
+                .find_map(|d| at.get(&(p + d * w)));
+            for &j in right.into_iter().chain(down) {
+                let (a, b) = (lum(i), lum(j as usize));
+                if a > 0.0 && b > 0.0 && (a / b).ln().abs() >= EDGE_MIN_LN {
+                    out.push((i as u32, j, (a / b).ln() as f32));
+                }
+            }
+        }
+        out
     }
 
     /// Samples.
@@ -544,6 +596,7 @@ impl LiveModel {
                 .sum::<usize>()
             + (self.emitter_src.len() + self.v_seen.len() + self.g_sensor.len()) * f
             + self.u_seen.len() * f
+            + self.edges.len() * 12
     }
 }
 
@@ -640,6 +693,20 @@ pub struct Live {
     d: Vec<f64>,
     state: Vec<u8>,
 }
+
+/// Farthest neighbour of a sample on the camera grid for the edge check, pixels (the grid's
+/// stride is at most 8 where a section is within budget; windows are dense).
+const EDGE_REACH_PX: u32 = 8;
+/// An edge of the commissioned luminance: neighbours differing by 35 % or more.
+const EDGE_MIN_LN: f64 = 0.3;
+/// Fewest usable edges for the check to decide.
+const EDGE_MIN_COUNT: usize = 40;
+/// A frame of this room agrees with the commissioned edges' direction for most of them (a
+/// shadow that moved or a person turns a few); a frame of another view agrees by chance, half.
+const EDGE_MIN_AGREEMENT: f64 = 0.7;
+/// A frame whose median measured-to-artificial ratio is below this is not believed: the
+/// luminaires alone give more (a wrong exposure, or luminaires far dimmer than their levels).
+const MIN_MEASURED_OVER_ARTIFICIAL: f64 = 0.5;
 
 const S_VALID: u8 = 1;
 const S_SATURATED: u8 = 2;
@@ -856,7 +923,7 @@ impl Live {
             .collect();
         // 1. per sample: measured illuminance π L / ρ less the artificial part
         let counts = self.measure_samples(frame, &wa);
-        let verdict = self.judge_samples(&counts, &wa);
+        let verdict = self.judge_samples(&counts, &wa, frame);
         let geometry = counts.geometry(frame.depth_mm.is_some(), &self.settings);
         if verdict != Verdict::Ok {
             self.reject(verdict, levels, now_s, Some((&counts, &geometry)));
@@ -1015,9 +1082,9 @@ impl Live {
         c
     }
 
-    /// The frame as a whole from its samples: too many saturated, too few usable, or far
-    /// darker than the luminaires alone would make it.
-    fn judge_samples(&self, c: &SampleCounts, wa: &[f64]) -> Verdict {
+    /// The frame as a whole from its samples: too many saturated, too few usable, far
+    /// darker than the luminaires alone would make it, or not a view of this room.
+    fn judge_samples(&self, c: &SampleCounts, wa: &[f64], frame: &LiveFrame<'_>) -> Verdict {
         let n = self.model.px.len().max(1);
         let saturated = self.state.iter().filter(|s| **s & S_SATURATED != 0).count();
         if saturated as f64 > self.settings.frame_saturated_fraction * n as f64 {
@@ -1026,8 +1093,8 @@ impl Live {
         if (c.used as f64) < 0.1 * n as f64 {
             return Verdict::Unusable;
         }
-        // darker than the luminaires alone: half of the samples read below 5 % of their
-        // artificial light, which is well above 10 lx
+        // against the luminaires alone: the median of measured over artificial light where
+        // the luminaires give well above 10 lx (daylight only adds to it)
         let mut rel: Vec<f64> = (0..self.model.px.len())
             .filter(|&i| self.state[i] & S_VALID != 0)
             .filter_map(|i| {
@@ -1037,9 +1104,41 @@ impl Live {
             .collect();
         let enough = rel.len() * 4 >= c.used;
         match median(&mut rel) {
-            Some(r) if enough && r < 0.05 => Verdict::Dark,
+            Some(r) if enough && r < 0.05 => return Verdict::Dark,
+            Some(r) if enough && r < MIN_MEASURED_OVER_ARTIFICIAL => {
+                return Verdict::Underexposed;
+            }
+            _ => {}
+        }
+        match self.edge_agreement(frame) {
+            Some((agree, _)) if agree < EDGE_MIN_AGREEMENT => Verdict::NotThisRoom,
             _ => Verdict::Ok,
         }
+    }
+
+    /// The fraction of the commissioned luminance edges whose direction the frame repeats,
+    /// over the edges with both samples valid and lit (`None` below [`EDGE_MIN_COUNT`]), and
+    /// how many were counted. Illumination varies slowly between neighbours a few
+    /// centimetres apart and the surfaces' reflectance does not change, so a view of this
+    /// room keeps its edges whatever the daylight; another view keeps half by chance.
+    pub fn edge_agreement(&self, frame: &LiveFrame<'_>) -> Option<(f64, usize)> {
+        let (mut agree, mut count) = (0usize, 0usize);
+        for &(i, j, ln_ref) in &self.model.edges {
+            let (i, j) = (i as usize, j as usize);
+            if self.state[i] & self.state[j] & S_VALID == 0 {
+                continue;
+            }
+            let (a, b) = (
+                frame.luminance[self.model.px[i] as usize],
+                frame.luminance[self.model.px[j] as usize],
+            );
+            if a == 0 || b == 0 || a == b {
+                continue;
+            }
+            count += 1;
+            agree += usize::from((a > b) == (ln_ref > 0.0));
+        }
+        (count >= EDGE_MIN_COUNT).then(|| (agree as f64 / count as f64, count))
     }
 
     /// Step 2: per seen patch, the median extraneous light of its valid samples, its weight
