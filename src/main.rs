@@ -69,6 +69,9 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if !matches!(cli.command, Command::Run(_) | Command::Serve(_)) && !is_bench(&cli.command) {
+        end_quietly_on_a_closed_pipe();
+    }
     cli::logging::init();
     let done = match cli.command {
         Command::Photometry(a) => cli::photometry::run(&a).map(|()| ExitCode::SUCCESS),
@@ -95,3 +98,30 @@ fn main() -> ExitCode {
         }
     }
 }
+
+/// True for the benchmarks (some of them are Modbus clients and servers).
+fn is_bench(command: &Command) -> bool {
+    #[cfg(feature = "bench")]
+    if matches!(command, Command::Bench { .. }) {
+        return true;
+    }
+    let _ = command;
+    false
+}
+
+/// A one-shot command ends quietly when its reader goes away (`luxnode image info IMG | head
+/// -1`), as any Unix filter does: SIGPIPE back to its default action. The Rust runtime ignores
+/// SIGPIPE, and `println!` then panics on the broken pipe (exit 101). The servers (`run`,
+/// `serve`, the benchmarks) keep it ignored: a client that hangs up is an error on its socket,
+/// never the end of the node.
+#[cfg(unix)]
+#[allow(unsafe_code)]
+fn end_quietly_on_a_closed_pipe() {
+    use nix::sys::signal::{SigHandler, Signal, signal};
+    // SAFETY: called first in main, before any thread exists; SIG_DFL installs no handler
+    // code, so no async-signal-safety question arises.
+    let _ = unsafe { signal(Signal::SIGPIPE, SigHandler::SigDfl) };
+}
+
+#[cfg(not(unix))]
+fn end_quietly_on_a_closed_pipe() {}

@@ -162,3 +162,34 @@ fn the_engines_multi_solve_is_the_run_time_iteration_bit_for_bit() {
         assert_eq!(&b, basis, "luminaire {l}");
     }
 }
+
+/// Issue 34: a one-shot command whose reader goes away ends quietly, as a Unix filter does
+/// (before: "failed printing to stdout: Broken pipe", a panic and exit 101).
+#[test]
+fn a_closed_pipe_ends_a_command_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    for args in [
+        vec!["modbus", "map"],
+        vec!["photometry", "cosine.ldt", "--csv"],
+    ] {
+        // the reader is gone before the command writes its first line
+        let (reader, writer) = std::io::pipe().expect("pipe");
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+            .current_dir(dir())
+            .args(&args)
+            .stdout(writer)
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .expect("luxnode");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        // ended by SIGPIPE (a shell reports 141), never a panic's 101
+        assert_eq!(
+            out.status.signal(),
+            Some(13),
+            "{args:?}: {:?} {stderr}",
+            out.status
+        );
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
