@@ -994,6 +994,18 @@ fn verdict(pass: bool) -> &'static str {
 pub fn html(r: &Report) -> String {
     let x = &r.results;
     let mut h = String::new();
+    html_head(&mut h, x);
+    html_pictures(&mut h, &r.pictures);
+    html_checks(&mut h, x);
+    html_desks(&mut h, x);
+    html_states(&mut h, x);
+    html_tables(&mut h, x);
+    html_tail(&mut h, x);
+    h
+}
+
+/// The head, the title, the overall result and the facts of the model and the report.
+fn html_head(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
@@ -1031,8 +1043,12 @@ figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{col
         x.counts[1],
         x.counts[2]
     );
+}
+
+/// The pictures, embedded.
+fn html_pictures(h: &mut String, pictures: &[(String, String, Vec<u8>)]) {
     h.push_str("\n<h2>Pictures</h2>\n");
-    for (stem, caption, png) in &r.pictures {
+    for (stem, caption, png) in pictures {
         let _ = writeln!(
             h,
             "<figure id=\"{stem}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
@@ -1041,6 +1057,10 @@ figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{col
             esc(caption)
         );
     }
+}
+
+/// The EN 12464-1 checks per desk.
+fn html_checks(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<h2>EN 12464-1 check</h2>\n<p>{} ({}): Ēm ≥ {:.0} lx and U0 ≥ {:.2} on each desk (task area); \
@@ -1074,6 +1094,10 @@ immediate surrounding area (0.5 m band at desk height): Ēm ≥ {:.0} lx, U0 ≥
         }
     }
     h.push_str("</table>\n");
+}
+
+/// The desks' grids and statistics, and the room's.
+fn html_desks(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<h2>Desks ({})</h2>\n<p>EN 12464-1 grids: cells of at most p = 0.2 × 5<sup>log10(d)</sup> m, points at the cell centres. \
@@ -1110,6 +1134,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
             stats_cells(&rm.maintained)
         );
     }
+}
+
+/// The states: each desk's, the floor's and each sensor's light.
+fn html_states(h: &mut String, x: &Results) {
     h.push_str("</table>\n<h2>States</h2>\n<p>Maintained Ē per desk grid and on the floor, lx; the desk sensors as the node publishes them (new installation, what a luxmeter on the desk reads), lx.</p>\n<table><tr><th>state</th><th>levels</th>");
     if let Some(s) = x.states.first() {
         for (id, _) in &s.desks {
@@ -1146,6 +1174,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
         }
         h.push_str("</tr>\n");
     }
+}
+
+/// The desk sensors, the surfaces and the luminaire schedule.
+fn html_tables(h: &mut String, x: &Results) {
     h.push_str("</table>\n<h2>Desk sensors</h2>\n<p>Where each desk sensor's value comes from, and its stated relative standard uncertainty: what the surfaces commissioning inferred (walls and ceiling nobody saw, floor out of view, desk tops, hidden faces) can do to its modelled light (first-order, at the all-on state). A model from a CAD scene states none.</p>\n<table><tr><th>sensor</th><th>camera</th><th>surroundings</th><th>stated uncertainty</th></tr>\n");
     for r in &x.sensors {
         let _ = writeln!(
@@ -1199,6 +1231,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
         x.totals.0,
         x.totals.1.map_or("–".into(), |w| format!("{w:.1}"))
     );
+}
+
+/// The time taken, and the script that checks the pictures loaded.
+fn html_tail(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<p>Computed in {:.2} s. The numbers are also in results.json.</p>\n\
@@ -1209,7 +1245,6 @@ document.getElementById('imgstatus').textContent=ok?('all '+im.length+' pictures
 window.addEventListener('load',luxnodeCheckImages);\n</script>\n</body></html>\n",
         x.seconds
     );
-    h
 }
 
 fn states_name(x: &Results) -> String {
