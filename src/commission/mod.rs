@@ -47,18 +47,223 @@ pub const MIN_SEEN_AREA_M2: f64 = 1.0;
 /// The most triangles a commissioned mesh may have (bounds the engine's work and memory).
 pub const MAX_TRIANGLES: usize = 400_000;
 
-/// Why commissioning failed.
+/// Why commissioning failed. Bad input names the input, carries its value and, where there is
+/// one, the range it must be in.
 #[derive(Debug, thiserror::Error)]
 pub enum CommissionError {
     /// A capture file is missing or unusable.
     #[error(transparent)]
     Capture(#[from] crate::camera::capture::CaptureError),
-    /// The input as a whole is unusable.
-    #[error("{0}")]
-    Input(String),
     /// The engine failed on the reconstructed scene.
     #[error("engine: {0}")]
     Engine(#[from] EngineError),
+    /// An option ([`CommissionOptions`]) outside its range.
+    #[error("{option}: {value}{unit} {expected}")]
+    Option {
+        /// The option, for people ("mesh patch size").
+        option: &'static str,
+        /// Its value.
+        value: f64,
+        /// The value's unit, with a leading space ("" without one).
+        unit: &'static str,
+        /// What it must be ("must be within 1..=64").
+        expected: String,
+    },
+    /// The room box option is not a box.
+    #[error(
+        "room box: {},{},{},{} m must be x0 < x1, y0 < y1, at most 1000 m a side",
+        xy_m[0], xy_m[1], xy_m[2], xy_m[3]
+    )]
+    RoomBoxOption {
+        /// `[x0, y0, x1, y1]`, m.
+        xy_m: [f64; 4],
+    },
+    /// A standard uncertainty of the inferred reflectances outside its range.
+    #[error("uncertainty: {0}")]
+    Uncertainty(String),
+    /// No capture set.
+    #[error("no capture set")]
+    NoCaptureSet,
+    /// More capture sets than [`MAX_NODES`].
+    #[error("{nodes} capture sets (at most {MAX_NODES} nodes in one room)")]
+    TooManyNodes {
+        /// Capture sets given.
+        nodes: usize,
+    },
+    /// No luminaires.
+    #[error("no luminaires")]
+    NoLuminaires,
+    /// A capture set's luminance frames are not one per luminaire, in the luminaires' order.
+    #[error(
+        "{node}the capture's luminance frames do not match the luminaires (frames of \
+         {frame_ids:?}, luminaires {luminaire_ids:?})"
+    )]
+    FramesMismatch {
+        /// The capture set.
+        node: Node,
+        /// The luminaire ids of its frames.
+        frame_ids: Vec<u32>,
+        /// The luminaires' ids.
+        luminaire_ids: Vec<u32>,
+    },
+    /// A camera's intrinsics are unusable.
+    #[error("{node}camera intrinsics: {reason}")]
+    CameraIntrinsics {
+        /// The capture set.
+        node: Node,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A camera's position is not finite or more than 10 km from the origin.
+    #[error(
+        "{node}camera position ({}, {}, {}) m: not finite or more than 10 km away",
+        position_m[0], position_m[1], position_m[2]
+    )]
+    CameraPosition {
+        /// The capture set.
+        node: Node,
+        /// The position, m.
+        position_m: [f64; 3],
+    },
+    /// Several capture sets with a gain that is not each camera's own.
+    #[error(
+        "several capture sets: each camera's gain must come from its camera.json (a luxmeter or \
+         ambient-sensor gain is for one node)"
+    )]
+    GainForOneNode,
+    /// One of several capture sets without its camera's gain.
+    #[error(
+        "{node}camera.json has no luminance_cd_m2_per_unit (several nodes need every camera's \
+         gain)"
+    )]
+    NodeWithoutGain {
+        /// The capture set.
+        node: Node,
+    },
+    /// The camera's gain from camera.json, which has none.
+    #[error("camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading")]
+    NoCameraGain,
+    /// The room box is unusable for a camera (not finite, too large, the camera outside it).
+    #[error("{0}")]
+    RoomBox(String),
+    /// Closing the room would take more than [`closure::MAX_CLOSURE_QUADS`] quads.
+    #[error(
+        "closing the room would take {quads:.0} quads (at most {}): a larger patch size or a \
+         smaller room box",
+        closure::MAX_CLOSURE_QUADS
+    )]
+    ClosureTooLarge {
+        /// Quads it would take.
+        quads: f64,
+    },
+    /// The mesh is empty.
+    #[error("nothing to model: the mesh is empty")]
+    EmptyMesh,
+    /// The cameras saw less than [`MIN_SEEN_AREA_M2`] of the room.
+    #[error(
+        "the cameras saw {seen_m2:.2} m² of the room (at least {MIN_SEEN_AREA_M2} m² needed): \
+         commissioning that sees nothing refuses to write an image"
+    )]
+    SeenTooLittle {
+        /// Seen area modelled, m².
+        seen_m2: f64,
+    },
+    /// More than [`MAX_TRIANGLES`] triangles.
+    #[error("{triangles} triangles to model (at most {MAX_TRIANGLES}): a larger patch size")]
+    TooManyTriangles {
+        /// Triangles of the mesh.
+        triangles: usize,
+    },
+    /// Luxmeter readings ([`CommissionOptions::readings`]) that cannot be used.
+    #[error("{0}")]
+    Readings(String),
+    /// Luxmeter readings with a gain from a luxmeter reading.
+    #[error(
+        "luxmeter readings set the walls' and ceiling's reflectance with the camera's own gain \
+         (camera.json, or a hooded ambient light sensor's); a gain from a luxmeter reading goes \
+         through the model, and both cannot be set from the readings"
+    )]
+    ReadingsWithLuxmeterGain,
+    /// Luxmeter readings with an ambient light sensor's gain that came through the model.
+    #[error(
+        "luxmeter readings combine with the ambient light sensor's gain only where it is \
+         measured directly (a hooded sensor the camera sees around); here it came through the \
+         model"
+    )]
+    ReadingsWithModelGain,
+    /// The gain's luxmeter reading is at a sensor that is not in the sensors.
+    #[error("luxmeter sensor {sensor_id} is not in the sensors")]
+    LuxmeterSensor {
+        /// The reading's sensor id.
+        sensor_id: u32,
+    },
+    /// The gain's reading is not a reading > 0 lx, or not one level per luminaire.
+    #[error(
+        "{what} reading: need a reading > 0 lx and one level per luminaire ({lux_lx} lx, \
+         {levels} levels for {luminaires} luminaires)"
+    )]
+    GainReading {
+        /// "luxmeter" or "ambient light sensor".
+        what: &'static str,
+        /// The reading, lx.
+        lux_lx: f64,
+        /// Levels given.
+        levels: usize,
+        /// Luminaires.
+        luminaires: usize,
+    },
+    /// The ambient light sensor's facing is not a direction.
+    #[error("ambient light sensor: its facing is not a direction")]
+    AmbientFacing,
+    /// The gain source changed during commissioning (a bug).
+    #[error("internal: gain source changed during commissioning")]
+    GainSourceChanged,
+    /// No depth frames.
+    #[error("no depth frames")]
+    NoDepthFrames,
+    /// Depth frames of different sizes.
+    #[error("depth frames of different sizes ({}x{} and {}x{} px)", first[0], first[1], other[0], other[1])]
+    DepthSizes {
+        /// The first frame's width and height, px.
+        first: [u32; 2],
+        /// Another frame's, px.
+        other: [u32; 2],
+    },
+    /// A depth frame's data does not match its size.
+    #[error("a depth frame's data does not match its size ({values} values for {pixels} pixels)")]
+    DepthData {
+        /// Values in the frame.
+        values: usize,
+        /// Pixels of its size.
+        pixels: usize,
+    },
+    /// Less than 1 % of the pixels have a depth after cleaning.
+    #[error(
+        "depth unusable: {valid} of {pixels} pixels have a depth after cleaning (all zero, beyond \
+         {max_depth_m} m, or noise?): the cameras see nothing of the room"
+    )]
+    DepthUnusable {
+        /// Pixels with a depth.
+        valid: usize,
+        /// Pixels.
+        pixels: usize,
+        /// The farthest depth kept, m.
+        max_depth_m: f64,
+    },
+}
+
+/// Which capture set an error is about: its number (from 1) and directory when there are
+/// several, nothing when there is one. Displays as a prefix ("capture set 2 (dir): ").
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Node(pub Option<(usize, std::path::PathBuf)>);
+
+impl std::fmt::Display for Node {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.0 {
+            Some((k, dir)) => write!(f, "capture set {k} ({}): ", dir.display()),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Where the camera gain (cd/m² per unit of a luminance frame) comes from.
@@ -164,58 +369,64 @@ impl CommissionOptions {
     /// [0, 1), sizes within sane bounds, a luxmeter reading that is a positive number. The
     /// error names the option.
     pub fn validate(&self) -> Result<(), CommissionError> {
-        let bad = |what: &str, why: String| Err(CommissionError::Input(format!("{what}: {why}")));
+        let bad = |option: &'static str, value: f64, unit: &'static str, expected: String| {
+            Err(CommissionError::Option {
+                option,
+                value,
+                unit,
+                expected,
+            })
+        };
         for (name, v) in [
             ("wall reflectance", self.closure.wall_rho),
             ("ceiling reflectance", self.closure.ceiling_rho),
             ("start reflectance", self.start_rho),
         ] {
             if !(0.0..1.0).contains(&v) {
-                return bad(name, format!("{v} must be a reflectance in [0, 1)"));
+                return bad(name, v, "", "must be a reflectance in [0, 1)".into());
             }
         }
         self.uncertainty
             .check()
-            .map_err(|m| CommissionError::Input(format!("uncertainty: {m}")))?;
+            .map_err(CommissionError::Uncertainty)?;
         let m = &self.mesh;
         if !(m.patch_size_m.is_finite() && (0.05..=100.0).contains(&m.patch_size_m)) {
             return bad(
                 "mesh patch size",
-                format!("{} m must be within 0.05..=100 m", m.patch_size_m),
+                m.patch_size_m,
+                " m",
+                "must be within 0.05..=100 m".into(),
             );
         }
         if !(m.cell_m.is_finite() && m.cell_m >= 0.005 && m.cell_m <= m.patch_size_m) {
             return bad(
                 "mesh cell",
+                m.cell_m,
+                " m",
                 format!(
-                    "{} m must be within 0.005 m and the patch size ({} m)",
-                    m.cell_m, m.patch_size_m
+                    "must be within 0.005 m and the patch size ({} m)",
+                    m.patch_size_m
                 ),
             );
         }
         if !(1..=64).contains(&self.grid_stride_px) {
             return bad(
                 "grid stride",
-                format!("{} px must be within 1..=64", self.grid_stride_px),
+                f64::from(self.grid_stride_px),
+                " px",
+                "must be within 1..=64".into(),
             );
         }
-        if let Some([x0, y0, x1, y1]) = self.closure.room_xy_m {
-            let finite = [x0, y0, x1, y1]
-                .iter()
-                .all(|v| v.is_finite() && v.abs() < 1e4);
+        if let Some(xy_m @ [x0, y0, x1, y1]) = self.closure.room_xy_m {
+            let finite = xy_m.iter().all(|v| v.is_finite() && v.abs() < 1e4);
             if !(finite && x1 > x0 && y1 > y0 && x1 - x0 <= 1000.0 && y1 - y0 <= 1000.0) {
-                return bad(
-                    "room box",
-                    format!(
-                        "{x0},{y0},{x1},{y1} m must be x0 < x1, y0 < y1, at most 1000 m a side"
-                    ),
-                );
+                return Err(CommissionError::RoomBoxOption { xy_m });
             }
         }
         if let Some(z) = self.closure.ceiling_z_m
             && !(z.is_finite() && z.abs() < 1e3)
         {
-            return bad("ceiling height", format!("{z} m is not a height"));
+            return bad("ceiling height", z, " m", "is not a height".into());
         }
         if let Gain::Luxmeter { lux_lx, levels, .. } | Gain::Ambient { lux_lx, levels, .. } =
             &self.gain
@@ -223,17 +434,16 @@ impl CommissionOptions {
             if !(lux_lx.is_finite() && *lux_lx > 0.0 && *lux_lx < 1e6) {
                 return bad(
                     "luxmeter reading",
-                    format!("{lux_lx} lx must be within (0, 1e6)"),
+                    *lux_lx,
+                    " lx",
+                    "must be within (0, 1e6)".into(),
                 );
             }
             if let Some(x) = levels
                 .iter()
                 .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
             {
-                return bad(
-                    "luxmeter dimming state",
-                    format!("level {x} is outside [0, 1]"),
-                );
+                return bad("luxmeter dimming state", *x, "", "is outside [0, 1]".into());
             }
         }
         Ok(())
@@ -286,9 +496,7 @@ impl Reading {
 }
 
 fn unreachable_gain<T>() -> Result<T, CommissionError> {
-    Err(CommissionError::Input(
-        "internal: gain source changed during commissioning".into(),
-    ))
+    Err(CommissionError::GainSourceChanged)
 }
 
 /// A plane, for people.
@@ -477,7 +685,7 @@ pub fn from_capture(
     from_captures(std::slice::from_ref(capture), luminaires, sensors, desks, o)?
         .into_iter()
         .next()
-        .ok_or_else(|| CommissionError::Input("no capture set".into()))
+        .ok_or(CommissionError::NoCaptureSet)
 }
 
 /// At most this many nodes (capture sets) commission one room together.
@@ -507,14 +715,9 @@ fn with_readings(
     o: &CommissionOptions,
 ) -> Result<Vec<Commissioned>, CommissionError> {
     let ids: Vec<u32> = sensors.iter().map(|s| s.id).collect();
-    refit::check(&o.readings, &ids).map_err(CommissionError::Input)?;
+    refit::check(&o.readings, &ids).map_err(CommissionError::Readings)?;
     if matches!(o.gain, Gain::Luxmeter { .. }) {
-        return Err(CommissionError::Input(
-            "luxmeter readings set the walls' and ceiling's reflectance with the camera's own \
-             gain (camera.json, or a hooded ambient light sensor's); a gain from a luxmeter \
-             reading goes through the model, and both cannot be set from the readings"
-                .into(),
-        ));
+        return Err(CommissionError::ReadingsWithLuxmeterGain);
     }
     let mut plain = o.clone();
     plain.readings.clear();
@@ -526,16 +729,11 @@ fn with_readings(
         &plain,
     )?;
     let Some(r) = first.first().map(|c| &c.report) else {
-        return Err(CommissionError::Input("no capture set".into()));
+        return Err(CommissionError::NoCaptureSet);
     };
     if matches!(o.gain, Gain::Ambient { .. }) && r.ambient_direct.is_none() {
         // a bare sensor's gain comes through the model, whose walls the readings change
-        return Err(CommissionError::Input(
-            "luxmeter readings combine with the ambient light sensor's gain only where it is \
-             measured directly (a hooded sensor the camera sees around); here it came through \
-             the model"
-                .into(),
-        ));
+        return Err(CommissionError::ReadingsWithModelGain);
     }
     let f = refit::fit(
         &r.uncertainty,
@@ -545,7 +743,7 @@ fn with_readings(
         o.closure.ceiling_rho,
         &o.readings,
     )
-    .map_err(CommissionError::Input)?;
+    .map_err(CommissionError::Readings)?;
     plain.closure.wall_rho = f.wall_rho.1;
     plain.closure.ceiling_rho = f.ceiling_rho.1;
     plain.uncertainty.wall_rho = f.sigma_after.0;
@@ -602,23 +800,18 @@ impl Inputs<'_> {
 fn check_captures(i: &Inputs) -> Result<(), CommissionError> {
     let captures = i.captures;
     if captures.is_empty() {
-        return Err(CommissionError::Input("no capture set".into()));
+        return Err(CommissionError::NoCaptureSet);
     }
     if captures.len() > MAX_NODES {
-        return Err(CommissionError::Input(format!(
-            "{} capture sets (at most {MAX_NODES} nodes in one room)",
-            captures.len()
-        )));
+        return Err(CommissionError::TooManyNodes {
+            nodes: captures.len(),
+        });
     }
     if i.luminaires.is_empty() {
-        return Err(CommissionError::Input("no luminaires".into()));
+        return Err(CommissionError::NoLuminaires);
     }
     for (k, capture) in captures.iter().enumerate() {
-        let which = if captures.len() > 1 {
-            format!("capture set {} ({}): ", k + 1, capture.dir.display())
-        } else {
-            String::new()
-        };
+        let which = Node((captures.len() > 1).then(|| (k + 1, capture.dir.clone())));
         if capture.luminance.len() != i.luminaires.len()
             || capture
                 .luminance
@@ -626,34 +819,33 @@ fn check_captures(i: &Inputs) -> Result<(), CommissionError> {
                 .zip(i.luminaires)
                 .any(|((id, _), l)| *id != l.id)
         {
-            return Err(CommissionError::Input(format!(
-                "{which}the capture's luminance frames do not match the luminaires"
-            )));
+            return Err(CommissionError::FramesMismatch {
+                node: which,
+                frame_ids: capture.luminance.iter().map(|(id, _)| *id).collect(),
+                luminaire_ids: i.luminaires.iter().map(|l| l.id).collect(),
+            });
         }
         let cam = &capture.camera;
         cam.check()
-            .map_err(|m| CommissionError::Input(format!("{which}camera intrinsics: {m}")))?;
+            .map_err(|reason| CommissionError::CameraIntrinsics {
+                node: which.clone(),
+                reason,
+            })?;
         if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
-            return Err(CommissionError::Input(format!(
-                "{which}camera position: not finite or more than 10 km away"
-            )));
+            return Err(CommissionError::CameraPosition {
+                node: which,
+                position_m: cam.position_m.to_array(),
+            });
         }
         if captures.len() > 1 {
             if !matches!(i.o.gain, Gain::Camera) {
-                return Err(CommissionError::Input(
-                    "several capture sets: each camera's gain must come from its camera.json \
-                     (a luxmeter or ambient-sensor gain is for one node)"
-                        .into(),
-                ));
+                return Err(CommissionError::GainForOneNode);
             }
             if !cam
                 .luminance_cd_m2_per_unit
                 .is_some_and(|g| g.is_finite() && g > 0.0)
             {
-                return Err(CommissionError::Input(format!(
-                    "{which}camera.json has no luminance_cd_m2_per_unit (several nodes need \
-                     every camera's gain)"
-                )));
+                return Err(CommissionError::NodeWithoutGain { node: which });
             }
         }
     }
@@ -760,15 +952,11 @@ fn find_room(
         // bounded work: a wrong calibration or pose never becomes a room of kilometres
         for c in i.captures {
             r.check(c.camera.position_m)
-                .map_err(CommissionError::Input)?;
+                .map_err(CommissionError::RoomBox)?;
         }
         let quads = r.closure_quads(o.mesh.patch_size_m);
         if quads > closure::MAX_CLOSURE_QUADS as f64 {
-            return Err(CommissionError::Input(format!(
-                "closing the room would take {quads:.0} quads (at most {}): a larger patch size \
-                 or a smaller room box",
-                closure::MAX_CLOSURE_QUADS
-            )));
+            return Err(CommissionError::ClosureTooLarge { quads });
         }
     }
     Ok(room)
@@ -986,22 +1174,17 @@ fn close_room(i: &Inputs, meshed: &mut Meshed, report: &mut Report) -> Result<()
     report.triangles = reco.tris.len();
     (report.seen_area_m2, report.inferred_area_m2) = reco.areas_m2();
     if reco.tris.is_empty() {
-        return Err(CommissionError::Input(
-            "nothing to model: the mesh is empty".into(),
-        ));
+        return Err(CommissionError::EmptyMesh);
     }
     if report.seen_area_m2 < MIN_SEEN_AREA_M2 {
-        return Err(CommissionError::Input(format!(
-            "the cameras saw {:.2} m² of the room (at least {MIN_SEEN_AREA_M2} m² needed): \
-             commissioning that sees nothing refuses to write an image",
-            report.seen_area_m2
-        )));
+        return Err(CommissionError::SeenTooLittle {
+            seen_m2: report.seen_area_m2,
+        });
     }
     if reco.tris.len() > MAX_TRIANGLES {
-        return Err(CommissionError::Input(format!(
-            "{} triangles to model (at most {MAX_TRIANGLES}): a larger patch size",
-            reco.tris.len()
-        )));
+        return Err(CommissionError::TooManyTriangles {
+            triangles: reco.tris.len(),
+        });
     }
     Ok(())
 }
@@ -1133,9 +1316,7 @@ fn estimate_reflectances(
             None,
         ),
         (Gain::Camera, None) => {
-            return Err(CommissionError::Input(
-                "camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading".into(),
-            ));
+            return Err(CommissionError::NoCameraGain);
         }
         (Gain::Luxmeter { .. } | Gain::Ambient { .. }, _) => {
             let (e, r) = gain_through_model(i, reco, &est, &caster, report)?;
@@ -1202,15 +1383,11 @@ fn gain_reading(i: &Inputs) -> Result<GainReading, CommissionError> {
             lux_lx,
             levels,
         } => {
-            let s = i
-                .sensors
-                .iter()
-                .position(|s| s.id == *sensor_id)
-                .ok_or_else(|| {
-                    CommissionError::Input(format!(
-                        "luxmeter sensor {sensor_id} is not in the sensors"
-                    ))
-                })?;
+            let s = i.sensors.iter().position(|s| s.id == *sensor_id).ok_or(
+                CommissionError::LuxmeterSensor {
+                    sensor_id: *sensor_id,
+                },
+            )?;
             (*lux_lx, levels.clone(), Reading::Sensor(s, *sensor_id))
         }
         Gain::Ambient {
@@ -1230,17 +1407,17 @@ fn gain_reading(i: &Inputs) -> Result<GainReading, CommissionError> {
         Gain::Camera => unreachable_gain()?,
     };
     if levels.len() != i.luminaires.len() || !(lux_lx.is_finite() && lux_lx > 0.0) {
-        return Err(CommissionError::Input(format!(
-            "{} reading: need a reading > 0 lx and one level per luminaire",
-            at.what()
-        )));
+        return Err(CommissionError::GainReading {
+            what: at.what(),
+            lux_lx,
+            levels: levels.len(),
+            luminaires: i.luminaires.len(),
+        });
     }
     if let Reading::Point(_, n) = at
         && n == DVec3::ZERO
     {
-        return Err(CommissionError::Input(
-            "ambient light sensor: its facing is not a direction".into(),
-        ));
+        return Err(CommissionError::AmbientFacing);
     }
     Ok(GainReading { at, lux_lx, levels })
 }
