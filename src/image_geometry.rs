@@ -239,11 +239,12 @@ fn unit(v: [f64; 3]) -> Option<DVec3> {
 }
 
 impl Room {
-    /// Rebuilds the room of a parsed image.
+    /// Rebuilds the room of a parsed image: its patches, luminaires, camera, desks and sensors
+    /// from the geometry section, checked against the image, and the stored arrays solved.
     pub fn from_image(image: &Image<'_>) -> Result<Room, RoomError> {
         let bytes = image.geometry_bytes().ok_or(RoomError::NoGeometry)?;
         let section = GeometrySection::decode(bytes).map_err(RoomError::Decode)?;
-        let bad = |m: String| RoomError::Inconsistent(m);
+        let bad = RoomError::Inconsistent;
         let n = image.patches();
         if section.patch_corners_m.len() != n || section.patch_group.len() != n {
             return Err(bad(format!(
@@ -259,193 +260,12 @@ impl Room {
         {
             return Err(bad("a patch's group is not in the group list".into()));
         }
-        let mut patches = Patches::default();
-        for (i, c) in section.patch_corners_m.iter().enumerate() {
-            if c.iter().any(|x| !x.is_finite()) {
-                return Err(bad(format!("patch {i} has a corner that is not a number")));
-            }
-            let t = [0, 1, 2].map(|k| {
-                DVec3::new(
-                    f64::from(c[3 * k]),
-                    f64::from(c[3 * k + 1]),
-                    f64::from(c[3 * k + 2]),
-                )
-            });
-            let cross = (t[1] - t[0]).cross(t[2] - t[0]);
-            patches.corners_m.push(t);
-            patches.normal.push(cross.normalize_or_zero());
-            patches.area_m2.push(0.5 * cross.length());
-            patches.rho.push(image.payload.rho.get(i, 0));
-            patches.group.push(section.patch_group[i]);
-            patches.source_triangle.push(i as u32);
-        }
-        let l = image.luminaires();
-        if section.luminaires.len() != l {
-            return Err(bad(format!(
-                "{} luminaires for the image's {l}",
-                section.luminaires.len()
-            )));
-        }
-        let mut luminaires = Vec::with_capacity(l);
-        for (j, rec) in section.luminaires.iter().enumerate() {
-            if rec.id != image.luminaire_id(j) {
-                return Err(bad(format!(
-                    "luminaire {j} is {} in the section, {} in the image",
-                    rec.id,
-                    image.luminaire_id(j)
-                )));
-            }
-            let ph = section
-                .photometries
-                .get(rec.photometry as usize)
-                .ok_or_else(|| bad(format!("luminaire {}: no photometry", rec.id)))?;
-            let dist = IntensityDistribution::from_full_grid(
-                ph.c_deg.clone(),
-                ph.gamma_deg.clone(),
-                ph.cd.iter().map(|v| f64::from(*v)).collect(),
-                &ph.luminaire,
-            )
-            .map_err(|e| RoomError::Photometry {
-                id: rec.id,
-                reason: e.to_string(),
-            })?;
-            let (Some(aim), Some(c0), Some(c90)) =
-                (unit(rec.axes[0]), unit(rec.axes[1]), unit(rec.axes[2]))
-            else {
-                return Err(bad(format!(
-                    "luminaire {}: axes are not unit vectors",
-                    rec.id
-                )));
-            };
-            if !(finite(&rec.position_m)
-                && finite(&rec.opening_m)
-                && rec.opening_m.iter().all(|x| *x >= 0.0)
-                && rec.flux_lm.is_finite()
-                && rec.flux_lm >= 0.0)
-            {
-                return Err(bad(format!(
-                    "luminaire {}: position, opening or flux",
-                    rec.id
-                )));
-            }
-            luminaires.push(Luminaire {
-                id: rec.id,
-                name: rec.name.clone(),
-                position_m: DVec3::from(rec.position_m),
-                aim,
-                c0,
-                c90,
-                flux_lm: rec.flux_lm,
-                opening_m: rec.opening_m,
-                opening_circular: rec.opening_circular,
-                photometry: Arc::new(dist),
-                photometry_path: ph.file_name.clone().into(),
-                file_flux_lm: ph.file_flux_lm,
-            });
-        }
-        let camera = match &section.camera {
-            None => None,
-            Some(c) => {
-                let ok = finite(&c.position_m)
-                    && finite(&c.world_from_camera)
-                    && finite(&c.intrinsics_px)
-                    && c.intrinsics_px[0] > 0.0
-                    && c.intrinsics_px[1] > 0.0
-                    && c.size_px[0] > 0
-                    && c.size_px[1] > 0
-                    && u64::from(c.size_px[0]) * u64::from(c.size_px[1]) <= 16_000_000;
-                if !ok {
-                    return Err(bad("the camera".into()));
-                }
-                let lens = match c.lens_k {
-                    None => crate::scene::Lens::Pinhole,
-                    Some(k) => {
-                        let l = crate::scene::Lens::KannalaBrandt { k };
-                        l.check()
-                            .map_err(|m| bad(format!("the camera lens: {m}")))?;
-                        l
-                    }
-                };
-                Some(Camera {
-                    position_m: DVec3::from(c.position_m),
-                    world_from_camera: DMat3::from_cols_array(&c.world_from_camera),
-                    fx: c.intrinsics_px[0],
-                    fy: c.intrinsics_px[1],
-                    cx: c.intrinsics_px[2],
-                    cy: c.intrinsics_px[3],
-                    width: c.size_px[0],
-                    height: c.size_px[1],
-                    luminance_cd_m2_per_unit: None,
-                    lens,
-                })
-            }
-        };
-        let mut desks = Vec::new();
-        for d in &section.desks {
-            let e = d.extent_m;
-            if !(finite(&e) && d.z_m.is_finite() && e[1] > e[0] && e[3] > e[2]) {
-                return Err(bad(format!("desk {}: outline", d.id)));
-            }
-            desks.push(Desk {
-                id: d.id,
-                group: d.group.clone(),
-                x_m: [e[0], e[1]],
-                y_m: [e[2], e[3]],
-                z_m: d.z_m,
-            });
-        }
-        let s = image.sensors();
-        if section.sensors.len() != s {
-            return Err(bad(format!(
-                "{} sensors for the image's {s}",
-                section.sensors.len()
-            )));
-        }
-        let mut sensors = Vec::with_capacity(s);
-        for (k, rec) in section.sensors.iter().enumerate() {
-            let normal = unit(rec.normal);
-            if rec.id != image.sensor_id(k) || normal.is_none() || !finite(&rec.position_m) {
-                return Err(bad(format!("sensor {k}")));
-            }
-            sensors.push(RoomSensor {
-                id: rec.id,
-                position_m: DVec3::from(rec.position_m),
-                normal: normal.unwrap_or(DVec3::Z),
-            });
-        }
-        // the stored arrays, decoded
-        let ffs = &image.payload.ff;
-        let rows = (0..n)
-            .map(|i| {
-                ffs.row_range(i)
-                    .map(|k| (ffs.col_at(k) as u32, ffs.values.get(k, i)))
-                    .collect()
-            })
-            .collect();
-        let ff = Csr::from_rows(rows);
-        let direct_patch_lx: Vec<Vec<f64>> = (0..l)
-            .map(|j| {
-                (0..n)
-                    .map(|i| image.payload.direct_patch_lx.get(j * n + i, j))
-                    .collect()
-            })
-            .collect();
-        let options = SolveOptions {
-            tolerance: image.payload.solve_tolerance,
-            max_iterations: image.payload.solve_max_iterations,
-        };
-        let system = image.system();
-        let mut basis_b = Vec::with_capacity(l);
-        for (j, e) in direct_patch_lx.iter().enumerate() {
-            let mut b = vec![0.0; n];
-            solver::gauss_seidel(&system, e, &mut b, options).map_err(|source| {
-                RoomError::Solve {
-                    id: image.luminaire_id(j),
-                    source,
-                }
-            })?;
-            basis_b.push(b);
-        }
+        let patches = patches_of(image, &section)?;
+        let luminaires = luminaires_of(image, &section)?;
+        let camera = section.camera.as_ref().map(camera_of).transpose()?;
+        let desks = desks_of(&section)?;
+        let sensors = sensors_of(image, &section)?;
+        let (ff, direct_patch_lx, basis_b) = stored_arrays(image)?;
         Ok(Room {
             section,
             patches,
@@ -458,4 +278,225 @@ impl Room {
             basis_b,
         })
     }
+}
+
+/// The patches of the section's corners (normals and areas from them) and the image's
+/// reflectances.
+fn patches_of(image: &Image<'_>, section: &GeometrySection) -> Result<Patches, RoomError> {
+    let bad = RoomError::Inconsistent;
+    let mut patches = Patches::default();
+    for (i, c) in section.patch_corners_m.iter().enumerate() {
+        if c.iter().any(|x| !x.is_finite()) {
+            return Err(bad(format!("patch {i} has a corner that is not a number")));
+        }
+        let t = [0, 1, 2].map(|k| {
+            DVec3::new(
+                f64::from(c[3 * k]),
+                f64::from(c[3 * k + 1]),
+                f64::from(c[3 * k + 2]),
+            )
+        });
+        let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+        patches.corners_m.push(t);
+        patches.normal.push(cross.normalize_or_zero());
+        patches.area_m2.push(0.5 * cross.length());
+        patches.rho.push(image.payload.rho.get(i, 0));
+        patches.group.push(section.patch_group[i]);
+        patches.source_triangle.push(i as u32);
+    }
+    Ok(patches)
+}
+
+/// The section's luminaires with their photometry, checked against the image's.
+fn luminaires_of(
+    image: &Image<'_>,
+    section: &GeometrySection,
+) -> Result<Vec<Luminaire>, RoomError> {
+    let bad = RoomError::Inconsistent;
+    let l = image.luminaires();
+    if section.luminaires.len() != l {
+        return Err(bad(format!(
+            "{} luminaires for the image's {l}",
+            section.luminaires.len()
+        )));
+    }
+    let mut luminaires = Vec::with_capacity(l);
+    for (j, rec) in section.luminaires.iter().enumerate() {
+        if rec.id != image.luminaire_id(j) {
+            return Err(bad(format!(
+                "luminaire {j} is {} in the section, {} in the image",
+                rec.id,
+                image.luminaire_id(j)
+            )));
+        }
+        let ph = section
+            .photometries
+            .get(rec.photometry as usize)
+            .ok_or_else(|| bad(format!("luminaire {}: no photometry", rec.id)))?;
+        let dist = IntensityDistribution::from_full_grid(
+            ph.c_deg.clone(),
+            ph.gamma_deg.clone(),
+            ph.cd.iter().map(|v| f64::from(*v)).collect(),
+            &ph.luminaire,
+        )
+        .map_err(|e| RoomError::Photometry {
+            id: rec.id,
+            reason: e.to_string(),
+        })?;
+        let (Some(aim), Some(c0), Some(c90)) =
+            (unit(rec.axes[0]), unit(rec.axes[1]), unit(rec.axes[2]))
+        else {
+            return Err(bad(format!(
+                "luminaire {}: axes are not unit vectors",
+                rec.id
+            )));
+        };
+        if !(finite(&rec.position_m)
+            && finite(&rec.opening_m)
+            && rec.opening_m.iter().all(|x| *x >= 0.0)
+            && rec.flux_lm.is_finite()
+            && rec.flux_lm >= 0.0)
+        {
+            return Err(bad(format!(
+                "luminaire {}: position, opening or flux",
+                rec.id
+            )));
+        }
+        luminaires.push(Luminaire {
+            id: rec.id,
+            name: rec.name.clone(),
+            position_m: DVec3::from(rec.position_m),
+            aim,
+            c0,
+            c90,
+            flux_lm: rec.flux_lm,
+            opening_m: rec.opening_m,
+            opening_circular: rec.opening_circular,
+            photometry: Arc::new(dist),
+            photometry_path: ph.file_name.clone().into(),
+            file_flux_lm: ph.file_flux_lm,
+        });
+    }
+    Ok(luminaires)
+}
+
+/// The section's camera, checked.
+fn camera_of(c: &CameraRecord) -> Result<Camera, RoomError> {
+    let bad = RoomError::Inconsistent;
+    let ok = finite(&c.position_m)
+        && finite(&c.world_from_camera)
+        && finite(&c.intrinsics_px)
+        && c.intrinsics_px[0] > 0.0
+        && c.intrinsics_px[1] > 0.0
+        && c.size_px[0] > 0
+        && c.size_px[1] > 0
+        && u64::from(c.size_px[0]) * u64::from(c.size_px[1]) <= 16_000_000;
+    if !ok {
+        return Err(bad("the camera".into()));
+    }
+    let lens = match c.lens_k {
+        None => crate::scene::Lens::Pinhole,
+        Some(k) => {
+            let l = crate::scene::Lens::KannalaBrandt { k };
+            l.check()
+                .map_err(|m| bad(format!("the camera lens: {m}")))?;
+            l
+        }
+    };
+    Ok(Camera {
+        position_m: DVec3::from(c.position_m),
+        world_from_camera: DMat3::from_cols_array(&c.world_from_camera),
+        fx: c.intrinsics_px[0],
+        fy: c.intrinsics_px[1],
+        cx: c.intrinsics_px[2],
+        cy: c.intrinsics_px[3],
+        width: c.size_px[0],
+        height: c.size_px[1],
+        luminance_cd_m2_per_unit: None,
+        lens,
+    })
+}
+
+/// The section's desks, checked.
+fn desks_of(section: &GeometrySection) -> Result<Vec<Desk>, RoomError> {
+    let bad = RoomError::Inconsistent;
+    let mut desks = Vec::new();
+    for d in &section.desks {
+        let e = d.extent_m;
+        if !(finite(&e) && d.z_m.is_finite() && e[1] > e[0] && e[3] > e[2]) {
+            return Err(bad(format!("desk {}: outline", d.id)));
+        }
+        desks.push(Desk {
+            id: d.id,
+            group: d.group.clone(),
+            x_m: [e[0], e[1]],
+            y_m: [e[2], e[3]],
+            z_m: d.z_m,
+        });
+    }
+    Ok(desks)
+}
+
+/// The section's sensors, checked against the image's.
+fn sensors_of(image: &Image<'_>, section: &GeometrySection) -> Result<Vec<RoomSensor>, RoomError> {
+    let bad = RoomError::Inconsistent;
+    let s = image.sensors();
+    if section.sensors.len() != s {
+        return Err(bad(format!(
+            "{} sensors for the image's {s}",
+            section.sensors.len()
+        )));
+    }
+    let mut sensors = Vec::with_capacity(s);
+    for (k, rec) in section.sensors.iter().enumerate() {
+        let normal = unit(rec.normal);
+        if rec.id != image.sensor_id(k) || normal.is_none() || !finite(&rec.position_m) {
+            return Err(bad(format!("sensor {k}")));
+        }
+        sensors.push(RoomSensor {
+            id: rec.id,
+            position_m: DVec3::from(rec.position_m),
+            normal: normal.unwrap_or(DVec3::Z),
+        });
+    }
+    Ok(sensors)
+}
+
+/// The image's stored arrays, decoded: form factors, direct light per luminaire on each patch,
+/// and each luminaire's exitance solved from them.
+#[allow(clippy::type_complexity)]
+fn stored_arrays(image: &Image<'_>) -> Result<(Csr, Vec<Vec<f64>>, Vec<Vec<f64>>), RoomError> {
+    let (n, l) = (image.patches(), image.luminaires());
+    // the stored arrays, decoded
+    let ffs = &image.payload.ff;
+    let rows = (0..n)
+        .map(|i| {
+            ffs.row_range(i)
+                .map(|k| (ffs.col_at(k) as u32, ffs.values.get(k, i)))
+                .collect()
+        })
+        .collect();
+    let ff = Csr::from_rows(rows);
+    let direct_patch_lx: Vec<Vec<f64>> = (0..l)
+        .map(|j| {
+            (0..n)
+                .map(|i| image.payload.direct_patch_lx.get(j * n + i, j))
+                .collect()
+        })
+        .collect();
+    let options = SolveOptions {
+        tolerance: image.payload.solve_tolerance,
+        max_iterations: image.payload.solve_max_iterations,
+    };
+    let system = image.system();
+    let mut basis_b = Vec::with_capacity(l);
+    for (j, e) in direct_patch_lx.iter().enumerate() {
+        let mut b = vec![0.0; n];
+        solver::gauss_seidel(&system, e, &mut b, options).map_err(|source| RoomError::Solve {
+            id: image.luminaire_id(j),
+            source,
+        })?;
+        basis_b.push(b);
+    }
+    Ok((ff, direct_patch_lx, basis_b))
 }

@@ -2,7 +2,9 @@
 //! (byte-identical to the files), the capture sequence with injected faults, the A010 parser on
 //! byte streams, V4L2 pixel decoding.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::office_a;
+
 use std::sync::OnceLock;
 use std::time::Instant;
 
@@ -27,10 +29,6 @@ fn demo() -> &'static SimWorld {
         );
         w
     })
-}
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
 }
 
 fn group_of(w: &SimWorld, patch: u32) -> &str {

@@ -1,13 +1,9 @@
 //! The `luxnode` binary as a user runs it: outputs, JSON keys, exit codes.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::shared;
 
-fn shared(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared")
-        .join(rel)
-}
+use std::process::{Command, Output};
 
 /// Runs the binary, through `LUXNODE_TEST_RUNNER` when set (cross-compiled tests run the
 /// target's binary under an emulator, e.g. `qemu-aarch64 -L /usr/aarch64-linux-gnu`).

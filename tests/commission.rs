@@ -2,7 +2,9 @@
 //! office_a (desk lux), its ground-truth albedo image (reflectances; read here only, never by
 //! commissioning), synthetic depth with a known plane, and bad input.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use glam::{DMat3, DVec3};
 use luxnode::camera::capture::Frame;
@@ -18,38 +20,29 @@ const SH_RHO_P90_BOUND: f64 = 0.04;
 const SH_IN_VIEW_BOUND: f64 = 0.045;
 use luxnode::engine::raycast::{Hit, RayCaster};
 use luxnode::scene::Camera;
-use luxnode::scene::{
-    LoadOptions, Luminaire, Sensor, load_desks_file, load_luminaires_file, load_sensors_file,
-    read_states, read_truth,
-};
+use luxnode::scene::{LoadOptions, Luminaire, Sensor, load_desks_file, read_states, read_truth};
 use luxnode::store::sensor_flags;
-
-fn scene_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
 
 /// office_a's luminaires, sensors and the capture set `capture`.
 fn inputs(capture: &str) -> (Vec<Luminaire>, Vec<Sensor>, Capture) {
-    let d = scene_dir();
-    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
-        .expect("luminaires");
-    let (sensors, _) =
-        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
-    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let cap = Capture::load(&d.join(capture), &ids).expect("capture");
+    let (cap, lums, sensors) = common::office_a_capture(capture);
     (lums, sensors, cap)
 }
 
 fn run(capture: &str, o: &CommissionOptions) -> Commissioned {
     let (lums, sensors, cap) = inputs(capture);
-    let desks = load_desks_file(&scene_dir().join("desks.json"), &LoadOptions::default()).ok();
+    let desks = load_desks_file(
+        &common::office_a().join("desks.json"),
+        &LoadOptions::default(),
+    )
+    .ok();
     commission::from_capture(&cap, lums, sensors, desks, o).expect("commissions")
 }
 
 /// In-view sensors from the capture's sensor_pixels.csv (test-side ground truth).
 fn in_view(capture: &str) -> Vec<u32> {
     let text = std::fs::read_to_string(
-        scene_dir()
+        common::office_a()
             .join(capture)
             .join("groundtruth/sensor_pixels.csv"),
     )
@@ -68,7 +61,7 @@ fn in_view(capture: &str) -> Vec<u32> {
 /// (mean abs error / mean truth, worst sensor's own error, per-sensor errors) over in-view
 /// sensors and all scenarios.
 fn errors(c: &Commissioned, sensors: &[u32]) -> (f64, f64, Vec<(u32, f64)>) {
-    let d = scene_dir();
+    let d = common::office_a();
     let states = read_states(&d.join("states.csv")).expect("states");
     let truth = read_truth(&d.join("truth.csv")).expect("truth");
     let m = &c.model;
@@ -101,7 +94,7 @@ fn errors(c: &Commissioned, sensors: &[u32]) -> (f64, f64, Vec<(u32, f64)>) {
 }
 
 fn labels(capture: &str) -> (Vec<u16>, Vec<(u16, String)>) {
-    let gt = scene_dir().join(capture).join("groundtruth");
+    let gt = common::office_a().join(capture).join("groundtruth");
     let img = image::open(gt.join("labels.png")).expect("labels.png");
     let names: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(gt.join("labels.json")).expect("json"))
@@ -127,7 +120,7 @@ fn reflectance_error(c: &Commissioned, capture: &str) -> (f64, usize) {
 
 /// |ρ of the pixel's patch − ρ true| over pixels of floor, desks and walls, sorted.
 fn reflectance_errors(c: &Commissioned, capture: &str) -> Vec<f64> {
-    let gt = scene_dir().join(capture).join("groundtruth");
+    let gt = common::office_a().join(capture).join("groundtruth");
     let albedo = image::open(gt.join("albedo.png"))
         .expect("albedo.png")
         .to_luma16();
@@ -243,7 +236,7 @@ fn closure_of_the_unseen_room_measurably_helps() {
     // and the open model reads low (light escapes)
     let levels = vec![1.0; c.model.luminaires()];
     let lux = c.model.sensor_lux(&levels).expect("lux");
-    let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
+    let truth = read_truth(&common::office_a().join("truth.csv")).expect("truth");
     for (k, id) in c.model.sensor_ids.iter().enumerate() {
         if view.contains(id) {
             let t = truth
@@ -273,7 +266,7 @@ fn clean_capture_and_a_luxmeter_gain() {
     // measured 0.0079 and 0.0181: better than the SH fit (0.0122, 0.0263)
     assert!(errs[errs.len() / 2] <= 0.01 && errs[errs.len() * 9 / 10] <= 0.025);
     // gain from one luxmeter reading (sensor 7, all on) instead of camera.json
-    let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
+    let truth = read_truth(&common::office_a().join("truth.csv")).expect("truth");
     let lux = truth
         .iter()
         .find(|r| r.scenario == "9" && r.sensor == 7)
@@ -314,7 +307,7 @@ fn clean_capture_and_a_luxmeter_gain() {
 /// nobody saw (office_a's are 0.6 and 0.8; the defaults 0.5 and 0.7 read every desk low).
 #[test]
 fn luxmeter_readings_set_the_unseen_walls_and_ceiling() {
-    let truth = read_truth(&scene_dir().join("truth.csv")).expect("truth");
+    let truth = read_truth(&common::office_a().join("truth.csv")).expect("truth");
     let all_on = |id: u32| Reading {
         sensor_id: id,
         lux_lx: truth

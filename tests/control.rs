@@ -3,6 +3,8 @@
 //! levels; the plan on office_a against the run-time core's own lux; the loop's fades, dead band
 //! and hysteresis against what they promise.
 
+mod common;
+
 use luxnode::control::lp::{Lp, scratch_len as lp_scratch};
 use luxnode::control::regulator::{Inputs, Mode, Regulator, Settings};
 use luxnode::control::{
@@ -483,7 +485,7 @@ fn every_desk_meets_its_target_when_the_run_time_core_evaluates_the_plan() {
     // superposition and full re-solve over the stored form factors): every desk at its target
     let tmp = tempfile::tempdir().unwrap();
     let img = tmp.path().join("office_a.img");
-    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let scene = common::office_a();
     luxnode(&[
         "image",
         "build",
@@ -598,7 +600,7 @@ fn the_photocell_baseline_is_the_lowest_common_level() {
 fn a_day_of_daylight_is_accounted_and_the_optimiser_never_uses_more() {
     let tmp = tempfile::tempdir().unwrap();
     let img = tmp.path().join("office_a.img");
-    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let scene = common::office_a();
     luxnode(&[
         "image",
         "build",
@@ -668,7 +670,7 @@ fn office_a_image() -> std::path::PathBuf {
         return path;
     }
     let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let scene = common::office_a();
     luxnode(&[
         "image",
         "build",

@@ -6,7 +6,9 @@
 //! scaled by how much busier than idle the machine is: `.config/nextest.toml` runs this file
 //! alone, so no other test shares the cores.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::office_a;
+
 use std::time::Instant;
 
 use luxnode::engine::{self, DirectModel, Model, Settings};
@@ -17,13 +19,8 @@ use luxnode::runtime::Runtime;
 use luxnode::scene::{LoadOptions, Scenario, Scene, TruthRow, read_states, read_truth};
 use luxnode::store::Image;
 
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
-
 fn readme() -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
-        .expect("README.md")
+    std::fs::read_to_string(common::manifest().join("README.md")).expect("README.md")
 }
 
 /// The cells of the README table row whose first cell starts with `first`.

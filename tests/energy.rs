@@ -102,7 +102,7 @@ fn energy_balance_ward_grey_room() {
 
 #[test]
 fn energy_balance_office_a() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let dir = common::office_a();
     let scene = Scene::load(&dir, &LoadOptions::default()).unwrap();
     // measured: balance 4.2e-5: office_a has 13 patches (walls behind the window panes, the
     // ceiling around the luminaires) with fewer than 5 % valid rays, closed alone without

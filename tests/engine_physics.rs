@@ -481,7 +481,7 @@ fn consistent_sensor_estimator_reproduces_direct_light() {
 fn reflectance_sensitivity_matches_a_second_engine_run() {
     use luxnode::scene::{LoadOptions, Scene};
     use luxnode::units::Reflectance;
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let dir = common::office_a();
     let s0 = Scene::load(&dir, &LoadOptions::default()).unwrap();
     let settings = Settings::default();
     let m0 = engine::compute_model(&s0, &settings).unwrap();

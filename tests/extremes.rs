@@ -3,8 +3,6 @@
 
 mod common;
 
-use std::path::Path;
-
 use common::{luminaire, rel, scene, sensor};
 use glam::DVec3;
 use luxnode::engine::{self, Csr, Settings};
@@ -252,7 +250,7 @@ fn hundred_metre_hall() {
 
 #[test]
 fn zero_and_fifty_thousand_lumens() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let dir = common::office_a();
     let base = Scene::load(&dir, &LoadOptions::default()).unwrap();
     let scaled = |flux: f64| {
         let mut s = base.clone();
@@ -278,7 +276,7 @@ fn zero_and_fifty_thousand_lumens() {
 
 #[test]
 fn millimetre_scene_gives_the_same_lux() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let src = common::office_a();
     let tmp = tempfile::tempdir().unwrap();
     let obj = std::fs::read_to_string(src.join("scene.obj")).unwrap();
     let obj_mm: Vec<String> = obj

@@ -180,16 +180,7 @@ fn office_capture() -> (
     Vec<luxnode::scene::Luminaire>,
     Vec<luxnode::scene::Sensor>,
 ) {
-    use luxnode::scene::{LoadOptions, load_luminaires_file, load_sensors_file};
-    let d = manifest().join("../shared/scenes/office_a");
-    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &LoadOptions::default())
-        .expect("luminaires");
-    let (sensors, _) =
-        load_sensors_file(&d.join("sensors.json"), &LoadOptions::default()).expect("sensors");
-    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let cap =
-        luxnode::camera::capture::Capture::load(&d.join("capture_clean"), &ids).expect("capture");
-    (cap, lums, sensors)
+    common::office_a_capture("capture_clean")
 }
 
 #[test]
@@ -264,7 +255,7 @@ fn a_flash_of_1e14_bytes_is_refused_before_any_work() {
 
 #[test]
 fn scene_check_and_image_build_refuse_what_the_node_would() {
-    let d = manifest().join("../shared/scenes/office_a");
+    let d = common::office_a();
     let dir = tempfile::tempdir().unwrap();
     for f in std::fs::read_dir(&d).unwrap() {
         let p = f.unwrap().path();

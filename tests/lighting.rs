@@ -21,7 +21,7 @@ fn image() -> PathBuf {
         return path;
     }
     let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a");
+    let scene = common::office_a();
     let st = Command::new(LUXNODE)
         .args(["image", "build", "--preset", "fast", "--scene"])
         .arg(scene)

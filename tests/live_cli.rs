@@ -4,15 +4,14 @@
 //! published totals are checked against Radiance's own truth at the sensors (`truth.csv`,
 //! scenario 9, every luminaire on).
 
+mod common;
+use common::office_a;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
 const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
 
 /// The office commissioned once for every test here: (its image, the temp dir holding it).
 fn image() -> &'static Path {

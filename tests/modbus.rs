@@ -19,14 +19,11 @@ use tokio_modbus::client::{Context, Reader, Writer};
 use tokio_modbus::prelude::{ExceptionCode, Slave};
 
 mod common;
+use common::office_a;
 
 use common::procs::{
     GATEWAY_SIM, LUXNODE, Proc, floats_abcd, mbpoll_values, need, pty_pair, rt, spawn_listening,
 };
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
 
 /// office_a's image, built once by the CLI and shared by the tests of this file (atomic rename,
 /// so parallel test processes never see half a file).

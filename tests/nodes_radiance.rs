@@ -13,23 +13,20 @@
 //! `cargo nextest run --release --test nodes_radiance --no-capture` prints the tables of
 //! docs/commissioning.md.
 
+mod common;
+use common::office_a;
+
 use std::path::{Path, PathBuf};
 
 use luxnode::camera::capture::Capture;
 use luxnode::commission::refit::Reading;
 use luxnode::commission::{self, CommissionOptions, Commissioned};
 use luxnode::evaluate::{SensorError, per_sensor, pooled, readings};
-use luxnode::scene::{
-    LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
-};
+use luxnode::scene::{read_states, read_truth};
 use luxnode::store::sensor_flags;
 
 fn scene_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open_plan_nodes")
-}
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
 }
 
 /// Commissions the zone from the named capture sets together; one `Commissioned` per node.
@@ -46,16 +43,10 @@ fn commission_in(d: &Path, sets: &[PathBuf]) -> Vec<Commissioned> {
 
 /// [`commission_in`] with options.
 fn commission_with(d: &Path, sets: &[PathBuf], o: &CommissionOptions) -> Vec<Commissioned> {
-    let load = LoadOptions::default();
-    let (lums, _) = load_luminaires_file(&d.join("luminaires.json"), &load).expect("luminaires");
-    let (sensors, _) = load_sensors_file(&d.join("sensors.json"), &load).expect("sensors");
-    let desks = load_desks_file(&d.join("desks.json"), &load).expect("desks");
-    let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
-    let caps: Vec<Capture> = sets
-        .iter()
-        .map(|s| Capture::load(s, &ids).expect("capture"))
-        .collect();
-    commission::from_captures(&caps, lums, sensors, Some(desks), o).expect("commissions")
+    let (lums, sensors, desks) = common::scene_inputs(d);
+    assert!(desks.is_some(), "{} has desks.json", d.display());
+    let caps: Vec<Capture> = sets.iter().map(|s| common::capture(s, &lums)).collect();
+    commission::from_captures(&caps, lums, sensors, desks, o).expect("commissions")
 }
 
 /// One configuration's errors: (in view, out of view, all, worst desk, per sensor with its

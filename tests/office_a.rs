@@ -1,19 +1,16 @@
 //! office_a end to end against the Radiance truth, superposition against full re-solves, and
 //! determinism.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::office_a;
 
 use luxnode::engine::{self, DirectModel, Model, Settings};
 use luxnode::evaluate::{Accuracy, Computed, compare};
 use luxnode::scene::{LoadOptions, PhotometryPreference, Scene, read_states, read_truth};
 
-fn dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
-
 fn scene(prefer: PhotometryPreference) -> Scene {
     Scene::load(
-        &dir(),
+        &office_a(),
         &LoadOptions {
             photometry: prefer,
             ..LoadOptions::default()
@@ -31,8 +28,8 @@ fn levels(model: &Model, on: &[u32]) -> Vec<f64> {
 }
 
 fn accuracy(model: &Model) -> Accuracy {
-    let states = read_states(&dir().join("states.csv")).unwrap();
-    let truth = read_truth(&dir().join("truth.csv")).unwrap();
+    let states = read_states(&office_a().join("states.csv")).unwrap();
+    let truth = read_truth(&office_a().join("truth.csv")).unwrap();
     let mut computed = Vec::new();
     for s in &states {
         let lux = model.sensor_lux(&levels(model, &s.on)).unwrap();
@@ -70,7 +67,7 @@ fn default_settings_meet_the_accuracy_target() {
 fn superposition_equals_full_resolve() {
     let model =
         engine::compute_model(&scene(PhotometryPreference::Ldt), &Settings::default()).unwrap();
-    let states = read_states(&dir().join("states.csv")).unwrap();
+    let states = read_states(&office_a().join("states.csv")).unwrap();
     let mut cases: Vec<Vec<f64>> = states.iter().map(|s| levels(&model, &s.on)).collect();
     // dimmed states (DALI levels 1, 128, 229, 254 and others)
     cases.push(vec![0.001, 0.0320574, 0.5053093, 1.0, 0.25, 0.0, 0.75, 0.1]);

@@ -1,15 +1,10 @@
 //! Photometry against independent references: Photometric Toolbox flux for the lab files,
 //! declared light output ratios, the edge-case files' documented values, and round trips.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::shared;
 
 use luxnode::photometry::{ErrorKind, IntensityDistribution, Symmetry};
-
-fn shared(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared")
-        .join(rel)
-}
 
 fn load(rel: &str) -> IntensityDistribution {
     let p = shared(rel);

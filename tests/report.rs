@@ -2,6 +2,9 @@
 //! desk grids of truth_dense.csv, the rendered camera frames), and in a real browser (Debian's
 //! chromium, headless: the screenshot is not blank and every picture loaded).
 
+mod common;
+use common::office_a;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -15,10 +18,6 @@ use luxnode::image_geometry::{CommissionRecord, Room, section_of};
 use luxnode::render::report::{self, NamedState, ReportOptions};
 use luxnode::scene::{LoadOptions, Scene};
 use luxnode::store::Image;
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
 
 fn scene_and_model() -> (Scene, Model) {
     let scene = Scene::load(&office_a(), &LoadOptions::default()).expect("office_a loads");

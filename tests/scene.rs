@@ -1,13 +1,12 @@
 //! Scene input: office_a reads clean with the values its files state; every kind of bad
 //! input is an error naming the file and the line or JSON path, or (zero-area) a counted warning.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::office_a;
+
+use std::path::Path;
 
 use luxnode::scene::{LoadOptions, Scene, SceneError, SceneErrors};
-
-fn office_a() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
-}
 
 /// A writable copy of office_a's scene files (not the capture sets).
 fn copy_office_a() -> tempfile::TempDir {

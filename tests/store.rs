@@ -16,7 +16,7 @@ use luxnode::store::slots::{FlashDevice, Slot, SlotState, Slots, WriteError};
 use luxnode::store::{HEADER_LEN, Image, ImageError, Precision};
 
 fn office_a_dir() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/office_a")
+    common::office_a()
 }
 
 fn office_a_model() -> Model {

@@ -259,8 +259,13 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
     c.frame(lx, legend_y + 2, 18, 12, 1, BLACK);
     c.text("luminaire openings (ρ = 0)", lx + 24, legend_y, 14.0, BLACK);
     // colour bar
-    let bx = (width - 110.0) as i64;
-    let (by, bh) = (top as i64, 200i64);
+    size_bar(&mut c, (width - 110.0) as i64, top as i64, range_m);
+    c
+}
+
+/// The colour bar of patch sizes (`range_m`, log scale) with its top left at (`bx`, `by`).
+fn size_bar(c: &mut Canvas, bx: i64, by: i64, range_m: (f64, f64)) {
+    let bh = 200i64;
     for k in 0..bh {
         let t = 1.0 - k as f64 / (bh - 1) as f64;
         c.fill(bx, by + k, 20, 1, viridis(t));
@@ -288,5 +293,4 @@ pub fn layout_picture(scene: &Scene, model: &Model, title: &str, range_m: (f64, 
         13.0,
         BLACK,
     );
-    c
 }

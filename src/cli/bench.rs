@@ -248,82 +248,7 @@ pub fn run(command: Command) -> Result<()> {
             runs,
             radiance,
             radiance_args,
-        } => {
-            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
-            let settings = Settings::default();
-            let threads = rayon::current_num_threads();
-            println!(
-                "# luxnode engine benchmark: {} ({threads} threads)",
-                sc.name
-            );
-            let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
-            println!();
-            println!(
-                "commissioning at default settings, median of {runs} runs: {:.3} s",
-                total.as_secs_f64()
-            );
-            println!("| stage | time (ms) |");
-            println!("|---|---:|");
-            for (name, d) in &stages {
-                println!("| {name} | {:.1} |", d.as_secs_f64() * 1e3);
-            }
-            let st = &model.stats;
-            println!(
-                "\n{} patches, {} rays per patch, {} rays per sensor, {} non-zero form factors",
-                st.patches, st.rays_per_patch, st.rays_per_sensor, st.nnz
-            );
-            let per_state = bench::time_state(&model, 2_000_000)?;
-            println!(
-                "one dimming state ({} sensors x {} luminaires, superposition): {:.1} ns",
-                model.sensors(),
-                model.luminaires(),
-                per_state.as_secs_f64() * 1e9
-            );
-            let t0 = std::time::Instant::now();
-            let (_, report) = model.solve_state(&vec![1.0; model.luminaires()])?;
-            println!(
-                "full re-solve of one state: {:.1} ms ({} Gauss-Seidel sweeps)",
-                t0.elapsed().as_secs_f64() * 1e3,
-                report.iterations
-            );
-            let acc = bench::accuracy(&model, &scenarios, &truth)?
-                .context("no truth values match the scenarios")?;
-            println!(
-                "accuracy against {}: error {:.2} %, worst sensor {:.2} % ({} values)",
-                scene.join("truth.csv").display(),
-                100.0 * acc.error,
-                100.0 * acc.worst_sensor,
-                acc.pairs
-            );
-            if let Some(script) = radiance {
-                let r = bench::radiance::run(&script, &scene, &radiance_args)?;
-                println!("\nRadiance: {}", r.command);
-                let ours = total.as_secs_f64() + per_state.as_secs_f64() * scenarios.len() as f64;
-                println!(
-                    "\n| tool | settings | time for the {} x {} table (s) | error | worst sensor |",
-                    scenarios.len(),
-                    model.sensors()
-                );
-                println!("|---|---|---:|---:|---:|");
-                println!(
-                    "| luxnode | defaults | {ours:.3} | {:.2} % | {:.2} % |",
-                    100.0 * acc.error,
-                    100.0 * acc.worst_sensor
-                );
-                println!(
-                    "| Radiance | {} | {:.1} | {:.2} % | {:.2} % |",
-                    r.settings,
-                    r.wall_time_s,
-                    100.0 * r.error,
-                    100.0 * r.worst_sensor_error
-                );
-                println!(
-                    "\nluxnode is {:.0} x faster; error ratio (Radiance / luxnode) {:.2}",
-                    r.wall_time_s / ours,
-                    r.error / acc.error
-                );
-            }
-        }
+        } => engine(&scene, runs, radiance, &radiance_args)?,
         Command::Tradeoffs {
             scene,
             capture,
@@ -358,62 +283,8 @@ pub fn run(command: Command) -> Result<()> {
         Command::Patches { scene, out_dir } => {
             super::tradeoffs::patches(&scene, out_dir.as_deref())?;
         }
-        Command::Runtime { image } => {
-            let bytes = read_image_file(&image)?;
-            let t0 = std::time::Instant::now();
-            let img = Image::parse(&bytes)?;
-            let parse = t0.elapsed();
-            let (per_state, resolve, sweeps) = bench::time_runtime(&img, 2_000_000, 11)?;
-            println!(
-                "# run-time core over {} ({}, {} bytes)",
-                image.display(),
-                img.payload.scene_name,
-                img.len()
-            );
-            println!("| measure | value | target |");
-            println!("|---|---:|---:|");
-            println!(
-                "| parse and check the image (CRCs, every array) | {:.2} ms | |",
-                parse.as_secs_f64() * 1e3
-            );
-            println!(
-                "| one dimming state, {} sensors x {} luminaires (superposition) | {:.1} ns | <= 1 us |",
-                img.sensors(),
-                img.luminaires(),
-                per_state.as_secs_f64() * 1e9
-            );
-            println!(
-                "| full re-solve over the stored form factors ({} patches, {} entries, {}) | {:.2} ms ({sweeps} sweeps) | <= 20 ms |",
-                img.patches(),
-                img.payload.ff.nnz(),
-                img.payload.ff.values.precision().name(),
-                resolve.as_secs_f64() * 1e3
-            );
-        }
-        Command::PlotTradeoffs { table, out, title } => {
-            let text = std::fs::read_to_string(&table)
-                .with_context(|| format!("reading {}", table.display()))?;
-            // rows: | patch size | rays | patches | form factors | seconds | error % | worst % |
-            let mut rows = Vec::new();
-            for line in text.lines().filter(|l| l.starts_with('|')) {
-                let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
-                let num = |i: usize| {
-                    cells
-                        .get(i)
-                        .and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok())
-                };
-                if let (Some(size), Some(secs), Some(err)) = (num(0), num(4), num(5)) {
-                    rows.push((size, secs, err));
-                }
-            }
-            if rows.is_empty() {
-                bail!("{} has no table rows of `bench tradeoffs`", table.display());
-            }
-            tradeoff_plot(&rows, &title)
-                .save_png(&out)
-                .with_context(|| format!("writing {}", out.display()))?;
-            println!("plot: {} ({} points)", out.display(), rows.len());
-        }
+        Command::Runtime { image } => runtime(&image)?,
+        Command::PlotTradeoffs { table, out, title } => plot_tradeoffs(&table, &out, &title)?,
         Command::ModbusLoad {
             image,
             clients,
@@ -427,57 +298,7 @@ pub fn run(command: Command) -> Result<()> {
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
         }
-        Command::Control { instances, seed } => {
-            if !(1..=10_000).contains(&instances) {
-                bail!("--instances {instances}: 1..=10000");
-            }
-            println!(
-                "# least-power dimming: {instances} office-like instances per size (seed {seed}), each solved once untimed then {} times timed, load average {}",
-                bench::control::TIMED_RUNS,
-                luxnode::host::load_average().unwrap_or_else(|| "?".into())
-            );
-            println!(
-                "| luminaires x desks | median CPU time | median wall time | worst CPU time | simplex iterations (median) | microlp, LP only (median wall) | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
-            );
-            println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-            for r in bench::control::run(&bench::control::SIZES, instances, seed) {
-                println!(
-                    "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {} | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
-                    r.luminaires,
-                    r.desks,
-                    r.median_cpu.as_secs_f64() * 1e6,
-                    r.median.as_secs_f64() * 1e6,
-                    r.worst_cpu.as_secs_f64() * 1e6,
-                    r.iterations,
-                    r.microlp_median.as_secs_f64() * 1e6,
-                    r.lp_rel_diff,
-                    100.0 * r.dali_excess,
-                    r.infeasible,
-                    r.instances
-                );
-            }
-            println!();
-            println!(
-                "# the DALI plan against the exhaustive DALI optimum (every combination of levels), {instances} instances per size, daylight and targets random"
-            );
-            println!(
-                "| luminaires x desks | combinations per instance | instances with a solution | plan = optimum | mean excess | worst excess |"
-            );
-            println!("|---|---:|---:|---:|---:|---:|");
-            for r in bench::control::exhaustive(&bench::control::EXHAUSTIVE_SIZES, instances, seed)
-            {
-                println!(
-                    "| {} x {} | {} | {} | {} | {:.3} % | {:.3} % |",
-                    r.luminaires,
-                    r.desks,
-                    r.combinations,
-                    r.feasible,
-                    r.optimal,
-                    100.0 * r.mean_excess,
-                    100.0 * r.worst_excess
-                );
-            }
-        }
+        Command::Control { instances, seed } => control(instances, seed)?,
         Command::ControlDay {
             image,
             daylight,
@@ -486,37 +307,240 @@ pub fn run(command: Command) -> Result<()> {
             to_h,
             plot,
         } => control_day(&image, &daylight, target, (from_h, to_h), plot.as_deref())?,
-        Command::Table1 { scene } => {
-            println!(
-                "# the paper's Table 1, CAD vs RGBD rows, on {} (error = mean |error| / mean truth)",
-                scene.display()
-            );
-            println!("{}", bench::table1::HEADER);
-            bench::table1::run(&scene, |r| println!("{}", r.markdown()))?;
+        Command::Table1 { scene } => table1(&scene)?,
+        Command::Ablation { scene } => ablation(&scene)?,
+    }
+    Ok(())
+}
+
+/// `bench engine`: commissioning time by stage, one state, a re-solve, accuracy; against
+/// Radiance when given its harness.
+fn engine(scene: &Path, runs: usize, radiance: Option<PathBuf>, radiance_args: &str) -> Result<()> {
+    let (sc, scenarios, truth) = scene_with_truth(scene)?;
+    let settings = Settings::default();
+    let threads = rayon::current_num_threads();
+    println!(
+        "# luxnode engine benchmark: {} ({threads} threads)",
+        sc.name
+    );
+    let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
+    println!();
+    println!(
+        "commissioning at default settings, median of {runs} runs: {:.3} s",
+        total.as_secs_f64()
+    );
+    println!("| stage | time (ms) |");
+    println!("|---|---:|");
+    for (name, d) in &stages {
+        println!("| {name} | {:.1} |", d.as_secs_f64() * 1e3);
+    }
+    let st = &model.stats;
+    println!(
+        "\n{} patches, {} rays per patch, {} rays per sensor, {} non-zero form factors",
+        st.patches, st.rays_per_patch, st.rays_per_sensor, st.nnz
+    );
+    let per_state = bench::time_state(&model, 2_000_000)?;
+    println!(
+        "one dimming state ({} sensors x {} luminaires, superposition): {:.1} ns",
+        model.sensors(),
+        model.luminaires(),
+        per_state.as_secs_f64() * 1e9
+    );
+    let t0 = std::time::Instant::now();
+    let (_, report) = model.solve_state(&vec![1.0; model.luminaires()])?;
+    println!(
+        "full re-solve of one state: {:.1} ms ({} Gauss-Seidel sweeps)",
+        t0.elapsed().as_secs_f64() * 1e3,
+        report.iterations
+    );
+    let acc = bench::accuracy(&model, &scenarios, &truth)?
+        .context("no truth values match the scenarios")?;
+    println!(
+        "accuracy against {}: error {:.2} %, worst sensor {:.2} % ({} values)",
+        scene.join("truth.csv").display(),
+        100.0 * acc.error,
+        100.0 * acc.worst_sensor,
+        acc.pairs
+    );
+    if let Some(script) = radiance {
+        let r = bench::radiance::run(&script, scene, radiance_args)?;
+        println!("\nRadiance: {}", r.command);
+        let ours = total.as_secs_f64() + per_state.as_secs_f64() * scenarios.len() as f64;
+        println!(
+            "\n| tool | settings | time for the {} x {} table (s) | error | worst sensor |",
+            scenarios.len(),
+            model.sensors()
+        );
+        println!("|---|---|---:|---:|---:|");
+        println!(
+            "| luxnode | defaults | {ours:.3} | {:.2} % | {:.2} % |",
+            100.0 * acc.error,
+            100.0 * acc.worst_sensor
+        );
+        println!(
+            "| Radiance | {} | {:.1} | {:.2} % | {:.2} % |",
+            r.settings,
+            r.wall_time_s,
+            100.0 * r.error,
+            100.0 * r.worst_sensor_error
+        );
+        println!(
+            "\nluxnode is {:.0} x faster; error ratio (Radiance / luxnode) {:.2}",
+            r.wall_time_s / ours,
+            r.error / acc.error
+        );
+    }
+    Ok(())
+}
+
+/// `bench runtime`: the run-time core over an image file.
+fn runtime(image: &Path) -> Result<()> {
+    let bytes = read_image_file(image)?;
+    let t0 = std::time::Instant::now();
+    let img = Image::parse(&bytes)?;
+    let parse = t0.elapsed();
+    let (per_state, resolve, sweeps) = bench::time_runtime(&img, 2_000_000, 11)?;
+    println!(
+        "# run-time core over {} ({}, {} bytes)",
+        image.display(),
+        img.payload.scene_name,
+        img.len()
+    );
+    println!("| measure | value | target |");
+    println!("|---|---:|---:|");
+    println!(
+        "| parse and check the image (CRCs, every array) | {:.2} ms | |",
+        parse.as_secs_f64() * 1e3
+    );
+    println!(
+        "| one dimming state, {} sensors x {} luminaires (superposition) | {:.1} ns | <= 1 us |",
+        img.sensors(),
+        img.luminaires(),
+        per_state.as_secs_f64() * 1e9
+    );
+    println!(
+        "| full re-solve over the stored form factors ({} patches, {} entries, {}) | {:.2} ms ({sweeps} sweeps) | <= 20 ms |",
+        img.patches(),
+        img.payload.ff.nnz(),
+        img.payload.ff.values.precision().name(),
+        resolve.as_secs_f64() * 1e3
+    );
+    Ok(())
+}
+
+/// `bench plot-tradeoffs`: the plot of a `bench tradeoffs` table.
+fn plot_tradeoffs(table: &Path, out: &Path, title: &str) -> Result<()> {
+    let text =
+        std::fs::read_to_string(table).with_context(|| format!("reading {}", table.display()))?;
+    // rows: | patch size | rays | patches | form factors | seconds | error % | worst % |
+    let mut rows = Vec::new();
+    for line in text.lines().filter(|l| l.starts_with('|')) {
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        let num = |i: usize| {
+            cells
+                .get(i)
+                .and_then(|c| c.trim_end_matches(" %").parse::<f64>().ok())
+        };
+        if let (Some(size), Some(secs), Some(err)) = (num(0), num(4), num(5)) {
+            rows.push((size, secs, err));
         }
-        Command::Ablation { scene } => {
-            let (sc, scenarios, truth) = scene_with_truth(&scene)?;
-            println!(
-                "# ablation on {} (31 scenarios x 8 sensors against the Radiance truth)",
-                sc.name
-            );
-            println!("| direct light | LDC | LSC | mean abs error (lx) | error | worst sensor |");
-            println!("|---|---|---|---:|---:|---:|");
-            for r in bench::ablation(&sc, &scenarios, &truth)? {
-                println!(
-                    "| {} | {} | {} | {:.1} | {:.2} % | {:.2} % |",
-                    match r.direct {
-                        DirectModel::Paper => "paper (emitting patches, w = I)",
-                        DirectModel::Exact => "exact (photometry, shadow rays)",
-                    },
-                    if r.ldc { "yes" } else { "no" },
-                    if r.lsc { "yes" } else { "no" },
-                    r.accuracy.mean_abs_lx,
-                    100.0 * r.accuracy.error,
-                    100.0 * r.accuracy.worst_sensor
-                );
-            }
-        }
+    }
+    if rows.is_empty() {
+        bail!("{} has no table rows of `bench tradeoffs`", table.display());
+    }
+    tradeoff_plot(&rows, title)
+        .save_png(out)
+        .with_context(|| format!("writing {}", out.display()))?;
+    println!("plot: {} ({} points)", out.display(), rows.len());
+    Ok(())
+}
+
+/// `bench control`: least-power dimming, timed, and against the exhaustive DALI optimum.
+fn control(instances: usize, seed: u64) -> Result<()> {
+    if !(1..=10_000).contains(&instances) {
+        bail!("--instances {instances}: 1..=10000");
+    }
+    println!(
+        "# least-power dimming: {instances} office-like instances per size (seed {seed}), each solved once untimed then {} times timed, load average {}",
+        bench::control::TIMED_RUNS,
+        luxnode::host::load_average().unwrap_or_else(|| "?".into())
+    );
+    println!(
+        "| luminaires x desks | median CPU time | median wall time | worst CPU time | simplex iterations (median) | microlp, LP only (median wall) | continuous optimum vs microlp (worst rel.) | DALI plan over the continuous optimum (worst) | instances with a desk out of reach |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in bench::control::run(&bench::control::SIZES, instances, seed) {
+        println!(
+            "| {} x {} | {:.0} µs | {:.0} µs | {:.0} µs | {} | {:.0} µs | {:.1e} | {:.3} % | {}/{} |",
+            r.luminaires,
+            r.desks,
+            r.median_cpu.as_secs_f64() * 1e6,
+            r.median.as_secs_f64() * 1e6,
+            r.worst_cpu.as_secs_f64() * 1e6,
+            r.iterations,
+            r.microlp_median.as_secs_f64() * 1e6,
+            r.lp_rel_diff,
+            100.0 * r.dali_excess,
+            r.infeasible,
+            r.instances
+        );
+    }
+    println!();
+    println!(
+        "# the DALI plan against the exhaustive DALI optimum (every combination of levels), {instances} instances per size, daylight and targets random"
+    );
+    println!(
+        "| luminaires x desks | combinations per instance | instances with a solution | plan = optimum | mean excess | worst excess |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in bench::control::exhaustive(&bench::control::EXHAUSTIVE_SIZES, instances, seed) {
+        println!(
+            "| {} x {} | {} | {} | {} | {:.3} % | {:.3} % |",
+            r.luminaires,
+            r.desks,
+            r.combinations,
+            r.feasible,
+            r.optimal,
+            100.0 * r.mean_excess,
+            100.0 * r.worst_excess
+        );
+    }
+    Ok(())
+}
+
+/// `bench table1`: the paper's Table 1.
+fn table1(scene: &Path) -> Result<()> {
+    println!(
+        "# the paper's Table 1, CAD vs RGBD rows, on {} (error = mean |error| / mean truth)",
+        scene.display()
+    );
+    println!("{}", bench::table1::HEADER);
+    bench::table1::run(scene, |r| println!("{}", r.markdown()))?;
+    Ok(())
+}
+
+/// `bench ablation`: direct light model, LDC and LSC on and off.
+fn ablation(scene: &Path) -> Result<()> {
+    let (sc, scenarios, truth) = scene_with_truth(scene)?;
+    println!(
+        "# ablation on {} (31 scenarios x 8 sensors against the Radiance truth)",
+        sc.name
+    );
+    println!("| direct light | LDC | LSC | mean abs error (lx) | error | worst sensor |");
+    println!("|---|---|---|---:|---:|---:|");
+    for r in bench::ablation(&sc, &scenarios, &truth)? {
+        println!(
+            "| {} | {} | {} | {:.1} | {:.2} % | {:.2} % |",
+            match r.direct {
+                DirectModel::Paper => "paper (emitting patches, w = I)",
+                DirectModel::Exact => "exact (photometry, shadow rays)",
+            },
+            if r.ldc { "yes" } else { "no" },
+            if r.lsc { "yes" } else { "no" },
+            r.accuracy.mean_abs_lx,
+            100.0 * r.accuracy.error,
+            100.0 * r.accuracy.worst_sensor
+        );
     }
     Ok(())
 }
@@ -850,8 +874,7 @@ fn control_day(
 fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
     use luxnode::bench::dense as bd;
     use luxnode::engine::dense::{DenseField, DenseSettings};
-    use luxnode::host::{cpu_seconds, load_average};
-    use std::time::Instant;
+    use luxnode::host::load_average;
     let scene = load_scene(dir, &LoadOptions::default())?;
     let truth = bd::read_truth_dense(&dir.join("truth_dense.csv"))?;
     let capture = capture.map_or_else(|| dir.join("capture_clean"), Path::to_path_buf);
@@ -865,12 +888,7 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         model.patches.len(),
         load_average().unwrap_or_default()
     );
-    // (wall, cpu) of a stage
-    let timed = |f: &mut dyn FnMut() -> Result<()>| -> Result<(Duration, f64)> {
-        let (t0, c0) = (Instant::now(), cpu_seconds().unwrap_or(0.0));
-        f()?;
-        Ok((t0.elapsed(), cpu_seconds().unwrap_or(0.0) - c0))
-    };
+    let timed = timed_stage;
     let mut times: Vec<[(Duration, f64); 3]> = Vec::new();
     let mut last = None;
     for _ in 0..runs.max(1) {
@@ -901,49 +919,7 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         last = Some((grid, view.context("no view")?));
     }
     let (grid_lux, (img, img_lux)) = last.context("no run")?;
-    // the whole report of the image of this model
-    let bytes = luxnode::image_build::build_image(
-        &model,
-        &luxnode::image_build::ImageOptions {
-            scene_name: scene.name.clone(),
-            geometry: Some(luxnode::image_geometry::section_of(
-                &scene,
-                &model,
-                &luxnode::image_geometry::CommissionRecord::default(),
-            )),
-            ..Default::default()
-        },
-    )?;
-    let image = Image::parse(&bytes)?;
-    let ids: Vec<u32> = model.luminaire_ids.clone();
-    let states: Vec<luxnode::render::report::NamedState> =
-        std::iter::once(luxnode::render::report::NamedState {
-            name: "all on".into(),
-            levels: vec![1.0; ids.len()],
-        })
-        .chain((0..ids.len()).map(|j| {
-            luxnode::render::report::NamedState {
-                name: format!("luminaire {} alone", ids[j]),
-                levels: (0..ids.len())
-                    .map(|k| if k == j { 1.0 } else { 0.0 })
-                    .collect(),
-            }
-        }))
-        .collect();
-    let mut t_report = Vec::new();
-    for _ in 0..runs.max(1) {
-        t_report.push(timed(&mut || {
-            let r = luxnode::render::report::compute(
-                &image,
-                &luxnode::render::report::ReportOptions {
-                    states: states.clone(),
-                    ..Default::default()
-                },
-            )?;
-            let _ = luxnode::render::report::html(&r);
-            Ok(())
-        })?);
-    }
+    let (t_report, n_states) = time_report(&scene, &model, runs)?;
     let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
     println!();
     println!("| desk grid (truth_dense.csv, all on) | value | target |");
@@ -997,25 +973,88 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         format!("camera view, {} pixels", img.pixels.len()),
     ];
     for (k, name) in names.iter().enumerate() {
-        let wall = bench::median(times.iter().map(|t| t[k].0).collect());
-        let mut cpu: Vec<f64> = times.iter().map(|t| t[k].1).collect();
-        cpu.sort_by(f64::total_cmp);
+        let (wall, cpu) = median_wall_cpu(&times.iter().map(|t| t[k]).collect::<Vec<_>>());
         println!(
             "| {name} | {:.0} | {:.0} |",
             wall.as_secs_f64() * 1e3,
-            cpu[cpu.len() / 2] * 1e3
+            cpu * 1e3
         );
     }
-    let wall = bench::median(t_report.iter().map(|t| t.0).collect());
-    let mut cpu: Vec<f64> = t_report.iter().map(|t| t.1).collect();
-    cpu.sort_by(f64::total_cmp);
+    let (wall, cpu) = median_wall_cpu(&t_report);
     println!(
-        "| report of the image ({} states: rebuild, grids, plan, camera views, HTML) | {:.0} | {:.0} |",
-        states.len(),
+        "| report of the image ({n_states} states: rebuild, grids, plan, camera views, HTML) | {:.0} | {:.0} |",
         wall.as_secs_f64() * 1e3,
-        cpu[cpu.len() / 2] * 1e3
+        cpu * 1e3
     );
     Ok(())
+}
+
+/// (wall, CPU seconds) of a stage.
+fn timed_stage(f: &mut dyn FnMut() -> Result<()>) -> Result<(Duration, f64)> {
+    use luxnode::host::cpu_seconds;
+    let (t0, c0) = (std::time::Instant::now(), cpu_seconds().unwrap_or(0.0));
+    f()?;
+    Ok((t0.elapsed(), cpu_seconds().unwrap_or(0.0) - c0))
+}
+
+/// The medians of (wall, CPU seconds) timings.
+fn median_wall_cpu(t: &[(Duration, f64)]) -> (Duration, f64) {
+    let wall = bench::median(t.iter().map(|t| t.0).collect());
+    let mut cpu: Vec<f64> = t.iter().map(|t| t.1).collect();
+    cpu.sort_by(f64::total_cmp);
+    (wall, cpu[cpu.len() / 2])
+}
+
+/// The whole report of the image of `model` (all on, then each luminaire alone), timed `runs`
+/// times: the timings and the number of states.
+fn time_report(
+    scene: &Scene,
+    model: &luxnode::engine::Model,
+    runs: usize,
+) -> Result<(Vec<(Duration, f64)>, usize)> {
+    let bytes = luxnode::image_build::build_image(
+        model,
+        &luxnode::image_build::ImageOptions {
+            scene_name: scene.name.clone(),
+            geometry: Some(luxnode::image_geometry::section_of(
+                scene,
+                model,
+                &luxnode::image_geometry::CommissionRecord::default(),
+            )),
+            ..Default::default()
+        },
+    )?;
+    let image = Image::parse(&bytes)?;
+    let ids: Vec<u32> = model.luminaire_ids.clone();
+    let states: Vec<luxnode::render::report::NamedState> =
+        std::iter::once(luxnode::render::report::NamedState {
+            name: "all on".into(),
+            levels: vec![1.0; ids.len()],
+        })
+        .chain((0..ids.len()).map(|j| {
+            luxnode::render::report::NamedState {
+                name: format!("luminaire {} alone", ids[j]),
+                levels: (0..ids.len())
+                    .map(|k| if k == j { 1.0 } else { 0.0 })
+                    .collect(),
+            }
+        }))
+        .collect();
+    let mut t_report = Vec::new();
+    for _ in 0..runs.max(1) {
+        t_report.push(timed_stage(&mut || {
+            let r = luxnode::render::report::compute(
+                &image,
+                &luxnode::render::report::ReportOptions {
+                    states: states.clone(),
+                    ..Default::default()
+                },
+            )?;
+            let _ = luxnode::render::report::html(&r);
+            Ok(())
+        })?);
+    }
+    Ok((t_report, states.len()))
 }
 
 /// `luxnode bench live`.

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use luxnode::commission::refit::Reading;
 use luxnode::commission::refit::parse_reading;
 use luxnode::commission::{self, Capture, CommissionOptions, Gain, ReflectanceMethod};
 use luxnode::evaluate::{per_sensor, pooled, readings};
@@ -11,7 +12,8 @@ use luxnode::image_build::{
     ImageOptions, SECTION_RESERVE_BYTES, build_for_region, build_to_fit, formfactors_region_bytes,
 };
 use luxnode::scene::{
-    LoadOptions, load_desks_file, load_luminaires_file, load_sensors_file, read_states, read_truth,
+    Desks, LoadOptions, Luminaire, Sensor, load_desks_file, load_luminaires_file,
+    load_sensors_file, read_states, read_truth,
 };
 use luxnode::store::file::write_image_file;
 use luxnode::store::{Image, sensor_flags};
@@ -163,29 +165,7 @@ impl Args {
 /// Runs `luxnode commission`.
 pub fn run(a: &Args) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let load = LoadOptions::default();
-    let mut board_readings = Vec::new();
-    let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
-        (Some(b), _, _) => {
-            let board = luxnode::board::Board::load(b)?;
-            let scene = super::run::board_scene(&board)?;
-            board_readings = board.luxmeter_rho.clone();
-            (scene.luminaires, scene.sensors, scene.desks)
-        }
-        (None, Some(l), Some(s)) => {
-            let (lums, w1) = load_luminaires_file(l, &load)?;
-            let (sensors, w2) = load_sensors_file(s, &load)?;
-            for w in w1.iter().chain(&w2) {
-                tracing::warn!("{w}");
-            }
-            let desks = match &a.desks {
-                Some(p) => Some(load_desks_file(p, &load)?),
-                None => None,
-            };
-            (lums, sensors, desks)
-        }
-        _ => anyhow::bail!("--luminaires and --sensors, or --board"),
-    };
+    let (lums, sensors, desks, board_readings) = inputs(a)?;
     let mut o = a.options(lums.len())?;
     if o.readings.is_empty() && a.luxmeter.is_none() {
         // the board file's [commissioning] luxmeter_rho, unless the command line gives some
@@ -209,6 +189,78 @@ pub fn run(a: &Args) -> Result<()> {
     let Some(c) = nodes.first() else {
         anyhow::bail!("no capture set");
     };
+    let r = &c.report;
+    print_report(c)?;
+    write_images(a, &nodes, &caps)?;
+    print_uncertainty(r);
+    // for the error table: a sensor is in view when some node sees it
+    let flags: Vec<u8> = (0..c.sensor_flags.len())
+        .map(|k| {
+            let seen = nodes
+                .iter()
+                .any(|n| n.sensor_flags[k] & sensor_flags::OUT_OF_VIEW == 0);
+            if seen { 0 } else { c.sensor_flags[k] }
+        })
+        .collect();
+    if let Some(p) = &a.export_mesh {
+        commission::output::write_ply(c, p).with_context(|| format!("writing {}", p.display()))?;
+    }
+    #[cfg(feature = "report")]
+    if let Some(p) = &a.report {
+        luxnode::render::camera_view::report_png(c, p)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    if let (Some(t), Some(s)) = (&a.truth, &a.states) {
+        print_errors(c, &flags, t, s)?;
+    }
+    println!("stage,ms");
+    for (stage, d) in &r.timings {
+        println!("{stage},{:.0}", d.as_secs_f64() * 1e3);
+    }
+    println!(
+        "total (with loading and the image),{:.0}",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    if let Some(m) = luxnode::host::peak_memory_mib() {
+        println!("peak memory: {m:.0} MiB");
+    }
+    Ok(())
+}
+
+/// Luminaires, sensors, desks, and the board file's luxmeter readings.
+type Inputs = (Vec<Luminaire>, Vec<Sensor>, Option<Desks>, Vec<Reading>);
+
+/// The luminaires, sensors and desks (from the board file, or the files given), and the board
+/// file's luxmeter readings.
+fn inputs(a: &Args) -> Result<Inputs> {
+    let load = LoadOptions::default();
+    let mut board_readings = Vec::new();
+    let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
+        (Some(b), _, _) => {
+            let board = luxnode::board::Board::load(b)?;
+            let scene = super::run::board_scene(&board)?;
+            board_readings = board.luxmeter_rho.clone();
+            (scene.luminaires, scene.sensors, scene.desks)
+        }
+        (None, Some(l), Some(s)) => {
+            let (lums, w1) = load_luminaires_file(l, &load)?;
+            let (sensors, w2) = load_sensors_file(s, &load)?;
+            for w in w1.iter().chain(&w2) {
+                tracing::warn!("{w}");
+            }
+            let desks = match &a.desks {
+                Some(p) => Some(load_desks_file(p, &load)?),
+                None => None,
+            };
+            (lums, sensors, desks)
+        }
+        _ => anyhow::bail!("--luminaires and --sensors, or --board"),
+    };
+    Ok((lums, sensors, desks, board_readings))
+}
+
+/// What commissioning found: depth, planes, mesh, room box, reflectances, the luxmeter fit.
+fn print_report(c: &commission::Commissioned) -> Result<()> {
     let r = &c.report;
     for w in &r.warnings {
         tracing::warn!("{w}");
@@ -271,8 +323,13 @@ pub fn run(a: &Args) -> Result<()> {
             println!("{id},{read:.0},{before:.0},{now}");
         }
     }
+    Ok(())
+}
+
+/// One image per node, each shrunk to fit its flash region unless the storage was chosen.
+fn write_images(a: &Args, nodes: &[commission::Commissioned], caps: &[Capture]) -> Result<()> {
     let st = a.store.store(a.engine.preset);
-    for ((node, cap), out) in nodes.iter().zip(&caps).zip(&a.out) {
+    for ((node, cap), out) in nodes.iter().zip(caps).zip(&a.out) {
         let flags = node.sensor_flags.clone();
         let options = ImageOptions {
             precision: st.precision,
@@ -343,6 +400,11 @@ pub fn run(a: &Args) -> Result<()> {
             }
         }
     }
+    Ok(())
+}
+
+/// Each desk sensor's stated uncertainty and its largest source.
+fn print_uncertainty(r: &commission::Report) {
     if !r.uncertainty.is_empty() {
         println!("sensor,stated_uncertainty_pct,all_on_lx,largest_source,its_share_pct");
         for u in &r.uncertainty {
@@ -357,70 +419,49 @@ pub fn run(a: &Args) -> Result<()> {
             );
         }
     }
-    // for the error table: a sensor is in view when some node sees it
-    let flags: Vec<u8> = (0..c.sensor_flags.len())
-        .map(|k| {
-            let seen = nodes
-                .iter()
-                .any(|n| n.sensor_flags[k] & sensor_flags::OUT_OF_VIEW == 0);
-            if seen { 0 } else { c.sensor_flags[k] }
-        })
-        .collect();
-    if let Some(p) = &a.export_mesh {
-        commission::output::write_ply(c, p).with_context(|| format!("writing {}", p.display()))?;
-    }
-    #[cfg(feature = "report")]
-    if let Some(p) = &a.report {
-        luxnode::render::camera_view::report_png(c, p)
-            .with_context(|| format!("writing {}", p.display()))?;
-    }
-    if let (Some(t), Some(s)) = (&a.truth, &a.states) {
-        let states = read_states(s)?;
-        let truth = read_truth(t)?;
-        let computed = readings(&states, &c.model.luminaire_ids, &c.model.sensor_ids, |l| {
-            c.model.sensor_lux(l)
-        })?;
-        let errors = per_sensor(&computed, &truth, &c.model.sensor_ids);
-        println!("sensor,flags,mean_abs_error_lx,mean_truth_lx,error_pct");
-        let flag_of = |id: u32| {
-            c.model
-                .sensor_ids
-                .iter()
-                .position(|s| *s == id)
-                .and_then(|k| flags.get(k).copied())
-                .unwrap_or(0)
-        };
-        for e in &errors {
-            println!(
-                "{},{},{:.1},{:.1},{:.2}",
-                e.sensor,
-                flag_of(e.sensor),
-                e.mean_abs_lx,
-                e.mean_truth_lx,
-                100.0 * e.error()
-            );
-        }
-        let all: Vec<_> = errors.iter().collect();
-        let in_view: Vec<_> = errors
+}
+
+/// Each sensor's error against the truth (truth.csv `t`, states.csv `s`), all and in view.
+fn print_errors(
+    c: &commission::Commissioned,
+    flags: &[u8],
+    t: &std::path::Path,
+    s: &std::path::Path,
+) -> Result<()> {
+    let states = read_states(s)?;
+    let truth = read_truth(t)?;
+    let computed = readings(&states, &c.model.luminaire_ids, &c.model.sensor_ids, |l| {
+        c.model.sensor_lux(l)
+    })?;
+    let errors = per_sensor(&computed, &truth, &c.model.sensor_ids);
+    println!("sensor,flags,mean_abs_error_lx,mean_truth_lx,error_pct");
+    let flag_of = |id: u32| {
+        c.model
+            .sensor_ids
             .iter()
-            .filter(|e| flag_of(e.sensor) & sensor_flags::OUT_OF_VIEW == 0)
-            .collect();
+            .position(|s| *s == id)
+            .and_then(|k| flags.get(k).copied())
+            .unwrap_or(0)
+    };
+    for e in &errors {
         println!(
-            "error, all sensors: {:.2} %; in view: {:.2} %",
-            100.0 * pooled(&all),
-            100.0 * pooled(&in_view)
+            "{},{},{:.1},{:.1},{:.2}",
+            e.sensor,
+            flag_of(e.sensor),
+            e.mean_abs_lx,
+            e.mean_truth_lx,
+            100.0 * e.error()
         );
     }
-    println!("stage,ms");
-    for (stage, d) in &r.timings {
-        println!("{stage},{:.0}", d.as_secs_f64() * 1e3);
-    }
+    let all: Vec<_> = errors.iter().collect();
+    let in_view: Vec<_> = errors
+        .iter()
+        .filter(|e| flag_of(e.sensor) & sensor_flags::OUT_OF_VIEW == 0)
+        .collect();
     println!(
-        "total (with loading and the image),{:.0}",
-        t0.elapsed().as_secs_f64() * 1e3
+        "error, all sensors: {:.2} %; in view: {:.2} %",
+        100.0 * pooled(&all),
+        100.0 * pooled(&in_view)
     );
-    if let Some(m) = luxnode::host::peak_memory_mib() {
-        println!("peak memory: {m:.0} MiB");
-    }
     Ok(())
 }

@@ -91,19 +91,21 @@ pub fn back_project(camera: &Camera, u: f64, v: f64, z_m: f64) -> Option<DVec3> 
 /// Fuses depth frames (mm) into one clean map.
 pub fn fuse(frames: &[Frame], options: &DepthOptions) -> Result<DepthMap, CommissionError> {
     let Some(first) = frames.first() else {
-        return Err(CommissionError::Input("no depth frames".into()));
+        return Err(CommissionError::NoDepthFrames);
     };
     let (w, h) = (first.width, first.height);
-    if frames.iter().any(|f| f.width != w || f.height != h) {
-        return Err(CommissionError::Input(
-            "depth frames of different sizes".into(),
-        ));
+    if let Some(f) = frames.iter().find(|f| f.width != w || f.height != h) {
+        return Err(CommissionError::DepthSizes {
+            first: [w, h],
+            other: [f.width, f.height],
+        });
     }
     let n = (w as usize) * (h as usize);
-    if frames.iter().any(|f| f.data.len() != n) {
-        return Err(CommissionError::Input(
-            "a depth frame's data does not match its size".into(),
-        ));
+    if let Some(f) = frames.iter().find(|f| f.data.len() != n) {
+        return Err(CommissionError::DepthData {
+            values: f.data.len(),
+            pixels: n,
+        });
     }
     let need = if frames.len() >= 3 {
         frames.len().div_ceil(2)
@@ -182,11 +184,11 @@ pub fn fuse(frames: &[Frame], options: &DepthOptions) -> Result<DepthMap, Commis
     }
     stats.valid = z.iter().filter(|v| v.is_finite()).count();
     if (stats.valid as f64) < 0.01 * n as f64 {
-        return Err(CommissionError::Input(format!(
-            "depth unusable: {} of {} pixels have a depth after cleaning (all zero, beyond {} m, or \
-             noise?): the cameras see nothing of the room",
-            stats.valid, n, options.max_depth_m
-        )));
+        return Err(CommissionError::DepthUnusable {
+            valid: stats.valid,
+            pixels: n,
+            max_depth_m: options.max_depth_m,
+        });
     }
     Ok(DepthMap {
         width: w,

@@ -199,150 +199,24 @@ pub fn mesh_plane(
     fill: Option<Part>,
     also_seen_m: &[DVec3],
 ) {
-    let n = plane.normal;
-    let (e1, e2) = plane_basis(n);
-    let org = plane.origin_m;
-    let uv: Vec<(f64, f64)> = plane
-        .nodes
-        .iter()
-        .filter_map(|&i| grid.points_m[i])
-        .map(|p| ((p - org).dot(e1), (p - org).dot(e2)))
-        .collect();
-    if uv.is_empty() {
-        return;
-    }
     let c = o.cell_m.max(1e-3);
-    let (mut a0, mut b0, mut a1, mut b1) = uv.iter().fold(
-        (
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ),
-        |(a0, b0, a1, b1), &(a, b)| (a0.min(a), b0.min(b), a1.max(a), b1.max(b)),
-    );
     let room = extent.filter(|_| plane.is_horizontal());
-    if let Some([x0, y0, x1, y1]) = room {
-        // world box corners into plane coordinates (e1 ≈ x, e2 ≈ y for a horizontal plane)
-        let corners = [DVec3::new(x0, y0, org.z), DVec3::new(x1, y1, org.z)];
-        let ab: Vec<(f64, f64)> = corners
-            .iter()
-            .map(|p| ((*p - org).dot(e1), (*p - org).dot(e2)))
-            .collect();
-        a0 = ab[0].0.min(ab[1].0);
-        a1 = ab[0].0.max(ab[1].0);
-        b0 = ab[0].1.min(ab[1].1);
-        b1 = ab[0].1.max(ab[1].1);
-    } else {
-        a0 -= 0.5 * c;
-        b0 -= 0.5 * c;
-        a1 += 0.5 * c;
-        b1 += 0.5 * c;
-    }
-    let nx = (((a1 - a0) / c).ceil() as usize).clamp(1, 4000);
-    let ny = (((b1 - b0) / c).ceil() as usize).clamp(1, 4000);
-    // with a room extent the raster is stretched to fit it exactly
-    let (ca, cb) = ((a1 - a0) / nx as f64, (b1 - b0) / ny as f64);
-    // each node covers its cell, and where its grid neighbours on the plane are more than a
-    // cell apart (a wide-angle lens spreads the nodes of a far floor out) half the way to them,
-    // at most MAX_SPLAT_M around it
-    let on_plane: std::collections::HashSet<usize> = plane.nodes.iter().copied().collect();
-    let mut occ = vec![false; nx * ny];
-    for &i in &plane.nodes {
-        let Some(p) = grid.points_m[i] else { continue };
-        let (a, b) = ((p - org).dot(e1), (p - org).dot(e2));
-        let (col, row) = (i % grid.cols.max(1), i / grid.cols.max(1));
-        let mut half = 0.0_f64;
-        for (dc, dr) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
-            let (cc, rr) = (col as i64 + dc, row as i64 + dr);
-            if cc < 0 || rr < 0 || cc >= grid.cols as i64 || rr >= grid.rows as i64 {
-                continue;
-            }
-            let j = grid.index(cc as usize, rr as usize);
-            if let (true, Some(q)) = (on_plane.contains(&j), grid.points_m[j]) {
-                let d = q - p;
-                half = half.max(0.5 * d.dot(e1).abs()).max(0.5 * d.dot(e2).abs());
-            }
-        }
-        // nodes closer than a cell apart leave no holes (the closing below handles the rest)
-        let half = if !o.wide_angle || 2.0 * half <= c {
-            0.0
-        } else {
-            (half - 0.5 * c).min(MAX_SPLAT_M)
-        };
-        let x0 = ((a - half - a0) / ca).floor().max(0.0);
-        let x1 = ((a + half - a0) / ca).floor();
-        let y0 = ((b - half - b0) / cb).floor().max(0.0);
-        let y1 = ((b + half - b0) / cb).floor();
-        if x1 < 0.0 || y1 < 0.0 {
-            continue;
-        }
-        let (x0, y0) = (x0 as usize, y0 as usize);
-        let (x1, y1) = ((x1 as usize).min(nx - 1), (y1 as usize).min(ny - 1));
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                occ[y * nx + x] = true;
-            }
-        }
-    }
+    let Some(r) = Raster::of(grid, plane, c, room) else {
+        return;
+    };
+    let mut occ = r.splat_nodes(grid, plane, o.wide_angle, c);
     for p in also_seen_m {
         if plane.distance_m(*p).abs() > ALSO_SEEN_DISTANCE_M {
             continue;
         }
-        let (a, b) = ((*p - org).dot(e1), (*p - org).dot(e2));
-        let (x, y) = (((a - a0) / ca).floor(), ((b - b0) / cb).floor());
-        if x >= 0.0 && y >= 0.0 && (x as usize) < nx && (y as usize) < ny {
-            occ[y as usize * nx + x as usize] = true;
+        if let Some(i) = r.cell_of(*p) {
+            occ[i] = true;
         }
     }
-    // closing: dilate then erode (one cell), fills one-cell holes and cracks
-    let dil: Vec<bool> = (0..nx * ny)
-        .map(|i| {
-            let (x, y) = ((i % nx) as i64, (i / nx) as i64);
-            (-1..=1).any(|dy| {
-                (-1..=1).any(|dx| {
-                    let (xx, yy) = (x + dx, y + dy);
-                    xx >= 0
-                        && yy >= 0
-                        && xx < nx as i64
-                        && yy < ny as i64
-                        && occ[(yy as usize) * nx + xx as usize]
-                })
-            })
-        })
-        .collect();
-    let closed: Vec<bool> = (0..nx * ny)
-        .map(|i| {
-            let (x, y) = ((i % nx) as i64, (i / nx) as i64);
-            (-1..=1).all(|dy| {
-                (-1..=1).all(|dx| {
-                    let (xx, yy) = (x + dx, y + dy);
-                    // outside the raster counts as set, so borders do not erode away
-                    xx < 0
-                        || yy < 0
-                        || xx >= nx as i64
-                        || yy >= ny as i64
-                        || dil[(yy as usize) * nx + xx as usize]
-                })
-            })
-        })
-        .collect();
+    let closed = close_cells(&occ, r.nx, r.ny);
     let occ: Vec<bool> = occ.iter().zip(&closed).map(|(a, b)| *a || *b).collect();
     let max_cells = (o.patch_size_m / c).floor().max(1.0) as usize;
-    let corner = |x: usize, y: usize| org + e1 * (a0 + x as f64 * ca) + e2 * (b0 + y as f64 * cb);
-    let quads = |out: &mut RecoMesh, occ: &[bool], part: Part| {
-        for (x, y, w, h) in rect_cover(occ, nx, ny, max_cells) {
-            out.push_quad(
-                [
-                    corner(x, y),
-                    corner(x + w, y),
-                    corner(x + w, y + h),
-                    corner(x, y + h),
-                ],
-                part,
-            );
-        }
-    };
+    let (nx, ny) = (r.nx, r.ny);
     match (room, fill) {
         (Some(_), Some(fill)) if o.wide_angle => {
             // the floor over the whole room: rectangles up to the patch size regardless of what
@@ -358,25 +232,209 @@ pub fn mesh_plane(
                 } else {
                     fill
                 };
-                out.push_quad(
-                    [
-                        corner(x, y),
-                        corner(x + w, y),
-                        corner(x + w, y + h),
-                        corner(x, y + h),
-                    ],
-                    part,
-                );
+                out.push_quad(r.quad(x, y, w, h), part);
             }
         }
         _ => {
-            quads(out, &occ, Part::Plane(k));
+            r.quads(out, &occ, max_cells, Part::Plane(k));
             if let (Some(_), Some(fill)) = (room, fill) {
                 let unseen: Vec<bool> = occ.iter().map(|o| !o).collect();
-                quads(out, &unseen, fill);
+                r.quads(out, &unseen, max_cells, fill);
             }
         }
     }
+}
+
+/// A plane's raster: `nx` × `ny` cells of `ca` × `cb` m from (`a0`, `b0`) in the plane's
+/// basis (`e1`, `e2`) at `org`.
+struct Raster {
+    org: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    a0: f64,
+    b0: f64,
+    ca: f64,
+    cb: f64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Raster {
+    /// Over the plane's nodes (grown half a cell of `c` m), or over the world box `room`
+    /// (x0, y0, x1, y1) stretched to fit it exactly; `None` without a node.
+    fn of(grid: &PointGrid, plane: &Plane, c: f64, room: Option<[f64; 4]>) -> Option<Raster> {
+        let (e1, e2) = plane_basis(plane.normal);
+        let org = plane.origin_m;
+        let uv: Vec<(f64, f64)> = plane
+            .nodes
+            .iter()
+            .filter_map(|&i| grid.points_m[i])
+            .map(|p| ((p - org).dot(e1), (p - org).dot(e2)))
+            .collect();
+        if uv.is_empty() {
+            return None;
+        }
+        let (mut a0, mut b0, mut a1, mut b1) = uv.iter().fold(
+            (
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ),
+            |(a0, b0, a1, b1), &(a, b)| (a0.min(a), b0.min(b), a1.max(a), b1.max(b)),
+        );
+        if let Some([x0, y0, x1, y1]) = room {
+            // world box corners into plane coordinates (e1 ≈ x, e2 ≈ y for a horizontal plane)
+            let corners = [DVec3::new(x0, y0, org.z), DVec3::new(x1, y1, org.z)];
+            let ab: Vec<(f64, f64)> = corners
+                .iter()
+                .map(|p| ((*p - org).dot(e1), (*p - org).dot(e2)))
+                .collect();
+            a0 = ab[0].0.min(ab[1].0);
+            a1 = ab[0].0.max(ab[1].0);
+            b0 = ab[0].1.min(ab[1].1);
+            b1 = ab[0].1.max(ab[1].1);
+        } else {
+            a0 -= 0.5 * c;
+            b0 -= 0.5 * c;
+            a1 += 0.5 * c;
+            b1 += 0.5 * c;
+        }
+        let nx = (((a1 - a0) / c).ceil() as usize).clamp(1, 4000);
+        let ny = (((b1 - b0) / c).ceil() as usize).clamp(1, 4000);
+        // with a room extent the raster is stretched to fit it exactly
+        let (ca, cb) = ((a1 - a0) / nx as f64, (b1 - b0) / ny as f64);
+        Some(Raster {
+            org,
+            e1,
+            e2,
+            a0,
+            b0,
+            ca,
+            cb,
+            nx,
+            ny,
+        })
+    }
+
+    /// The cell a point on the plane falls in, if inside.
+    fn cell_of(&self, p: DVec3) -> Option<usize> {
+        let (a, b) = ((p - self.org).dot(self.e1), (p - self.org).dot(self.e2));
+        let (x, y) = (
+            ((a - self.a0) / self.ca).floor(),
+            ((b - self.b0) / self.cb).floor(),
+        );
+        (x >= 0.0 && y >= 0.0 && (x as usize) < self.nx && (y as usize) < self.ny)
+            .then(|| y as usize * self.nx + x as usize)
+    }
+
+    /// The cells the plane's nodes cover: each node its cell, and where its grid neighbours on
+    /// the plane are more than a cell of `c` m apart (a wide-angle lens spreads the nodes of a
+    /// far floor out) half the way to them, at most [`MAX_SPLAT_M`] around it.
+    fn splat_nodes(&self, grid: &PointGrid, plane: &Plane, wide_angle: bool, c: f64) -> Vec<bool> {
+        let (org, e1, e2) = (self.org, self.e1, self.e2);
+        let (nx, ny) = (self.nx, self.ny);
+        let on_plane: std::collections::HashSet<usize> = plane.nodes.iter().copied().collect();
+        let mut occ = vec![false; nx * ny];
+        for &i in &plane.nodes {
+            let Some(p) = grid.points_m[i] else { continue };
+            let (a, b) = ((p - org).dot(e1), (p - org).dot(e2));
+            let (col, row) = (i % grid.cols.max(1), i / grid.cols.max(1));
+            let mut half = 0.0_f64;
+            for (dc, dr) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+                let (cc, rr) = (col as i64 + dc, row as i64 + dr);
+                if cc < 0 || rr < 0 || cc >= grid.cols as i64 || rr >= grid.rows as i64 {
+                    continue;
+                }
+                let j = grid.index(cc as usize, rr as usize);
+                if let (true, Some(q)) = (on_plane.contains(&j), grid.points_m[j]) {
+                    let d = q - p;
+                    half = half.max(0.5 * d.dot(e1).abs()).max(0.5 * d.dot(e2).abs());
+                }
+            }
+            // nodes closer than a cell apart leave no holes (the closing handles the rest)
+            let half = if !wide_angle || 2.0 * half <= c {
+                0.0
+            } else {
+                (half - 0.5 * c).min(MAX_SPLAT_M)
+            };
+            let x0 = ((a - half - self.a0) / self.ca).floor().max(0.0);
+            let x1 = ((a + half - self.a0) / self.ca).floor();
+            let y0 = ((b - half - self.b0) / self.cb).floor().max(0.0);
+            let y1 = ((b + half - self.b0) / self.cb).floor();
+            if x1 < 0.0 || y1 < 0.0 {
+                continue;
+            }
+            let (x0, y0) = (x0 as usize, y0 as usize);
+            let (x1, y1) = ((x1 as usize).min(nx - 1), (y1 as usize).min(ny - 1));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    occ[y * nx + x] = true;
+                }
+            }
+        }
+        occ
+    }
+
+    /// The world point at cell corner (x, y).
+    fn corner(&self, x: usize, y: usize) -> DVec3 {
+        self.org
+            + self.e1 * (self.a0 + x as f64 * self.ca)
+            + self.e2 * (self.b0 + y as f64 * self.cb)
+    }
+
+    /// The quad of `w` × `h` cells from cell (x, y).
+    fn quad(&self, x: usize, y: usize, w: usize, h: usize) -> [DVec3; 4] {
+        [
+            self.corner(x, y),
+            self.corner(x + w, y),
+            self.corner(x + w, y + h),
+            self.corner(x, y + h),
+        ]
+    }
+
+    /// The set cells of `occ` as rectangles of at most `max_cells` a side, as `part`.
+    fn quads(&self, out: &mut RecoMesh, occ: &[bool], max_cells: usize, part: Part) {
+        for (x, y, w, h) in rect_cover(occ, self.nx, self.ny, max_cells) {
+            out.push_quad(self.quad(x, y, w, h), part);
+        }
+    }
+}
+
+/// Closing of an `nx` × `ny` occupancy: dilate then erode (one cell); fills one-cell holes and
+/// cracks.
+fn close_cells(occ: &[bool], nx: usize, ny: usize) -> Vec<bool> {
+    let dil: Vec<bool> = (0..nx * ny)
+        .map(|i| {
+            let (x, y) = ((i % nx) as i64, (i / nx) as i64);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0
+                        && yy >= 0
+                        && xx < nx as i64
+                        && yy < ny as i64
+                        && occ[(yy as usize) * nx + xx as usize]
+                })
+            })
+        })
+        .collect();
+    (0..nx * ny)
+        .map(|i| {
+            let (x, y) = ((i % nx) as i64, (i / nx) as i64);
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    // outside the raster counts as set, so borders do not erode away
+                    xx < 0
+                        || yy < 0
+                        || xx >= nx as i64
+                        || yy >= ny as i64
+                        || dil[(yy as usize) * nx + xx as usize]
+                })
+            })
+        })
+        .collect()
 }
 
 /// Triangulates the grid nodes not on a plane, cutting at depth discontinuities, smooths

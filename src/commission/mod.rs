@@ -47,18 +47,223 @@ pub const MIN_SEEN_AREA_M2: f64 = 1.0;
 /// The most triangles a commissioned mesh may have (bounds the engine's work and memory).
 pub const MAX_TRIANGLES: usize = 400_000;
 
-/// Why commissioning failed.
+/// Why commissioning failed. Bad input names the input, carries its value and, where there is
+/// one, the range it must be in.
 #[derive(Debug, thiserror::Error)]
 pub enum CommissionError {
     /// A capture file is missing or unusable.
     #[error(transparent)]
     Capture(#[from] crate::camera::capture::CaptureError),
-    /// The input as a whole is unusable.
-    #[error("{0}")]
-    Input(String),
     /// The engine failed on the reconstructed scene.
     #[error("engine: {0}")]
     Engine(#[from] EngineError),
+    /// An option ([`CommissionOptions`]) outside its range.
+    #[error("{option}: {value}{unit} {expected}")]
+    Option {
+        /// The option, for people ("mesh patch size").
+        option: &'static str,
+        /// Its value.
+        value: f64,
+        /// The value's unit, with a leading space ("" without one).
+        unit: &'static str,
+        /// What it must be ("must be within 1..=64").
+        expected: String,
+    },
+    /// The room box option is not a box.
+    #[error(
+        "room box: {},{},{},{} m must be x0 < x1, y0 < y1, at most 1000 m a side",
+        xy_m[0], xy_m[1], xy_m[2], xy_m[3]
+    )]
+    RoomBoxOption {
+        /// `[x0, y0, x1, y1]`, m.
+        xy_m: [f64; 4],
+    },
+    /// A standard uncertainty of the inferred reflectances outside its range.
+    #[error("uncertainty: {0}")]
+    Uncertainty(String),
+    /// No capture set.
+    #[error("no capture set")]
+    NoCaptureSet,
+    /// More capture sets than [`MAX_NODES`].
+    #[error("{nodes} capture sets (at most {MAX_NODES} nodes in one room)")]
+    TooManyNodes {
+        /// Capture sets given.
+        nodes: usize,
+    },
+    /// No luminaires.
+    #[error("no luminaires")]
+    NoLuminaires,
+    /// A capture set's luminance frames are not one per luminaire, in the luminaires' order.
+    #[error(
+        "{node}the capture's luminance frames do not match the luminaires (frames of \
+         {frame_ids:?}, luminaires {luminaire_ids:?})"
+    )]
+    FramesMismatch {
+        /// The capture set.
+        node: Node,
+        /// The luminaire ids of its frames.
+        frame_ids: Vec<u32>,
+        /// The luminaires' ids.
+        luminaire_ids: Vec<u32>,
+    },
+    /// A camera's intrinsics are unusable.
+    #[error("{node}camera intrinsics: {reason}")]
+    CameraIntrinsics {
+        /// The capture set.
+        node: Node,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A camera's position is not finite or more than 10 km from the origin.
+    #[error(
+        "{node}camera position ({}, {}, {}) m: not finite or more than 10 km away",
+        position_m[0], position_m[1], position_m[2]
+    )]
+    CameraPosition {
+        /// The capture set.
+        node: Node,
+        /// The position, m.
+        position_m: [f64; 3],
+    },
+    /// Several capture sets with a gain that is not each camera's own.
+    #[error(
+        "several capture sets: each camera's gain must come from its camera.json (a luxmeter or \
+         ambient-sensor gain is for one node)"
+    )]
+    GainForOneNode,
+    /// One of several capture sets without its camera's gain.
+    #[error(
+        "{node}camera.json has no luminance_cd_m2_per_unit (several nodes need every camera's \
+         gain)"
+    )]
+    NodeWithoutGain {
+        /// The capture set.
+        node: Node,
+    },
+    /// The camera's gain from camera.json, which has none.
+    #[error("camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading")]
+    NoCameraGain,
+    /// The room box is unusable for a camera (not finite, too large, the camera outside it).
+    #[error("{0}")]
+    RoomBox(String),
+    /// Closing the room would take more than [`closure::MAX_CLOSURE_QUADS`] quads.
+    #[error(
+        "closing the room would take {quads:.0} quads (at most {}): a larger patch size or a \
+         smaller room box",
+        closure::MAX_CLOSURE_QUADS
+    )]
+    ClosureTooLarge {
+        /// Quads it would take.
+        quads: f64,
+    },
+    /// The mesh is empty.
+    #[error("nothing to model: the mesh is empty")]
+    EmptyMesh,
+    /// The cameras saw less than [`MIN_SEEN_AREA_M2`] of the room.
+    #[error(
+        "the cameras saw {seen_m2:.2} m² of the room (at least {MIN_SEEN_AREA_M2} m² needed): \
+         commissioning that sees nothing refuses to write an image"
+    )]
+    SeenTooLittle {
+        /// Seen area modelled, m².
+        seen_m2: f64,
+    },
+    /// More than [`MAX_TRIANGLES`] triangles.
+    #[error("{triangles} triangles to model (at most {MAX_TRIANGLES}): a larger patch size")]
+    TooManyTriangles {
+        /// Triangles of the mesh.
+        triangles: usize,
+    },
+    /// Luxmeter readings ([`CommissionOptions::readings`]) that cannot be used.
+    #[error("{0}")]
+    Readings(String),
+    /// Luxmeter readings with a gain from a luxmeter reading.
+    #[error(
+        "luxmeter readings set the walls' and ceiling's reflectance with the camera's own gain \
+         (camera.json, or a hooded ambient light sensor's); a gain from a luxmeter reading goes \
+         through the model, and both cannot be set from the readings"
+    )]
+    ReadingsWithLuxmeterGain,
+    /// Luxmeter readings with an ambient light sensor's gain that came through the model.
+    #[error(
+        "luxmeter readings combine with the ambient light sensor's gain only where it is \
+         measured directly (a hooded sensor the camera sees around); here it came through the \
+         model"
+    )]
+    ReadingsWithModelGain,
+    /// The gain's luxmeter reading is at a sensor that is not in the sensors.
+    #[error("luxmeter sensor {sensor_id} is not in the sensors")]
+    LuxmeterSensor {
+        /// The reading's sensor id.
+        sensor_id: u32,
+    },
+    /// The gain's reading is not a reading > 0 lx, or not one level per luminaire.
+    #[error(
+        "{what} reading: need a reading > 0 lx and one level per luminaire ({lux_lx} lx, \
+         {levels} levels for {luminaires} luminaires)"
+    )]
+    GainReading {
+        /// "luxmeter" or "ambient light sensor".
+        what: &'static str,
+        /// The reading, lx.
+        lux_lx: f64,
+        /// Levels given.
+        levels: usize,
+        /// Luminaires.
+        luminaires: usize,
+    },
+    /// The ambient light sensor's facing is not a direction.
+    #[error("ambient light sensor: its facing is not a direction")]
+    AmbientFacing,
+    /// The gain source changed during commissioning (a bug).
+    #[error("internal: gain source changed during commissioning")]
+    GainSourceChanged,
+    /// No depth frames.
+    #[error("no depth frames")]
+    NoDepthFrames,
+    /// Depth frames of different sizes.
+    #[error("depth frames of different sizes ({}x{} and {}x{} px)", first[0], first[1], other[0], other[1])]
+    DepthSizes {
+        /// The first frame's width and height, px.
+        first: [u32; 2],
+        /// Another frame's, px.
+        other: [u32; 2],
+    },
+    /// A depth frame's data does not match its size.
+    #[error("a depth frame's data does not match its size ({values} values for {pixels} pixels)")]
+    DepthData {
+        /// Values in the frame.
+        values: usize,
+        /// Pixels of its size.
+        pixels: usize,
+    },
+    /// Less than 1 % of the pixels have a depth after cleaning.
+    #[error(
+        "depth unusable: {valid} of {pixels} pixels have a depth after cleaning (all zero, beyond \
+         {max_depth_m} m, or noise?): the cameras see nothing of the room"
+    )]
+    DepthUnusable {
+        /// Pixels with a depth.
+        valid: usize,
+        /// Pixels.
+        pixels: usize,
+        /// The farthest depth kept, m.
+        max_depth_m: f64,
+    },
+}
+
+/// Which capture set an error is about: its number (from 1) and directory when there are
+/// several, nothing when there is one. Displays as a prefix ("capture set 2 (dir): ").
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Node(pub Option<(usize, std::path::PathBuf)>);
+
+impl std::fmt::Display for Node {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.0 {
+            Some((k, dir)) => write!(f, "capture set {k} ({}): ", dir.display()),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Where the camera gain (cd/m² per unit of a luminance frame) comes from.
@@ -164,58 +369,64 @@ impl CommissionOptions {
     /// [0, 1), sizes within sane bounds, a luxmeter reading that is a positive number. The
     /// error names the option.
     pub fn validate(&self) -> Result<(), CommissionError> {
-        let bad = |what: &str, why: String| Err(CommissionError::Input(format!("{what}: {why}")));
+        let bad = |option: &'static str, value: f64, unit: &'static str, expected: String| {
+            Err(CommissionError::Option {
+                option,
+                value,
+                unit,
+                expected,
+            })
+        };
         for (name, v) in [
             ("wall reflectance", self.closure.wall_rho),
             ("ceiling reflectance", self.closure.ceiling_rho),
             ("start reflectance", self.start_rho),
         ] {
             if !(0.0..1.0).contains(&v) {
-                return bad(name, format!("{v} must be a reflectance in [0, 1)"));
+                return bad(name, v, "", "must be a reflectance in [0, 1)".into());
             }
         }
         self.uncertainty
             .check()
-            .map_err(|m| CommissionError::Input(format!("uncertainty: {m}")))?;
+            .map_err(CommissionError::Uncertainty)?;
         let m = &self.mesh;
         if !(m.patch_size_m.is_finite() && (0.05..=100.0).contains(&m.patch_size_m)) {
             return bad(
                 "mesh patch size",
-                format!("{} m must be within 0.05..=100 m", m.patch_size_m),
+                m.patch_size_m,
+                " m",
+                "must be within 0.05..=100 m".into(),
             );
         }
         if !(m.cell_m.is_finite() && m.cell_m >= 0.005 && m.cell_m <= m.patch_size_m) {
             return bad(
                 "mesh cell",
+                m.cell_m,
+                " m",
                 format!(
-                    "{} m must be within 0.005 m and the patch size ({} m)",
-                    m.cell_m, m.patch_size_m
+                    "must be within 0.005 m and the patch size ({} m)",
+                    m.patch_size_m
                 ),
             );
         }
         if !(1..=64).contains(&self.grid_stride_px) {
             return bad(
                 "grid stride",
-                format!("{} px must be within 1..=64", self.grid_stride_px),
+                f64::from(self.grid_stride_px),
+                " px",
+                "must be within 1..=64".into(),
             );
         }
-        if let Some([x0, y0, x1, y1]) = self.closure.room_xy_m {
-            let finite = [x0, y0, x1, y1]
-                .iter()
-                .all(|v| v.is_finite() && v.abs() < 1e4);
+        if let Some(xy_m @ [x0, y0, x1, y1]) = self.closure.room_xy_m {
+            let finite = xy_m.iter().all(|v| v.is_finite() && v.abs() < 1e4);
             if !(finite && x1 > x0 && y1 > y0 && x1 - x0 <= 1000.0 && y1 - y0 <= 1000.0) {
-                return bad(
-                    "room box",
-                    format!(
-                        "{x0},{y0},{x1},{y1} m must be x0 < x1, y0 < y1, at most 1000 m a side"
-                    ),
-                );
+                return Err(CommissionError::RoomBoxOption { xy_m });
             }
         }
         if let Some(z) = self.closure.ceiling_z_m
             && !(z.is_finite() && z.abs() < 1e3)
         {
-            return bad("ceiling height", format!("{z} m is not a height"));
+            return bad("ceiling height", z, " m", "is not a height".into());
         }
         if let Gain::Luxmeter { lux_lx, levels, .. } | Gain::Ambient { lux_lx, levels, .. } =
             &self.gain
@@ -223,17 +434,16 @@ impl CommissionOptions {
             if !(lux_lx.is_finite() && *lux_lx > 0.0 && *lux_lx < 1e6) {
                 return bad(
                     "luxmeter reading",
-                    format!("{lux_lx} lx must be within (0, 1e6)"),
+                    *lux_lx,
+                    " lx",
+                    "must be within (0, 1e6)".into(),
                 );
             }
             if let Some(x) = levels
                 .iter()
                 .find(|x| !(x.is_finite() && (0.0..=1.0).contains(*x)))
             {
-                return bad(
-                    "luxmeter dimming state",
-                    format!("level {x} is outside [0, 1]"),
-                );
+                return bad("luxmeter dimming state", *x, "", "is outside [0, 1]".into());
             }
         }
         Ok(())
@@ -286,9 +496,7 @@ impl Reading {
 }
 
 fn unreachable_gain<T>() -> Result<T, CommissionError> {
-    Err(CommissionError::Input(
-        "internal: gain source changed during commissioning".into(),
-    ))
+    Err(CommissionError::GainSourceChanged)
 }
 
 /// A plane, for people.
@@ -477,7 +685,7 @@ pub fn from_capture(
     from_captures(std::slice::from_ref(capture), luminaires, sensors, desks, o)?
         .into_iter()
         .next()
-        .ok_or_else(|| CommissionError::Input("no capture set".into()))
+        .ok_or(CommissionError::NoCaptureSet)
 }
 
 /// At most this many nodes (capture sets) commission one room together.
@@ -507,14 +715,9 @@ fn with_readings(
     o: &CommissionOptions,
 ) -> Result<Vec<Commissioned>, CommissionError> {
     let ids: Vec<u32> = sensors.iter().map(|s| s.id).collect();
-    refit::check(&o.readings, &ids).map_err(CommissionError::Input)?;
+    refit::check(&o.readings, &ids).map_err(CommissionError::Readings)?;
     if matches!(o.gain, Gain::Luxmeter { .. }) {
-        return Err(CommissionError::Input(
-            "luxmeter readings set the walls' and ceiling's reflectance with the camera's own \
-             gain (camera.json, or a hooded ambient light sensor's); a gain from a luxmeter \
-             reading goes through the model, and both cannot be set from the readings"
-                .into(),
-        ));
+        return Err(CommissionError::ReadingsWithLuxmeterGain);
     }
     let mut plain = o.clone();
     plain.readings.clear();
@@ -526,16 +729,11 @@ fn with_readings(
         &plain,
     )?;
     let Some(r) = first.first().map(|c| &c.report) else {
-        return Err(CommissionError::Input("no capture set".into()));
+        return Err(CommissionError::NoCaptureSet);
     };
     if matches!(o.gain, Gain::Ambient { .. }) && r.ambient_direct.is_none() {
         // a bare sensor's gain comes through the model, whose walls the readings change
-        return Err(CommissionError::Input(
-            "luxmeter readings combine with the ambient light sensor's gain only where it is \
-             measured directly (a hooded sensor the camera sees around); here it came through \
-             the model"
-                .into(),
-        ));
+        return Err(CommissionError::ReadingsWithModelGain);
     }
     let f = refit::fit(
         &r.uncertainty,
@@ -545,7 +743,7 @@ fn with_readings(
         o.closure.ceiling_rho,
         &o.readings,
     )
-    .map_err(CommissionError::Input)?;
+    .map_err(CommissionError::Readings)?;
     plain.closure.wall_rho = f.wall_rho.1;
     plain.closure.ceiling_rho = f.ceiling_rho.1;
     plain.uncertainty.wall_rho = f.sigma_after.0;
@@ -557,113 +755,164 @@ fn with_readings(
     Ok(nodes)
 }
 
-/// Commissions one room from the capture sets of several nodes (each camera with its pose in
-/// the room's frame): one room model, and one [`Commissioned`] per node with that node's camera,
-/// depth and sensor flags (each node serves the desks it sees; every node's model holds the
-/// whole room).
-///
-/// Each node's depth is meshed on its own. The floor is one plane for the room: the first node
-/// that found a floor meshes it over the room box, its cells seen where any node saw floor, the
-/// rest inferred. Every other seen triangle is kept by the node nearest to it among those that
-/// see it, so a surface two nodes see is modelled once. Reflectances come from every node's
-/// frames, each at its camera's gain (several nodes need their gains in camera.json).
-pub fn from_captures(
-    captures: &[Capture],
-    luminaires: Vec<Luminaire>,
-    sensors: Vec<Sensor>,
-    desks: Option<Desks>,
-    o: &CommissionOptions,
-) -> Result<Vec<Commissioned>, CommissionError> {
-    o.validate()?;
-    if !o.readings.is_empty() {
-        return with_readings(captures, luminaires, sensors, desks, o);
+/// What commissioning works from: the capture sets, the room's luminaires, sensors and desks,
+/// and the options.
+struct Inputs<'a> {
+    captures: &'a [Capture],
+    luminaires: &'a [Luminaire],
+    sensors: &'a [Sensor],
+    desks: Option<&'a Desks>,
+    o: &'a CommissionOptions,
+}
+
+impl Inputs<'_> {
+    /// The first node's capture set (whose camera the room's scene carries).
+    fn first(&self) -> &Capture {
+        &self.captures[0]
     }
-    let Some(first) = captures.first() else {
-        return Err(CommissionError::Input("no capture set".into()));
-    };
+
+    /// The room's scene with the mesh `reco` at reflectances `rho` (per triangle).
+    fn scene(&self, reco: &RecoMesh, rho: &[f64]) -> Scene {
+        let first = self.first();
+        Scene {
+            name: first
+                .dir
+                .canonicalize()
+                .ok()
+                .and_then(|p| {
+                    p.parent()
+                        .and_then(|q| q.file_name())
+                        .map(|n| n.to_string_lossy().into_owned())
+                })
+                .unwrap_or_else(|| "capture".into()),
+            mesh: to_mesh(reco, rho),
+            luminaires: self.luminaires.to_vec(),
+            sensors: self.sensors.to_vec(),
+            desks: self.desks.cloned(),
+            camera: Some(first.camera.clone()),
+            obj_report: ObjReport::default(),
+            warnings: Vec::new(),
+        }
+    }
+}
+
+/// Checks the capture sets against the luminaires and each other before any work.
+fn check_captures(i: &Inputs) -> Result<(), CommissionError> {
+    let captures = i.captures;
+    if captures.is_empty() {
+        return Err(CommissionError::NoCaptureSet);
+    }
     if captures.len() > MAX_NODES {
-        return Err(CommissionError::Input(format!(
-            "{} capture sets (at most {MAX_NODES} nodes in one room)",
-            captures.len()
-        )));
+        return Err(CommissionError::TooManyNodes {
+            nodes: captures.len(),
+        });
     }
-    let mut report = Report {
-        warnings: captures.iter().flat_map(|c| c.warnings.clone()).collect(),
-        ..Report::default()
-    };
-    if luminaires.is_empty() {
-        return Err(CommissionError::Input("no luminaires".into()));
+    if i.luminaires.is_empty() {
+        return Err(CommissionError::NoLuminaires);
     }
-    for (i, capture) in captures.iter().enumerate() {
-        let which = if captures.len() > 1 {
-            format!("capture set {} ({}): ", i + 1, capture.dir.display())
-        } else {
-            String::new()
-        };
-        if capture.luminance.len() != luminaires.len()
+    for (k, capture) in captures.iter().enumerate() {
+        let which = Node((captures.len() > 1).then(|| (k + 1, capture.dir.clone())));
+        if capture.luminance.len() != i.luminaires.len()
             || capture
                 .luminance
                 .iter()
-                .zip(&luminaires)
+                .zip(i.luminaires)
                 .any(|((id, _), l)| *id != l.id)
         {
-            return Err(CommissionError::Input(format!(
-                "{which}the capture's luminance frames do not match the luminaires"
-            )));
+            return Err(CommissionError::FramesMismatch {
+                node: which,
+                frame_ids: capture.luminance.iter().map(|(id, _)| *id).collect(),
+                luminaire_ids: i.luminaires.iter().map(|l| l.id).collect(),
+            });
         }
         let cam = &capture.camera;
         cam.check()
-            .map_err(|m| CommissionError::Input(format!("{which}camera intrinsics: {m}")))?;
+            .map_err(|reason| CommissionError::CameraIntrinsics {
+                node: which.clone(),
+                reason,
+            })?;
         if !(cam.position_m.is_finite() && cam.position_m.abs().max_element() <= 1e4) {
-            return Err(CommissionError::Input(format!(
-                "{which}camera position: not finite or more than 10 km away"
-            )));
+            return Err(CommissionError::CameraPosition {
+                node: which,
+                position_m: cam.position_m.to_array(),
+            });
         }
         if captures.len() > 1 {
-            if !matches!(o.gain, Gain::Camera) {
-                return Err(CommissionError::Input(
-                    "several capture sets: each camera's gain must come from its camera.json \
-                     (a luxmeter or ambient-sensor gain is for one node)"
-                        .into(),
-                ));
+            if !matches!(i.o.gain, Gain::Camera) {
+                return Err(CommissionError::GainForOneNode);
             }
             if !cam
                 .luminance_cd_m2_per_unit
                 .is_some_and(|g| g.is_finite() && g > 0.0)
             {
-                return Err(CommissionError::Input(format!(
-                    "{which}camera.json has no luminance_cd_m2_per_unit (several nodes need \
-                     every camera's gain)"
-                )));
+                return Err(CommissionError::NodeWithoutGain { node: which });
             }
         }
     }
-    let cam = first.camera.clone();
+    Ok(())
+}
 
-    let st = Stage::start("depth", o.progress);
-    let depths: Vec<DepthMap> = captures
-        .iter()
-        .map(|c| depth::fuse(&c.depth_mm, &o.depth))
-        .collect::<Result<_, _>>()?;
-    report.depth = depths[0].stats;
-    st.done(&mut report);
+/// Stage "planes": each node's point grid and the dominant planes found in it.
+struct NodePlanes {
+    /// Per node: its point grid.
+    grids: Vec<grid::PointGrid>,
+    /// Per node: the planes found in its grid.
+    found: Vec<Vec<Plane>>,
+}
 
-    let st = Stage::start("planes", o.progress);
-    let grids: Vec<grid::PointGrid> = captures
+/// Stage "depth": each node's depth frames fused into one cleaned depth map.
+fn fuse_depths(i: &Inputs) -> Result<Vec<DepthMap>, CommissionError> {
+    i.captures
         .iter()
-        .zip(&depths)
+        .map(|c| depth::fuse(&c.depth_mm, &i.o.depth))
+        .collect()
+}
+
+/// Stage "planes": point grids from the depth maps, and their dominant planes.
+fn find_planes(i: &Inputs, depths: &[DepthMap]) -> NodePlanes {
+    let o = i.o;
+    let grids: Vec<grid::PointGrid> = i
+        .captures
+        .iter()
+        .zip(depths)
         .map(|(c, d)| grid::PointGrid::new(d, &c.camera, o.grid_stride_px, o.depth.edge_rel))
         .collect();
-    let founds: Vec<Vec<planes::Plane>> = captures
+    let found = i
+        .captures
         .iter()
         .zip(&grids)
         .map(|(c, g)| planes::detect(g, &c.camera, &o.planes))
         .collect();
-    st.done(&mut report);
+    NodePlanes { grids, found }
+}
 
-    let st = Stage::start("mesh", o.progress);
-    // the floor: the lowest large horizontal plane, per node
-    let floor_of: Vec<Option<usize>> = founds
+/// The room's floor as the nodes found it.
+struct Floor {
+    /// Per node: its floor plane (the lowest large horizontal plane it found).
+    of: Vec<Option<usize>>,
+    /// (node, plane) of the plane that meshes the room's floor: the first node's that found one.
+    main: Option<(usize, usize)>,
+    /// The floor's height, m.
+    z_m: f64,
+}
+
+impl Floor {
+    /// Whether plane `k` of node `i` is floor: with the room closed, every horizontal plane at
+    /// the floor's height; otherwise the node's own floor plane.
+    fn is_floor_like(&self, planes: &NodePlanes, closed: bool, i: usize, k: usize) -> bool {
+        let p = &planes.found[i][k];
+        if closed {
+            p.is_horizontal() && (p.origin_m.z - self.z_m).abs() <= mesh::ALSO_SEEN_DISTANCE_M
+        } else {
+            self.of[i] == Some(k)
+        }
+    }
+}
+
+/// Finds the floor (warning when there is none: then it is at the lowest point seen).
+fn find_floor(planes: &NodePlanes, seen_pts: &[DVec3], warnings: &mut Vec<String>) -> Floor {
+    let of: Vec<Option<usize>> = planes
+        .found
         .iter()
         .map(|found| {
             found
@@ -674,90 +923,147 @@ pub fn from_captures(
                 .map(|(k, _)| k)
         })
         .collect();
-    // the node that meshes the room's floor
-    let floor_node = floor_of.iter().position(Option::is_some);
-    let seen_pts: Vec<DVec3> = grids
+    let main = of
         .iter()
-        .flat_map(|g| g.points_m.iter().flatten().copied())
-        .collect();
-    let floor_z = match floor_node.and_then(|i| floor_of[i].map(|k| founds[i][k].origin_m.z)) {
-        Some(z) => z,
+        .position(Option::is_some)
+        .and_then(|i| of[i].map(|k| (i, k)));
+    let z_m = match main {
+        Some((i, k)) => planes.found[i][k].origin_m.z,
         None => {
-            report
-                .warnings
-                .push("no floor plane found: the floor is put at the lowest point seen".into());
+            warnings.push("no floor plane found: the floor is put at the lowest point seen".into());
             seen_pts.iter().map(|p| p.z).fold(f64::INFINITY, f64::min)
         }
     };
+    Floor { of, main, z_m }
+}
+
+/// The room box (with closure on), checked to be a bounded amount of work.
+fn find_room(
+    i: &Inputs,
+    seen_pts: &[DVec3],
+    floor_z_m: f64,
+) -> Result<Option<RoomBox>, CommissionError> {
+    let o = i.o;
     let room = o
         .closure
         .enabled
-        .then(|| closure::room_box(&seen_pts, floor_z, &luminaires, &sensors, &o.closure));
+        .then(|| closure::room_box(seen_pts, floor_z_m, i.luminaires, i.sensors, &o.closure));
     if let Some(r) = &room {
         // bounded work: a wrong calibration or pose never becomes a room of kilometres
-        for c in captures {
+        for c in i.captures {
             r.check(c.camera.position_m)
-                .map_err(CommissionError::Input)?;
+                .map_err(CommissionError::RoomBox)?;
         }
         let quads = r.closure_quads(o.mesh.patch_size_m);
         if quads > closure::MAX_CLOSURE_QUADS as f64 {
-            return Err(CommissionError::Input(format!(
-                "closing the room would take {quads:.0} quads (at most {}): a larger patch size \
-                 or a smaller room box",
-                closure::MAX_CLOSURE_QUADS
-            )));
+            return Err(CommissionError::ClosureTooLarge { quads });
         }
     }
+    Ok(room)
+}
+
+/// Stage "mesh": the room's mesh from every node's planes and the rest of its points.
+struct Meshed {
+    /// The mesh (before closure).
+    reco: RecoMesh,
+    /// Per global plane index (nodes' planes in order): (normal, origin).
+    plane_at: Vec<(DVec3, DVec3)>,
+    /// Global index of the room's floor plane.
+    floor_idx: Option<usize>,
+    /// The room box, when closure is on.
+    room: Option<RoomBox>,
+}
+
+/// Stage "mesh": floor, room box, each node's mesh, the nodes' meshes merged.
+fn mesh_room(
+    i: &Inputs,
+    depths: &[DepthMap],
+    planes: &NodePlanes,
+    report: &mut Report,
+) -> Result<Meshed, CommissionError> {
+    let seen_pts: Vec<DVec3> = planes
+        .grids
+        .iter()
+        .flat_map(|g| g.points_m.iter().flatten().copied())
+        .collect();
+    let floor = find_floor(planes, &seen_pts, &mut report.warnings);
+    let room = find_room(i, &seen_pts, floor.z_m)?;
+    let NodeMeshes {
+        meshes,
+        plane_at,
+        floor_idx,
+    } = mesh_nodes(i, planes, &floor, room, report);
+    let reco = merge_nodes(i.captures, depths, meshes, floor_idx);
+    Ok(Meshed {
+        reco,
+        plane_at,
+        floor_idx,
+        room,
+    })
+}
+
+/// Each node's mesh, and the planes' global indices.
+struct NodeMeshes {
+    /// Per node: its mesh.
+    meshes: Vec<RecoMesh>,
+    /// Per global plane index (nodes' planes in order): (normal, origin).
+    plane_at: Vec<(DVec3, DVec3)>,
+    /// Global index of the room's floor plane.
+    floor_idx: Option<usize>,
+}
+
+/// Each node's mesh: its planes (the room's floor once, over the room box) and the rest of its
+/// points; with the planes' global (normal, origin) and the floor's global index. Pushes a
+/// [`PlaneSummary`] per plane.
+fn mesh_nodes(
+    i: &Inputs,
+    planes: &NodePlanes,
+    floor: &Floor,
+    room: Option<RoomBox>,
+    report: &mut Report,
+) -> NodeMeshes {
+    let o = i.o;
+    let closed = room.is_some();
     // Floor is every horizontal plane at the floor's height: a desk island or a wall of
     // cabinets splits the floor a camera sees into several components, and each node sees its
     // own. With the room closed, the floor node meshes the room's floor once, and the other
     // components only mark its raster as seen (meshing them too would model that floor twice).
-    let main_floor = floor_node.and_then(|i| floor_of[i].map(|k| (i, k)));
-    let is_floor_like = |i: usize, k: usize| {
-        let p = &founds[i][k];
-        if room.is_some() {
-            p.is_horizontal() && (p.origin_m.z - floor_z).abs() <= mesh::ALSO_SEEN_DISTANCE_M
-        } else {
-            floor_of[i] == Some(k)
-        }
-    };
-    let other_floor_m: Vec<DVec3> = founds
+    let other_floor_m: Vec<DVec3> = planes
+        .found
         .iter()
         .enumerate()
-        .flat_map(|(i, found)| (0..found.len()).map(move |k| (i, k)))
-        .filter(|&(i, k)| Some((i, k)) != main_floor && is_floor_like(i, k))
-        .flat_map(|(i, k)| {
-            founds[i][k]
+        .flat_map(|(n, found)| (0..found.len()).map(move |k| (n, k)))
+        .filter(|&(n, k)| Some((n, k)) != floor.main && floor.is_floor_like(planes, closed, n, k))
+        .flat_map(|(n, k)| {
+            planes.found[n][k]
                 .nodes
                 .iter()
-                .filter_map(|&n| grids[i].points_m[n])
+                .filter_map(|&g| planes.grids[n].points_m[g])
                 .collect::<Vec<_>>()
         })
         .collect();
-    let mut reco = RecoMesh::default();
-    // per global plane index: (normal, origin), and the room's floor plane
     let mut plane_at: Vec<(DVec3, DVec3)> = Vec::new();
     let mut floor_idx: Option<usize> = None;
-    let mut node_meshes: Vec<RecoMesh> = Vec::with_capacity(captures.len());
-    for (i, capture) in captures.iter().enumerate() {
+    let mut node_meshes: Vec<RecoMesh> = Vec::with_capacity(i.captures.len());
+    for (n, capture) in i.captures.iter().enumerate() {
         let node_cam = &capture.camera;
         let mesh_options = MeshOptions {
             wide_angle: o.mesh.wide_angle || node_cam.lens.is_fisheye(),
             ..o.mesh
         };
-        let (grid, found) = (&grids[i], &founds[i]);
+        let (grid, found) = (&planes.grids[n], &planes.found[n]);
         let mut node = RecoMesh::default();
         let mut on_plane = vec![false; grid.points_m.len()];
         for (k, p) in found.iter().enumerate() {
             let kg = plane_at.len() as u32;
             plane_at.push((p.normal, p.origin_m));
-            let is_floor = Some((i, k)) == main_floor;
+            let is_floor = Some((n, k)) == floor.main;
             let before = node.tris.len();
             if is_floor {
                 floor_idx = Some(kg as usize);
             }
             // any other floor component is the room floor's (marked in its raster)
-            if is_floor || !is_floor_like(i, k) {
+            if is_floor || !floor.is_floor_like(planes, closed, n, k) {
                 mesh::mesh_plane(
                     &mut node,
                     grid,
@@ -769,105 +1075,124 @@ pub fn from_captures(
                     if is_floor { &other_floor_m } else { &[] },
                 );
             }
-            for &n in &p.nodes {
-                on_plane[n] = true;
+            for &g in &p.nodes {
+                on_plane[g] = true;
             }
-            let tris = before..node.tris.len();
-            let area = tris
-                .clone()
-                .filter(|&t| node.part[t] == Part::Plane(kg))
-                .map(|t| node.area_m2(t))
-                .sum();
-            report.planes.push(PlaneSummary {
-                normal: p.normal,
-                origin_m: p.origin_m,
-                area_m2: area,
-                triangles: tris.len(),
-                rms_m: p.rms_m,
-            });
+            report.planes.push(plane_summary(&node, p, kg, before));
         }
         mesh::mesh_rest(&mut node, grid, &on_plane, node_cam.position_m, &o.mesh);
         node_meshes.push(node);
     }
+    NodeMeshes {
+        meshes: node_meshes,
+        plane_at,
+        floor_idx,
+    }
+}
+
+/// Plane `p` (global index `kg`) as meshed into `node` from triangle `before` on.
+fn plane_summary(node: &RecoMesh, p: &Plane, kg: u32, before: usize) -> PlaneSummary {
+    let tris = before..node.tris.len();
+    let area = tris
+        .clone()
+        .filter(|&t| node.part[t] == Part::Plane(kg))
+        .map(|t| node.area_m2(t))
+        .sum();
+    PlaneSummary {
+        normal: p.normal,
+        origin_m: p.origin_m,
+        area_m2: area,
+        triangles: tris.len(),
+        rms_m: p.rms_m,
+    }
+}
+
+/// The nodes' meshes as one: a surface several nodes see is kept by the nearest of them (the
+/// floor by the node that meshed it).
+fn merge_nodes(
+    captures: &[Capture],
+    depths: &[DepthMap],
+    mut node_meshes: Vec<RecoMesh>,
+    floor_idx: Option<usize>,
+) -> RecoMesh {
     if node_meshes.len() == 1 {
-        reco = node_meshes.pop().unwrap_or_default();
-    } else {
-        // a surface several nodes see is kept by the nearest of them
-        for (i, node) in node_meshes.iter().enumerate() {
-            for (t, tri) in node.tris.iter().enumerate() {
-                let part = node.part[t];
-                let [a, b, c] = tri.map(|v| node.positions_m[v as usize]);
-                let centre = (a + b + c) / 3.0;
-                let on_floor = matches!(part, Part::FloorFill)
-                    || Some(part) == floor_idx.map(|k| Part::Plane(k as u32));
-                let d_i = (centre - captures[i].camera.position_m).length();
-                let nearer_elsewhere =
-                    captures
-                        .iter()
-                        .zip(&depths)
-                        .enumerate()
-                        .any(|(j, (cj, dj))| {
-                            j != i && {
-                                let d_j = (centre - cj.camera.position_m).length();
-                                (d_j < d_i || (d_j == d_i && j < i))
-                                    && node_sees(&cj.camera, dj, centre)
-                            }
-                        });
-                if !on_floor && nearer_elsewhere {
-                    continue;
-                }
-                let base = reco.positions_m.len() as u32;
-                reco.positions_m.extend([a, b, c]);
-                reco.tris.push([base, base + 1, base + 2]);
-                reco.part.push(part);
+        return node_meshes.pop().unwrap_or_default();
+    }
+    let mut reco = RecoMesh::default();
+    for (i, node) in node_meshes.iter().enumerate() {
+        for (t, tri) in node.tris.iter().enumerate() {
+            let part = node.part[t];
+            let [a, b, c] = tri.map(|v| node.positions_m[v as usize]);
+            let centre = (a + b + c) / 3.0;
+            let on_floor = matches!(part, Part::FloorFill)
+                || Some(part) == floor_idx.map(|k| Part::Plane(k as u32));
+            let d_i = (centre - captures[i].camera.position_m).length();
+            let nearer_elsewhere = captures
+                .iter()
+                .zip(depths)
+                .enumerate()
+                .any(|(j, (cj, dj))| {
+                    j != i && {
+                        let d_j = (centre - cj.camera.position_m).length();
+                        (d_j < d_i || (d_j == d_i && j < i)) && node_sees(&cj.camera, dj, centre)
+                    }
+                });
+            if !on_floor && nearer_elsewhere {
+                continue;
             }
+            let base = reco.positions_m.len() as u32;
+            reco.positions_m.extend([a, b, c]);
+            reco.tris.push([base, base + 1, base + 2]);
+            reco.part.push(part);
         }
     }
-    st.done(&mut report);
+    reco
+}
 
-    let st = Stage::start("closure", o.progress);
-    if let Some(r) = &room {
-        let thin: Vec<(u32, DVec3)> = plane_at
+/// Stage "closure": hidden faces of thin objects, desk tops nobody saw, the room's box; then
+/// the mesh's checks (not empty, enough seen, not too large).
+fn close_room(i: &Inputs, meshed: &mut Meshed, report: &mut Report) -> Result<(), CommissionError> {
+    let reco = &mut meshed.reco;
+    if let Some(r) = &meshed.room {
+        let thin: Vec<(u32, DVec3)> = meshed
+            .plane_at
             .iter()
             .enumerate()
             .filter(|&(k, &(normal, origin))| {
-                Some(k) != floor_idx && closure::is_thin_object(r, normal, origin)
+                Some(k) != meshed.floor_idx && closure::is_thin_object(r, normal, origin)
             })
             .map(|(k, &(normal, _))| (k as u32, normal))
             .collect();
-        closure::hidden_faces(&mut reco, &thin);
+        closure::hidden_faces(reco, &thin);
         report.hidden_faces = thin.len();
-        let desk_list = desks.as_ref().map_or(&[][..], |d| &d.desks[..]);
-        let tops = closure::desk_tops(r, desk_list, &sensors);
-        report.inferred_desk_m2 =
-            closure::inferred_desk_tops(&mut reco, &tops, o.mesh.patch_size_m);
-        closure::close(&mut reco, r, &luminaires, &o.mesh);
+        let desk_list = i.desks.map_or(&[][..], |d| &d.desks[..]);
+        let tops = closure::desk_tops(r, desk_list, i.sensors);
+        report.inferred_desk_m2 = closure::inferred_desk_tops(reco, &tops, i.o.mesh.patch_size_m);
+        closure::close(reco, r, i.luminaires, &i.o.mesh);
     }
-    report.room = room;
+    report.room = meshed.room;
     report.triangles = reco.tris.len();
     (report.seen_area_m2, report.inferred_area_m2) = reco.areas_m2();
     if reco.tris.is_empty() {
-        return Err(CommissionError::Input(
-            "nothing to model: the mesh is empty".into(),
-        ));
+        return Err(CommissionError::EmptyMesh);
     }
     if report.seen_area_m2 < MIN_SEEN_AREA_M2 {
-        return Err(CommissionError::Input(format!(
-            "the cameras saw {:.2} m² of the room (at least {MIN_SEEN_AREA_M2} m² needed): \
-             commissioning that sees nothing refuses to write an image",
-            report.seen_area_m2
-        )));
+        return Err(CommissionError::SeenTooLittle {
+            seen_m2: report.seen_area_m2,
+        });
     }
     if reco.tris.len() > MAX_TRIANGLES {
-        return Err(CommissionError::Input(format!(
-            "{} triangles to model (at most {MAX_TRIANGLES}): a larger patch size",
-            reco.tris.len()
-        )));
+        return Err(CommissionError::TooManyTriangles {
+            triangles: reco.tris.len(),
+        });
     }
-    st.done(&mut report);
+    Ok(())
+}
 
-    let start_rho: Vec<f64> = reco
-        .part
+/// Reflectances before estimation: the closure's walls and ceiling at theirs, openings black,
+/// every seen surface at the start reflectance.
+fn start_rho(reco: &RecoMesh, o: &CommissionOptions) -> Vec<f64> {
+    reco.part
         .iter()
         .map(|p| match p {
             Part::Wall => o.closure.wall_rho,
@@ -875,256 +1200,316 @@ pub fn from_captures(
             Part::Opening(_) => 0.0,
             _ => o.start_rho,
         })
-        .collect();
-    let make_scene = |rho: &[f64]| Scene {
-        name: first
-            .dir
-            .canonicalize()
-            .ok()
-            .and_then(|p| {
-                p.parent()
-                    .and_then(|q| q.file_name())
-                    .map(|n| n.to_string_lossy().into_owned())
-            })
-            .unwrap_or_else(|| "capture".into()),
-        mesh: to_mesh(&reco, rho),
-        luminaires: luminaires.clone(),
-        sensors: sensors.clone(),
-        desks: desks.clone(),
-        camera: Some(cam.clone()),
-        obj_report: ObjReport::default(),
-        warnings: Vec::new(),
-    };
+        .collect()
+}
 
-    let mut tri_rho = start_rho.clone();
-    // luxmeter / ambient mode: the cheap pass model's reading, corrected by the final model's
-    let mut luxmeter_fix: Option<(Reading, f64, Vec<f64>)> = None;
+/// A gain reading to check the final model against: where, the reading, the dimming state.
+struct GainReading {
+    /// Where the reading was taken.
+    at: Reading,
+    /// The reading, lx.
+    lux_lx: f64,
+    /// The dimming state during it.
+    levels: Vec<f64>,
+}
+
+/// Stages "pass model" and "reflectances": what they give the final model.
+struct Reflectances {
+    /// Reflectance per mesh triangle.
+    tri_rho: Vec<f64>,
+    /// With a luxmeter or (through the model) ambient gain: the reading the final model is
+    /// checked against.
+    reading: Option<GainReading>,
+}
+
+/// One reflectance estimate per camera gain, over the pass model's samples.
+struct Estimator<'a> {
+    samples: reflectance::Samples,
+    pass_model: &'a Model,
+    reco: &'a RecoMesh,
+    start_rho: &'a [f64],
+    floor_part: Option<Part>,
+    tops_seen: Vec<Part>,
+    pass: Settings,
+    o: &'a ReflectanceOptions,
+}
+
+impl Estimator<'_> {
+    /// The estimate at camera gain `gain` (cd/m² per unit).
+    fn run(&self, gain: f64) -> Estimate {
+        reflectance::estimate(
+            &self.samples,
+            self.pass_model,
+            self.reco,
+            self.start_rho,
+            self.floor_part,
+            &self.tops_seen,
+            gain,
+            &self.pass,
+            self.o,
+        )
+    }
+}
+
+/// Stages "pass model" and "reflectances": a cheap model at the start reflectances, every
+/// node's pixels sampled against it, and the estimate at the camera's gain (camera.json's, the
+/// hooded ambient sensor's, or the one for which the model predicts a reading).
+fn estimate_reflectances(
+    i: &Inputs,
+    meshed: &Meshed,
+    start_rho: &[f64],
+    report: &mut Report,
+) -> Result<Reflectances, CommissionError> {
+    let o = i.o;
+    let reco = &meshed.reco;
+    let st = Stage::start("pass model", o.progress);
+    let pass = pass_settings(&o.engine);
+    let pass_model = run_engine(&i.scene(reco, start_rho), &pass, &mut report.warnings)?;
+    let pass = pass_model.settings.clone();
+    st.done(report);
+
+    let st = Stage::start("reflectances", o.progress);
+    let caster = RayCaster::new(&pass_model.patches);
+    let first = i.first();
+    let mut samples = reflectance::sample(
+        first,
+        i.luminaires,
+        &pass_model,
+        &caster,
+        reco,
+        &o.reflectance,
+    );
+    // the other nodes' pixels, in the first camera's units
+    let g0 = first.camera.luminance_cd_m2_per_unit.unwrap_or(1.0);
+    for c in &i.captures[1..] {
+        let more = reflectance::sample(c, i.luminaires, &pass_model, &caster, reco, &o.reflectance);
+        samples.extend(more, c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0);
+    }
+    // seen furniture tops: the inferred desk tops take their reflectance
+    let tops_seen: Vec<Part> = meshed
+        .plane_at
+        .iter()
+        .enumerate()
+        .filter(|&(k, &(n, _))| Some(k) != meshed.floor_idx && n.z > 0.98)
+        .map(|(k, _)| Part::Plane(k as u32))
+        .collect();
+    let est = Estimator {
+        samples,
+        pass_model: &pass_model,
+        reco,
+        start_rho,
+        floor_part: meshed.floor_idx.map(|k| Part::Plane(k as u32)),
+        tops_seen,
+        pass,
+        o: &o.reflectance,
+    };
+    let direct = ambient_direct(i, report);
+    report.ambient_direct = direct.clone();
     let scale = match o.gain {
-        Gain::Camera => cam.luminance_cd_m2_per_unit,
+        Gain::Camera => first.camera.luminance_cd_m2_per_unit,
         Gain::Luxmeter { .. } | Gain::Ambient { .. } => None,
     };
-    if o.estimate_reflectances {
-        let st = Stage::start("pass model", o.progress);
-        let pass = pass_settings(&o.engine);
-        let pass_model = run_engine(&make_scene(&start_rho), &pass, &mut report.warnings)?;
-        let pass = pass_model.settings.clone();
-        st.done(&mut report);
-
-        let st = Stage::start("reflectances", o.progress);
-        let caster = RayCaster::new(&pass_model.patches);
-        let mut samples = reflectance::sample(
-            first,
-            &luminaires,
-            &pass_model,
-            &caster,
-            &reco,
-            &o.reflectance,
-        );
-        // the other nodes' pixels, in the first camera's units
-        let g0 = cam.luminance_cd_m2_per_unit.unwrap_or(1.0);
-        for c in &captures[1..] {
-            let more =
-                reflectance::sample(c, &luminaires, &pass_model, &caster, &reco, &o.reflectance);
-            samples.extend(more, c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0);
+    let (e, reading) = match (&o.gain, scale) {
+        (Gain::Camera, Some(g)) => (est.run(g), None),
+        (Gain::Ambient { .. }, _) if direct.is_some() => (
+            est.run(direct.as_ref().map_or(1.0, |d| d.gain_cd_m2_per_unit)),
+            None,
+        ),
+        (Gain::Camera, None) => {
+            return Err(CommissionError::NoCameraGain);
         }
-        let floor_part = floor_idx.map(|k| Part::Plane(k as u32));
-        // seen furniture tops: the inferred desk tops take their reflectance
-        let tops_seen: Vec<Part> = plane_at
-            .iter()
-            .enumerate()
-            .filter(|&(k, &(n, _))| Some(k) != floor_idx && n.z > 0.98)
-            .map(|(k, _)| Part::Plane(k as u32))
-            .collect();
-        let run = |gain: f64| {
-            reflectance::estimate(
-                &samples,
-                &pass_model,
-                &reco,
-                &start_rho,
-                floor_part,
-                &tops_seen,
-                gain,
-                &pass,
-                &o.reflectance,
-            )
-        };
-        // a sensor that sees only what the camera sees: its gain straight from the frames
-        let direct = match &o.gain {
-            Gain::Ambient {
-                normal,
-                lux_lx,
-                levels,
-                response,
-                ..
-            } => match ambient::direct_gain(
-                first,
-                response,
-                DVec3::from_array(*normal),
-                *lux_lx,
-                levels,
-            ) {
-                Ok(d) => {
-                    tracing::info!(
-                        "ambient light sensor: the camera's gain measured directly, {:.6} cd/m2 \
-                         per unit ({:.1} % of the sensor's view in the image, {:.2} % saturated)",
-                        d.gain_cd_m2_per_unit,
-                        100.0 * d.covered,
-                        100.0 * d.saturated
-                    );
-                    Some(d)
-                }
-                Err(e) => {
-                    report.warnings.push(format!(
-                        "ambient light sensor: {e}; the gain comes through the model instead \
-                         (its unseen surfaces' default reflectances enter it)"
-                    ));
-                    None
-                }
-            },
-            _ => None,
-        };
-        report.ambient_direct = direct.clone();
-        let est = match (&o.gain, scale) {
-            (Gain::Camera, Some(g)) => run(g),
-            (Gain::Ambient { .. }, _) if direct.is_some() => {
-                run(direct.as_ref().map_or(1.0, |d| d.gain_cd_m2_per_unit))
-            }
-            (Gain::Camera, None) => {
-                return Err(CommissionError::Input(
-                    "camera.json has no luminance_cd_m2_per_unit: give a luxmeter reading".into(),
-                ));
-            }
-            (Gain::Luxmeter { .. } | Gain::Ambient { .. }, _) => {
-                // the reading's model: a desk sensor of the scene, or the node's sensor
-                let (target_lx, levels, at) =
-                    match &o.gain {
-                        Gain::Luxmeter {
-                            sensor_id,
-                            lux_lx,
-                            levels,
-                        } => {
-                            let s = sensors.iter().position(|s| s.id == *sensor_id).ok_or_else(
-                                || {
-                                    CommissionError::Input(format!(
-                                        "luxmeter sensor {sensor_id} is not in the sensors"
-                                    ))
-                                },
-                            )?;
-                            (*lux_lx, levels.clone(), Reading::Sensor(s, *sensor_id))
-                        }
-                        Gain::Ambient {
-                            position_m,
-                            normal,
-                            lux_lx,
-                            levels,
-                            ..
-                        } => (
-                            *lux_lx,
-                            levels.clone(),
-                            Reading::Point(
-                                DVec3::from_array(*position_m),
-                                DVec3::from_array(*normal).normalize_or_zero(),
-                            ),
-                        ),
-                        Gain::Camera => unreachable_gain()?,
-                    };
-                if levels.len() != luminaires.len() || !(target_lx.is_finite() && target_lx > 0.0) {
-                    return Err(CommissionError::Input(format!(
-                        "{} reading: need a reading > 0 lx and one level per luminaire",
-                        at.what()
-                    )));
-                }
-                let point = match at {
-                    Reading::Point(p, n) => {
-                        if n == DVec3::ZERO {
-                            return Err(CommissionError::Input(
-                                "ambient light sensor: its facing is not a direction".into(),
-                            ));
-                        }
-                        Some(reflectance::PointReceiver::new(
-                            &pass_model,
-                            &luminaires,
-                            &caster,
-                            p,
-                            n,
-                            o.gain.response(),
-                            AMBIENT_RAYS,
-                        ))
-                    }
-                    Reading::Sensor(..) => None,
-                };
-                let reading = |e: &Estimate| {
-                    let patch_rho: Vec<f64> = pass_model
-                        .patches
-                        .source_triangle
-                        .iter()
-                        .map(|&t| e.tri_rho[t as usize])
-                        .collect();
-                    match (&at, &point) {
-                        (Reading::Sensor(s, _), _) => reflectance::sensor_reading_lx(
-                            &pass_model,
-                            *s,
-                            &levels,
-                            &patch_rho,
-                            &pass,
-                        ),
-                        (_, Some(r)) => r.reading_lx(&pass_model, &levels, &patch_rho, &pass),
-                        _ => 0.0,
-                    }
-                };
-                // bisection on log(gain), twice: the second time against the target
-                // corrected by the final model's reading at the first gain
-                let bisect = |target: f64| {
-                    let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
-                    let mut best = (run(1.0), 1.0);
-                    for _ in 0..40 {
-                        let mid = 0.5 * (lo + hi);
-                        let e = run(mid.exp());
-                        if reading(&e) < target {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                        best = (e, mid.exp());
-                        if hi - lo < 1e-3 {
-                            break;
-                        }
-                    }
-                    best
-                };
-                let (first, _) = bisect(target_lx);
-                let pass_reading = reading(&first);
-                let scene = make_scene(&first.tri_rho);
-                let full = run_engine(&scene, &o.engine, &mut report.warnings)?;
-                let full_reading = at.final_reading(&scene, &full, &levels, o.gain.response())?;
-                let target = if full_reading > 0.0 {
-                    target_lx * pass_reading / full_reading
-                } else {
-                    target_lx
-                };
-                let (best, gain) = bisect(target);
-                let _ = gain;
-                luxmeter_fix = Some((at, target_lx, levels));
-                best
-            }
-        };
-        if est.clamped > 0 {
-            report.warnings.push(format!(
-                "{} triangles had reflectances outside [{}, {}] and were clamped",
-                est.clamped, o.reflectance.rho_min, o.reflectance.rho_max
-            ));
+        (Gain::Luxmeter { .. } | Gain::Ambient { .. }, _) => {
+            let (e, r) = gain_through_model(i, reco, &est, &caster, report)?;
+            (e, Some(r))
         }
-        tri_rho = est.tri_rho.clone();
-        report.reflectance = est;
-        st.done(&mut report);
+    };
+    if e.clamped > 0 {
+        report.warnings.push(format!(
+            "{} triangles had reflectances outside [{}, {}] and were clamped",
+            e.clamped, o.reflectance.rho_min, o.reflectance.rho_max
+        ));
     }
+    let tri_rho = e.tri_rho.clone();
+    report.reflectance = e;
+    st.done(report);
+    Ok(Reflectances { tri_rho, reading })
+}
 
-    let st = Stage::start("engine", o.progress);
-    let scene = make_scene(&tri_rho);
+/// With [`Gain::Ambient`]: the sensor's gain straight from the frames, where it sees only what
+/// the camera sees (otherwise a warning, and the gain comes through the model).
+fn ambient_direct(i: &Inputs, report: &mut Report) -> Option<ambient::DirectGain> {
+    let Gain::Ambient {
+        normal,
+        lux_lx,
+        levels,
+        response,
+        ..
+    } = &i.o.gain
+    else {
+        return None;
+    };
+    match ambient::direct_gain(
+        i.first(),
+        response,
+        DVec3::from_array(*normal),
+        *lux_lx,
+        levels,
+    ) {
+        Ok(d) => {
+            tracing::info!(
+                "ambient light sensor: the camera's gain measured directly, {:.6} cd/m2 \
+                 per unit ({:.1} % of the sensor's view in the image, {:.2} % saturated)",
+                d.gain_cd_m2_per_unit,
+                100.0 * d.covered,
+                100.0 * d.saturated
+            );
+            Some(d)
+        }
+        Err(e) => {
+            report.warnings.push(format!(
+                "ambient light sensor: {e}; the gain comes through the model instead \
+                 (its unseen surfaces' default reflectances enter it)"
+            ));
+            None
+        }
+    }
+}
+
+/// The gain reading of a luxmeter or ambient gain: the reading, the dimming state and where.
+fn gain_reading(i: &Inputs) -> Result<GainReading, CommissionError> {
+    let (lux_lx, levels, at) = match &i.o.gain {
+        Gain::Luxmeter {
+            sensor_id,
+            lux_lx,
+            levels,
+        } => {
+            let s = i.sensors.iter().position(|s| s.id == *sensor_id).ok_or(
+                CommissionError::LuxmeterSensor {
+                    sensor_id: *sensor_id,
+                },
+            )?;
+            (*lux_lx, levels.clone(), Reading::Sensor(s, *sensor_id))
+        }
+        Gain::Ambient {
+            position_m,
+            normal,
+            lux_lx,
+            levels,
+            ..
+        } => (
+            *lux_lx,
+            levels.clone(),
+            Reading::Point(
+                DVec3::from_array(*position_m),
+                DVec3::from_array(*normal).normalize_or_zero(),
+            ),
+        ),
+        Gain::Camera => unreachable_gain()?,
+    };
+    if levels.len() != i.luminaires.len() || !(lux_lx.is_finite() && lux_lx > 0.0) {
+        return Err(CommissionError::GainReading {
+            what: at.what(),
+            lux_lx,
+            levels: levels.len(),
+            luminaires: i.luminaires.len(),
+        });
+    }
+    if let Reading::Point(_, n) = at
+        && n == DVec3::ZERO
+    {
+        return Err(CommissionError::AmbientFacing);
+    }
+    Ok(GainReading { at, lux_lx, levels })
+}
+
+/// The estimate at the gain for which the model reads the luxmeter's (or a bare ambient
+/// sensor's) reading: bisection on log(gain) with the pass model, twice: the second time
+/// against the target corrected by the final model's reading at the first gain.
+fn gain_through_model(
+    i: &Inputs,
+    reco: &RecoMesh,
+    est: &Estimator,
+    caster: &RayCaster,
+    report: &mut Report,
+) -> Result<(Estimate, GainReading), CommissionError> {
+    let g = gain_reading(i)?;
+    let pass_model = est.pass_model;
+    let point = match g.at {
+        Reading::Point(p, n) => Some(reflectance::PointReceiver::new(
+            pass_model,
+            i.luminaires,
+            caster,
+            p,
+            n,
+            i.o.gain.response(),
+            AMBIENT_RAYS,
+        )),
+        Reading::Sensor(..) => None,
+    };
+    let reading = |e: &Estimate| {
+        let patch_rho: Vec<f64> = pass_model
+            .patches
+            .source_triangle
+            .iter()
+            .map(|&t| e.tri_rho[t as usize])
+            .collect();
+        match (&g.at, &point) {
+            (Reading::Sensor(s, _), _) => {
+                reflectance::sensor_reading_lx(pass_model, *s, &g.levels, &patch_rho, &est.pass)
+            }
+            (_, Some(r)) => r.reading_lx(pass_model, &g.levels, &patch_rho, &est.pass),
+            _ => 0.0,
+        }
+    };
+    let bisect = |target: f64| {
+        let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
+        let mut best = est.run(1.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            let e = est.run(mid.exp());
+            if reading(&e) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+            best = e;
+            if hi - lo < 1e-3 {
+                break;
+            }
+        }
+        best
+    };
+    let first = bisect(g.lux_lx);
+    let pass_reading = reading(&first);
+    let scene = i.scene(reco, &first.tri_rho);
+    let full = run_engine(&scene, &i.o.engine, &mut report.warnings)?;
+    let full_reading =
+        g.at.final_reading(&scene, &full, &g.levels, i.o.gain.response())?;
+    let target = if full_reading > 0.0 {
+        g.lux_lx * pass_reading / full_reading
+    } else {
+        g.lux_lx
+    };
+    Ok((bisect(target), g))
+}
+
+/// Stage "engine": the final model at the estimated reflectances; with a gain reading, the
+/// model's own reading checked against it; with an ambient sensor, its response per luminaire.
+fn final_model(
+    i: &Inputs,
+    reco: &RecoMesh,
+    refl: &Reflectances,
+    report: &mut Report,
+) -> Result<(Scene, Model), CommissionError> {
+    let o = i.o;
+    let scene = i.scene(reco, &refl.tri_rho);
     let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
     report.patches = model.patches.len();
-    if let Some((at, lux, levels)) = &luxmeter_fix {
-        let r = at.final_reading(&scene, &model, levels, o.gain.response())?;
+    if let Some(GainReading { at, lux_lx, levels }) = &refl.reading {
+        let (r, lux) = (
+            at.final_reading(&scene, &model, levels, o.gain.response())?,
+            *lux_lx,
+        );
         if (r - lux).abs() > 0.05 * lux {
             report.warnings.push(format!(
                 "{} gain: the model reads {r:.0} lx at {}, not {lux:.0} lx \
@@ -1153,19 +1538,107 @@ pub fn from_captures(
         );
         report.ambient_response_lx = p.per_luminaire_lx.into_iter().next();
     }
+    Ok((scene, model))
+}
+
+/// Commissions one room from the capture sets of several nodes (each camera with its pose in
+/// the room's frame): one room model, and one [`Commissioned`] per node with that node's camera,
+/// depth and sensor flags (each node serves the desks it sees; every node's model holds the
+/// whole room).
+///
+/// Each node's depth is meshed on its own. The floor is one plane for the room: the first node
+/// that found a floor meshes it over the room box, its cells seen where any node saw floor, the
+/// rest inferred. Every other seen triangle is kept by the node nearest to it among those that
+/// see it, so a surface two nodes see is modelled once. Reflectances come from every node's
+/// frames, each at its camera's gain (several nodes need their gains in camera.json).
+///
+/// The stages, each a function: depth fusion ([`fuse_depths`]: depth maps), planes
+/// ([`find_planes`]: [`NodePlanes`]), mesh ([`mesh_room`]: [`Meshed`]), closure
+/// ([`close_room`]), reflectances ([`estimate_reflectances`]: [`Reflectances`]), engine
+/// ([`final_model`]: scene and model), uncertainty ([`uncertainty::per_sensor`]).
+pub fn from_captures(
+    captures: &[Capture],
+    luminaires: Vec<Luminaire>,
+    sensors: Vec<Sensor>,
+    desks: Option<Desks>,
+    o: &CommissionOptions,
+) -> Result<Vec<Commissioned>, CommissionError> {
+    o.validate()?;
+    if !o.readings.is_empty() {
+        return with_readings(captures, luminaires, sensors, desks, o);
+    }
+    let i = Inputs {
+        captures,
+        luminaires: &luminaires,
+        sensors: &sensors,
+        desks: desks.as_ref(),
+        o,
+    };
+    check_captures(&i)?;
+    let mut report = Report {
+        warnings: captures.iter().flat_map(|c| c.warnings.clone()).collect(),
+        ..Report::default()
+    };
+
+    let st = Stage::start("depth", o.progress);
+    let depths = fuse_depths(&i)?;
+    report.depth = depths[0].stats;
+    st.done(&mut report);
+
+    let st = Stage::start("planes", o.progress);
+    let planes = find_planes(&i, &depths);
+    st.done(&mut report);
+
+    let st = Stage::start("mesh", o.progress);
+    let mut meshed = mesh_room(&i, &depths, &planes, &mut report)?;
+    st.done(&mut report);
+
+    let st = Stage::start("closure", o.progress);
+    close_room(&i, &mut meshed, &mut report)?;
+    st.done(&mut report);
+
+    let start_rho = start_rho(&meshed.reco, o);
+    let refl = if o.estimate_reflectances {
+        estimate_reflectances(&i, &meshed, &start_rho, &mut report)?
+    } else {
+        Reflectances {
+            tri_rho: start_rho,
+            reading: None,
+        }
+    };
+
+    let st = Stage::start("engine", o.progress);
+    let (scene, model) = final_model(&i, &meshed.reco, &refl, &mut report)?;
     st.done(&mut report);
 
     let st = Stage::start("uncertainty", o.progress);
-    match uncertainty::per_sensor(&model, &reco, &o.uncertainty) {
+    match uncertainty::per_sensor(&model, &meshed.reco, &o.uncertainty) {
         Ok(u) => report.uncertainty = u,
         Err(e) => report
             .warnings
             .push(format!("the desks' stated uncertainty: {e}")),
     }
     st.done(&mut report);
+    Ok(per_node(
+        captures,
+        depths,
+        scene,
+        model,
+        meshed.reco,
+        report,
+    ))
+}
 
-    // one per node: its camera, depth and view of the desks; the room's model
-    Ok(captures
+/// One [`Commissioned`] per node: its camera, depth and view of the desks; the room's model.
+fn per_node(
+    captures: &[Capture],
+    depths: Vec<DepthMap>,
+    scene: Scene,
+    model: Model,
+    reco: RecoMesh,
+    report: Report,
+) -> Vec<Commissioned> {
+    captures
         .iter()
         .zip(depths)
         .map(|(c, depth)| {
@@ -1183,7 +1656,7 @@ pub fn from_captures(
                 report: report.clone(),
             }
         })
-        .collect())
+        .collect()
 }
 
 /// Flags per sensor: out of view when the camera does not see its position (outside the

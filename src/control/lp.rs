@@ -186,7 +186,6 @@ impl Lp<'_> {
     pub fn solve(&self, x: &mut [f64], scratch: &mut [f64]) -> Result<LpReport, LpError> {
         self.check(x)?;
         let (kr, l) = (self.rows, self.luminaires);
-        let ids = Ids { k: kr, l };
         let needed = scratch_len(kr, l);
         if scratch.len() < needed {
             return Err(LpError::Scratch {
@@ -194,198 +193,308 @@ impl Lp<'_> {
                 given: scratch.len(),
             });
         }
-        let width = kr; // nonbasic columns: K + L structural, L of them basic
-        let (tab, rest) = scratch.split_at_mut((l + 1) * width);
-        let (pivot_row, rest) = rest.split_at_mut(width);
-        let (column, rest) = rest.split_at_mut(l + 1);
-        let (slot_id, rest) = rest.split_at_mut(width); // the structural column in each slot
-        let (devex, rest) = rest.split_at_mut(width);
-        let (y_state, rest) = rest.split_at_mut(kr); // AT_LOWER / AT_UPPER of a nonbasic y
-        let (basic_id, rest) = rest.split_at_mut(l); // the basic variable of each row
-        let value = &mut rest[..l]; // its value
-        // the slack basis: row j is Σ_k a_kj y_k − z_j + w_j = c_j with w_j basic; the slots
-        // hold y_0..y_{K−1}; reduced costs (maximising) d(y_k) = b_k
-        for j in 0..l {
-            let row = &mut tab[j * width..(j + 1) * width];
-            for (k, v) in row.iter_mut().enumerate() {
-                *v = self.a[k * l + j];
-            }
-            basic_id[j] = ids.w(j) as f64;
-            value[j] = self.c[j];
-        }
-        tab[l * width..].copy_from_slice(self.b);
-        for (s, id) in slot_id.iter_mut().enumerate() {
-            *id = s as f64;
-        }
-        devex.iter_mut().for_each(|v| *v = 1.0);
-        y_state.iter_mut().for_each(|v| *v = AT_LOWER);
-        let upper = |id: usize| match ids.var(id) {
-            Var::Y(k) => self.m[k],
-            Var::W(_) | Var::Z(_) => f64::INFINITY,
-        };
+        let mut t = Tableau::slack_basis(self, scratch);
         let mut iterations = 0u32;
         let mut degenerate_run = 0u32;
         loop {
             if iterations >= self.max_iterations {
                 return Err(LpError::Iterations(iterations));
             }
-            let obj = &tab[l * width..(l + 1) * width];
-            // entering: an improving reduced cost (a y up from 0 if d > 0, down from m if
-            // d < 0; a pair as w if d(w) > 0, as z if d(z) = −1 − d(w) > 0)
-            let bland = degenerate_run > 50;
-            // (slot, variable id, its reduced cost, score)
-            let mut enter: Option<(usize, usize, f64, f64)> = None;
-            for (s, (&d_slot, &id)) in obj.iter().zip(slot_id.iter()).enumerate() {
-                let id = id as usize;
-                let (id, d, gain) = if id < kr {
-                    let up = y_state[id] == AT_UPPER;
-                    (id, d_slot, if up { -d_slot } else { d_slot })
-                } else if d_slot > 0.0 {
-                    (id, d_slot, d_slot)
-                } else {
-                    let j = id - kr;
-                    (ids.z(j), -1.0 - d_slot, -1.0 - d_slot)
-                };
-                if gain <= EPS * (1.0 + d.abs()) {
-                    continue;
-                }
-                let score = if bland {
-                    -(id as f64) // the least id first
-                } else {
-                    gain * gain / devex[s]
-                };
-                if enter.is_none_or(|e| score > e.3) {
-                    enter = Some((s, id, d, score));
-                }
-            }
-            let Some((q, e, d_e, _)) = enter else {
+            let Some((q, e, d_e)) = t.entering(degenerate_run > 50) else {
                 break;
             };
             iterations += 1;
-            // the entering column in the entering variable's orientation (z: −w's column)
-            let orient = if matches!(ids.var(e), Var::Z(_)) {
-                -1.0
-            } else {
-                1.0
-            };
-            // t ≥ 0 is the move of v_e away from its bound; basic values move by −dir·t·col
-            let from_upper = matches!(ids.var(e), Var::Y(k) if y_state[k] == AT_UPPER);
-            let sign = if from_upper { -1.0 } else { 1.0 };
-            for (i, c) in column[..l].iter_mut().enumerate() {
-                *c = orient * tab[i * width + q];
-            }
-            let mut t_max = upper(e); // a bound flip
-            let mut leave: Option<(usize, bool)> = None; // (row, goes to its upper bound)
-            for i in 0..l {
-                let alpha = sign * column[i];
-                let ub = upper(basic_id[i] as usize);
-                if alpha > EPS {
-                    let t = value[i] / alpha;
-                    if t < t_max - EPS || (leave.is_none() && t <= t_max) {
-                        t_max = t;
-                        leave = Some((i, false));
-                    }
-                } else if alpha < -EPS && ub.is_finite() {
-                    let t = (ub - value[i]) / -alpha;
-                    if t < t_max - EPS || (leave.is_none() && t <= t_max) {
-                        t_max = t;
-                        leave = Some((i, true));
-                    }
-                }
-            }
-            let t = t_max.max(0.0);
-            if !t.is_finite() {
+            let step = t.ratio_test(q, e);
+            if !step.t.is_finite() {
                 // (D) unbounded cannot happen: every y is bounded, z and w only lose objective
                 return Err(LpError::Iterations(iterations));
             }
-            degenerate_run = if t <= EPS { degenerate_run + 1 } else { 0 };
-            for (v, c) in value.iter_mut().zip(column.iter()) {
-                *v -= sign * t * c;
-            }
-            let Some((r, to_upper)) = leave else {
-                // a bound flip: the y goes to its other bound, the basis stays
-                if let Var::Y(k) = ids.var(e) {
-                    y_state[k] = if from_upper { AT_LOWER } else { AT_UPPER };
-                }
-                continue;
-            };
-            // the pivot: v_e enters at row r, the row's variable leaves into slot q
-            let out = basic_id[r] as usize;
-            let p = column[r];
-            column[l] = d_e;
-            // Devex weights from the pivot row (before the pivot)
-            let wq = devex[q];
-            for (s, w) in devex.iter_mut().enumerate() {
-                let a = tab[r * width + s] / p;
-                *w = w.max(a * a * wq);
-            }
-            devex[q] = (wq / (p * p)).max(1.0);
-            // the pivot row over p; the entering slot becomes the leaving variable's column
-            // (e_r through the same row operations: 1/p in row r, −column_i/p elsewhere)
-            for (pr, v) in pivot_row.iter_mut().zip(&tab[r * width..(r + 1) * width]) {
-                *pr = v / p;
-            }
-            pivot_row[q] = 1.0 / p;
-            for (i, row) in tab.chunks_exact_mut(width).enumerate() {
-                if i == r {
-                    row.copy_from_slice(pivot_row);
-                    continue;
-                }
-                let f = column[i];
-                row[q] = 0.0;
-                if f == 0.0 {
-                    continue;
-                }
-                for (v, pr) in row.iter_mut().zip(pivot_row.iter()) {
-                    *v -= f * pr;
-                }
-            }
-            // the leaving variable into the slot: a y at the bound it reached, a pair as its
-            // w column (a z leaving: negate, d(w) = −1 − d(z))
-            match ids.var(out) {
-                Var::Y(k) => {
-                    y_state[k] = if to_upper { AT_UPPER } else { AT_LOWER };
-                    slot_id[q] = k as f64;
-                }
-                Var::W(j) => slot_id[q] = ids.w(j) as f64,
-                Var::Z(j) => {
-                    for i in 0..l {
-                        tab[i * width + q] = -tab[i * width + q];
-                    }
-                    tab[l * width + q] = -1.0 - tab[l * width + q];
-                    slot_id[q] = ids.w(j) as f64;
-                }
-            }
-            let entering_value = if from_upper { upper(e) - t } else { t };
-            basic_id[r] = e as f64;
-            value[r] = entering_value;
+            degenerate_run = if step.t <= EPS { degenerate_run + 1 } else { 0 };
+            t.step(q, e, d_e, &step);
         }
-        // x_j = −d(w_j): from its slot, 0 if w_j is basic, 1 if z_j is
-        x.iter_mut().for_each(|v| *v = 0.0);
-        for (s, &id) in slot_id.iter().enumerate() {
-            if let Var::W(j) = ids.var(id as usize) {
-                x[j] = (-tab[l * width + s]).clamp(0.0, 1.0);
-            }
-        }
-        for &id in basic_id.iter() {
-            if let Var::Z(j) = ids.var(id as usize) {
-                x[j] = 1.0;
-            }
-        }
+        t.solution(x);
+        Ok(LpReport {
+            iterations,
+            objective: self.objective(x),
+        })
+    }
+
+    /// (P)'s objective at `x`: `Σ_j c_j x_j + Σ_k m_k max(0, b_k − Σ_j a_kj x_j)`.
+    fn objective(&self, x: &[f64]) -> f64 {
+        let l = self.luminaires;
         let mut objective = 0.0;
         for (j, &xj) in x.iter().enumerate() {
             objective += self.c[j] * xj;
         }
-        for k in 0..kr {
+        for k in 0..self.rows {
             let mut lhs = 0.0;
             for (j, &xj) in x.iter().enumerate() {
                 lhs += self.a[k * l + j] * xj;
             }
             objective += self.m[k] * (self.b[k] - lhs).max(0.0);
         }
-        Ok(LpReport {
-            iterations,
-            objective,
-        })
+        objective
+    }
+}
+
+/// The compact simplex tableau of (D), in the caller's scratch: L basic rows and the reduced
+/// costs over K nonbasic slots.
+struct Tableau<'s, 'a> {
+    lp: &'s Lp<'a>,
+    ids: Ids,
+    /// Slots per row (K).
+    width: usize,
+    /// `(L + 1) × width`: the basic rows, then the reduced costs.
+    tab: &'s mut [f64],
+    pivot_row: &'s mut [f64],
+    /// The entering column (L + 1).
+    column: &'s mut [f64],
+    /// The structural column in each slot.
+    slot_id: &'s mut [f64],
+    /// Devex weights per slot.
+    devex: &'s mut [f64],
+    /// AT_LOWER / AT_UPPER of a nonbasic y.
+    y_state: &'s mut [f64],
+    /// The basic variable of each row.
+    basic_id: &'s mut [f64],
+    /// Its value.
+    value: &'s mut [f64],
+}
+
+/// A step of the ratio test: the move `t` ≥ 0 of the entering variable away from its bound,
+/// and the row that leaves (with whether its variable goes to its upper bound); none: a bound
+/// flip.
+struct Step {
+    t: f64,
+    leave: Option<(usize, bool)>,
+    from_upper: bool,
+}
+
+impl<'s, 'a> Tableau<'s, 'a> {
+    /// The slack basis: row j is Σ_k a_kj y_k − z_j + w_j = c_j with w_j basic; the slots hold
+    /// y_0..y_{K−1}; reduced costs (maximising) d(y_k) = b_k.
+    fn slack_basis(lp: &'s Lp<'a>, scratch: &'s mut [f64]) -> Self {
+        let (kr, l) = (lp.rows, lp.luminaires);
+        let ids = Ids { k: kr, l };
+        let width = kr; // nonbasic columns: K + L structural, L of them basic
+        let (tab, rest) = scratch.split_at_mut((l + 1) * width);
+        let (pivot_row, rest) = rest.split_at_mut(width);
+        let (column, rest) = rest.split_at_mut(l + 1);
+        let (slot_id, rest) = rest.split_at_mut(width);
+        let (devex, rest) = rest.split_at_mut(width);
+        let (y_state, rest) = rest.split_at_mut(kr);
+        let (basic_id, rest) = rest.split_at_mut(l);
+        let value = &mut rest[..l];
+        for j in 0..l {
+            let row = &mut tab[j * width..(j + 1) * width];
+            for (k, v) in row.iter_mut().enumerate() {
+                *v = lp.a[k * l + j];
+            }
+            basic_id[j] = ids.w(j) as f64;
+            value[j] = lp.c[j];
+        }
+        tab[l * width..].copy_from_slice(lp.b);
+        for (s, id) in slot_id.iter_mut().enumerate() {
+            *id = s as f64;
+        }
+        devex.iter_mut().for_each(|v| *v = 1.0);
+        y_state.iter_mut().for_each(|v| *v = AT_LOWER);
+        Tableau {
+            lp,
+            ids,
+            width,
+            tab,
+            pivot_row,
+            column,
+            slot_id,
+            devex,
+            y_state,
+            basic_id,
+            value,
+        }
+    }
+
+    /// A variable's upper bound (a y's `m_k`; w and z are unbounded above).
+    fn upper(&self, id: usize) -> f64 {
+        match self.ids.var(id) {
+            Var::Y(k) => self.lp.m[k],
+            Var::W(_) | Var::Z(_) => f64::INFINITY,
+        }
+    }
+
+    /// The entering variable: (slot, id, reduced cost) of an improving reduced cost (a y up
+    /// from 0 if d > 0, down from m if d < 0; a pair as w if d(w) > 0, as z if
+    /// d(z) = −1 − d(w) > 0); Devex-scored, or the least id (Bland) against cycling.
+    fn entering(&self, bland: bool) -> Option<(usize, usize, f64)> {
+        let (l, width, kr) = (self.lp.luminaires, self.width, self.lp.rows);
+        let obj = &self.tab[l * width..(l + 1) * width];
+        // (slot, variable id, its reduced cost, score)
+        let mut enter: Option<(usize, usize, f64, f64)> = None;
+        for (s, (&d_slot, &id)) in obj.iter().zip(self.slot_id.iter()).enumerate() {
+            let id = id as usize;
+            let (id, d, gain) = if id < kr {
+                let up = self.y_state[id] == AT_UPPER;
+                (id, d_slot, if up { -d_slot } else { d_slot })
+            } else if d_slot > 0.0 {
+                (id, d_slot, d_slot)
+            } else {
+                let j = id - kr;
+                (self.ids.z(j), -1.0 - d_slot, -1.0 - d_slot)
+            };
+            if gain <= EPS * (1.0 + d.abs()) {
+                continue;
+            }
+            let score = if bland {
+                -(id as f64) // the least id first
+            } else {
+                gain * gain / self.devex[s]
+            };
+            if enter.is_none_or(|e| score > e.3) {
+                enter = Some((s, id, d, score));
+            }
+        }
+        enter.map(|(q, e, d_e, _)| (q, e, d_e))
+    }
+
+    /// The ratio test for variable `e` entering from slot `q` (fills the entering column).
+    fn ratio_test(&mut self, q: usize, e: usize) -> Step {
+        let (l, width) = (self.lp.luminaires, self.width);
+        // the entering column in the entering variable's orientation (z: −w's column)
+        let orient = if matches!(self.ids.var(e), Var::Z(_)) {
+            -1.0
+        } else {
+            1.0
+        };
+        // t ≥ 0 is the move of v_e away from its bound; basic values move by −dir·t·col
+        let from_upper = matches!(self.ids.var(e), Var::Y(k) if self.y_state[k] == AT_UPPER);
+        let sign = if from_upper { -1.0 } else { 1.0 };
+        for (i, c) in self.column[..l].iter_mut().enumerate() {
+            *c = orient * self.tab[i * width + q];
+        }
+        let mut t_max = self.upper(e); // a bound flip
+        let mut leave: Option<(usize, bool)> = None; // (row, goes to its upper bound)
+        for i in 0..l {
+            let alpha = sign * self.column[i];
+            let ub = self.upper(self.basic_id[i] as usize);
+            if alpha > EPS {
+                let t = self.value[i] / alpha;
+                if t < t_max - EPS || (leave.is_none() && t <= t_max) {
+                    t_max = t;
+                    leave = Some((i, false));
+                }
+            } else if alpha < -EPS && ub.is_finite() {
+                let t = (ub - self.value[i]) / -alpha;
+                if t < t_max - EPS || (leave.is_none() && t <= t_max) {
+                    t_max = t;
+                    leave = Some((i, true));
+                }
+            }
+        }
+        Step {
+            t: t_max.max(0.0),
+            leave,
+            from_upper,
+        }
+    }
+
+    /// Moves the basic values by the step; then a bound flip, or the pivot (variable `e` with
+    /// reduced cost `d_e` enters from slot `q`).
+    fn step(&mut self, q: usize, e: usize, d_e: f64, step: &Step) {
+        let (sign, t) = (if step.from_upper { -1.0 } else { 1.0 }, step.t);
+        for (v, c) in self.value.iter_mut().zip(self.column.iter()) {
+            *v -= sign * t * c;
+        }
+        let Some((r, to_upper)) = step.leave else {
+            // a bound flip: the y goes to its other bound, the basis stays
+            if let Var::Y(k) = self.ids.var(e) {
+                self.y_state[k] = if step.from_upper { AT_LOWER } else { AT_UPPER };
+            }
+            return;
+        };
+        let out = self.basic_id[r] as usize;
+        self.pivot(r, q, d_e);
+        self.leave_into_slot(q, out, to_upper);
+        let entering_value = if step.from_upper {
+            self.upper(e) - t
+        } else {
+            t
+        };
+        self.basic_id[r] = e as f64;
+        self.value[r] = entering_value;
+    }
+
+    /// The pivot: the entering variable at row `r`, the row's variable leaves into slot `q`
+    /// (Devex weights from the pivot row, then the row operations).
+    fn pivot(&mut self, r: usize, q: usize, d_e: f64) {
+        let (l, width) = (self.lp.luminaires, self.width);
+        let p = self.column[r];
+        self.column[l] = d_e;
+        // Devex weights from the pivot row (before the pivot)
+        let wq = self.devex[q];
+        for (s, w) in self.devex.iter_mut().enumerate() {
+            let a = self.tab[r * width + s] / p;
+            *w = w.max(a * a * wq);
+        }
+        self.devex[q] = (wq / (p * p)).max(1.0);
+        // the pivot row over p; the entering slot becomes the leaving variable's column
+        // (e_r through the same row operations: 1/p in row r, −column_i/p elsewhere)
+        for (pr, v) in self
+            .pivot_row
+            .iter_mut()
+            .zip(&self.tab[r * width..(r + 1) * width])
+        {
+            *pr = v / p;
+        }
+        self.pivot_row[q] = 1.0 / p;
+        for (i, row) in self.tab.chunks_exact_mut(width).enumerate() {
+            if i == r {
+                row.copy_from_slice(self.pivot_row);
+                continue;
+            }
+            let f = self.column[i];
+            row[q] = 0.0;
+            if f == 0.0 {
+                continue;
+            }
+            for (v, pr) in row.iter_mut().zip(self.pivot_row.iter()) {
+                *v -= f * pr;
+            }
+        }
+    }
+
+    /// The leaving variable `out` into slot `q`: a y at the bound it reached, a pair as its w
+    /// column (a z leaving: negate, d(w) = −1 − d(z)).
+    fn leave_into_slot(&mut self, q: usize, out: usize, to_upper: bool) {
+        let (l, width) = (self.lp.luminaires, self.width);
+        match self.ids.var(out) {
+            Var::Y(k) => {
+                self.y_state[k] = if to_upper { AT_UPPER } else { AT_LOWER };
+                self.slot_id[q] = k as f64;
+            }
+            Var::W(j) => self.slot_id[q] = self.ids.w(j) as f64,
+            Var::Z(j) => {
+                for i in 0..l {
+                    self.tab[i * width + q] = -self.tab[i * width + q];
+                }
+                self.tab[l * width + q] = -1.0 - self.tab[l * width + q];
+                self.slot_id[q] = self.ids.w(j) as f64;
+            }
+        }
+    }
+
+    /// The outputs: x_j = −d(w_j) from its slot, 0 if w_j is basic, 1 if z_j is.
+    fn solution(&self, x: &mut [f64]) {
+        let (l, width) = (self.lp.luminaires, self.width);
+        x.iter_mut().for_each(|v| *v = 0.0);
+        for (s, &id) in self.slot_id.iter().enumerate() {
+            if let Var::W(j) = self.ids.var(id as usize) {
+                x[j] = (-self.tab[l * width + s]).clamp(0.0, 1.0);
+            }
+        }
+        for &id in self.basic_id.iter() {
+            if let Var::Z(j) = self.ids.var(id as usize) {
+                x[j] = 1.0;
+            }
+        }
     }
 }

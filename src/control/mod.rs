@@ -509,18 +509,7 @@ fn exchange_down(
     let (best, rest) = rest.split_at_mut(kd);
     let (second, rest) = rest.split_at_mut(kd);
     let best_of = &mut rest[..kd];
-    for k in 0..kd {
-        let (mut b1, mut b2, mut i1) = (0.0f64, 0.0f64, usize::MAX);
-        for i in 0..l {
-            let ratio = r[k * l + i] / plant.power[i].slope_w().max(1e-12);
-            if ratio > b1 {
-                (b2, b1, i1) = (b1, ratio, i);
-            } else if ratio > b2 {
-                b2 = ratio;
-            }
-        }
-        (best[k], second[k], best_of[k]) = (b1, b2, i1 as f64);
-    }
+    best_lux_per_watt(plant, best, second, best_of);
     // the least cost of covering the deficits left without luminaire j, W
     let bound = |deficit: &[f64], short: &[f64], j: usize| -> f64 {
         let mut most = 0.0f64;
@@ -627,21 +616,52 @@ fn exchange_down(
                 }
             }
             if ok && cost < saving - 1e-9 {
-                for i in 0..l {
-                    let dx = trial_x[i] - xq[i];
-                    if dx != 0.0 {
-                        for k in 0..kd {
-                            lux[k] += r[k * l + i] * dx;
-                        }
-                        xq[i] = trial_x[i];
-                        arc[i] = ArcLevel(trial_arc[i] as u8);
-                    }
-                }
+                take_trial(plant, (trial_x, trial_arc), arc, xq, lux);
                 improved = true;
             }
         }
         if !improved {
             break;
+        }
+    }
+}
+
+/// Per desk: the most lux per watt any luminaire adds (`best`), the second most (`second`),
+/// and whose the most is (`best_of`, as f64).
+fn best_lux_per_watt(plant: &Plant<'_>, best: &mut [f64], second: &mut [f64], best_of: &mut [f64]) {
+    let (kd, l, r) = (plant.desks, plant.luminaires, plant.response_lx);
+    for k in 0..kd {
+        let (mut b1, mut b2, mut i1) = (0.0f64, 0.0f64, usize::MAX);
+        for i in 0..l {
+            let ratio = r[k * l + i] / plant.power[i].slope_w().max(1e-12);
+            if ratio > b1 {
+                (b2, b1, i1) = (b1, ratio, i);
+            } else if ratio > b2 {
+                b2 = ratio;
+            }
+        }
+        (best[k], second[k], best_of[k]) = (b1, b2, i1 as f64);
+    }
+}
+
+/// Takes a trial's outputs and levels (`trial`: x, arc as f64): each changed luminaire's
+/// output, level and its light on the desks.
+fn take_trial(
+    plant: &Plant<'_>,
+    (trial_x, trial_arc): (&[f64], &[f64]),
+    arc: &mut [ArcLevel],
+    xq: &mut [f64],
+    lux: &mut [f64],
+) {
+    let (kd, l, r) = (plant.desks, plant.luminaires, plant.response_lx);
+    for i in 0..l {
+        let dx = trial_x[i] - xq[i];
+        if dx != 0.0 {
+            for k in 0..kd {
+                lux[k] += r[k * l + i] * dx;
+            }
+            xq[i] = trial_x[i];
+            arc[i] = ArcLevel(trial_arc[i] as u8);
         }
     }
 }

@@ -303,89 +303,12 @@ impl Regulator {
         } else {
             &zeros[..kd]
         };
-        let mut replanned = false;
-        if self.needs_plan(targets_lx, daylight, safe) {
-            let mut arc: Vec<ArcLevel, MAX_LUMINAIRES> = vec_of(ArcLevel::OFF, l);
-            let mut lux: Vec<f64, MAX_DESKS> = vec_of(0.0, kd);
-            let mut met: Vec<bool, MAX_DESKS> = vec_of(false, kd);
-            let report = optimise(
-                plant,
-                &Demand {
-                    target_lx: targets_lx,
-                    daylight_lx: daylight,
-                    uniformity: self.settings.uniformity,
-                },
-                PlanOut {
-                    arc: &mut arc,
-                    lux: &mut lux,
-                    met: &mut met,
-                },
-                scratch,
-            )?;
-            let mut power_w = report.power_w;
-            // (not for the safe plan: that one is the guarantee, taken as it is)
-            if !safe
-                && let Some((lux_now, power_now)) = self.holds(plant, targets_lx, daylight)
-                && report.power_w > (1.0 - self.settings.min_saving) * power_now
-            {
-                // the levels as they are meet every target and the new plan saves little:
-                // keep them
-                arc = self.current.clone();
-                lux = lux_now;
-                met = vec_of(true, kd);
-                power_w = power_now;
-            }
-            self.plan = Plan {
-                arc,
-                lux,
-                met,
-                power_w,
-                all_on_w: report.all_on_w,
-            };
-            self.planned_daylight = daylight.iter().copied().take(MAX_DESKS).collect();
-            self.planned_targets = targets_lx.iter().copied().take(MAX_DESKS).collect();
-            self.planned_mode = Some(self.mode);
-            self.planned_safe = safe;
-            replanned = true;
+        let replanned = self.needs_plan(targets_lx, daylight, safe);
+        if replanned {
+            self.replan(plant, targets_lx, daylight, safe, scratch)?;
         }
-        // the goal: the whole plan at once when a desk is short now; a plan that only saves
-        // power (every desk meets its target as things are) after the dim hold
-        let now = inputs.now_s;
         let first = self.current.contains(&ArcLevel::MASK);
-        let short_now = !first && {
-            let mut x: Vec<f64, MAX_LUMINAIRES> = Vec::new();
-            for a in &self.current {
-                let _ = x.push(a.fraction(plant.curve).unwrap_or(0.0));
-            }
-            let mut lux: Vec<f64, MAX_DESKS> = vec_of(0.0, kd);
-            super::desk_lux(plant, daylight, &x, &mut lux);
-            lux.iter()
-                .zip(targets_lx)
-                .any(|(e, t)| *e < t * (1.0 - self.settings.dead_band))
-        };
-        let dims = self
-            .plan
-            .arc
-            .iter()
-            .zip(&self.current)
-            .any(|(p, c)| p.0 < c.0);
-        let apply = if first || short_now || !dims {
-            self.pending_dim = None;
-            true
-        } else {
-            let since = *self.pending_dim.get_or_insert(now);
-            if now - since >= self.settings.dim_hold_s {
-                self.pending_dim = None;
-                true
-            } else {
-                false
-            }
-        };
-        let goal: Vec<ArcLevel, MAX_LUMINAIRES> = if apply {
-            self.plan.arc.clone()
-        } else {
-            self.current.clone()
-        };
+        let goal = self.goal(plant, targets_lx, daylight, inputs.now_s, first);
         // fade toward the goal
         let max_steps = if first {
             255.0
@@ -417,6 +340,110 @@ impl Regulator {
             replanned,
             safe,
         })
+    }
+
+    /// A new plan: the least-power levels for the targets and daylight (the safe plan without
+    /// daylight), unless the levels as they are meet every target and the plan saves little.
+    fn replan(
+        &mut self,
+        plant: &Plant<'_>,
+        targets_lx: &[f64],
+        daylight: &[f64],
+        safe: bool,
+        scratch: &mut [f64],
+    ) -> Result<(), ControlError> {
+        let (kd, l) = (plant.desks, plant.luminaires);
+        let mut arc: Vec<ArcLevel, MAX_LUMINAIRES> = vec_of(ArcLevel::OFF, l);
+        let mut lux: Vec<f64, MAX_DESKS> = vec_of(0.0, kd);
+        let mut met: Vec<bool, MAX_DESKS> = vec_of(false, kd);
+        let report = optimise(
+            plant,
+            &Demand {
+                target_lx: targets_lx,
+                daylight_lx: daylight,
+                uniformity: self.settings.uniformity,
+            },
+            PlanOut {
+                arc: &mut arc,
+                lux: &mut lux,
+                met: &mut met,
+            },
+            scratch,
+        )?;
+        let mut power_w = report.power_w;
+        // (not for the safe plan: that one is the guarantee, taken as it is)
+        if !safe
+            && let Some((lux_now, power_now)) = self.holds(plant, targets_lx, daylight)
+            && report.power_w > (1.0 - self.settings.min_saving) * power_now
+        {
+            // the levels as they are meet every target and the new plan saves little:
+            // keep them
+            arc = self.current.clone();
+            lux = lux_now;
+            met = vec_of(true, kd);
+            power_w = power_now;
+        }
+        self.plan = Plan {
+            arc,
+            lux,
+            met,
+            power_w,
+            all_on_w: report.all_on_w,
+        };
+        self.planned_daylight = daylight.iter().copied().take(MAX_DESKS).collect();
+        self.planned_targets = targets_lx.iter().copied().take(MAX_DESKS).collect();
+        self.planned_mode = Some(self.mode);
+        self.planned_safe = safe;
+        Ok(())
+    }
+
+    /// The levels to fade toward at `now_s`.
+    fn goal(
+        &mut self,
+        plant: &Plant<'_>,
+        targets_lx: &[f64],
+        daylight: &[f64],
+        now_s: f64,
+        first: bool,
+    ) -> Vec<ArcLevel, MAX_LUMINAIRES> {
+        let kd = plant.desks;
+        // the goal: the whole plan at once when a desk is short now; a plan that only saves
+        // power (every desk meets its target as things are) after the dim hold
+        let now = now_s;
+        let short_now = !first && {
+            let mut x: Vec<f64, MAX_LUMINAIRES> = Vec::new();
+            for a in &self.current {
+                let _ = x.push(a.fraction(plant.curve).unwrap_or(0.0));
+            }
+            let mut lux: Vec<f64, MAX_DESKS> = vec_of(0.0, kd);
+            super::desk_lux(plant, daylight, &x, &mut lux);
+            lux.iter()
+                .zip(targets_lx)
+                .any(|(e, t)| *e < t * (1.0 - self.settings.dead_band))
+        };
+        let dims = self
+            .plan
+            .arc
+            .iter()
+            .zip(&self.current)
+            .any(|(p, c)| p.0 < c.0);
+        let apply = if first || short_now || !dims {
+            self.pending_dim = None;
+            true
+        } else {
+            let since = *self.pending_dim.get_or_insert(now);
+            if now - since >= self.settings.dim_hold_s {
+                self.pending_dim = None;
+                true
+            } else {
+                false
+            }
+        };
+        if apply {
+            self.plan.arc.clone()
+        } else {
+            self.current.clone()
+        }
     }
 }
 

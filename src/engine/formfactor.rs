@@ -209,14 +209,73 @@ pub fn rectify(
         .filter(|&i| ff.cast[i] && area[i] > 0.0 && !takes_part[i])
         .count();
 
-    // 1. Symmetric pattern among taking-part patches: (j, i) exists wherever (i, j) does. The
-    //    transpose's columns, by counting sort (rows visited in order, so each list is sorted).
+    // 1. Symmetric pattern among taking-part patches, and each entry's partner.
+    ff.f = symmetric_pattern(&ff.f, &takes_part);
+    let row_of: Vec<u32> = (0..n)
+        .flat_map(|i| {
+            std::iter::repeat_n(i as u32, (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize)
+        })
+        .collect();
+    let partner = partners(&ff.f, &takes_part);
+
+    // 2. Exchange areas: ML common value for partnered pairs, A_i F_ij for one-sided entries.
+    let g = exchange_areas(ff, &area, &partner, &row_of);
+
+    // 3. Symmetric scaling to closure.
+    let target: Vec<f64> = ff.escaped.iter().map(|e| 1.0 - e).collect();
+    let in_play: Vec<bool> = (0..n).map(|i| ff.cast[i] && area[i] > 0.0).collect();
+    let closure = Closure {
+        f: &ff.f,
+        partner: &partner,
+        g: &g,
+        area_m2: &area,
+        target: &target,
+        in_play: &in_play,
+    };
+    let (x, iterations) = closure.scale(tolerance, max_iterations);
+    let x = &x;
+    let area = &area;
+    ff.f.val.par_iter_mut().enumerate().for_each(|(k, v)| {
+        let i = row_of[k] as usize;
+        if !in_play[i] {
+            return;
+        }
+        let xj = if partner[k] == u32::MAX {
+            1.0
+        } else {
+            x[ff.f.col[k] as usize]
+        };
+        *v = x[i] * g[k] * xj / area[i];
+    });
+    // 4. The guard: a row still off its target by more than the tolerance is scaled alone.
+    let capped = cap_rows(&mut ff.f, &target, &in_play, tolerance);
+    let mut is_capped = vec![false; n];
+    for &i in &capped {
+        is_capped[i] = true;
+    }
+    RectifyReport {
+        iterations,
+        reciprocity_error: reciprocity_error(&ff.f, &partner, area, &is_capped),
+        closure_error: (0..n)
+            .filter(|&i| in_play[i] && ff.f.row_sum(i) > 0.0)
+            .map(|i| (ff.f.row_sum(i) - target[i]).abs())
+            .fold(0.0, f64::max),
+        rows_capped: capped.len(),
+        sparse_patches,
+    }
+}
+
+/// `f` with a symmetric pattern among taking-part patches: (j, i) exists wherever (i, j) does
+/// (new entries 0). The transpose's columns by counting sort (rows visited in order, so each
+/// list is sorted), merged with each row's own sorted columns.
+fn symmetric_pattern(f: &Csr, takes_part: &[bool]) -> Csr {
+    let n = f.rows();
     let mut t_count = vec![0u32; n + 1];
     for i in 0..n {
         if !takes_part[i] {
             continue;
         }
-        for (j, _) in ff.f.row(i) {
+        for (j, _) in f.row(i) {
             if takes_part[j as usize] {
                 t_count[j as usize + 1] += 1;
             }
@@ -231,7 +290,7 @@ pub fn rectify(
         if !takes_part[i] {
             continue;
         }
-        for (j, _) in ff.f.row(i) {
+        for (j, _) in f.row(i) {
             let j = j as usize;
             if takes_part[j] {
                 t_col[fill[j] as usize] = i as u32;
@@ -240,197 +299,195 @@ pub fn rectify(
         }
     }
     drop(fill);
-    // Merge each row's own sorted columns with its transpose's (new entries start at 0).
     let merged: Vec<Vec<(u32, f64)>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let own = ff.f.row(i);
             if !takes_part[i] {
-                return own.collect();
+                return f.row(i).collect();
             }
             let tr = &t_col[t_count[i] as usize..t_count[i + 1] as usize];
-            let mut out = Vec::with_capacity(
-                tr.len().max(1) + (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize,
-            );
-            let mut own = own.peekable();
-            let mut k = 0;
-            loop {
-                match (own.peek().copied(), tr.get(k).copied()) {
-                    (Some((c, v)), Some(t)) => {
-                        if c < t {
-                            out.push((c, v));
-                            own.next();
-                        } else if t < c {
-                            out.push((t, 0.0));
-                            k += 1;
-                        } else {
-                            out.push((c, v));
-                            own.next();
-                            k += 1;
-                        }
-                    }
-                    (Some(e), None) => {
-                        out.push(e);
-                        own.next();
-                    }
-                    (None, Some(t)) => {
-                        out.push((t, 0.0));
-                        k += 1;
-                    }
-                    (None, None) => break,
+            merge_row(f, i, tr)
+        })
+        .collect();
+    Csr::from_rows(merged)
+}
+
+/// Row `i` of `f` merged with the sorted columns `tr` of its transpose (new entries 0).
+fn merge_row(f: &Csr, i: usize, tr: &[u32]) -> Vec<(u32, f64)> {
+    let mut out = Vec::with_capacity(tr.len().max(1) + (f.row_ptr[i + 1] - f.row_ptr[i]) as usize);
+    let mut own = f.row(i).peekable();
+    let mut k = 0;
+    loop {
+        match (own.peek().copied(), tr.get(k).copied()) {
+            (Some((c, v)), Some(t)) => {
+                if c < t {
+                    out.push((c, v));
+                    own.next();
+                } else if t < c {
+                    out.push((t, 0.0));
+                    k += 1;
+                } else {
+                    out.push((c, v));
+                    own.next();
+                    k += 1;
                 }
             }
-            out
-        })
-        .collect();
-    drop(t_col);
-    drop(t_count);
-    ff.f = Csr::from_rows(merged);
-    let nnz = ff.f.nnz();
-    let row_of: Vec<u32> = (0..n)
-        .flat_map(|i| {
-            std::iter::repeat_n(i as u32, (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize)
-        })
-        .collect();
-    // Partners without searching: rows are visited in order, so the entries (j, i) that row j
-    // holds for its partners i are met in increasing i, i.e. in the order of row j's sorted
-    // columns; one cursor per row walks them. O(nnz) with one step into row j per entry (a
-    // binary search per entry costs log(row length) cache misses once the matrix outgrows
-    // the cache: the superlinear part of the old rectification).
-    let mut partner = vec![u32::MAX; nnz];
-    let mut cursor: Vec<u32> = ff.f.row_ptr[..n].to_vec();
+            (Some(e), None) => {
+                out.push(e);
+                own.next();
+            }
+            (None, Some(t)) => {
+                out.push((t, 0.0));
+                k += 1;
+            }
+            (None, None) => break,
+        }
+    }
+    out
+}
+
+/// Each entry's partner (the index of entry (j, i) for entry (i, j); `u32::MAX`: none).
+///
+/// Partners without searching: rows are visited in order, so the entries (j, i) that row j
+/// holds for its partners i are met in increasing i, i.e. in the order of row j's sorted
+/// columns; one cursor per row walks them. O(nnz) with one step into row j per entry (a
+/// binary search per entry costs log(row length) cache misses once the matrix outgrows
+/// the cache: the superlinear part of the old rectification).
+fn partners(f: &Csr, takes_part: &[bool]) -> Vec<u32> {
+    let n = f.rows();
+    let mut partner = vec![u32::MAX; f.nnz()];
+    let mut cursor: Vec<u32> = f.row_ptr[..n].to_vec();
     for i in 0..n {
         if !takes_part[i] {
             continue;
         }
-        let (a, b) = (ff.f.row_ptr[i] as usize, ff.f.row_ptr[i + 1] as usize);
-        for (p, &j) in partner[a..b].iter_mut().zip(&ff.f.col[a..b]) {
+        let (a, b) = (f.row_ptr[i] as usize, f.row_ptr[i + 1] as usize);
+        for (p, &j) in partner[a..b].iter_mut().zip(&f.col[a..b]) {
             let j = j as usize;
             if !takes_part[j] {
                 continue;
             }
-            let end = ff.f.row_ptr[j + 1] as usize;
+            let end = f.row_ptr[j + 1] as usize;
             let mut q = cursor[j] as usize;
-            while q < end && (ff.f.col[q] as usize) < i {
+            while q < end && (f.col[q] as usize) < i {
                 q += 1;
             }
             cursor[j] = q as u32;
-            if q < end && ff.f.col[q] as usize == i {
+            if q < end && f.col[q] as usize == i {
                 *p = q as u32;
             }
         }
     }
-    drop(cursor);
+    partner
+}
 
-    // 2. Exchange areas: ML common value for partnered pairs, A_i F_ij for one-sided entries.
+/// Exchange areas per entry, m²: the ML common value for partnered pairs, `A_i F_ij` for
+/// one-sided entries.
+fn exchange_areas(ff: &FormFactors, area: &[f64], partner: &[u32], row_of: &[u32]) -> Vec<f64> {
     let n_rays = ff.rays_per_patch as f64;
-    let mut g = vec![0.0; nnz];
-    {
-        let old = &ff.f.val;
-        g.par_iter_mut().enumerate().for_each(|(k, gk)| {
-            let i = row_of[k] as usize;
-            let j = ff.f.col[k] as usize;
-            *gk = match partner[k] {
-                u32::MAX => area[i] * old[k],
-                p => ml_exchange_area(area[i], area[j], old[k], old[p as usize], n_rays),
-            };
-        });
-    }
+    let old = &ff.f.val;
+    let mut g = vec![0.0; ff.f.nnz()];
+    g.par_iter_mut().enumerate().for_each(|(k, gk)| {
+        let i = row_of[k] as usize;
+        let j = ff.f.col[k] as usize;
+        *gk = match partner[k] {
+            u32::MAX => area[i] * old[k],
+            p => ml_exchange_area(area[i], area[j], old[k], old[p as usize], n_rays),
+        };
+    });
+    g
+}
 
-    // 3. Symmetric scaling to closure (Gauss-Seidel over rows: each pass O(nnz)).
-    let target: Vec<f64> = ff.escaped.iter().map(|e| 1.0 - e).collect();
-    let mut x = vec![1.0f64; n];
-    let row_sum = |i: usize, x: &[f64], g: &[f64]| -> f64 {
-        let (a, b) = (ff.f.row_ptr[i] as usize, ff.f.row_ptr[i + 1] as usize);
+/// The symmetric scaling to closure: `x_i` with `Σ_j x_i G_ij x_j / A_i = 1 − F_sp,i`.
+struct Closure<'a> {
+    /// The symmetric pattern.
+    f: &'a Csr,
+    /// Each entry's partner (`u32::MAX`: none).
+    partner: &'a [u32],
+    /// Exchange areas per entry, m².
+    g: &'a [f64],
+    /// Visible areas, m².
+    area_m2: &'a [f64],
+    /// Row targets `1 − F_sp,i`.
+    target: &'a [f64],
+    /// Rows that are scaled (cast, with a visible area).
+    in_play: &'a [bool],
+}
+
+impl Closure<'_> {
+    /// Row `i`'s sum at scaling `x`.
+    fn row_sum(&self, i: usize, x: &[f64]) -> f64 {
+        let (a, b) = (self.f.row_ptr[i] as usize, self.f.row_ptr[i + 1] as usize);
         let mut s = 0.0;
         for k in a..b {
-            let xj = if partner[k] == u32::MAX {
+            let xj = if self.partner[k] == u32::MAX {
                 1.0
             } else {
-                x[ff.f.col[k] as usize]
+                x[self.f.col[k] as usize]
             };
-            s += g[k] * xj;
+            s += self.g[k] * xj;
         }
-        x[i] * s / area[i]
-    };
-    let mut report = RectifyReport {
-        iterations: 0,
-        reciprocity_error: 0.0,
-        closure_error: 0.0,
-        rows_capped: 0,
-        sparse_patches,
-    };
-    let rows_in_play = |i: usize| ff.cast[i] && area[i] > 0.0;
-    // Stop early when the worst row has not improved by 10 % in 25 passes (converging rows
-    // gain a factor of ten in that many): it has no reciprocal closure, or crawls toward one
-    // (a few slivers on a 22 000-patch floor), and the guard below closes it alone.
-    let (mut best, mut since_best) = (f64::INFINITY, 0u32);
-    for it in 1..=max_iterations.max(1) {
-        let mut worst: f64 = 0.0;
-        for i in 0..n {
-            if !rows_in_play(i) {
-                continue;
+        x[i] * s / self.area_m2[i]
+    }
+
+    /// Gauss-Seidel over rows (each pass O(nnz)): the scaling and the passes it took.
+    ///
+    /// Stops early when the worst row has not improved by 10 % in 25 passes (converging rows
+    /// gain a factor of ten in that many): it has no reciprocal closure, or crawls toward one
+    /// (a few slivers on a 22 000-patch floor), and the guard closes it alone.
+    fn scale(&self, tolerance: f64, max_iterations: u32) -> (Vec<f64>, u32) {
+        let n = self.f.rows();
+        let mut x = vec![1.0f64; n];
+        let mut iterations = 0;
+        let (mut best, mut since_best) = (f64::INFINITY, 0u32);
+        for it in 1..=max_iterations.max(1) {
+            let mut worst: f64 = 0.0;
+            for i in 0..n {
+                if !self.in_play[i] {
+                    continue;
+                }
+                let s = self.row_sum(i, &x);
+                if s > 0.0 {
+                    worst = worst.max((s - self.target[i]).abs());
+                    x[i] *= self.target[i] / s;
+                }
             }
-            let s = row_sum(i, &x, &g);
-            if s > 0.0 {
-                worst = worst.max((s - target[i]).abs());
-                x[i] *= target[i] / s;
-            }
-        }
-        report.iterations = it;
-        if worst < tolerance {
-            break;
-        }
-        if worst < 0.9 * best {
-            best = worst;
-            since_best = 0;
-        } else {
-            since_best += 1;
-            if since_best >= 25 {
+            iterations = it;
+            if worst < tolerance {
                 break;
             }
+            if worst < 0.9 * best {
+                best = worst;
+                since_best = 0;
+            } else {
+                since_best += 1;
+                if since_best >= 25 {
+                    break;
+                }
+            }
         }
+        (x, iterations)
     }
-    let x = &x;
-    let area = &area;
-    ff.f.val.par_iter_mut().enumerate().for_each(|(k, v)| {
-        let i = row_of[k] as usize;
-        if !(ff.cast[i] && area[i] > 0.0) {
-            return;
-        }
-        let xj = if partner[k] == u32::MAX {
-            1.0
-        } else {
-            x[ff.f.col[k] as usize]
-        };
-        *v = x[i] * g[k] * xj / area[i];
-    });
-    // 4. The guard: a row still off its target by more than the tolerance is scaled alone.
-    let capped: Vec<usize> = (0..n)
+}
+
+/// The guard: each row in play still off its target by more than the tolerance is scaled
+/// alone to it. Returns those rows.
+fn cap_rows(f: &mut Csr, target: &[f64], in_play: &[bool], tolerance: f64) -> Vec<usize> {
+    let capped: Vec<usize> = (0..f.rows())
         .into_par_iter()
         .filter(|&i| {
-            let s = ff.f.row_sum(i);
-            rows_in_play(i) && s > 0.0 && (s - target[i]).abs() > tolerance.max(1e-12)
+            let s = f.row_sum(i);
+            in_play[i] && s > 0.0 && (s - target[i]).abs() > tolerance.max(1e-12)
         })
         .collect();
     for &i in &capped {
-        let s = ff.f.row_sum(i);
-        let (a, b) = (ff.f.row_ptr[i] as usize, ff.f.row_ptr[i + 1] as usize);
-        for v in &mut ff.f.val[a..b] {
+        let s = f.row_sum(i);
+        let (a, b) = (f.row_ptr[i] as usize, f.row_ptr[i + 1] as usize);
+        for v in &mut f.val[a..b] {
             *v *= target[i] / s;
         }
     }
-    report.rows_capped = capped.len();
-    let mut is_capped = vec![false; n];
-    for &i in &capped {
-        is_capped[i] = true;
-    }
-    report.reciprocity_error = reciprocity_error(&ff.f, &partner, area, &is_capped);
-    report.closure_error = (0..n)
-        .filter(|&i| rows_in_play(i) && ff.f.row_sum(i) > 0.0)
-        .map(|i| (ff.f.row_sum(i) - target[i]).abs())
-        .fold(0.0, f64::max);
-    report
+    capped
 }
 
 /// The largest relative reciprocity error over partnered pairs, leaving out capped rows.

@@ -272,15 +272,9 @@ fn check_settings(s: &Settings) -> Result<(), EngineError> {
     Ok(())
 }
 
-/// Commissions a scene: patches, form factors, direct light, sensor rows, one solve per
-/// luminaire.
-pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, EngineError> {
-    check_settings(settings)?;
-    if scene.mesh.triangles.is_empty() {
-        return Err(EngineError::Empty("the scene has no geometry".into()));
-    }
-    let mut stats = Stats::default();
-    let luminaires: Vec<Luminaire> = scene
+/// The luminaires as the settings model them (without LDC: Lambertian at the same flux).
+fn engine_luminaires(scene: &Scene, settings: &Settings) -> Vec<Luminaire> {
+    scene
         .luminaires
         .iter()
         .map(|l| {
@@ -290,8 +284,12 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
             }
             l
         })
-        .collect();
-    let responses: Vec<AngularResponse> = scene
+        .collect()
+}
+
+/// The sensors' angular responses as the settings model them (without LSC: ideal cosine).
+fn sensor_responses(scene: &Scene, settings: &Settings) -> Vec<AngularResponse> {
+    scene
         .sensors
         .iter()
         .map(|s| {
@@ -301,8 +299,16 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
                 AngularResponse::Cosine
             }
         })
-        .collect();
+        .collect()
+}
 
+/// Stage "patches": the mesh subdivided, finer near the sensors and near the light.
+fn make_patches(
+    scene: &Scene,
+    settings: &Settings,
+    luminaires: &[Luminaire],
+    stats: &mut Stats,
+) -> Result<Patches, EngineError> {
     let interest: Vec<patches::Viewpoint> = scene
         .sensors
         .iter()
@@ -335,16 +341,26 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
             })
         })
     };
-    let patches = timed(&mut stats, "patches", || {
+    let patches = timed(stats, "patches", || {
         patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut near_light)
     });
     if patches.is_empty() {
         return Err(EngineError::Empty("no patches".into()));
     }
-    let caster = timed(&mut stats, "bvh", || RayCaster::new(&patches));
-    let rays = RaySet::new(settings.ray_set, settings.rays);
-    let mut ff = timed(&mut stats, "form factors", || {
-        formfactor::compute(&patches, &caster, &rays, settings.seed)
+    Ok(patches)
+}
+
+/// Stages "form factors" and "rectification": the patches' form factors, the share of their
+/// rays that escaped or hit nothing visible (in `stats`), rectified if the settings say so.
+fn form_factors(
+    patches: &Patches,
+    caster: &RayCaster,
+    rays: &RaySet,
+    settings: &Settings,
+    stats: &mut Stats,
+) -> FormFactors {
+    let mut ff = timed(stats, "form factors", || {
+        formfactor::compute(patches, caster, rays, settings.seed)
     });
     let cast_area: f64 = (0..patches.len())
         .filter(|&i| ff.cast[i])
@@ -362,37 +378,56 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
         stats.covered_fraction = 1.0 - mean(&ff.visible);
     }
     if settings.rectify {
-        let r = timed(&mut stats, "rectification", || {
+        let r = timed(stats, "rectification", || {
             formfactor::rectify(&mut ff, &patches.area_m2, settings.rectify_tolerance, 500)
         });
         stats.rectify = Some(r);
     }
+    ff
+}
 
-    // Direct light on patches, per luminaire.
-    let k = settings.opening_samples;
-    let direct_patch_lx: Vec<Vec<f64>> =
-        timed(&mut stats, "direct light", || match settings.direct {
-            DirectModel::Exact => luminaires
+/// What the engine's stages after the patches share: the scene and settings, the luminaires and
+/// sensor responses as the settings model them, the patches and their ray caster.
+struct Lit<'a> {
+    scene: &'a Scene,
+    settings: &'a Settings,
+    luminaires: &'a [Luminaire],
+    responses: &'a [AngularResponse],
+    patches: &'a Patches,
+    caster: &'a RayCaster,
+}
+
+impl Lit<'_> {
+    /// Stage "direct light": each luminaire's direct illuminance on every patch, lx.
+    fn direct_on_patches(&self, rays: &RaySet) -> Vec<Vec<f64>> {
+        let (settings, patches, caster) = (self.settings, self.patches, self.caster);
+        let k = settings.opening_samples;
+        match settings.direct {
+            DirectModel::Exact => self
+                .luminaires
                 .iter()
                 .map(|l| {
                     let near = opening_points_for(l, k);
                     let far = opening_points_for(l, FAR_OPENING_POINTS.min(k));
-                    direct_on_patches(l, &near, &far, &patches, &caster, settings)
+                    direct_on_patches(l, &near, &far, patches, caster, settings)
                 })
                 .collect(),
-            DirectModel::Paper => luminaires
+            DirectModel::Paper => self
+                .luminaires
                 .iter()
-                .map(|l| paper_direct_on_patches(l, &patches, &caster, &rays, settings))
+                .map(|l| paper_direct_on_patches(l, patches, caster, rays, settings))
                 .collect(),
-        });
+        }
+    }
 
-    // Sensor rows.
-    let sensor_rays = RaySet::new(settings.ray_set, settings.sensor_rays);
-    let (gather, direct_sensor_lx) = timed(&mut stats, "sensors", || {
-        let rows: Vec<SensorRows> = scene
+    /// Stage "sensors": each sensor's gather row and its direct illuminance per luminaire, lx.
+    fn sensor_rows(&self, sensor_rays: &RaySet) -> (Csr, Vec<Vec<f64>>) {
+        let settings = self.settings;
+        let rows: Vec<SensorRows> = self
+            .scene
             .sensors
             .par_iter()
-            .zip(responses.par_iter())
+            .zip(self.responses.par_iter())
             .map(|(s, resp)| {
                 // The paper weighs sensor rays by s (normalised); without an LSC its sensor is a
                 // plain hit count, which is consistent for a cosine receiver.
@@ -404,50 +439,70 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
                     s.position_m,
                     s.normal,
                     resp,
-                    &caster,
-                    &sensor_rays,
+                    self.caster,
+                    sensor_rays,
                     weighting,
                 );
-                let direct: Vec<f64> = match settings.direct {
-                    DirectModel::Exact => luminaires
-                        .iter()
-                        .map(|l| {
-                            direct::illuminance_lx(
-                                l,
-                                &opening_points_for(l, (16 * k).max(SENSOR_OPENING_POINTS)),
-                                s.position_m,
-                                s.normal,
-                                Receiver::Sensor(resp),
-                                &caster,
-                            )
-                        })
-                        .collect(),
-                    DirectModel::Paper => luminaires
-                        .iter()
-                        .map(|l| {
-                            let (ids, area) = opening_patches(l, &patches);
-                            if area <= 0.0 {
-                                return 0.0;
-                            }
-                            let exitance = l.flux_lm / area;
-                            row.iter()
-                                .filter(|(j, _)| ids.contains(j))
-                                .map(|(_, w)| w * exitance)
-                                .sum()
-                        })
-                        .collect(),
-                };
+                let direct = self.direct_on_sensor(s, resp, &row);
                 (row, direct)
             })
             .collect();
         let (g, d): (Vec<_>, Vec<_>) = rows.into_iter().unzip();
         (Csr::from_rows(g), d)
-    });
+    }
 
-    // A luminaire with flux that reaches no patch and no sensor is mounted inside or behind a
-    // surface: an error, not a silent zero.
-    if settings.direct == DirectModel::Exact {
-        for (l, lum) in luminaires.iter().enumerate() {
+    /// One sensor's direct illuminance per luminaire, lx (the paper's: through its gather row).
+    fn direct_on_sensor(
+        &self,
+        s: &crate::scene::Sensor,
+        resp: &AngularResponse,
+        row: &[(u32, f64)],
+    ) -> Vec<f64> {
+        let k = self.settings.opening_samples;
+        match self.settings.direct {
+            DirectModel::Exact => self
+                .luminaires
+                .iter()
+                .map(|l| {
+                    direct::illuminance_lx(
+                        l,
+                        &opening_points_for(l, (16 * k).max(SENSOR_OPENING_POINTS)),
+                        s.position_m,
+                        s.normal,
+                        Receiver::Sensor(resp),
+                        self.caster,
+                    )
+                })
+                .collect(),
+            DirectModel::Paper => self
+                .luminaires
+                .iter()
+                .map(|l| {
+                    let (ids, area) = opening_patches(l, self.patches);
+                    if area <= 0.0 {
+                        return 0.0;
+                    }
+                    let exitance = l.flux_lm / area;
+                    row.iter()
+                        .filter(|(j, _)| ids.contains(j))
+                        .map(|(_, w)| w * exitance)
+                        .sum()
+                })
+                .collect(),
+        }
+    }
+
+    /// A luminaire with flux that reaches no patch and no sensor is mounted inside or behind a
+    /// surface: an error, not a silent zero (exact direct light only).
+    fn check_lit(
+        &self,
+        direct_patch_lx: &[Vec<f64>],
+        direct_sensor_lx: &[Vec<f64>],
+    ) -> Result<(), EngineError> {
+        if self.settings.direct != DirectModel::Exact {
+            return Ok(());
+        }
+        for (l, lum) in self.luminaires.iter().enumerate() {
             let lights_patch = direct_patch_lx[l].iter().any(|e| *e > 0.0);
             let lights_sensor = direct_sensor_lx.iter().any(|row| row[l] > 0.0);
             if lum.flux_lm > 0.0 && !lights_patch && !lights_sensor {
@@ -461,59 +516,83 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
                 });
             }
         }
+        Ok(())
     }
 
-    // One solve per luminaire at 100 %, all luminaires in the same sweeps (multisolve).
-    let solved = timed(&mut stats, "solve", || {
-        multisolve::solve_all(&ff.f, &patches.rho, &direct_patch_lx, settings.solve)
+    /// Stage "final gather": each sensor's first-bounce illuminance per luminaire, lx.
+    fn final_gather(&self) -> Vec<Vec<f64>> {
+        let settings = self.settings;
+        let k = settings.opening_samples;
+        let set = RaySet::new(settings.ray_set, settings.final_gather_rays);
+        let near: Vec<Vec<DVec3>> = self
+            .luminaires
+            .iter()
+            .map(|l| opening_points_for(l, k))
+            .collect();
+        let far: Vec<Vec<DVec3>> = self
+            .luminaires
+            .iter()
+            .map(|l| opening_points_for(l, FAR_OPENING_POINTS))
+            .collect();
+        self.scene
+            .sensors
+            .par_iter()
+            .zip(self.responses.par_iter())
+            .map(|(s, resp)| {
+                first_bounce(
+                    s.position_m,
+                    s.normal,
+                    resp,
+                    self.caster,
+                    &set,
+                    self.patches,
+                    self.luminaires,
+                    &near,
+                    &far,
+                )
+            })
+            .collect()
+    }
+}
+
+/// Stage "solve": one solve per luminaire at 100 %, all luminaires in the same sweeps
+/// (multisolve): each luminaire's patch exitance, lm/m² (iterations in `stats`).
+fn solve_basis(
+    ff: &FormFactors,
+    patches: &Patches,
+    direct_patch_lx: &[Vec<f64>],
+    settings: &Settings,
+    stats: &mut Stats,
+) -> Result<Vec<Vec<f64>>, EngineError> {
+    let solved = timed(stats, "solve", || {
+        multisolve::solve_all(&ff.f, &patches.rho, direct_patch_lx, settings.solve)
     });
     let solved = solved.map_err(|source| EngineError::Solve {
-        what: format!("{} luminaires at 100 %", luminaires.len()),
+        what: format!("{} luminaires at 100 %", direct_patch_lx.len()),
         source,
     })?;
-    let mut basis_b = Vec::with_capacity(luminaires.len());
+    let mut basis_b = Vec::with_capacity(direct_patch_lx.len());
     for (b, report) in solved {
         stats.iterations.push(report.iterations);
         basis_b.push(b);
     }
-    let final_gather = settings.final_gather_rays > 0 && settings.direct == DirectModel::Exact;
-    let first_bounce_sensor_lx: Vec<Vec<f64>> = if final_gather {
-        timed(&mut stats, "final gather", || {
-            let set = RaySet::new(settings.ray_set, settings.final_gather_rays);
-            let near: Vec<Vec<DVec3>> = luminaires
-                .iter()
-                .map(|l| opening_points_for(l, k))
-                .collect();
-            let far: Vec<Vec<DVec3>> = luminaires
-                .iter()
-                .map(|l| opening_points_for(l, FAR_OPENING_POINTS))
-                .collect();
-            scene
-                .sensors
-                .par_iter()
-                .zip(responses.par_iter())
-                .map(|(s, resp)| {
-                    first_bounce(
-                        s.position_m,
-                        s.normal,
-                        resp,
-                        &caster,
-                        &set,
-                        &patches,
-                        &luminaires,
-                        &near,
-                        &far,
-                    )
-                })
-                .collect()
-        })
-    } else {
-        vec![vec![0.0; luminaires.len()]; scene.sensors.len()]
-    };
+    Ok(basis_b)
+}
+
+/// Each sensor's illuminance per luminaire at 100 %, lx: direct, first bounce (with the final
+/// gather) and the exitance it gathers from the patches (beyond the first bounce with it).
+fn sensor_response_lx(
+    patches: &Patches,
+    basis_b: &[Vec<f64>],
+    direct_patch_lx: &[Vec<f64>],
+    final_gather: bool,
+    sensors: (&Csr, &[Vec<f64>], &[Vec<f64>]),
+) -> Result<Vec<Vec<f64>>, EngineError> {
+    let (gather, direct_sensor_lx, first_bounce_sensor_lx) = sensors;
     // Exitance a sensor gathers from the patches: all of it, or beyond the first bounce.
     let beyond_first: Vec<Vec<f64>> = basis_b
         .iter()
-        .zip(&direct_patch_lx)
+        .zip(direct_patch_lx)
         .map(|(b, e)| {
             if final_gather {
                 b.iter()
@@ -526,21 +605,63 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
             }
         })
         .collect();
-    let response_lx: Vec<Vec<f64>> = (0..scene.sensors.len())
+    let response_lx: Vec<Vec<f64>> = (0..direct_sensor_lx.len())
         .map(|s| {
-            (0..luminaires.len())
+            (0..basis_b.len())
                 .map(|l| {
                     direct_sensor_lx[s][l]
                         + first_bounce_sensor_lx[s][l]
-                        + gather_dot(&gather, s, &beyond_first[l])
+                        + gather_dot(gather, s, &beyond_first[l])
                 })
                 .collect()
         })
         .collect();
-
     if response_lx.iter().flatten().any(|x| !x.is_finite()) {
         return Err(EngineError::State("a sensor response is not finite".into()));
     }
+    Ok(response_lx)
+}
+
+/// Commissions a scene: patches, form factors, direct light, sensor rows, one solve per
+/// luminaire.
+pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, EngineError> {
+    check_settings(settings)?;
+    if scene.mesh.triangles.is_empty() {
+        return Err(EngineError::Empty("the scene has no geometry".into()));
+    }
+    let mut stats = Stats::default();
+    let luminaires = engine_luminaires(scene, settings);
+    let responses = sensor_responses(scene, settings);
+    let patches = make_patches(scene, settings, &luminaires, &mut stats)?;
+    let caster = timed(&mut stats, "bvh", || RayCaster::new(&patches));
+    let rays = RaySet::new(settings.ray_set, settings.rays);
+    let ff = form_factors(&patches, &caster, &rays, settings, &mut stats);
+    let lit = Lit {
+        scene,
+        settings,
+        luminaires: &luminaires,
+        responses: &responses,
+        patches: &patches,
+        caster: &caster,
+    };
+    let direct_patch_lx = timed(&mut stats, "direct light", || lit.direct_on_patches(&rays));
+    let sensor_rays = RaySet::new(settings.ray_set, settings.sensor_rays);
+    let (gather, direct_sensor_lx) = timed(&mut stats, "sensors", || lit.sensor_rows(&sensor_rays));
+    lit.check_lit(&direct_patch_lx, &direct_sensor_lx)?;
+    let basis_b = solve_basis(&ff, &patches, &direct_patch_lx, settings, &mut stats)?;
+    let final_gather = settings.final_gather_rays > 0 && settings.direct == DirectModel::Exact;
+    let first_bounce_sensor_lx: Vec<Vec<f64>> = if final_gather {
+        timed(&mut stats, "final gather", || lit.final_gather())
+    } else {
+        vec![vec![0.0; luminaires.len()]; scene.sensors.len()]
+    };
+    let response_lx = sensor_response_lx(
+        &patches,
+        &basis_b,
+        &direct_patch_lx,
+        final_gather,
+        (&gather, &direct_sensor_lx, &first_bounce_sensor_lx),
+    )?;
     stats.patches = patches.len();
     stats.rays_per_patch = rays.len();
     stats.rays_per_sensor = sensor_rays.len();

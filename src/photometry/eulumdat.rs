@@ -97,13 +97,8 @@ impl Numbers<'_> {
     }
 }
 
-pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError> {
-    let lines = split_lines(text);
-    let h = Header {
-        lines: lines.clone(),
-    };
-
-    let company = h.text(1)?.to_owned();
+/// Ityp, Isym, Mc and Ng, checked: the symmetry, Isym, Mc and Ng.
+fn symmetry_of(h: &Header) -> Result<(Symmetry, i64, usize, usize), PhotometryError> {
     let ityp = h.integer(2, "Ityp (type indicator)")?;
     if !(0..=3).contains(&ityp) {
         return Err(PhotometryError::at(
@@ -153,34 +148,11 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             )),
         ));
     }
+    Ok((symmetry, isym, mc, ng))
+}
 
-    let luminaire = h.text(9)?.to_owned();
-    let mut keywords = vec![
-        ("company".to_owned(), company.clone()),
-        ("report".to_owned(), h.text(8)?.to_owned()),
-        ("luminaire".to_owned(), luminaire.clone()),
-        ("luminaire_number".to_owned(), h.text(10)?.to_owned()),
-        ("file_name".to_owned(), h.text(11)?.to_owned()),
-        ("date_user".to_owned(), h.text(12)?.to_owned()),
-    ];
-    keywords.retain(|(_, v)| !v.is_empty());
-
-    let area_length_mm = h.number_or(16, 0.0)?;
-    let area_width_mm = h.number_or(17, 0.0)?;
-    let dff = h.number_or(22, f64::NAN)?;
-    let lorl = h.number_or(23, f64::NAN)?;
-    let mut conversion = h.number_or(24, 1.0)?;
-    let mut warnings = Vec::new();
-    if conversion < 0.0 {
-        return Err(PhotometryError::at(
-            24,
-            ErrorKind::Invalid(format!("conversion factor {conversion} is negative")),
-        ));
-    }
-    if conversion == 0.0 {
-        warnings.push("conversion factor 0 read as 1".to_owned());
-        conversion = 1.0;
-    }
+/// The lamp sets (lines 26 on); the first must have a flux.
+fn lamp_sets_of(h: &Header) -> Result<Vec<LampSet>, PhotometryError> {
     let n_sets = h.integer(26, "number of lamp sets")?;
     if !(1..=50).contains(&n_sets) {
         return Err(PhotometryError::at(
@@ -205,23 +177,25 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             power_w: h.number_or(base + 5, f64::NAN)?,
         });
     }
-    let set = &lamp_sets[0];
     let set_line = 29;
-    if set.flux_lm.abs() <= 0.0 {
+    if lamp_sets[0].flux_lm.abs() <= 0.0 {
         return Err(PhotometryError::at(
             set_line,
             ErrorKind::Invalid("lamp set flux is 0 lm: cd/klm cannot be converted to cd".into()),
         ));
     }
-    let absolute = set.count < 0;
-    let set_flux_lm = set.flux_lm.abs();
-    let numbers_from = 27 + 6 * n_sets as usize - 1; // 0-based index of the first direct ratio line
+    Ok(lamp_sets)
+}
 
-    let mut nums = Numbers {
-        toks: tokens(&lines, numbers_from, false),
-        pos: 0,
-        last_line: numbers_from,
-    };
+/// The C-plane and gamma angles and the stored planes' intensities (times `scale`), checked:
+/// C angles ascending in [0, 360), the stored planes spanning the symmetric sector.
+fn planes_of(
+    nums: &mut Numbers,
+    symmetry: Symmetry,
+    isym: i64,
+    (mc, ng): (usize, usize),
+    scale: f64,
+) -> Result<(Vec<f64>, Vec<StoredPlane>), PhotometryError> {
     let _direct_ratios = nums.take(10, "direct ratios")?;
     let c_list = nums.take(mc, "C-plane angles")?;
     let gamma_deg = nums.take(ng, "gamma angles")?;
@@ -256,8 +230,6 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             "C-plane angles must lie in [0, 360)".into(),
         )));
     }
-
-    let scale = conversion * set_flux_lm / 1000.0;
     let mut planes = Vec::with_capacity(rows);
     for r in 0..rows {
         let c_deg = c_list[(first + r) % mc];
@@ -287,6 +259,58 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             }
         }
     }
+    Ok((gamma_deg, planes))
+}
+
+/// Parses a EULUMDAT file: header (symmetry, texts, lamp sets), angles, intensities.
+pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError> {
+    let lines = split_lines(text);
+    let h = Header {
+        lines: lines.clone(),
+    };
+
+    let company = h.text(1)?.to_owned();
+    let (symmetry, isym, mc, ng) = symmetry_of(&h)?;
+    let luminaire = h.text(9)?.to_owned();
+    let mut keywords = vec![
+        ("company".to_owned(), company.clone()),
+        ("report".to_owned(), h.text(8)?.to_owned()),
+        ("luminaire".to_owned(), luminaire.clone()),
+        ("luminaire_number".to_owned(), h.text(10)?.to_owned()),
+        ("file_name".to_owned(), h.text(11)?.to_owned()),
+        ("date_user".to_owned(), h.text(12)?.to_owned()),
+    ];
+    keywords.retain(|(_, v)| !v.is_empty());
+
+    let area_length_mm = h.number_or(16, 0.0)?;
+    let area_width_mm = h.number_or(17, 0.0)?;
+    let dff = h.number_or(22, f64::NAN)?;
+    let lorl = h.number_or(23, f64::NAN)?;
+    let mut conversion = h.number_or(24, 1.0)?;
+    let mut warnings = Vec::new();
+    if conversion < 0.0 {
+        return Err(PhotometryError::at(
+            24,
+            ErrorKind::Invalid(format!("conversion factor {conversion} is negative")),
+        ));
+    }
+    if conversion == 0.0 {
+        warnings.push("conversion factor 0 read as 1".to_owned());
+        conversion = 1.0;
+    }
+    let lamp_sets = lamp_sets_of(&h)?;
+    let set = &lamp_sets[0];
+    let absolute = set.count < 0;
+    let set_flux_lm = set.flux_lm.abs();
+    let numbers_from = 27 + 6 * lamp_sets.len() - 1; // 0-based index of the first direct ratio line
+
+    let mut nums = Numbers {
+        toks: tokens(&lines, numbers_from, false),
+        pos: 0,
+        last_line: numbers_from,
+    };
+    let scale = conversion * set_flux_lm / 1000.0;
+    let (gamma_deg, planes) = planes_of(&mut nums, symmetry, isym, (mc, ng), scale)?;
     let trailing = nums.toks.len() - nums.pos;
     if trailing > 0 {
         warnings.push(format!(
@@ -299,6 +323,7 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         width_m: area_width_mm / 1000.0,
         circular: area_width_mm <= 0.0,
     });
+    let power_w = set.power_w;
     let meta = Metadata {
         manufacturer: company,
         luminaire,
@@ -309,7 +334,7 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         absolute,
         opening,
         tilt: None,
-        power_w: set.power_w.is_finite().then_some(set.power_w),
+        power_w: power_w.is_finite().then_some(power_w),
         lamp_sets,
         lamp_set_used: 0,
         warnings,

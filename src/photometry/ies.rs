@@ -65,11 +65,12 @@ impl Numbers<'_> {
     }
 }
 
-pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError> {
-    let lines = split_lines(text);
+/// The version line: the version and the index of the first line after it (none before
+/// LM-63-1991: line 0 is already a keyword line).
+fn version_of(lines: &[&str]) -> Result<(IesVersion, usize), PhotometryError> {
     let first = lines.first().map(|l| l.trim()).unwrap_or("");
     let upper = first.to_ascii_uppercase();
-    let (version, mut i) = if upper.starts_with("IES:LM-63-2019") {
+    Ok(if upper.starts_with("IES:LM-63-2019") {
         (IesVersion::Lm63_2019, 1)
     } else if upper.starts_with("IESNA:LM-63-2002") {
         (IesVersion::Lm63_2002, 1)
@@ -84,11 +85,18 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         ));
     } else {
         (IesVersion::Lm63_1986, 0)
-    };
+    })
+}
 
-    // Keyword lines up to TILT=
+/// Keyword lines from line `i` up to the TILT= line: the keywords (`[MORE]` joined to the one
+/// before; a line without a keyword has an empty key) and the TILT= line's index.
+#[allow(clippy::type_complexity)]
+fn keywords_of(
+    lines: &[&str],
+    mut i: usize,
+) -> Result<(Vec<(String, String)>, usize), PhotometryError> {
     let mut keywords: Vec<(String, String)> = Vec::new();
-    let tilt_line = loop {
+    loop {
         let Some(line) = lines.get(i) else {
             return Err(PhotometryError::at(
                 lines.len(),
@@ -97,7 +105,7 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         };
         let t = line.trim();
         if t.to_ascii_uppercase().starts_with("TILT") {
-            break i;
+            return Ok((keywords, i));
         }
         if let Some(rest) = t.strip_prefix('[')
             && let Some(end) = rest.find(']')
@@ -118,20 +126,22 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             keywords.push((String::new(), t.to_owned()));
         }
         i += 1;
-    };
+    }
+}
 
-    let tilt_text = lines[tilt_line].trim();
+/// The tilt table after the TILT= line `tilt_text` (line index `tilt_line`): none, or
+/// included (TILT=INCLUDE); a separate file is not supported.
+fn tilt_of(
+    tilt_text: &str,
+    tilt_line: usize,
+    nums: &mut Numbers,
+) -> Result<Option<TiltTable>, PhotometryError> {
     let tilt_value = tilt_text
         .split_once('=')
         .map(|(_, v)| v.trim())
         .unwrap_or("");
-    let mut nums = Numbers {
-        toks: tokens(&lines, tilt_line + 1, true),
-        pos: 0,
-        last_line: tilt_line + 1,
-    };
-    let tilt = match tilt_value.to_ascii_uppercase().as_str() {
-        "NONE" => None,
+    match tilt_value.to_ascii_uppercase().as_str() {
+        "NONE" => Ok(None),
         "INCLUDE" => {
             let geometry = nums.one("TILT lamp-to-luminaire geometry")?;
             if ![1.0, 2.0, 3.0].contains(&geometry) {
@@ -157,29 +167,50 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
                     ErrorKind::Invalid("a TILT factor is negative".into()),
                 ));
             }
-            Some(TiltTable {
+            Ok(Some(TiltTable {
                 lamp_geometry: geometry as u8,
                 angles_deg,
                 factors,
-            })
+            }))
         }
-        "" => {
-            return Err(PhotometryError::at(
-                tilt_line + 1,
-                ErrorKind::Syntax(format!("malformed TILT line {tilt_text:?}")),
-            ));
-        }
-        _ => {
-            return Err(PhotometryError::at(
-                tilt_line + 1,
-                ErrorKind::Unsupported(format!(
-                    "TILT={tilt_value}: tilt data in a separate file is not supported; \
-                     include it in the file with TILT=INCLUDE"
-                )),
-            ));
-        }
-    };
+        "" => Err(PhotometryError::at(
+            tilt_line + 1,
+            ErrorKind::Syntax(format!("malformed TILT line {tilt_text:?}")),
+        )),
+        _ => Err(PhotometryError::at(
+            tilt_line + 1,
+            ErrorKind::Unsupported(format!(
+                "TILT={tilt_value}: tilt data in a separate file is not supported; \
+                 include it in the file with TILT=INCLUDE"
+            )),
+        )),
+    }
+}
 
+/// The numbers of the lines after the tilt data, checked.
+struct Header {
+    lamps: f64,
+    lumens_per_lamp: f64,
+    multiplier: f64,
+    nv: usize,
+    nh: usize,
+    width: f64,
+    length: f64,
+    ballast: f64,
+    /// The ballast-lamp photometric factor (1 for LM-63-2019, whose field is the file
+    /// generation type).
+    blpf: f64,
+    watts: f64,
+    /// Metres per file length unit.
+    to_m: f64,
+}
+
+/// Reads the header numbers (warnings for values read as something else).
+fn header_of(
+    nums: &mut Numbers,
+    version: IesVersion,
+    warnings: &mut Vec<String>,
+) -> Result<Header, PhotometryError> {
     let lamps = nums.one("number of lamps")?;
     let lumens_per_lamp = nums.one("lumens per lamp")?;
     let multiplier = nums.one("candela multiplier")?;
@@ -193,7 +224,8 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let ballast = nums.one("ballast factor")?;
     let second = nums.one("ballast-lamp photometric factor / file generation type")?;
     let watts = nums.one("input watts")?;
-
+    let invalid =
+        |nums: &Numbers, m: String| Err(PhotometryError::at(nums.last_line, ErrorKind::Invalid(m)));
     match ptype as i64 {
         1 => {}
         2 | 3 => {
@@ -207,27 +239,21 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             ));
         }
         _ => {
-            return Err(PhotometryError::at(
-                nums.last_line,
-                ErrorKind::Invalid(format!("photometric type must be 1, 2 or 3, found {ptype}")),
-            ));
+            return invalid(
+                nums,
+                format!("photometric type must be 1, 2 or 3, found {ptype}"),
+            );
         }
     }
     if multiplier <= 0.0 {
-        return Err(PhotometryError::at(
-            nums.last_line,
-            ErrorKind::Invalid(format!(
-                "candela multiplier must be > 0, found {multiplier}"
-            )),
-        ));
+        return invalid(
+            nums,
+            format!("candela multiplier must be > 0, found {multiplier}"),
+        );
     }
     if ballast <= 0.0 {
-        return Err(PhotometryError::at(
-            nums.last_line,
-            ErrorKind::Invalid(format!("ballast factor must be > 0, found {ballast}")),
-        ));
+        return invalid(nums, format!("ballast factor must be > 0, found {ballast}"));
     }
-    let mut warnings = Vec::new();
     let blpf = if version == IesVersion::Lm63_2019 {
         1.0 // the field is the file generation type, not a factor
     } else if second > 0.0 {
@@ -242,39 +268,35 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         1 => 0.3048,
         2 => 1.0,
         _ => {
-            return Err(PhotometryError::at(
-                nums.last_line,
-                ErrorKind::Invalid(format!(
-                    "units type must be 1 (feet) or 2 (metres), found {units}"
-                )),
-            ));
+            return invalid(
+                nums,
+                format!("units type must be 1 (feet) or 2 (metres), found {units}"),
+            );
         }
     };
+    Ok(Header {
+        lamps,
+        lumens_per_lamp,
+        multiplier,
+        nv,
+        nh,
+        width,
+        length,
+        ballast,
+        blpf,
+        watts,
+        to_m,
+    })
+}
 
-    let vertical = nums.take(nv, "vertical angles")?;
-    let horizontal = nums.take(nh, "horizontal angles")?;
-    let scale = multiplier * ballast * blpf;
-    let mut rows = Vec::with_capacity(nh);
-    for _ in 0..nh {
-        let v = nums.take(nv, "candela values")?;
-        rows.push(v.into_iter().map(|x| x * scale).collect::<Vec<f64>>());
-    }
-    let trailing = nums.toks.len() - nums.pos;
-    if trailing > 0 {
-        warnings.push(format!(
-            "{trailing} values after the last candela value ignored"
-        ));
-    }
-    if horizontal.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(PhotometryError::general(ErrorKind::Invalid(
-            "horizontal angles are not strictly ascending".into(),
-        )));
-    }
-
-    // Symmetry from the horizontal angle range (LM-63 type C).
+/// Symmetry from the horizontal angle range (LM-63 type C).
+fn symmetry_of(
+    horizontal: &[f64],
+    warnings: &mut Vec<String>,
+) -> Result<Symmetry, PhotometryError> {
+    let nh = horizontal.len();
     let h0 = horizontal[0];
     let h1 = horizontal[nh - 1];
-    let near = |a: f64, b: f64| (a - b).abs() < 1e-6;
     let symmetry = if nh == 1 {
         Symmetry::Rotational
     } else if near(h0, 0.0) && near(h1, 90.0) {
@@ -295,7 +317,90 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             "single horizontal angle {h0} read as rotational symmetry"
         ));
     }
+    Ok(symmetry)
+}
 
+/// Angles equal within 1e-6°.
+fn near(a: f64, b: f64) -> bool {
+    (a - b).abs() < 1e-6
+}
+
+/// The metadata: keywords, lamp flux, opening, tilt, power.
+fn metadata_of(
+    h: &Header,
+    keywords: Vec<(String, String)>,
+    tilt: Option<TiltTable>,
+    warnings: Vec<String>,
+) -> Metadata {
+    let absolute = near(h.lumens_per_lamp, -1.0);
+    let lamp_flux_lm = (!absolute && h.lumens_per_lamp > 0.0 && h.lamps > 0.0)
+        .then_some(h.lamps * h.lumens_per_lamp * h.ballast * h.blpf);
+    let (length, width) = (h.length, h.width);
+    // Negative width/length encode a shape (circular, ...); the magnitude is the size.
+    let opening = (length.abs() > 0.0 || width.abs() > 0.0).then(|| Opening {
+        length_m: length.abs() * h.to_m,
+        width_m: width.abs() * h.to_m,
+        circular: length < 0.0 && width < 0.0 && near(length, width),
+    });
+    let find = |k: &str| {
+        keywords
+            .iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.clone())
+            .unwrap_or_default()
+    };
+    Metadata {
+        manufacturer: find("MANUFAC"),
+        luminaire: {
+            let l = find("LUMCAT");
+            if l.is_empty() { find("LUMINAIRE") } else { l }
+        },
+        lamp_flux_lm,
+        absolute,
+        opening,
+        tilt,
+        power_w: (h.watts > 0.0).then_some(h.watts),
+        warnings,
+        keywords,
+        ..Metadata::default()
+    }
+}
+
+/// Parses an IES LM-63 file: version line, keywords, tilt, header, angles, candela values.
+pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError> {
+    let lines = split_lines(text);
+    let (version, i) = version_of(&lines)?;
+    let (keywords, tilt_line) = keywords_of(&lines, i)?;
+    let mut nums = Numbers {
+        toks: tokens(&lines, tilt_line + 1, true),
+        pos: 0,
+        last_line: tilt_line + 1,
+    };
+    let tilt = tilt_of(lines[tilt_line].trim(), tilt_line, &mut nums)?;
+    let mut warnings = Vec::new();
+    let h = header_of(&mut nums, version, &mut warnings)?;
+    let (nv, nh) = (h.nv, h.nh);
+    let vertical = nums.take(nv, "vertical angles")?;
+    let horizontal = nums.take(nh, "horizontal angles")?;
+    let scale = h.multiplier * h.ballast * h.blpf;
+    let mut rows = Vec::with_capacity(nh);
+    for _ in 0..nh {
+        let v = nums.take(nv, "candela values")?;
+        rows.push(v.into_iter().map(|x| x * scale).collect::<Vec<f64>>());
+    }
+    let trailing = nums.toks.len() - nums.pos;
+    if trailing > 0 {
+        warnings.push(format!(
+            "{trailing} values after the last candela value ignored"
+        ));
+    }
+    if horizontal.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(PhotometryError::general(ErrorKind::Invalid(
+            "horizontal angles are not strictly ascending".into(),
+        )));
+    }
+    let symmetry = symmetry_of(&horizontal, &mut warnings)?;
+    let h1 = horizontal[nh - 1];
     let mut planes: Vec<StoredPlane> = horizontal
         .iter()
         .zip(rows)
@@ -311,38 +416,7 @@ pub(super) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             *a = 0.5 * (*a + b);
         }
     }
-
-    let absolute = near(lumens_per_lamp, -1.0);
-    let lamp_flux_lm = (!absolute && lumens_per_lamp > 0.0 && lamps > 0.0)
-        .then_some(lamps * lumens_per_lamp * ballast * blpf);
-    // Negative width/length encode a shape (circular, ...); the magnitude is the size.
-    let opening = (length.abs() > 0.0 || width.abs() > 0.0).then(|| Opening {
-        length_m: length.abs() * to_m,
-        width_m: width.abs() * to_m,
-        circular: length < 0.0 && width < 0.0 && near(length, width),
-    });
-    let find = |k: &str| {
-        keywords
-            .iter()
-            .find(|(key, _)| key == k)
-            .map(|(_, v)| v.clone())
-            .unwrap_or_default()
-    };
-    let meta = Metadata {
-        manufacturer: find("MANUFAC"),
-        luminaire: {
-            let l = find("LUMCAT");
-            if l.is_empty() { find("LUMINAIRE") } else { l }
-        },
-        lamp_flux_lm,
-        absolute,
-        opening,
-        tilt,
-        power_w: (watts > 0.0).then_some(watts),
-        warnings,
-        keywords,
-        ..Metadata::default()
-    };
+    let meta = metadata_of(&h, keywords, tilt, warnings);
     IntensityDistribution::from_stored(Format::Ies(version), symmetry, vertical, planes, meta)
 }
 

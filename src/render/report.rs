@@ -25,10 +25,11 @@ use super::camera_view::{self, ViewDesk, ViewOptions};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
 use crate::en12464::{self, Check, Rect, Requirement, Statistics};
-use crate::engine::dense::{DenseField, DenseSettings, Readings, SurfacePoint};
+use crate::engine::dense::{DenseField, DenseImage, DenseSettings, Readings, SurfacePoint};
 use crate::engine::raycast::Hit;
 use crate::image_geometry::Room;
 use crate::runtime::Runtime;
+use crate::scene::Camera;
 use crate::store::Image;
 
 /// A dimming state to report: a name and a level per luminaire (image order) in [0, 1].
@@ -398,15 +399,9 @@ struct DeskGrids {
     surrounding: Option<Readings>,
 }
 
-/// Computes the report of an image.
-pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
-    let t0 = std::time::Instant::now();
-    let room = Room::from_image(image)?;
-    let mf = en12464::check_maintenance_factor(
-        opts.maintenance_factor
-            .unwrap_or(room.section.maintenance_factor),
-    )?;
-    let l = room.luminaires.len();
+/// The states to report: the options' (the first is the design state), or all on; each with
+/// one level in [0, 1] per luminaire.
+fn checked_states(opts: &ReportOptions, l: usize) -> Result<Vec<NamedState>, ReportError> {
     let mut states = opts.states.clone();
     if states.is_empty() {
         states.push(NamedState {
@@ -422,30 +417,53 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             ));
         }
     }
-    let field = DenseField::new(
-        &room.patches,
-        &room.luminaires,
-        &room.ff,
-        &room.basis_b,
-        DenseSettings::default(),
-    )?;
-    let (floor_ext, floor_z) = floor_of(&room);
-    let room_rect = Rect {
-        x_m: [floor_ext[0], floor_ext[1]],
-        y_m: [floor_ext[2], floor_ext[3]],
-    };
-    let desk_rects: Vec<Rect> = room
-        .desks
-        .iter()
-        .map(|d| Rect {
-            x_m: d.x_m,
-            y_m: d.y_m,
-        })
-        .collect();
+    Ok(states)
+}
 
-    // desk grids and their immediate surroundings
-    let mut desk_grids = Vec::new();
-    for (d, rect) in room.desks.iter().zip(&desk_rects) {
+/// The room's plan: its floor's extent and height, the room's and the desks' rectangles.
+struct Plan {
+    /// Floor extent `[x0, x1, y0, y1]`, m.
+    floor_ext: [f64; 4],
+    /// Floor height, m.
+    floor_z: f64,
+    /// The floor's rectangle.
+    room_rect: Rect,
+    /// Each desk's rectangle (the room's desk order).
+    desk_rects: Vec<Rect>,
+}
+
+impl Plan {
+    fn of(room: &Room) -> Plan {
+        let (floor_ext, floor_z) = floor_of(room);
+        Plan {
+            floor_ext,
+            floor_z,
+            room_rect: Rect {
+                x_m: [floor_ext[0], floor_ext[1]],
+                y_m: [floor_ext[2], floor_ext[3]],
+            },
+            desk_rects: room
+                .desks
+                .iter()
+                .map(|d| Rect {
+                    x_m: d.x_m,
+                    y_m: d.y_m,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Each desk's EN 12464-1 task grid (points under an object standing on it left out) and its
+/// immediate surrounding (off every desk).
+fn desk_grids(
+    room: &Room,
+    field: &DenseField<'_>,
+    plan: &Plan,
+    opts: &ReportOptions,
+) -> Result<Vec<DeskGrids>, ReportError> {
+    let mut out = Vec::new();
+    for (d, rect) in room.desks.iter().zip(&plan.desk_rects) {
         let g = en12464::grid(rect)?;
         // points under an object standing on the desk (a monitor's foot) are inside a solid:
         // no luxmeter goes there
@@ -453,73 +471,61 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             .points_m
             .iter()
             .map(|p| DVec3::new(p[0], p[1], d.z_m))
-            .filter(|p| !covered(&field, *p + DVec3::Z * 0.001))
+            .filter(|p| !covered(field, *p + DVec3::Z * 0.001))
             .collect();
-        let task = plane_points(&field, &pts, &room.basis_b, opts.air_rays);
+        let task = plane_points(field, &pts, &room.basis_b, opts.air_rays);
         let sg = en12464::immediate_surrounding_grid(
             rect,
             en12464::IMMEDIATE_SURROUNDING_BAND_M,
-            &room_rect,
+            &plan.room_rect,
         )?;
         let air: Vec<(DVec3, DVec3)> = sg
             .points_m
             .iter()
-            .filter(|p| !desk_rects.iter().any(|r| r.contains(p[0], p[1])))
+            .filter(|p| !plan.desk_rects.iter().any(|r| r.contains(p[0], p[1])))
             .map(|p| (DVec3::new(p[0], p[1], d.z_m + 0.001), DVec3::Z))
             .collect();
         let surrounding =
             (!air.is_empty()).then(|| field.air_points(&air, &room.basis_b, opts.air_rays));
-        desk_grids.push(DeskGrids {
+        out.push(DeskGrids {
             id: d.id,
             task,
             grid: (g.counts, g.cell_m),
             surrounding,
         });
     }
+    Ok(out)
+}
 
-    // the room grid on the floor, less the wall band; points inside furniture left out
-    let inner = room_rect.grown(-en12464::WALL_BAND_M);
-    let room_grid = if inner.width_m() > 0.0 && inner.depth_m() > 0.0 {
-        Some(en12464::grid(&inner)?)
-    } else {
-        None
-    };
+/// The room grid's points on the floor, less the wall band; points inside furniture left out.
+fn room_points(field: &DenseField<'_>, plan: &Plan) -> Result<Vec<SurfacePoint>, ReportError> {
+    let inner = plan.room_rect.grown(-en12464::WALL_BAND_M);
     let mut room_points = Vec::new();
-    if let Some(g) = &room_grid {
+    if inner.width_m() > 0.0 && inner.depth_m() > 0.0 {
+        let g = en12464::grid(&inner)?;
         for p in &g.points_m {
-            if let Some(sp) = field.surface_at(p[0], p[1], floor_z)
-                && !covered(&field, sp.position_m)
+            if let Some(sp) = field.surface_at(p[0], p[1], plan.floor_z)
+                && !covered(field, sp.position_m)
             {
                 room_points.push(sp);
             }
         }
     }
-    let room_readings = field.points(&room_points);
+    Ok(room_points)
+}
 
-    // the plan view's map, the camera view
-    let (origin_m, cells, map_pts) = map::map_points(
-        &field,
-        floor_ext,
-        room.patches
-            .corners_m
-            .iter()
-            .flatten()
-            .map(|c| c.z)
-            .fold(f64::NEG_INFINITY, f64::max)
-            + 1.0,
-        opts.plan_cell_m,
-    );
-    let found: Vec<SurfacePoint> = map_pts.iter().flatten().copied().collect();
-    let map_readings = field.map_readings(&found);
-    let view = match &room.camera {
-        Some(cam) => Some(field.camera_view(cam)?),
-        None => None,
-    };
-
-    // per state
+/// Every state's desks, room and sensors (maintained values at `mf`).
+fn state_results(
+    image: &Image<'_>,
+    room: &Room,
+    states: &[NamedState],
+    desk_grids: &[DeskGrids],
+    room_readings: &Readings,
+    mf: f64,
+) -> Result<Vec<StateResult>, ReportError> {
     let runtime = Runtime::new(image);
     let mut state_results = Vec::new();
-    for s in &states {
+    for s in states {
         let mut sensors = vec![0.0; image.sensors()];
         runtime.sensor_lux(&s.levels, &mut sensors)?;
         let desks = desk_grids
@@ -541,9 +547,17 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             sensors_lx: room.sensors.iter().map(|x| x.id).zip(sensors).collect(),
         });
     }
+    Ok(state_results)
+}
 
-    // the design state: desks with their checks, the room
-    let design = &states[0].levels;
+/// The desks in the design state `design`, with their checks against the requirement.
+fn design_desks(
+    room: &Room,
+    desk_grids: &[DeskGrids],
+    design: &[f64],
+    mf: f64,
+    opts: &ReportOptions,
+) -> Result<Vec<DeskResult>, ReportError> {
     let mut desks = Vec::new();
     for (g, d) in desk_grids.iter().zip(&room.desks) {
         let Some(task) = area_result(&g.task.lux(design)?, mf) else {
@@ -569,9 +583,11 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             checks,
         });
     }
-    let room_result = area_result(&room_readings.lux(design)?, mf);
+    Ok(desks)
+}
 
-    // tables
+/// The surfaces table: area, area-weighted reflectance and patches per surface (group).
+fn surface_rows(room: &Room) -> Vec<SurfaceRow> {
     let mut surfaces: Vec<SurfaceRow> = room
         .section
         .groups
@@ -594,8 +610,12 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     for r in &mut surfaces {
         r.rho /= r.area_m2.max(1e-12);
     }
-    let luminaires: Vec<LuminaireRow> = room
-        .section
+    surfaces
+}
+
+/// The luminaires table.
+fn luminaire_rows(room: &Room) -> Vec<LuminaireRow> {
+    room.section
         .luminaires
         .iter()
         .map(|rec| {
@@ -613,98 +633,162 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
                 opening_m: rec.opening_m,
             }
         })
-        .collect();
-    let total_flux: f64 = luminaires.iter().map(|r| r.flux_lm).sum();
-    let total_power = luminaires
-        .iter()
-        .map(|r| r.power_w)
-        .collect::<Option<Vec<f64>>>()
-        .map(|v| v.iter().sum());
+        .collect()
+}
 
-    // pictures
-    let design_name = states[0].name.clone();
-    let map_vals = map_readings.lux(design)?;
-    let mut k = 0;
-    let map_lux: Vec<f64> = map_pts
-        .iter()
-        .map(|p| match p {
-            Some(_) => {
-                k += 1;
-                mf * map_vals[k - 1]
+/// The sensors table, from the image.
+fn sensor_rows(image: &Image<'_>) -> Vec<SensorRow> {
+    (0..image.sensors())
+        .map(|k| {
+            let f = image.sensor_flags(k);
+            SensorRow {
+                id: image.sensor_id(k),
+                in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
+                estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
+                stated_rel_uncertainty: image.model_rel_uncertainty(k),
             }
-            None => f64::NAN,
         })
-        .collect();
-    let surface = map_pts
-        .iter()
-        .map(|p| {
-            p.map_or(u64::MAX, |p| {
-                map::surface_key(room.patches.group[p.patch as usize], p.position_m.z)
-            })
-        })
-        .collect();
-    let top = TopView {
-        origin_m,
-        cells,
-        cell_m: opts.plan_cell_m,
-        lux: map_lux,
-        desk_mean_lx: Vec::new(),
-        surface,
-    };
-    // the floor grid's values, except under a desk (the plan shows the desk top there)
-    let room_values: Vec<([f64; 2], f64)> = room_points
-        .iter()
-        .zip(room_readings.lux(design)?)
-        .filter(|(p, _)| {
-            !desk_rects
+        .collect()
+}
+
+/// What the pictures show: the room in its design state.
+struct Design<'a> {
+    room: &'a Room,
+    plan: &'a Plan,
+    /// The design state's name and levels.
+    name: &'a str,
+    levels: &'a [f64],
+    /// Maintenance factor.
+    mf: f64,
+    /// The desks' results in the design state.
+    desks: &'a [DeskResult],
+}
+
+/// One picture: (file stem, caption, PNG bytes).
+type Picture = (String, String, Vec<u8>);
+
+impl Design<'_> {
+    /// The plan view: the top view's map (upward-facing surfaces), the room grid's values off
+    /// the desks, the desks and the sensors. Also the colour scale's top, lx.
+    fn plan_picture(
+        &self,
+        field: &DenseField<'_>,
+        room_points: &[SurfacePoint],
+        room_readings: &Readings,
+        opts: &ReportOptions,
+    ) -> Result<(Picture, f64), ReportError> {
+        let (room, mf, design) = (self.room, self.mf, self.levels);
+        let (origin_m, cells, map_pts) = map::map_points(
+            field,
+            self.plan.floor_ext,
+            room.patches
+                .corners_m
                 .iter()
-                .any(|r| r.contains(p.position_m.x, p.position_m.y))
-        })
-        .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
-        .collect();
-    let scale_max = nice_ceiling(top.max_lx());
-    let plan = map::draw_plan(&PlanView {
-        title: format!(
-            "{}: maintained illuminance, {} (MF {:.2})",
-            room.section.scene_name, design_name, mf
-        ),
-        subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors."
-            .into(),
-        bounds_m: floor_ext,
-        map: top,
-        desks: desks
+                .flatten()
+                .map(|c| c.z)
+                .fold(f64::NEG_INFINITY, f64::max)
+                + 1.0,
+            opts.plan_cell_m,
+        );
+        let found: Vec<SurfacePoint> = map_pts.iter().flatten().copied().collect();
+        let map_vals = field.map_readings(&found).lux(design)?;
+        let mut k = 0;
+        let map_lux: Vec<f64> = map_pts
             .iter()
-            .map(|d| PlanDesk {
-                extent_m: d.extent_m,
-                label: vec![
-                    format!("desk {}", d.id),
-                    format!("Ēm {:.0} lx", d.task.maintained.e_mean_lx),
-                    format!("U0 {:.2}", d.task.maintained.u0),
-                ],
+            .map(|p| match p {
+                Some(_) => {
+                    k += 1;
+                    mf * map_vals[k - 1]
+                }
+                None => f64::NAN,
             })
-            .collect(),
-        sensors: room
-            .sensors
+            .collect();
+        let surface = map_pts
             .iter()
-            .map(|s| (s.id, s.position_m.x, s.position_m.y))
-            .collect(),
-        values: room_values,
-        scale_max_lx: scale_max,
-        pixels_per_m: 100.0,
-    });
-    let mut pictures = vec![(
-        "plan".to_string(),
-        "Plan view: maintained illuminance on the upward-facing surfaces (floor, desk tops) in the design state, with isolines, the values of the EN 12464-1 room grid, the desks and the desk sensors.".to_string(),
-        plan.png_bytes()?,
-    )];
-    if let (Some(view), Some(cam)) = (&view, &room.camera) {
-        let lux: Vec<f64> = view.lux(design)?.iter().map(|v| v * mf).collect();
+            .map(|p| {
+                p.map_or(u64::MAX, |p| {
+                    map::surface_key(room.patches.group[p.patch as usize], p.position_m.z)
+                })
+            })
+            .collect();
+        let top = TopView {
+            origin_m,
+            cells,
+            cell_m: opts.plan_cell_m,
+            lux: map_lux,
+            desk_mean_lx: Vec::new(),
+            surface,
+        };
+        // the floor grid's values, except under a desk (the plan shows the desk top there)
+        let room_values: Vec<([f64; 2], f64)> = room_points
+            .iter()
+            .zip(room_readings.lux(design)?)
+            .filter(|(p, _)| {
+                !self
+                    .plan
+                    .desk_rects
+                    .iter()
+                    .any(|r| r.contains(p.position_m.x, p.position_m.y))
+            })
+            .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
+            .collect();
+        let scale_max = nice_ceiling(top.max_lx());
+        let plan = map::draw_plan(&PlanView {
+            title: format!(
+                "{}: maintained illuminance, {} (MF {:.2})",
+                room.section.scene_name, self.name, mf
+            ),
+            subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors."
+                .into(),
+            bounds_m: self.plan.floor_ext,
+            map: top,
+            desks: self
+                .desks
+                .iter()
+                .map(|d| PlanDesk {
+                    extent_m: d.extent_m,
+                    label: vec![
+                        format!("desk {}", d.id),
+                        format!("Ēm {:.0} lx", d.task.maintained.e_mean_lx),
+                        format!("U0 {:.2}", d.task.maintained.u0),
+                    ],
+                })
+                .collect(),
+            sensors: room
+                .sensors
+                .iter()
+                .map(|s| (s.id, s.position_m.x, s.position_m.y))
+                .collect(),
+            values: room_values,
+            scale_max_lx: scale_max,
+            pixels_per_m: 100.0,
+        });
+        Ok((
+            (
+                "plan".to_string(),
+                "Plan view: maintained illuminance on the upward-facing surfaces (floor, desk tops) in the design state, with isolines, the values of the EN 12464-1 room grid, the desks and the desk sensors.".to_string(),
+                plan.png_bytes()?,
+            ),
+            scale_max,
+        ))
+    }
+
+    /// The camera views: dense lux (colour scale up to `scale_max`), reflectance, mesh.
+    fn camera_pictures(
+        &self,
+        view: &DenseImage,
+        cam: &Camera,
+        scale_max: f64,
+    ) -> Result<Vec<Picture>, ReportError> {
+        let (room, mf) = (self.room, self.mf);
+        let lux: Vec<f64> = view.lux(self.levels)?.iter().map(|v| v * mf).collect();
         let vdesks: Vec<ViewDesk> = room
             .desks
             .iter()
             .map(|d| ViewDesk {
                 desk: d.clone(),
-                label: desks
+                label: self
+                    .desks
                     .iter()
                     .find(|r| r.id == d.id)
                     .map(|r| {
@@ -723,7 +807,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             cam,
             &vdesks,
             &ViewOptions {
-                title: format!("Camera view: maintained illuminance, {design_name}"),
+                title: format!("Camera view: maintained illuminance, {}", self.name),
                 subtitle: format!(
                     "Lux at every pixel's surface point (MF {mf:.2}); luminaire openings white, nothing seen grey."
                 ),
@@ -731,11 +815,11 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             },
             scale_max,
         );
-        pictures.push((
+        let mut pictures = vec![(
             "camera-lux".into(),
             "Camera view: the illuminance of every pixel's surface point (dense: exact direct light, interreflection interpolated over the patch mesh).".into(),
             lux_pic.png_bytes()?,
-        ));
+        )];
         let names: Vec<ViewDesk> = room
             .desks
             .iter()
@@ -778,6 +862,62 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
             "The mesh: the patches radiosity solves for, as the camera sees them.".into(),
             mesh_pic.png_bytes()?,
         ));
+        Ok(pictures)
+    }
+}
+
+/// Computes the report of an image: the states checked, the dense field, the desks' and the
+/// room's grids, every state's results, the design state's desks, the tables and the pictures.
+pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
+    let t0 = std::time::Instant::now();
+    let room = Room::from_image(image)?;
+    let mf = en12464::check_maintenance_factor(
+        opts.maintenance_factor
+            .unwrap_or(room.section.maintenance_factor),
+    )?;
+    let states = checked_states(opts, room.luminaires.len())?;
+    let field = DenseField::new(
+        &room.patches,
+        &room.luminaires,
+        &room.ff,
+        &room.basis_b,
+        DenseSettings::default(),
+    )?;
+    let plan = Plan::of(&room);
+    let desk_grids = desk_grids(&room, &field, &plan, opts)?;
+    let room_points = room_points(&field, &plan)?;
+    let room_readings = field.points(&room_points);
+    let view = match &room.camera {
+        Some(cam) => Some(field.camera_view(cam)?),
+        None => None,
+    };
+    let state_results = state_results(image, &room, &states, &desk_grids, &room_readings, mf)?;
+
+    // the design state: desks with their checks, the room
+    let design = &states[0].levels;
+    let desks = design_desks(&room, &desk_grids, design, mf, opts)?;
+    let room_result = area_result(&room_readings.lux(design)?, mf);
+    let surfaces = surface_rows(&room);
+    let luminaires = luminaire_rows(&room);
+    let total_flux: f64 = luminaires.iter().map(|r| r.flux_lm).sum();
+    let total_power = luminaires
+        .iter()
+        .map(|r| r.power_w)
+        .collect::<Option<Vec<f64>>>()
+        .map(|v| v.iter().sum());
+
+    let d = Design {
+        room: &room,
+        plan: &plan,
+        name: &states[0].name,
+        levels: design,
+        mf,
+        desks: &desks,
+    };
+    let (plan_pic, scale_max) = d.plan_picture(&field, &room_points, &room_readings, opts)?;
+    let mut pictures = vec![plan_pic];
+    if let (Some(view), Some(cam)) = (&view, &room.camera) {
+        pictures.extend(d.camera_pictures(view, cam, scale_max)?);
     }
     let pass = !desks.is_empty() && desks.iter().all(|d| d.pass);
     let results = Results {
@@ -793,21 +933,11 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         surfaces,
         luminaires,
         totals: (total_flux, total_power),
-        room_extent_m: (floor_ext, floor_z),
+        room_extent_m: (plan.floor_ext, plan.floor_z),
         room: room_result,
         desks,
         states: state_results,
-        sensors: (0..image.sensors())
-            .map(|k| {
-                let f = image.sensor_flags(k);
-                SensorRow {
-                    id: image.sensor_id(k),
-                    in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
-                    estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
-                    stated_rel_uncertainty: image.model_rel_uncertainty(k),
-                }
-            })
-            .collect(),
+        sensors: sensor_rows(image),
         pass,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -864,6 +994,18 @@ fn verdict(pass: bool) -> &'static str {
 pub fn html(r: &Report) -> String {
     let x = &r.results;
     let mut h = String::new();
+    html_head(&mut h, x);
+    html_pictures(&mut h, &r.pictures);
+    html_checks(&mut h, x);
+    html_desks(&mut h, x);
+    html_states(&mut h, x);
+    html_tables(&mut h, x);
+    html_tail(&mut h, x);
+    h
+}
+
+/// The head, the title, the overall result and the facts of the model and the report.
+fn html_head(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
@@ -901,8 +1043,12 @@ figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{col
         x.counts[1],
         x.counts[2]
     );
+}
+
+/// The pictures, embedded.
+fn html_pictures(h: &mut String, pictures: &[(String, String, Vec<u8>)]) {
     h.push_str("\n<h2>Pictures</h2>\n");
-    for (stem, caption, png) in &r.pictures {
+    for (stem, caption, png) in pictures {
         let _ = writeln!(
             h,
             "<figure id=\"{stem}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>",
@@ -911,6 +1057,10 @@ figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{col
             esc(caption)
         );
     }
+}
+
+/// The EN 12464-1 checks per desk.
+fn html_checks(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<h2>EN 12464-1 check</h2>\n<p>{} ({}): Ēm ≥ {:.0} lx and U0 ≥ {:.2} on each desk (task area); \
@@ -944,6 +1094,10 @@ immediate surrounding area (0.5 m band at desk height): Ēm ≥ {:.0} lx, U0 ≥
         }
     }
     h.push_str("</table>\n");
+}
+
+/// The desks' grids and statistics, and the room's.
+fn html_desks(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<h2>Desks ({})</h2>\n<p>EN 12464-1 grids: cells of at most p = 0.2 × 5<sup>log10(d)</sup> m, points at the cell centres. \
@@ -980,6 +1134,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
             stats_cells(&rm.maintained)
         );
     }
+}
+
+/// The states: each desk's, the floor's and each sensor's light.
+fn html_states(h: &mut String, x: &Results) {
     h.push_str("</table>\n<h2>States</h2>\n<p>Maintained Ē per desk grid and on the floor, lx; the desk sensors as the node publishes them (new installation, what a luxmeter on the desk reads), lx.</p>\n<table><tr><th>state</th><th>levels</th>");
     if let Some(s) = x.states.first() {
         for (id, _) in &s.desks {
@@ -1016,6 +1174,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
         }
         h.push_str("</tr>\n");
     }
+}
+
+/// The desk sensors, the surfaces and the luminaire schedule.
+fn html_tables(h: &mut String, x: &Results) {
     h.push_str("</table>\n<h2>Desk sensors</h2>\n<p>Where each desk sensor's value comes from, and its stated relative standard uncertainty: what the surfaces commissioning inferred (walls and ceiling nobody saw, floor out of view, desk tops, hidden faces) can do to its modelled light (first-order, at the all-on state). A model from a CAD scene states none.</p>\n<table><tr><th>sensor</th><th>camera</th><th>surroundings</th><th>stated uncertainty</th></tr>\n");
     for r in &x.sensors {
         let _ = writeln!(
@@ -1069,6 +1231,10 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
         x.totals.0,
         x.totals.1.map_or("–".into(), |w| format!("{w:.1}"))
     );
+}
+
+/// The time taken, and the script that checks the pictures loaded.
+fn html_tail(h: &mut String, x: &Results) {
     let _ = write!(
         h,
         "<p>Computed in {:.2} s. The numbers are also in results.json.</p>\n\
@@ -1079,7 +1245,6 @@ document.getElementById('imgstatus').textContent=ok?('all '+im.length+' pictures
 window.addEventListener('load',luxnodeCheckImages);\n</script>\n</body></html>\n",
         x.seconds
     );
-    h
 }
 
 fn states_name(x: &Results) -> String {

@@ -237,7 +237,7 @@ fn load_luminaires(
     if list.is_empty() {
         warnings.push(format!("{}: no luminaires", path.display()));
     }
-    let mut cache: HashMap<PathBuf, Option<Arc<IntensityDistribution>>> = HashMap::new();
+    let mut cache: PhotometryCache = HashMap::new();
     let mut out = Vec::new();
     for (i, l) in list.iter().enumerate() {
         let at = |field: &str| format!("luminaires[{i}].{field}");
@@ -249,45 +249,9 @@ fn load_luminaires(
         let (Some(position_m), Some(aim)) = (position, aim) else {
             continue;
         };
-        let derived = derive_c0(aim, l.rotation_deg.to_radians());
-        let c0 = match l.c0_direction {
-            None => derived,
-            Some(v) => {
-                let Some(c0) = c.unit(at("c0_direction"), v, warnings) else {
-                    continue;
-                };
-                if c0.dot(aim).abs() > 1e-3 {
-                    c.fail(at("c0_direction"), "must be perpendicular to aim");
-                    continue;
-                }
-                if c0.dot(derived) < 1.0 - 1e-3 {
-                    warnings.push(format!(
-                        "{}: luminaire {}: c0_direction disagrees with aim and rotation_deg \
-                         (C0 counter-clockwise about the upward axis); c0_direction is used",
-                        path.display(),
-                        l.id
-                    ));
-                }
-                c0
-            }
+        let Some((c0, c90)) = c_axes(&mut c, i, l, aim, warnings) else {
+            continue;
         };
-        let c90 = c0.cross(aim);
-        if let Some(v) = l.c90_direction {
-            let Some(given) = c.unit(at("c90_direction"), v, warnings) else {
-                continue;
-            };
-            if given.dot(c90) < 1.0 - 1e-3 {
-                c.fail(
-                    at("c90_direction"),
-                    format!(
-                        "must equal c0_direction × aim = {:?} (C angles run counter-clockwise \
-                         seen from above); found {v:?}",
-                        c90.to_array()
-                    ),
-                );
-                continue;
-            }
-        }
         let opening_m = match l.luminous_opening_m {
             Some(o) if o.iter().all(|x| x.is_finite() && *x >= 0.0) => Some(o),
             Some(o) => {
@@ -305,66 +269,11 @@ fn load_luminaires(
             c.fail(at("flux_lm"), format!("{f} is not a flux >= 0 lm"));
             continue;
         }
-
-        let (first, second) = match options.photometry {
-            PhotometryPreference::Ldt => (&l.photometry_ldt, &l.photometry_ies),
-            PhotometryPreference::Ies => (&l.photometry_ies, &l.photometry_ldt),
-        };
-        let Some(file) = first.as_ref().or(second.as_ref()) else {
-            c.fail(
-                at("photometry_ldt"),
-                "names no photometric file (photometry_ldt or photometry_ies)",
-            );
+        let Some((photometry_path, dist)) =
+            photometry_of(&mut c, i, l, dir, options, &mut cache, warnings)
+        else {
             continue;
         };
-        let photometry_path = dir.join(file);
-        let dist = cache
-            .entry(photometry_path.clone())
-            .or_insert_with(|| match IntensityDistribution::load(&photometry_path) {
-                Ok(d) => {
-                    for w in &d.meta.warnings {
-                        warnings.push(format!("{}: {w}", photometry_path.display()));
-                    }
-                    Some(Arc::new(d))
-                }
-                Err(source) => {
-                    c.errors.push(SceneError::Photometry { id: l.id, source });
-                    None
-                }
-            })
-            .clone();
-        let Some(dist) = dist else { continue };
-        // When both formats are named, they must describe the same distribution.
-        if let (Some(a), Some(b)) = (&l.photometry_ldt, &l.photometry_ies) {
-            let other_path = dir.join(if file == a { b } else { a });
-            if let std::collections::hash_map::Entry::Vacant(slot) = cache.entry(other_path.clone())
-            {
-                let other = IntensityDistribution::load(&other_path).ok().map(Arc::new);
-                match &other {
-                    Some(o) => {
-                        let dev = shape_deviation(&dist, o);
-                        if dev > 0.01 {
-                            warnings.push(format!(
-                                "luminaire {}: {} and {} differ by up to {:.1} % of the peak \
-                                 intensity; {} is used",
-                                l.id,
-                                photometry_path.display(),
-                                other_path.display(),
-                                100.0 * dev,
-                                photometry_path.display()
-                            ));
-                        }
-                    }
-                    None => warnings.push(format!(
-                        "luminaire {}: {} cannot be read; {} is used",
-                        l.id,
-                        other_path.display(),
-                        photometry_path.display()
-                    )),
-                }
-                slot.insert(other);
-            }
-        }
         let file_flux_lm = dist.flux_lm();
         let flux_lm = l.flux_lm.unwrap_or(file_flux_lm);
         let tilt_rad = aim.dot(DVec3::NEG_Z).clamp(-1.0, 1.0).acos();
@@ -411,6 +320,130 @@ fn load_luminaires(
         });
     }
     out
+}
+
+/// Photometric files read so far (`None`: unreadable), by path.
+type PhotometryCache = HashMap<PathBuf, Option<Arc<IntensityDistribution>>>;
+
+/// Luminaire `i`'s C0 and C90 directions: C0 from `c0_direction` or from aim and
+/// `rotation_deg`; a given `c90_direction` must be C0 × aim. `None` after an error.
+fn c_axes(
+    c: &mut Checker,
+    i: usize,
+    l: &LuminaireJson,
+    aim: DVec3,
+    warnings: &mut Vec<String>,
+) -> Option<(DVec3, DVec3)> {
+    let at = |field: &str| format!("luminaires[{i}].{field}");
+    let derived = derive_c0(aim, l.rotation_deg.to_radians());
+    let c0 = match l.c0_direction {
+        None => derived,
+        Some(v) => {
+            let c0 = c.unit(at("c0_direction"), v, warnings)?;
+            if c0.dot(aim).abs() > 1e-3 {
+                c.fail(at("c0_direction"), "must be perpendicular to aim");
+                return None;
+            }
+            if c0.dot(derived) < 1.0 - 1e-3 {
+                warnings.push(format!(
+                    "{}: luminaire {}: c0_direction disagrees with aim and rotation_deg \
+                     (C0 counter-clockwise about the upward axis); c0_direction is used",
+                    c.path.display(),
+                    l.id
+                ));
+            }
+            c0
+        }
+    };
+    let c90 = c0.cross(aim);
+    if let Some(v) = l.c90_direction {
+        let given = c.unit(at("c90_direction"), v, warnings)?;
+        if given.dot(c90) < 1.0 - 1e-3 {
+            c.fail(
+                at("c90_direction"),
+                format!(
+                    "must equal c0_direction × aim = {:?} (C angles run counter-clockwise \
+                     seen from above); found {v:?}",
+                    c90.to_array()
+                ),
+            );
+            return None;
+        }
+    }
+    Some((c0, c90))
+}
+
+/// Luminaire `i`'s photometric file (the preferred format when both are named) and its
+/// distribution, read once per file; when both formats are named, a warning if they differ.
+/// `None` after an error.
+fn photometry_of(
+    c: &mut Checker,
+    i: usize,
+    l: &LuminaireJson,
+    dir: &Path,
+    options: &LoadOptions,
+    cache: &mut PhotometryCache,
+    warnings: &mut Vec<String>,
+) -> Option<(PathBuf, Arc<IntensityDistribution>)> {
+    let at = |field: &str| format!("luminaires[{i}].{field}");
+    let (first, second) = match options.photometry {
+        PhotometryPreference::Ldt => (&l.photometry_ldt, &l.photometry_ies),
+        PhotometryPreference::Ies => (&l.photometry_ies, &l.photometry_ldt),
+    };
+    let Some(file) = first.as_ref().or(second.as_ref()) else {
+        c.fail(
+            at("photometry_ldt"),
+            "names no photometric file (photometry_ldt or photometry_ies)",
+        );
+        return None;
+    };
+    let photometry_path = dir.join(file);
+    let dist = cache
+        .entry(photometry_path.clone())
+        .or_insert_with(|| match IntensityDistribution::load(&photometry_path) {
+            Ok(d) => {
+                for w in &d.meta.warnings {
+                    warnings.push(format!("{}: {w}", photometry_path.display()));
+                }
+                Some(Arc::new(d))
+            }
+            Err(source) => {
+                c.errors.push(SceneError::Photometry { id: l.id, source });
+                None
+            }
+        })
+        .clone()?;
+    // When both formats are named, they must describe the same distribution.
+    if let (Some(a), Some(b)) = (&l.photometry_ldt, &l.photometry_ies) {
+        let other_path = dir.join(if file == a { b } else { a });
+        if let std::collections::hash_map::Entry::Vacant(slot) = cache.entry(other_path.clone()) {
+            let other = IntensityDistribution::load(&other_path).ok().map(Arc::new);
+            match &other {
+                Some(o) => {
+                    let dev = shape_deviation(&dist, o);
+                    if dev > 0.01 {
+                        warnings.push(format!(
+                            "luminaire {}: {} and {} differ by up to {:.1} % of the peak \
+                             intensity; {} is used",
+                            l.id,
+                            photometry_path.display(),
+                            other_path.display(),
+                            100.0 * dev,
+                            photometry_path.display()
+                        ));
+                    }
+                }
+                None => warnings.push(format!(
+                    "luminaire {}: {} cannot be read; {} is used",
+                    l.id,
+                    other_path.display(),
+                    photometry_path.display()
+                )),
+            }
+            slot.insert(other);
+        }
+    }
+    Some((photometry_path, dist))
 }
 
 /// Largest difference of two distributions, each scaled to 1 lm, sampled every 5°, relative

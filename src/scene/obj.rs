@@ -63,23 +63,8 @@ pub(crate) fn parse_obj(
         let keyword = parts.next().unwrap_or("");
         match keyword {
             "v" => {
-                let mut xyz = [0.0f64; 3];
-                for (k, c) in xyz.iter_mut().enumerate() {
-                    let t = parts.next().ok_or_else(|| {
-                        err(line_no, format!("vertex needs 3 coordinates, found {k}"))
-                    })?;
-                    let v: f64 = t.parse().map_err(|_| {
-                        err(line_no, format!("vertex coordinate {t:?} is not a number"))
-                    })?;
-                    if !v.is_finite() {
-                        return Err(err(
-                            line_no,
-                            format!("vertex coordinate {t:?} is not finite"),
-                        ));
-                    }
-                    *c = v * unit_to_m;
-                }
-                mesh.positions_m.push(DVec3::from_array(xyz));
+                let p = vertex(&mut parts, unit_to_m).map_err(|m| err(line_no, m))?;
+                mesh.positions_m.push(p);
             }
             "f" => {
                 let Some(material) = current_material else {
@@ -93,28 +78,7 @@ pub(crate) fn parse_obj(
                     Some(g) => g,
                     None => intern(&mut group_index, &mut mesh.groups, "default"),
                 };
-                let n = mesh.positions_m.len() as i64;
-                let mut idx = Vec::new();
-                for t in parts {
-                    let first = t.split('/').next().unwrap_or("");
-                    let k: i64 = first
-                        .parse()
-                        .map_err(|_| err(line_no, format!("face vertex {t:?} is not an index")))?;
-                    let resolved = if k > 0 { k - 1 } else { n + k };
-                    if k == 0 || resolved < 0 || resolved >= n {
-                        return Err(err(
-                            line_no,
-                            format!("face vertex index {k} out of range (1..={n} vertices so far)"),
-                        ));
-                    }
-                    idx.push(resolved as u32);
-                }
-                if idx.len() < 3 {
-                    return Err(err(
-                        line_no,
-                        format!("a face needs at least 3 vertices, found {}", idx.len()),
-                    ));
-                }
+                let idx = face(parts, mesh.positions_m.len()).map_err(|m| err(line_no, m))?;
                 used_materials[material as usize] = true;
                 for k in 1..idx.len() - 1 {
                     let t = Triangle {
@@ -184,6 +148,51 @@ pub(crate) fn parse_obj(
         });
     }
     Ok((mesh, report))
+}
+
+/// A `v` statement's point (its first three coordinates, times `unit_to_m`), or why not.
+fn vertex<'a>(parts: &mut impl Iterator<Item = &'a str>, unit_to_m: f64) -> Result<DVec3, String> {
+    let mut xyz = [0.0f64; 3];
+    for (k, c) in xyz.iter_mut().enumerate() {
+        let t = parts
+            .next()
+            .ok_or_else(|| format!("vertex needs 3 coordinates, found {k}"))?;
+        let v: f64 = t
+            .parse()
+            .map_err(|_| format!("vertex coordinate {t:?} is not a number"))?;
+        if !v.is_finite() {
+            return Err(format!("vertex coordinate {t:?} is not finite"));
+        }
+        *c = v * unit_to_m;
+    }
+    Ok(DVec3::from_array(xyz))
+}
+
+/// An `f` statement's vertex indices (from 0; negative ones count back from the `n` vertices so
+/// far), at least 3, or why not.
+fn face<'a>(parts: impl Iterator<Item = &'a str>, n: usize) -> Result<Vec<u32>, String> {
+    let n = n as i64;
+    let mut idx = Vec::new();
+    for t in parts {
+        let first = t.split('/').next().unwrap_or("");
+        let k: i64 = first
+            .parse()
+            .map_err(|_| format!("face vertex {t:?} is not an index"))?;
+        let resolved = if k > 0 { k - 1 } else { n + k };
+        if k == 0 || resolved < 0 || resolved >= n {
+            return Err(format!(
+                "face vertex index {k} out of range (1..={n} vertices so far)"
+            ));
+        }
+        idx.push(resolved as u32);
+    }
+    if idx.len() < 3 {
+        return Err(format!(
+            "a face needs at least 3 vertices, found {}",
+            idx.len()
+        ));
+    }
+    Ok(idx)
 }
 
 fn intern(index: &mut HashMap<String, u32>, names: &mut Vec<String>, name: &str) -> u32 {

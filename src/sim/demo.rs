@@ -129,9 +129,45 @@ pub fn demo_office() -> Scene {
     b.solid_box(p(0.3, 5.45, 0.0), p(2.3, 5.95, 1.2), "cabinet_1", cabinet);
 
     // Six luminaires over the desk rows, openings flush with the ceiling (1 mm below it).
+    let luminaires = demo_luminaires(&mut b, opening, lz - 0.001);
+
+    // A pinhole ToF + colour node. It sees 2 of the 7 desk sensors (the in-process tests'
+    // camera); the sim board's file gives the node a fisheye that sees all 7 (docs/cameras.md).
+    let camera = Camera {
+        position_m: p(lx / 2.0, ly / 2.0, lz - 0.02),
+        world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
+        fx: 160.0,
+        fy: 160.0,
+        cx: 159.5,
+        cy: 119.5,
+        width: 320,
+        height: 240,
+        luminance_cd_m2_per_unit: None,
+        lens: crate::scene::Lens::Pinhole,
+    };
+
+    Scene {
+        name: "demo office (built in)".into(),
+        mesh: b.build(),
+        luminaires,
+        sensors,
+        desks: Some(Desks {
+            desks,
+            grid_step_m: 0.25,
+            grid_points,
+        }),
+        camera: Some(camera),
+        obj_report: ObjReport::default(),
+        warnings: Vec::new(),
+    }
+}
+
+/// The six luminaires over the desk rows at height `z` (m), their openings (material
+/// `opening`) into `b`.
+fn demo_luminaires(b: &mut MeshBuilder, opening: u32, z: f64) -> Vec<Luminaire> {
+    let p = DVec3::new;
     let photometry = Arc::new(demo_photometry());
     let mut luminaires = Vec::new();
-    let z = lz - 0.001;
     for (k, (x, y)) in [
         (1.8, 1.6),
         (4.0, 1.6),
@@ -170,36 +206,7 @@ pub fn demo_office() -> Scene {
             file_flux_lm: LUMINAIRE_FLUX_LM,
         });
     }
-
-    // A pinhole ToF + colour node. It sees 2 of the 7 desk sensors (the in-process tests'
-    // camera); the sim board's file gives the node a fisheye that sees all 7 (docs/cameras.md).
-    let camera = Camera {
-        position_m: p(lx / 2.0, ly / 2.0, lz - 0.02),
-        world_from_camera: DMat3::from_cols(DVec3::Y, DVec3::X, DVec3::NEG_Z),
-        fx: 160.0,
-        fy: 160.0,
-        cx: 159.5,
-        cy: 119.5,
-        width: 320,
-        height: 240,
-        luminance_cd_m2_per_unit: None,
-        lens: crate::scene::Lens::Pinhole,
-    };
-
-    Scene {
-        name: "demo office (built in)".into(),
-        mesh: b.build(),
-        luminaires,
-        sensors,
-        desks: Some(Desks {
-            desks,
-            grid_step_m: 0.25,
-            grid_points,
-        }),
-        camera: Some(camera),
-        obj_report: ObjReport::default(),
-        warnings: Vec::new(),
-    }
+    luminaires
 }
 
 #[cfg(test)]

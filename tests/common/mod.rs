@@ -1,17 +1,62 @@
-//! Independent references for the tests: configuration factors of the Howell catalogue in
-//! closed form (physics.md §2), and small scenes built in code.
+//! What the tests share: where the reference scenes are (`office_a` and the rest of
+//! `../shared/`) and their loaders; independent references (configuration factors of the Howell
+//! catalogue in closed form, physics.md §2); small scenes built in code. Every test file that
+//! needs one of these takes it from here (`mod common;`), never writes its own.
 #![allow(dead_code)]
 
 #[cfg(feature = "hil")]
 pub mod procs;
 
 use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::DVec3;
+use luxnode::camera::capture::Capture;
 use luxnode::lsc::AngularResponse;
 use luxnode::photometry::IntensityDistribution;
-use luxnode::scene::{Luminaire, Mesh, ObjReport, Scene, Sensor};
+use luxnode::scene::{
+    Desks, LoadOptions, Luminaire, Mesh, ObjReport, Scene, Sensor, load_desks_file,
+    load_luminaires_file, load_sensors_file,
+};
+
+/// The crate's directory.
+pub fn manifest() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A path under the shared reference data (`../shared/`).
+pub fn shared(rel: &str) -> PathBuf {
+    manifest().join("../shared").join(rel)
+}
+
+/// The reference office's scene directory (`../shared/scenes/office_a`).
+pub fn office_a() -> PathBuf {
+    shared("scenes/office_a")
+}
+
+/// A scene directory's luminaires, sensors and desks (when it has `desks.json`), loaded with
+/// the default options.
+pub fn scene_inputs(dir: &Path) -> (Vec<Luminaire>, Vec<Sensor>, Option<Desks>) {
+    let load = LoadOptions::default();
+    let (lums, _) = load_luminaires_file(&dir.join("luminaires.json"), &load).expect("luminaires");
+    let (sensors, _) = load_sensors_file(&dir.join("sensors.json"), &load).expect("sensors");
+    let desks = load_desks_file(&dir.join("desks.json"), &load).ok();
+    (lums, sensors, desks)
+}
+
+/// The capture set in `dir` for `luminaires` (one luminance frame per luminaire).
+pub fn capture(dir: &Path, luminaires: &[Luminaire]) -> Capture {
+    let ids: Vec<u32> = luminaires.iter().map(|l| l.id).collect();
+    Capture::load(dir, &ids).expect("capture")
+}
+
+/// office_a's capture set `name` (`capture_clean`, ...), luminaires and sensors.
+pub fn office_a_capture(name: &str) -> (Capture, Vec<Luminaire>, Vec<Sensor>) {
+    let d = office_a();
+    let (lums, sensors, _) = scene_inputs(&d);
+    (capture(&d.join(name), &lums), lums, sensors)
+}
 
 /// B-3: differential element to a parallel a × b rectangle at distance c, the element on the
 /// normal through one corner.
