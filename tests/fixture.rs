@@ -193,3 +193,26 @@ fn a_closed_pipe_ends_a_command_quietly() {
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
 }
+
+/// Commissioning's reflectance fit solves the pass model once per luminaire; a solve that
+/// fails is an error now, where it was ignored and its zeroed exitance used (issue 27).
+#[test]
+fn a_failed_solve_in_the_reflectance_fit_is_an_error() {
+    use luxnode::commission::reflectance;
+    use luxnode::engine::{self, Settings};
+    use luxnode::solver::SolveError;
+    let scene = Scene::load(&dir(), &LoadOptions::default()).unwrap();
+    let settings = Settings::default();
+    let model = engine::compute_model(&scene, &settings).unwrap();
+    let ok = reflectance::indirect_lx(&model, &model.patches.rho, &settings).unwrap();
+    assert_eq!(ok.len(), 2);
+    assert!(ok.iter().flatten().all(|e| e.is_finite() && *e >= 0.0));
+    assert!(ok.iter().flatten().any(|e| *e > 0.0));
+    let mut white = model.patches.rho.clone();
+    white[0] = 1.0;
+    let err = reflectance::indirect_lx(&model, &white, &settings).unwrap_err();
+    assert!(
+        matches!(err, SolveError::BadReflectance { patch: 0, .. }),
+        "{err}"
+    );
+}

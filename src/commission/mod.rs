@@ -1236,7 +1236,7 @@ struct Estimator<'a> {
 
 impl Estimator<'_> {
     /// The estimate at camera gain `gain` (cd/m² per unit).
-    fn run(&self, gain: f64) -> Estimate {
+    fn run(&self, gain: f64) -> Result<Estimate, CommissionError> {
         reflectance::estimate(
             &self.samples,
             self.pass_model,
@@ -1248,7 +1248,17 @@ impl Estimator<'_> {
             &self.pass,
             self.o,
         )
+        .map_err(|source| pass_solve("the reflectance estimate", source))
     }
+}
+
+/// A failed solve of the pass model (reflectances, a receiver's reading) as an engine error:
+/// never a value from a solve that did not converge.
+fn pass_solve(what: &str, source: crate::solver::SolveError) -> CommissionError {
+    CommissionError::Engine(EngineError::Solve {
+        what: format!("{what} (pass model)"),
+        source,
+    })
 }
 
 /// Stages "pass model" and "reflectances": a cheap model at the start reflectances, every
@@ -1310,9 +1320,9 @@ fn estimate_reflectances(
         Gain::Luxmeter { .. } | Gain::Ambient { .. } => None,
     };
     let (e, reading) = match (&o.gain, scale) {
-        (Gain::Camera, Some(g)) => (est.run(g), None),
+        (Gain::Camera, Some(g)) => (est.run(g)?, None),
         (Gain::Ambient { .. }, _) if direct.is_some() => (
-            est.run(direct.as_ref().map_or(1.0, |d| d.gain_cd_m2_per_unit)),
+            est.run(direct.as_ref().map_or(1.0, |d| d.gain_cd_m2_per_unit))?,
             None,
         ),
         (Gain::Camera, None) => {
@@ -1458,16 +1468,17 @@ fn gain_through_model(
                 reflectance::sensor_reading_lx(pass_model, *s, &g.levels, &patch_rho, &est.pass)
             }
             (_, Some(r)) => r.reading_lx(pass_model, &g.levels, &patch_rho, &est.pass),
-            _ => 0.0,
+            _ => Ok(0.0),
         }
+        .map_err(|source| pass_solve("the gain reading", source))
     };
-    let bisect = |target: f64| {
+    let bisect = |target: f64| -> Result<Estimate, CommissionError> {
         let (mut lo, mut hi) = (1e-6f64.ln(), 1e3f64.ln());
-        let mut best = est.run(1.0);
+        let mut best = est.run(1.0)?;
         for _ in 0..40 {
             let mid = 0.5 * (lo + hi);
-            let e = est.run(mid.exp());
-            if reading(&e) < target {
+            let e = est.run(mid.exp())?;
+            if reading(&e)? < target {
                 lo = mid;
             } else {
                 hi = mid;
@@ -1477,10 +1488,10 @@ fn gain_through_model(
                 break;
             }
         }
-        best
+        Ok(best)
     };
-    let first = bisect(g.lux_lx);
-    let pass_reading = reading(&first);
+    let first = bisect(g.lux_lx)?;
+    let pass_reading = reading(&first)?;
     let scene = i.scene(reco, &first.tri_rho);
     let full = run_engine(&scene, &i.o.engine, &mut report.warnings)?;
     let full_reading =
@@ -1490,7 +1501,7 @@ fn gain_through_model(
     } else {
         g.lux_lx
     };
-    Ok((bisect(target), g))
+    Ok((bisect(target)?, g))
 }
 
 /// Stage "engine": the final model at the estimated reflectances; with a gain reading, the

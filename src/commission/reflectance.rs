@@ -26,7 +26,7 @@ use crate::engine::direct::{self, Receiver};
 use crate::engine::raycast::{Hit, RayCaster};
 use crate::engine::{Model, Settings};
 use crate::scene::Luminaire;
-use crate::solver::{self, CsrSystem};
+use crate::solver::{self, CsrSystem, SolveError};
 
 /// How the frames of a pixel combine into a reflectance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -197,7 +197,11 @@ pub fn sample(
 
 /// Interreflected irradiance per luminaire on each patch, lx: `Σ_j F_ij B_j` with
 /// `B = ρ (E_dir + F B)`.
-pub fn indirect_lx(model: &Model, patch_rho: &[f64], settings: &Settings) -> Vec<Vec<f64>> {
+pub fn indirect_lx(
+    model: &Model,
+    patch_rho: &[f64],
+    settings: &Settings,
+) -> Result<Vec<Vec<f64>>, SolveError> {
     let sys = CsrSystem {
         f: model.ff.f.view(),
         rho: patch_rho,
@@ -207,11 +211,10 @@ pub fn indirect_lx(model: &Model, patch_rho: &[f64], settings: &Settings) -> Vec
         .par_iter()
         .map(|e| {
             let mut b = vec![0.0; patch_rho.len()];
-            // a failed solve leaves what it reached; the estimate stays finite
-            let _ = solver::gauss_seidel(&sys, e, &mut b, settings.solve);
-            (0..patch_rho.len())
+            solver::gauss_seidel(&sys, e, &mut b, settings.solve)?;
+            Ok((0..patch_rho.len())
                 .map(|i| model.ff.f.row(i).map(|(j, f)| f * b[j as usize]).sum())
-                .collect()
+                .collect())
         })
         .collect()
 }
@@ -401,7 +404,7 @@ pub fn estimate(
     gain: f64,
     settings: &Settings,
     o: &ReflectanceOptions,
-) -> Estimate {
+) -> Result<Estimate, SolveError> {
     let n_tri = reco.tris.len();
     let mut tri_rho = tri_rho_start.to_vec();
     let mut out = Estimate {
@@ -419,7 +422,7 @@ pub fn estimate(
                 .iter()
                 .map(|&t| tri_rho[t as usize])
                 .collect();
-            indirect_lx(model, &patch_rho, settings)
+            indirect_lx(model, &patch_rho, settings)?
         };
         let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
         let mut floor_px = Vec::new();
@@ -498,7 +501,7 @@ pub fn estimate(
         }
     }
     out.tri_rho = tri_rho;
-    out
+    Ok(out)
 }
 
 /// The pass model's reading at sensor `s` for a dimming state, with these patch exitances
@@ -509,7 +512,7 @@ pub fn sensor_reading_lx(
     levels: &[f64],
     patch_rho: &[f64],
     settings: &Settings,
-) -> f64 {
+) -> Result<f64, SolveError> {
     reading_over_row(
         model,
         levels,
@@ -521,8 +524,7 @@ pub fn sensor_reading_lx(
 }
 
 /// A receiver's reading for a dimming state: `Σ_l x_l (direct_l + row · B_l)`, with `B_l` the
-/// pass model's exitance from luminaire `l` alone at these patch reflectances (a failed solve
-/// leaves what it reached; the reading stays finite).
+/// pass model's exitance from luminaire `l` alone at these patch reflectances.
 fn reading_over_row<R: IntoIterator<Item = (u32, f64)>>(
     model: &Model,
     levels: &[f64],
@@ -530,7 +532,7 @@ fn reading_over_row<R: IntoIterator<Item = (u32, f64)>>(
     settings: &Settings,
     direct_lx: impl Fn(usize) -> f64,
     row: impl Fn() -> R,
-) -> f64 {
+) -> Result<f64, SolveError> {
     let sys = CsrSystem {
         f: model.ff.f.view(),
         rho: patch_rho,
@@ -541,11 +543,11 @@ fn reading_over_row<R: IntoIterator<Item = (u32, f64)>>(
             continue;
         }
         let mut b = vec![0.0; patch_rho.len()];
-        let _ = solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve);
+        solver::gauss_seidel(&sys, &model.direct_patch_lx[l], &mut b, settings.solve)?;
         let g: f64 = row().into_iter().map(|(j, w)| w * b[j as usize]).sum();
         total += x * (direct_lx(l) + g);
     }
-    total
+    Ok(total)
 }
 
 /// A point receiver's gather row and direct light on a model: what an ideal cosine receiver at
@@ -600,7 +602,7 @@ impl PointReceiver {
         levels: &[f64],
         patch_rho: &[f64],
         settings: &Settings,
-    ) -> f64 {
+    ) -> Result<f64, SolveError> {
         reading_over_row(
             model,
             levels,
