@@ -270,3 +270,28 @@ fn the_checker_sees_what_it_must() {
     assert_eq!(t.get("store"), Some(&2));
     assert_eq!(t.len(), 3);
 }
+
+#[test]
+fn the_node_knows_no_protocol() {
+    // the application state: no wire format, no server, no network; the protocols are
+    // adapters over it (`fieldbus`), never the other way round
+    let mut files = Vec::new();
+    rust_files(&src().join("node"), &mut files);
+    assert!(!files.is_empty(), "src/node/");
+    for f in files {
+        let code = strip(&std::fs::read_to_string(&f).expect("read"));
+        for word in [
+            "modbus::pdu",
+            "modbus::frame",
+            "fieldbus",
+            "tokio",
+            "PduHandler",
+        ] {
+            assert!(
+                !code.contains(word),
+                "{} names {word}: the node must not know a protocol",
+                f.display()
+            );
+        }
+    }
+}

@@ -45,7 +45,7 @@ pub struct Board {
     /// 300 s).
     pub sensor_check: std::time::Duration,
     /// Lighting control (`[control]`).
-    pub control: crate::modbus::node::ControlOptions,
+    pub control: crate::node::ControlOptions,
     /// Live light (`[live]`): the cameras at run time.
     pub live: LiveBoard,
     /// The status LED (`[led]`), if any.
@@ -139,13 +139,13 @@ pub struct ModbusBoard {
     /// Who may write; word orders.
     pub access: crate::modbus::access::AccessPolicy,
     /// Modbus/TCP Security: address and PEM files.
-    pub tls: Option<(std::net::SocketAddr, crate::modbus::tls::TlsFiles)>,
+    pub tls: Option<(std::net::SocketAddr, crate::fieldbus::tls::TlsFiles)>,
     /// TCP idle timeout.
     pub idle_timeout: std::time::Duration,
     /// RTU: device and line settings.
-    pub rtu: Option<(String, crate::modbus::rtu::RtuOptions)>,
+    pub rtu: Option<(String, crate::fieldbus::rtu::RtuOptions)>,
     /// DALI gateway link.
-    pub gateway: Option<crate::modbus::gateway::GatewayConfig>,
+    pub gateway: Option<crate::fieldbus::gateway::GatewayConfig>,
 }
 
 #[derive(Deserialize)]
@@ -265,7 +265,7 @@ fn default_bind() -> String {
     crate::serve::DEFAULT_BIND.into()
 }
 fn default_max_connections() -> usize {
-    crate::modbus::tcp::DEFAULT_MAX_CONNECTIONS
+    crate::fieldbus::tcp::DEFAULT_MAX_CONNECTIONS
 }
 fn default_idle_timeout_s() -> f64 {
     60.0
@@ -278,7 +278,7 @@ struct RtuToml {
     #[serde(default = "default_baud")]
     baud: u32,
     #[serde(default)]
-    parity: crate::modbus::rtu::Parity,
+    parity: crate::fieldbus::rtu::Parity,
     #[serde(default)]
     stop_bits: Option<u8>,
     unit_id: u8,
@@ -298,7 +298,7 @@ struct BoardToml {
     #[serde(default)]
     modbus: ModbusToml,
     #[serde(default)]
-    gateway: Option<crate::modbus::gateway::GatewayConfig>,
+    gateway: Option<crate::fieldbus::gateway::GatewayConfig>,
     #[serde(default)]
     engine: EngineToml,
     #[serde(default)]
@@ -393,7 +393,7 @@ impl Board {
         }
         let max_per_source = m
             .max_per_source
-            .unwrap_or(crate::modbus::tcp::DEFAULT_MAX_PER_SOURCE.min(m.max_connections));
+            .unwrap_or(crate::fieldbus::tcp::DEFAULT_MAX_PER_SOURCE.min(m.max_connections));
         if max_per_source == 0 || max_per_source > m.max_connections {
             return Err(bad(format!(
                 "modbus.max_per_source {max_per_source} is outside 1..=max_connections ({})",
@@ -413,7 +413,7 @@ impl Board {
                 let dir = path.parent().unwrap_or(Path::new("."));
                 Some((
                     addr,
-                    crate::modbus::tls::TlsFiles {
+                    crate::fieldbus::tls::TlsFiles {
                         cert: dir.join(&t.cert),
                         key: dir.join(&t.key),
                         client_ca: dir.join(&t.client_ca),
@@ -441,12 +441,12 @@ impl Board {
         let rtu = match &m.rtu {
             None => None,
             Some(r) => {
-                let options = crate::modbus::rtu::RtuOptions {
+                let options = crate::fieldbus::rtu::RtuOptions {
                     unit_id: r.unit_id,
                     baud: r.baud,
                     parity: r.parity,
                     stop_bits: r.stop_bits.unwrap_or(
-                        if r.parity == crate::modbus::rtu::Parity::None {
+                        if r.parity == crate::fieldbus::rtu::Parity::None {
                             2
                         } else {
                             1

@@ -16,9 +16,9 @@ use luxnode::daemon::source::{AmbientAtCommissioning, CameraSource};
 use luxnode::daemon::{
     self, CadSource, CommissionSource, Companion, DaemonConfig, Exit, SensorProbe, Unavailable,
 };
+use luxnode::fieldbus::gateway::GatewayWriter;
+use luxnode::fieldbus::tcp::TcpOptions;
 use luxnode::image_build::ImageOptions;
-use luxnode::modbus::gateway::GatewayWriter;
-use luxnode::modbus::tcp::TcpOptions;
 use luxnode::scene::Scene;
 use luxnode::serve::ServeOptions;
 use luxnode::store::devices::{DeviceError, FileFlash};

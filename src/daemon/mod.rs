@@ -32,9 +32,9 @@ use std::time::{Duration, Instant};
 
 use crate::engine::EngineError;
 use crate::image_build::{BuildError, ImageOptions};
-use crate::modbus::health::Health;
-use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::modbus::regmap::Identity;
+use crate::node::health::Health;
+use crate::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::serve::{Reload, ServeError, ServeOptions, Signals, serve_node, wait_for_stop};
 use crate::store::devices::{DeviceError, FileFlash};
 use crate::store::file::{FileError, read_bootable};
@@ -569,7 +569,7 @@ where
     let reload = config.reload;
     let probe = config.sensor_probe;
     rt.block_on(async move {
-        let listener = crate::modbus::tcp::bind(serve.bind)
+        let listener = crate::fieldbus::tcp::bind(serve.bind)
             .await
             .map_err(ServeError::from)?;
         let addr = listener.local_addr().map_err(ServeError::Io)?;
@@ -645,7 +645,7 @@ struct Watch {
     tolerance: f64,
     led: Option<Arc<crate::peripherals::node::LedMonitor>>,
     /// Its beat for the watchdog (it is one of the node's supervised parts).
-    beat: crate::modbus::health::Beat,
+    beat: crate::node::health::Beat,
     hook: Option<crate::peripherals::node::LevelsHook>,
     open_faults: Vec<String>,
 }

@@ -13,8 +13,8 @@ use crate::camera::{
     CameraError, DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
 };
 use crate::commission::{self, CommissionOptions};
+use crate::fieldbus::gateway::GatewayWriter;
 use crate::image_build::{ImageOptions, formfactors_region_bytes};
-use crate::modbus::gateway::GatewayWriter;
 use crate::scene::{Desks, Luminaire, Sensor};
 
 /// The DALI gateway switches the luminaires for the capture.
