@@ -19,6 +19,7 @@
 //! Everything the daemon has to say goes out as `tracing` events (journald-friendly when
 //! stderr is not a terminal); it never prints.
 
+pub mod assemble;
 pub mod live;
 pub mod source;
 pub mod systemd;
