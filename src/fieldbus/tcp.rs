@@ -4,8 +4,8 @@
 //! Why not the tokio-modbus server: its request codec drops the connection on a malformed PDU
 //! (a 0x10 whose byte count does not match, a truncated request, an unknown MEI type) where a
 //! field device must answer exception 0x03, and it computes `quantity * 2` in u16 (overflow).
-//! The wire format here is seven bytes of header; everything else is [`crate::modbus::pdu`], fuzzed.
-//! tokio-modbus remains the client (the DALI gateway link, the tests).
+//! The wire format here is seven bytes of header; everything else is [`crate::modbus::pdu`],
+//! fuzzed. tokio-modbus remains the client (the DALI gateway link, the tests).
 //!
 //! * one task per connection; the shared state is locked only while a request is handled, so a
 //!   slow or hostile client (half a header, never reading its answers) never blocks others;
