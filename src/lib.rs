@@ -45,7 +45,7 @@
 //! | 14 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 15 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
 //! | 16 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
-//! | 17 | `daemon` | std | the node: boot from flash or commission, serve, systemd |
+//! | 17 | `daemon` | std | running a node: assembled from its board file (flash, peripherals, cameras, serving, live light), boot from flash or commission, serve, systemd |
 //! | 18 | `bench` | feature `bench` | benchmarks that print tables: timing, accuracy, trade-offs, Modbus load and fuzzing |
 //!
 //! The binary (`src/main.rs`, `src/cli/`) parses arguments and prints; it may use any layer.
