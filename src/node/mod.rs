@@ -68,6 +68,12 @@ pub enum NodeError {
         /// The level.
         level: f64,
     },
+    /// A desk the model does not have.
+    #[error("desk {0}: not in the model")]
+    UnknownDesk(u32),
+    /// A target outside [0, MAX_TARGET_LX] lx, or not finite.
+    #[error("target {0} lx is outside 0..={MAX_TARGET_LX} lx")]
+    Target(f64),
     /// Arc levels of the wrong length.
     #[error("{found} levels given, the image has {expected} luminaires")]
     Length {
@@ -789,7 +795,15 @@ impl Node {
         let changed = self.keep_word_order(source, order)
             | self.keep_curve(curve)
             | self.keep_control(address, count);
-        if changed && let Some(path) = &self.settings_path {
+        if changed {
+            self.save_settings();
+        }
+        self.refresh_flags();
+    }
+
+    /// Persists the settings clients wrote (when the node has a settings file).
+    fn save_settings(&self) {
+        if let Some(path) = &self.settings_path {
             match self.settings.save(path) {
                 Ok(()) => tracing::info!(
                     target: "luxnode::audit",
@@ -799,7 +813,36 @@ impl Node {
                 Err(e) => tracing::error!("{e}: the setting holds until the node restarts"),
             }
         }
+    }
+
+    /// Sets the lighting-control mode (an adapter other than the register map: what a client
+    /// writes wins over the board's, and is persisted).
+    pub fn set_control_mode(&mut self, mode: Mode) {
+        self.map.control.mode = mode.code();
+        self.settings.control_mode = Some(mode.code());
+        self.save_settings();
         self.refresh_flags();
+    }
+
+    /// Sets the target of desk `desk_id`, lx, rounded to whole lux (an adapter other than the
+    /// register map; persisted like a register write).
+    pub fn set_target_lx(&mut self, desk_id: u32, target_lx: f64) -> Result<(), NodeError> {
+        let k = self
+            .model
+            .sensor_ids
+            .iter()
+            .position(|&id| id == desk_id)
+            .ok_or(NodeError::UnknownDesk(desk_id))?;
+        if !(target_lx.is_finite() && (0.0..=f64::from(MAX_TARGET_LX)).contains(&target_lx)) {
+            return Err(NodeError::Target(target_lx));
+        }
+        let t = libm::round(target_lx) as u16;
+        if let Some(slot) = self.map.control.targets_lx.get_mut(k) {
+            *slot = t;
+        }
+        self.settings.targets_lx.insert(desk_id, t);
+        self.save_settings();
+        Ok(())
     }
 
     /// Keeps the client's word order when a write changed it; true when the settings changed.
@@ -864,4 +907,51 @@ pub type SharedNode = Arc<Mutex<Node>>;
 /// is never left half-updated by the handlers.
 pub fn lock<T: ?Sized>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> NodeModel {
+        NodeModel {
+            response_lx: vec![100.0, 200.0, 10.0, 20.0],
+            sensor_ids: vec![7, 9],
+            luminaire_ids: vec![1, 2],
+            sensor_flags: vec![0, 0],
+            model_rel_uncertainty: vec![f64::NAN; 2],
+            generation: 1,
+            luminaire_flux_lm: vec![1000.0; 2],
+        }
+    }
+
+    #[test]
+    fn an_adapter_sets_mode_and_targets_without_registers() {
+        let dir = std::env::temp_dir().join(format!("luxnode-node-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        let path = dir.join("settings.json");
+        let _ = std::fs::remove_file(&path);
+        let options = NodeOptions {
+            settings_path: Some(path.clone()),
+            ..NodeOptions::default()
+        };
+        let mut node = Node::new(model(), options.clone()).expect("node");
+        node.set_control_mode(Mode::DaylightHarvesting);
+        assert_eq!(node.control_mode(), Mode::DaylightHarvesting);
+        node.set_target_lx(9, 420.4).expect("target");
+        assert_eq!(node.targets_lx()[1], 420.0);
+        assert!(matches!(
+            node.set_target_lx(8, 100.0),
+            Err(NodeError::UnknownDesk(8))
+        ));
+        assert!(matches!(
+            node.set_target_lx(7, f64::NAN),
+            Err(NodeError::Target(_))
+        ));
+        // kept across a restart, like a register write
+        let again = Node::new(model(), options).expect("node");
+        assert_eq!(again.control_mode(), Mode::DaylightHarvesting);
+        assert_eq!(again.targets_lx()[1], 420.0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
