@@ -262,7 +262,7 @@ fn live_base() -> &'static (Vec<u8>, Vec<u8>) {
     static BASE: OnceLock<(Vec<u8>, Vec<u8>)> = OnceLock::new();
     BASE.get_or_init(|| {
         use luxnode::image_build::{ImageOptions, build_image, encode_live};
-        use luxnode::live::section::{SectionOptions, from_model};
+        use luxnode::live_section::{SectionOptions, from_model};
         let world = luxnode::sim::camera::SimWorld::demo_office().expect("demo office");
         let scene = luxnode::sim::demo::demo_office();
         let image = build_image(world.model(), &ImageOptions::default()).expect("image");

@@ -35,13 +35,13 @@
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); who may write and how each client reads (access), the settings clients wrote (std) |
 //! | 5 | `node` | std | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness) |
 //! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the DALI gateway link and the lighting loop; the frame fuzzer (feature `sim`) |
-//! | 7 | `photometry`, `lsc` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2 |
+//! | 7 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
 //! | 8 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 9 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
 //! | 10 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 11 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
 //! | 12 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
-//! | 13 | `render`, `live` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; live light: the cameras at run time (measured desk lux, daylight, occlusion, ageing) and the image section it needs |
+//! | 13 | `render`, `live_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model |
 //! | 14 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 15 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
 //! | 16 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
@@ -120,6 +120,8 @@ pub mod image_build;
 pub mod image_geometry;
 #[cfg(feature = "std")]
 pub mod live;
+#[cfg(feature = "std")]
+pub mod live_section;
 #[cfg(feature = "std")]
 pub mod lsc;
 #[cfg(feature = "std")]

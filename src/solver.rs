@@ -1,21 +1,30 @@
 //! The radiosity solve, `no_std` and allocation-free: the run-time core runs it over form
-//! factors borrowed from the flash image, commissioning over its own.
+//! factors borrowed from the flash image, commissioning over its own, live light over the
+//! unseen part of the room. It is the one radiosity iteration of the crate: every caller goes
+//! through [`solve`] (or [`gauss_seidel`], its one-right-hand-side form) and handles its
+//! [`SolveReport`] or [`SolveError`].
 //!
 //! | symbol | meaning | unit | here |
 //! |---|---|---|---|
 //! | B_i | luminous exitance of patch i (radiosity) | lm/m² | `b_lm_per_m2[i]` |
-//! | E^dir_i | direct illuminance on patch i from the luminaires | lx | `e_direct_lx[i]` |
+//! | E^dir_i | direct illuminance on patch i from the luminaires | lx | [`Source::Irradiance`] |
+//! | M_i | exitance a patch emits itself (an unknown emitter) | lm/m² | [`Source::Exitance`] |
 //! | ρ_i | diffuse reflectance, in [0, 1) | 1 | [`RadiositySystem::rho`] |
 //! | F_ij | form factor patch i → patch j | 1 | [`RadiositySystem::gather`] |
 //!
 //! The system is `B_i = ρ_i (E^dir_i + Σ_j F_ij B_j)` (physics.md §3.6: emission enters as
-//! illuminance, there is no factor π anywhere). The incident illuminance of a patch is
-//! `E_i = E^dir_i + Σ_j F_ij B_j`.
+//! illuminance, there is no factor π anywhere), or `B_i = M_i + ρ_i Σ_j F_ij B_j` when the
+//! source is an exitance. The incident illuminance of a patch is `E_i = E^dir_i + Σ_j F_ij B_j`.
 //!
-//! Gauss-Seidel sweeps, f64 accumulation, stop when the relative residual
-//! `max_i |B_i − ρ_i (E^dir_i + Σ_j F_ij B_j)| / max_i |B_i|` is below the tolerance. With
-//! ρ < 1 and row sums ≤ 1 the iteration contracts; anything else (ρ ≥ 1, non-finite input, a
-//! residual that stops falling) is an error, and a NaN never leaves the solver.
+//! Gauss-Seidel sweeps with f64 accumulation, over every row or a listed subset (the other
+//! rows' exitance is held as given: a boundary condition), for `k` right-hand sides at once.
+//! They are stored patch-major (`b[i·k + q]`), so a sweep reads each form factor once for all
+//! of them. Each right-hand side stops on its own, when its relative change
+//! `max_i |ΔB_i| / max_i |B_i|` and then its relative residual
+//! `max_i |B_i − ρ_i (E^dir_i + Σ_j F_ij B_j)| / max_i |B_i|` are at most the tolerance (maxima
+//! over the solved rows); its values are then frozen. With ρ < 1 and row sums ≤ 1 the
+//! iteration contracts; anything else (ρ ≥ 1, non-finite input, a change that stops falling,
+//! the sweep cap) is an error, and a NaN never leaves the solver.
 
 /// The linear system, as the solver sees it: reflectances and sparse form-factor rows.
 pub trait RadiositySystem {
@@ -23,8 +32,13 @@ pub trait RadiositySystem {
     fn len(&self) -> usize;
     /// Reflectance ρ_i.
     fn rho(&self, i: usize) -> f64;
-    /// `Σ_j F_ij x_j` (f64 accumulation).
+    /// `Σ_j F_ij x_j` (f64 accumulation, entries in stored order).
     fn gather(&self, i: usize, x: &[f64]) -> f64;
+    /// `acc[q] += Σ_j F_ij x[j·k + q]` for the `k = acc.len()` right-hand sides, entries in
+    /// stored order (each `q` sums exactly as [`RadiositySystem::gather`] does).
+    fn gather_k(&self, i: usize, x: &[f64], acc: &mut [f64]);
+    /// `Σ_j F_ij x[j·k + q]`: right-hand side `q` of `k` alone, in the same order.
+    fn gather_column(&self, i: usize, x: &[f64], k: usize, q: usize) -> f64;
     /// True when there are no patches.
     fn is_empty(&self) -> bool {
         self.len() == 0
@@ -49,7 +63,8 @@ impl FormFactorValue for f32 {
     }
 }
 
-/// Compressed sparse rows over borrowed slices (CSR).
+/// Compressed sparse rows over borrowed slices (CSR): the borrowed form of `Csr`, and the
+/// form the solver reads.
 #[derive(Debug, Clone, Copy)]
 pub struct CsrView<'a, V> {
     /// Row `i` is `col[row_ptr[i]..row_ptr[i + 1]]`; length n + 1.
@@ -66,14 +81,35 @@ impl<V: FormFactorValue> CsrView<'_, V> {
         self.row_ptr.len().saturating_sub(1)
     }
 
+    /// The entry range of row `i`.
+    fn range(&self, i: usize) -> core::ops::Range<usize> {
+        self.row_ptr[i] as usize..self.row_ptr[i + 1] as usize
+    }
+
     /// `Σ_j A_ij x_j` for row `i`.
     pub fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
-        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
+        self.row_dot_column(i, x, 1, 0)
+    }
+
+    /// `Σ_j A_ij x[j·k + q]` for row `i`.
+    pub fn row_dot_column(&self, i: usize, x: &[f64], k: usize, q: usize) -> f64 {
         let mut s = 0.0;
-        for k in a..b {
-            s += self.val[k].to_f64() * x[self.col[k] as usize];
+        for e in self.range(i) {
+            s += self.val[e].to_f64() * x[self.col[e] as usize * k + q];
         }
         s
+    }
+
+    /// `acc[q] += Σ_j A_ij x[j·k + q]` for `k = acc.len()` right-hand sides.
+    pub fn row_dot_k(&self, i: usize, x: &[f64], acc: &mut [f64]) {
+        let k = acc.len();
+        for e in self.range(i) {
+            let v = self.val[e].to_f64();
+            let j = self.col[e] as usize;
+            for (a, xj) in acc.iter_mut().zip(&x[j * k..j * k + k]) {
+                *a += v * xj;
+            }
+        }
     }
 
     /// Checks the structure: monotone row pointers, columns below `n_cols`, finite values.
@@ -102,6 +138,11 @@ impl<V: FormFactorValue> CsrView<'_, V> {
     }
 }
 
+#[cfg(feature = "std")]
+mod owned;
+#[cfg(feature = "std")]
+pub use owned::Csr;
+
 /// A system from a CSR view and a reflectance slice.
 #[derive(Debug, Clone, Copy)]
 pub struct CsrSystem<'a, V> {
@@ -121,12 +162,18 @@ impl<V: FormFactorValue> RadiositySystem for CsrSystem<'_, V> {
     fn gather(&self, i: usize, x: &[f64]) -> f64 {
         self.f.row_dot(i, x)
     }
+    fn gather_k(&self, i: usize, x: &[f64], acc: &mut [f64]) {
+        self.f.row_dot_k(i, x, acc)
+    }
+    fn gather_column(&self, i: usize, x: &[f64], k: usize, q: usize) -> f64 {
+        self.f.row_dot_column(i, x, k, q)
+    }
 }
 
 /// When to stop.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveOptions {
-    /// Relative residual to reach.
+    /// Relative change and relative residual to reach.
     pub tolerance: f64,
     /// Sweeps before giving up.
     pub max_iterations: u32,
@@ -141,7 +188,7 @@ impl Default for SolveOptions {
     }
 }
 
-/// How a solve went.
+/// How a solve went (over several right-hand sides: the most sweeps, the largest residual).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveReport {
     /// Sweeps done.
@@ -162,7 +209,7 @@ pub enum SolveError {
         rho: f64,
     },
     /// A NaN, an infinity or a negative value in the input.
-    #[error("non-finite or negative input (direct illuminance or form factor)")]
+    #[error("non-finite or negative input (direct illuminance, exitance or form factor)")]
     NonFiniteInput,
     /// Slice lengths disagree or the sparse structure is broken.
     #[error("malformed system: lengths or sparse structure inconsistent")]
@@ -180,18 +227,122 @@ pub enum SolveError {
     Diverged,
 }
 
+/// What drives the system, patch-major (`[i·k + q]` for right-hand side `q`).
+#[derive(Debug, Clone, Copy)]
+pub enum Source<'a> {
+    /// Incident direct illuminance `E^dir`, lx: `B_i = ρ_i (E^dir_i + Σ_j F_ij B_j)`.
+    Irradiance(&'a [f64]),
+    /// Emitted exitance `M`, lm/m²: `B_i = M_i + ρ_i Σ_j F_ij B_j`.
+    Exitance(&'a [f64]),
+}
+
+impl Source<'_> {
+    fn values(&self) -> &[f64] {
+        match self {
+            Source::Irradiance(v) | Source::Exitance(v) => v,
+        }
+    }
+
+    /// The new exitance of entry `at` from its gathered light `g` and the reflectance `rho`.
+    #[inline]
+    fn exitance(&self, at: usize, rho: f64, g: f64) -> f64 {
+        match self {
+            Source::Irradiance(e) => rho * (e[at] + g),
+            Source::Exitance(m) => m[at] + rho * g,
+        }
+    }
+}
+
+/// Which rows the sweeps update (the others' exitance is held as given).
+#[derive(Debug, Clone, Copy)]
+pub enum Rows<'a> {
+    /// Every patch.
+    All,
+    /// These patches, in this order.
+    Listed(&'a [u32]),
+}
+
+impl Rows<'_> {
+    /// How many rows are solved in a system of `n`.
+    fn count(&self, n: usize) -> usize {
+        match self {
+            Rows::All => n,
+            Rows::Listed(r) => r.len(),
+        }
+    }
+
+    /// The patch of solved row `r`.
+    #[inline]
+    fn at(&self, r: usize) -> usize {
+        match self {
+            Rows::All => r,
+            Rows::Listed(rows) => rows[r] as usize,
+        }
+    }
+}
+
+/// One right-hand side's stop state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RhsState {
+    previous: f64,
+    stalled: u32,
+    max_change: f64,
+    max_b: f64,
+    /// `Some` once this right-hand side has stopped: its own report.
+    pub done: Option<SolveReport>,
+}
+
+impl Default for RhsState {
+    fn default() -> Self {
+        Self {
+            previous: f64::INFINITY,
+            stalled: 0,
+            max_change: 0.0,
+            max_b: 0.0,
+            done: None,
+        }
+    }
+}
+
+/// Scratch for `k` right-hand sides, lent by the caller (the solver allocates nothing):
+/// `acc` and `state` both of length `k`.
+#[derive(Debug)]
+pub struct Workspace<'w> {
+    /// Gathered light of one row, per right-hand side.
+    pub acc: &'w mut [f64],
+    /// Stop state per right-hand side; after [`solve`], `state[q].done` is `q`'s report.
+    pub state: &'w mut [RhsState],
+}
+
 /// Checks the inputs once: reflectances in [0, 1), finite non-negative direct illuminance.
 pub fn check_inputs<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64]) -> Result<(), SolveError> {
     if e_direct_lx.len() != sys.len() {
         return Err(SolveError::Malformed);
     }
-    for (i, &e) in e_direct_lx.iter().enumerate() {
+    check_rows(sys, Rows::All)?;
+    check_values(e_direct_lx)
+}
+
+/// Every value finite and non-negative.
+fn check_values(v: &[f64]) -> Result<(), SolveError> {
+    if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        Ok(())
+    } else {
+        Err(SolveError::NonFiniteInput)
+    }
+}
+
+/// Every solved row inside the system, with a reflectance in [0, 1).
+fn check_rows<S: RadiositySystem>(sys: &S, rows: Rows<'_>) -> Result<(), SolveError> {
+    let n = sys.len();
+    for r in 0..rows.count(n) {
+        let i = rows.at(r);
+        if i >= n {
+            return Err(SolveError::Malformed);
+        }
         let rho = sys.rho(i);
         if !(rho.is_finite() && (0.0..1.0).contains(&rho)) {
             return Err(SolveError::BadReflectance { patch: i, rho });
-        }
-        if !(e.is_finite() && e >= 0.0) {
-            return Err(SolveError::NonFiniteInput);
         }
     }
     Ok(())
@@ -199,15 +350,34 @@ pub fn check_inputs<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64]) -> Result<
 
 /// The relative residual of `b`: `max |B − ρ (E + F B)| / max |B|` (0 for an all-dark room).
 pub fn residual<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64], b: &[f64]) -> f64 {
+    residual_of(sys, Rows::All, &Source::Irradiance(e_direct_lx), b, 1, 0)
+}
+
+/// The relative residual of right-hand side `q` of `k` over the solved rows.
+fn residual_of<S: RadiositySystem>(
+    sys: &S,
+    rows: Rows<'_>,
+    source: &Source<'_>,
+    b: &[f64],
+    k: usize,
+    q: usize,
+) -> f64 {
     let mut num: f64 = 0.0;
     let mut den: f64 = 0.0;
-    for i in 0..sys.len() {
-        let r = b[i] - sys.rho(i) * (e_direct_lx[i] + sys.gather(i, b));
-        if !r.is_finite() {
+    for r in 0..rows.count(sys.len()) {
+        let i = rows.at(r);
+        let g = if k == 1 {
+            sys.gather(i, b)
+        } else {
+            sys.gather_column(i, b, k, q)
+        };
+        let at = i * k + q;
+        let res = b[at] - source.exitance(at, sys.rho(i), g);
+        if !res.is_finite() {
             return f64::INFINITY;
         }
-        num = num.max(r.abs());
-        den = den.max(b[i].abs());
+        num = num.max(res.abs());
+        den = den.max(b[at].abs());
     }
     if den > 0.0 { num / den } else { num }
 }
@@ -220,74 +390,204 @@ pub fn gauss_seidel<S: RadiositySystem>(
     b_lm_per_m2: &mut [f64],
     options: SolveOptions,
 ) -> Result<SolveReport, SolveError> {
-    let result = gauss_seidel_inner(sys, e_direct_lx, b_lm_per_m2, options);
-    if result.is_err() {
-        b_lm_per_m2.iter_mut().for_each(|x| *x = 0.0);
+    let (mut acc, mut state) = ([0.0], [RhsState::default()]);
+    let work = Workspace {
+        acc: &mut acc,
+        state: &mut state,
+    };
+    solve(
+        sys,
+        Rows::All,
+        Source::Irradiance(e_direct_lx),
+        b_lm_per_m2,
+        work,
+        options,
+    )
+}
+
+/// Solves the system for `k = work.acc.len()` right-hand sides at once, patch-major
+/// (`source` and `b` of length patches × k), over `rows`. The content of `b` is the start
+/// value at the solved rows and the held value elsewhere. Returns the most sweeps and the
+/// largest residual; each right-hand side's own report is in `work.state`. On error the
+/// solved rows of `b` are zeroed (no partial result).
+pub fn solve<S: RadiositySystem>(
+    sys: &S,
+    rows: Rows<'_>,
+    source: Source<'_>,
+    b: &mut [f64],
+    work: Workspace<'_>,
+    options: SolveOptions,
+) -> Result<SolveReport, SolveError> {
+    let k = work.acc.len();
+    let result = start(sys, rows, &source, b, &mut *work.state, k)
+        .and_then(|()| sweeps(sys, rows, &source, b, work, options));
+    if result.is_err() && k > 0 {
+        for r in 0..rows.count(sys.len()) {
+            let i = rows.at(r);
+            if let Some(bi) = b.get_mut(i * k..i * k + k) {
+                bi.iter_mut().for_each(|x| *x = 0.0);
+            }
+        }
     }
     result
 }
 
-fn gauss_seidel_inner<S: RadiositySystem>(
+/// Checks the inputs and resets the state: a non-finite start value at a solved row starts
+/// from 0; a held row must be finite and non-negative.
+fn start<S: RadiositySystem>(
     sys: &S,
-    e: &[f64],
+    rows: Rows<'_>,
+    source: &Source<'_>,
     b: &mut [f64],
-    options: SolveOptions,
-) -> Result<SolveReport, SolveError> {
-    if b.len() != sys.len() {
+    state: &mut [RhsState],
+    k: usize,
+) -> Result<(), SolveError> {
+    let n = sys.len();
+    if k == 0 || state.len() != k || b.len() != n * k || source.values().len() != n * k {
         return Err(SolveError::Malformed);
     }
-    check_inputs(sys, e)?;
-    if b.iter().any(|x| !x.is_finite()) {
-        b.iter_mut().for_each(|x| *x = 0.0);
+    check_rows(sys, rows)?;
+    check_values(source.values())?;
+    state.iter_mut().for_each(|s| *s = RhsState::default());
+    match rows {
+        Rows::All => {
+            if b.iter().any(|x| !x.is_finite()) {
+                b.iter_mut().for_each(|x| *x = 0.0);
+            }
+        }
+        Rows::Listed(list) => {
+            for &i in list {
+                let bi = &mut b[i as usize * k..i as usize * k + k];
+                bi.iter_mut()
+                    .filter(|x| !x.is_finite())
+                    .for_each(|x| *x = 0.0);
+            }
+            check_values(b)?;
+        }
     }
-    let n = sys.len();
-    let mut previous = f64::INFINITY;
-    let mut stalled = 0u32;
+    Ok(())
+}
+
+/// The sweeps, until every right-hand side has stopped.
+fn sweeps<S: RadiositySystem>(
+    sys: &S,
+    rows: Rows<'_>,
+    source: &Source<'_>,
+    b: &mut [f64],
+    work: Workspace<'_>,
+    options: SolveOptions,
+) -> Result<SolveReport, SolveError> {
+    let Workspace { acc, state } = work;
+    let k = acc.len();
+    let count = rows.count(sys.len());
     for it in 1..=options.max_iterations {
-        let mut max_change: f64 = 0.0;
-        let mut max_b: f64 = 0.0;
-        for i in 0..n {
-            let new = sys.rho(i) * (e[i] + sys.gather(i, b));
-            // f64::max ignores NaN, so test every value explicitly
-            if !new.is_finite() {
-                return Err(SolveError::Diverged);
+        for s in state.iter_mut() {
+            s.max_change = 0.0;
+            s.max_b = 0.0;
+        }
+        for r in 0..count {
+            let i = rows.at(r);
+            if k == 1 {
+                acc[0] = sys.gather(i, b);
+            } else {
+                acc.iter_mut().for_each(|a| *a = 0.0);
+                sys.gather_k(i, b, acc);
             }
-            max_change = max_change.max((new - b[i]).abs());
-            max_b = max_b.max(new.abs());
-            b[i] = new;
-        }
-        if !(max_change.is_finite() && max_b.is_finite()) {
-            return Err(SolveError::Diverged);
-        }
-        let rel_change = if max_b > 0.0 { max_change / max_b } else { 0.0 };
-        if rel_change <= options.tolerance {
-            let r = residual(sys, e, b);
-            if r <= options.tolerance {
-                return Ok(SolveReport {
-                    iterations: it,
-                    residual: r,
-                });
-            }
-        }
-        // A contraction shrinks the change every sweep (slowly when ρ is near 1); a change that
-        // stops falling means rounding noise above the tolerance, or no contraction at all.
-        if rel_change < previous * (1.0 - 1e-9) {
-            stalled = 0;
-        } else {
-            stalled += 1;
-            if stalled > 50 {
-                return Err(SolveError::NotConverged {
-                    iterations: it,
-                    residual: residual(sys, e, b),
-                });
+            let rho = sys.rho(i);
+            for q in 0..k {
+                let s = &mut state[q];
+                if s.done.is_some() {
+                    continue;
+                }
+                let at = i * k + q;
+                let new = source.exitance(at, rho, acc[q]);
+                // f64::max ignores NaN, so test every value explicitly
+                if !new.is_finite() {
+                    return Err(SolveError::Diverged);
+                }
+                s.max_change = s.max_change.max((new - b[at]).abs());
+                s.max_b = s.max_b.max(new.abs());
+                b[at] = new;
             }
         }
-        previous = rel_change;
+        for (q, s) in state.iter_mut().enumerate() {
+            stop_test(sys, rows, source, b, k, q, s, it, options)?;
+        }
+        if state.iter().all(|s| s.done.is_some()) {
+            return Ok(summary(state));
+        }
     }
+    let q = state.iter().position(|s| s.done.is_none()).unwrap_or(0);
     Err(SolveError::NotConverged {
         iterations: options.max_iterations,
-        residual: residual(sys, e, b),
+        residual: residual_of(sys, rows, source, b, k, q),
     })
+}
+
+/// After sweep `it`: stops right-hand side `q` when its change and then its residual are
+/// within the tolerance; fails when its change has stopped falling.
+#[allow(clippy::too_many_arguments)]
+fn stop_test<S: RadiositySystem>(
+    sys: &S,
+    rows: Rows<'_>,
+    source: &Source<'_>,
+    b: &[f64],
+    k: usize,
+    q: usize,
+    s: &mut RhsState,
+    it: u32,
+    options: SolveOptions,
+) -> Result<(), SolveError> {
+    if s.done.is_some() {
+        return Ok(());
+    }
+    if !(s.max_change.is_finite() && s.max_b.is_finite()) {
+        return Err(SolveError::Diverged);
+    }
+    let rel_change = if s.max_b > 0.0 {
+        s.max_change / s.max_b
+    } else {
+        0.0
+    };
+    if rel_change <= options.tolerance {
+        let r = residual_of(sys, rows, source, b, k, q);
+        if r <= options.tolerance {
+            s.done = Some(SolveReport {
+                iterations: it,
+                residual: r,
+            });
+            return Ok(());
+        }
+    }
+    // A contraction shrinks the change every sweep (slowly when ρ is near 1); a change that
+    // stops falling means rounding noise above the tolerance, or no contraction at all.
+    if rel_change < s.previous * (1.0 - 1e-9) {
+        s.stalled = 0;
+    } else {
+        s.stalled += 1;
+        if s.stalled > 50 {
+            return Err(SolveError::NotConverged {
+                iterations: it,
+                residual: residual_of(sys, rows, source, b, k, q),
+            });
+        }
+    }
+    s.previous = rel_change;
+    Ok(())
+}
+
+/// The most sweeps and the largest residual of the right-hand sides.
+fn summary(state: &[RhsState]) -> SolveReport {
+    state.iter().filter_map(|s| s.done).fold(
+        SolveReport {
+            iterations: 0,
+            residual: 0.0,
+        },
+        |a, r| SolveReport {
+            iterations: a.iterations.max(r.iterations),
+            residual: a.residual.max(r.residual),
+        },
+    )
 }
 
 #[cfg(test)]
@@ -421,5 +721,124 @@ mod tests {
             val: &[0.5],
         };
         assert_eq!(v.validate(1), Ok(()));
+    }
+
+    fn squares_system(rho: &[f64; 2]) -> CsrSystem<'_, f64> {
+        const RP: [u32; 3] = [0, 1, 2];
+        const COL: [u32; 2] = [1, 0];
+        const VAL: [f64; 2] = [0.199825, 0.199825];
+        CsrSystem {
+            f: CsrView {
+                row_ptr: &RP,
+                col: &COL,
+                val: &VAL,
+            },
+            rho,
+        }
+    }
+
+    #[test]
+    fn several_right_hand_sides_equal_their_single_solves_bit_for_bit() {
+        let rho = [0.7, 0.4];
+        let sys = squares_system(&rho);
+        let e = [[1.0, 0.0], [0.0, 3.0], [2.0, 5.0]];
+        // patch-major: [i·k + q]
+        let mut e_pm = [0.0; 6];
+        for (q, eq) in e.iter().enumerate() {
+            for i in 0..2 {
+                e_pm[i * 3 + q] = eq[i];
+            }
+        }
+        let mut b = [0.0; 6];
+        let (mut acc, mut state) = ([0.0; 3], [RhsState::default(); 3]);
+        let work = Workspace {
+            acc: &mut acc,
+            state: &mut state,
+        };
+        let all = solve(
+            &sys,
+            Rows::All,
+            Source::Irradiance(&e_pm),
+            &mut b,
+            work,
+            SolveOptions::default(),
+        )
+        .unwrap();
+        for (q, eq) in e.iter().enumerate() {
+            let mut one = [0.0; 2];
+            let r = gauss_seidel(&sys, eq, &mut one, SolveOptions::default()).unwrap();
+            assert_eq!([b[q], b[3 + q]], one, "right-hand side {q}");
+            assert_eq!(state[q].done, Some(r));
+            assert!(all.iterations >= r.iterations && all.residual >= r.residual);
+        }
+    }
+
+    #[test]
+    fn an_exitance_source_over_listed_rows_holds_the_others() {
+        // patch 0 held at B0 = 1 (a seen surface), patch 1 solved: B1 = ρ1 F B0
+        let rho = [0.7, 0.4];
+        let sys = squares_system(&rho);
+        let mut b = [1.0, 0.0];
+        let (mut acc, mut state) = ([0.0], [RhsState::default()]);
+        let work = Workspace {
+            acc: &mut acc,
+            state: &mut state,
+        };
+        let r = solve(
+            &sys,
+            Rows::Listed(&[1]),
+            Source::Exitance(&[0.0, 0.0]),
+            &mut b,
+            work,
+            SolveOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(b[0], 1.0);
+        assert!((b[1] - 0.4 * 0.199825).abs() < 1e-15, "{b:?}");
+        assert!(r.residual <= 1e-10);
+        // both rows solved, patch 0 emitting M = 1: the irradiance form with E = M / ρ
+        let mut b = [0.0; 2];
+        let work = Workspace {
+            acc: &mut acc,
+            state: &mut state,
+        };
+        solve(
+            &sys,
+            Rows::All,
+            Source::Exitance(&[1.0, 0.0]),
+            &mut b,
+            work,
+            SolveOptions::default(),
+        )
+        .unwrap();
+        let mut c = [0.0; 2];
+        gauss_seidel(&sys, &[1.0 / 0.7, 0.0], &mut c, SolveOptions::default()).unwrap();
+        assert!(
+            (b[0] - c[0]).abs() < 1e-12 && (b[1] - c[1]).abs() < 1e-12,
+            "{b:?} {c:?}"
+        );
+    }
+
+    #[test]
+    fn a_bad_listed_row_or_held_value_is_an_error() {
+        let rho = [0.7, 0.4];
+        let sys = squares_system(&rho);
+        let (mut acc, mut state) = ([0.0], [RhsState::default()]);
+        for (rows, held) in [(&[2u32][..], 1.0), (&[1][..], f64::NAN), (&[1][..], -1.0)] {
+            let mut b = [held, 5.0];
+            let work = Workspace {
+                acc: &mut acc,
+                state: &mut state,
+            };
+            let err = solve(
+                &sys,
+                Rows::Listed(rows),
+                Source::Exitance(&[0.0, 0.0]),
+                &mut b,
+                work,
+                SolveOptions::default(),
+            );
+            assert!(err.is_err(), "{rows:?} {held}");
+        }
     }
 }

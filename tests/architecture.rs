@@ -295,3 +295,60 @@ fn the_node_knows_no_protocol() {
         }
     }
 }
+
+/// The node's run-time path: boot from the image, the run-time core, live light, control and
+/// the registers. None of it may reach the commissioning side (a node that has its image runs
+/// without the mesh, the engine or the section builder).
+const RUN_TIME_PATH: &[&str] = &[
+    "solver.rs",
+    "store",
+    "runtime.rs",
+    "control",
+    "modbus",
+    "node",
+    "fieldbus",
+    "live",
+    "daemon/live.rs",
+];
+
+/// The commissioning side's modules.
+const COMMISSIONING: &[&str] = &[
+    "commission",
+    "engine",
+    "image_build",
+    "image_geometry",
+    "live_section",
+    "scene",
+    "photometry",
+];
+
+#[test]
+fn the_run_time_path_does_not_reach_commissioning() {
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    files.sort();
+    let mut wrong = Vec::new();
+    let mut checked = 0;
+    for f in files {
+        let rel = f.strip_prefix(src()).expect("under src").to_owned();
+        let on_path = RUN_TIME_PATH
+            .iter()
+            .any(|p| rel == Path::new(p) || (!p.ends_with(".rs") && rel.starts_with(Path::new(p))));
+        let Some((_, depth)) = module_of(&rel).filter(|_| on_path) else {
+            continue;
+        };
+        checked += 1;
+        let code = strip(&std::fs::read_to_string(&f).expect("read"));
+        for to in named_modules(&code, depth) {
+            if COMMISSIONING.contains(&to.as_str()) {
+                wrong.push(format!("src/{} uses {to}", rel.display()));
+            }
+        }
+    }
+    assert!(checked > 20, "only {checked} files on the run-time path");
+    assert!(
+        wrong.is_empty(),
+        "the run-time path reaches the commissioning side:\n  {}",
+        wrong.join("\n  ")
+    );
+}

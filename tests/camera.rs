@@ -1863,7 +1863,7 @@ mod fisheye {
     fn the_live_section_finds_every_desk_through_the_fisheye() {
         // live light projects the desk sensors through the camera's lens: the sim-fisheye
         // board's camera sees all 7 demo desks, the pinhole demo camera 3
-        use luxnode::live::section::{SectionOptions, from_model};
+        use luxnode::live_section::{SectionOptions, from_model};
         let o = &board_optics("boards/sim-fisheye/board.toml");
         let world = luxnode::sim::camera::SimWorld::demo_office().unwrap();
         let mut scene = luxnode::sim::demo::demo_office();

@@ -133,3 +133,32 @@ fn the_cli_commissions_serves_and_evaluates_the_fixture() {
         rows[0][0]
     );
 }
+
+/// The engine's one solve of every luminaire at once (blocks of right-hand sides through
+/// `solver::solve`) is the run-time core's one-luminaire iteration, to the last bit: the same
+/// sweeps, the same sums in the same order, each right-hand side stopping on its own.
+#[test]
+fn the_engines_multi_solve_is_the_run_time_iteration_bit_for_bit() {
+    use luxnode::engine::{self, Settings};
+    use luxnode::solver::{self, CsrSystem};
+    let scene = Scene::load(&dir(), &LoadOptions::default()).unwrap();
+    let model = engine::compute_model(&scene, &Settings::default()).unwrap();
+    let system = CsrSystem {
+        f: model.ff.f.view(),
+        rho: &model.patches.rho,
+    };
+    assert_eq!(model.basis_b.len(), 2);
+    for (l, basis) in model.basis_b.iter().enumerate() {
+        let mut b = vec![0.0; model.patches.rho.len()];
+        let report = solver::gauss_seidel(
+            &system,
+            &model.direct_patch_lx[l],
+            &mut b,
+            model.settings.solve,
+        )
+        .unwrap();
+        assert!(report.iterations > 3, "{report:?}");
+        assert!(b.iter().any(|x| *x > 0.0));
+        assert_eq!(&b, basis, "luminaire {l}");
+    }
+}

@@ -16,7 +16,8 @@ use crate::camera::{
 };
 use crate::commission::{self, CommissionOptions};
 use crate::image_build::{ImageOptions, build_image, with_live};
-use crate::live::{self, Live, LiveFrame, LiveModel, LiveSettings, SectionOptions};
+use crate::live::{Live, LiveFrame, LiveModel, LiveSettings};
+use crate::live_section::{self, SectionOptions};
 use crate::scene::Scene;
 use crate::sim::camera::{
     Occluder, SimDepthOptions, SimLuminanceOptions, SimWorld, WorldExtras, world_settings,
@@ -226,8 +227,8 @@ pub fn commission_in_daylight(
         },
     )
     .map_err(|x| e(&x))?;
-    let section =
-        live::from_capture(&c, &seq.capture, &SectionOptions::default()).map_err(|x| e(&x))?;
+    let section = live_section::from_capture(&c, &seq.capture, &SectionOptions::default())
+        .map_err(|x| e(&x))?;
     let image = with_live(&img, Some(&section)).map_err(|x| e(&x))?;
     Ok(DaylightCommissioning {
         image,

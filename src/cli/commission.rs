@@ -316,7 +316,7 @@ pub fn run(a: &Args) -> Result<()> {
             f.bytes
         };
         // live light: the section that turns run-time frames into desk lux (docs/live.md)
-        let bytes = luxnode::live::with_capture_section(bytes, node, cap);
+        let bytes = luxnode::live_section::with_capture_section(bytes, node, cap);
         let image = Image::parse(&bytes)?;
         write_image_file(out, &bytes)?;
         println!(

@@ -346,7 +346,7 @@ impl CameraSource {
             );
         }
         let image = image.bytes;
-        let bytes = crate::live::with_capture_section(image, c, &seq.capture);
+        let bytes = crate::live_section::with_capture_section(image, c, &seq.capture);
         Ok(bytes)
     }
 

@@ -25,77 +25,8 @@ use super::raycast::{Hit, RayCaster};
 use super::rayset::{RaySet, frame, to_world};
 use crate::rng::hash64;
 
-/// Sparse rows, f64 values.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Csr {
-    /// Row starts, length rows + 1.
-    pub row_ptr: Vec<u32>,
-    /// Column indices, ascending within a row.
-    pub col: Vec<u32>,
-    /// Values.
-    pub val: Vec<f64>,
-}
-
-impl Csr {
-    /// Number of rows.
-    pub fn rows(&self) -> usize {
-        self.row_ptr.len().saturating_sub(1)
-    }
-
-    /// Entries of row `i` as (column, value).
-    pub fn row(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
-        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
-        self.col[a..b]
-            .iter()
-            .copied()
-            .zip(self.val[a..b].iter().copied())
-    }
-
-    /// Sum of row `i`.
-    pub fn row_sum(&self, i: usize) -> f64 {
-        self.row(i).map(|(_, v)| v).sum()
-    }
-
-    /// Value at (i, j), 0 when absent.
-    pub fn get(&self, i: usize, j: u32) -> f64 {
-        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
-        match self.col[a..b].binary_search(&j) {
-            Ok(k) => self.val[a + k],
-            Err(_) => 0.0,
-        }
-    }
-
-    /// A borrowed view for the solver.
-    pub fn view(&self) -> crate::solver::CsrView<'_, f64> {
-        crate::solver::CsrView {
-            row_ptr: &self.row_ptr,
-            col: &self.col,
-            val: &self.val,
-        }
-    }
-
-    /// Number of stored entries.
-    pub fn nnz(&self) -> usize {
-        self.col.len()
-    }
-
-    /// Builds from per-row sorted (column, value) lists.
-    pub fn from_rows(rows: Vec<Vec<(u32, f64)>>) -> Self {
-        let mut out = Csr {
-            row_ptr: Vec::with_capacity(rows.len() + 1),
-            ..Csr::default()
-        };
-        out.row_ptr.push(0);
-        for r in rows {
-            for (c, v) in r {
-                out.col.push(c);
-                out.val.push(v);
-            }
-            out.row_ptr.push(out.col.len() as u32);
-        }
-        out
-    }
-}
+/// Sparse rows, f64 values: the solver's one sparse matrix.
+pub use crate::solver::Csr;
 
 /// Form factors of a scene.
 #[derive(Debug, Clone)]

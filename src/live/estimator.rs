@@ -2,12 +2,13 @@
 //! in, per-desk total, artificial and daylight lux out, with their source, flags and
 //! uncertainty. The method is in the module docs of [`crate::live`]; this file is its code.
 
-use std::sync::OnceLock;
-
+use crate::solver::{
+    self, Csr, CsrSystem, RhsState, Rows, SolveError, SolveOptions, SolveReport, Workspace,
+};
 use crate::store::Image;
 
 use super::nnls::nnls_gram;
-use super::section::window_sigma_m;
+use super::window::window_sigma_m;
 use super::{LiveError, flags};
 
 /// Where a desk's value comes from.
@@ -234,84 +235,46 @@ pub struct LiveFrame<'a> {
     pub taken_s: f64,
 }
 
-/// A sparse matrix decoded once from the image (f32 values: the stored precision is at most
+/// A stored sparse matrix decoded once at boot (f32 values: the stored precision is at most
 /// that of u16 fractions for the form factors).
-#[derive(Debug, Clone, Default)]
-struct Csr32 {
-    ptr: Vec<u32>,
-    col: Vec<u32>,
-    val: Vec<f32>,
+fn decode(s: &crate::store::Sparse<'_>) -> Csr<f32> {
+    Csr::from_row_fn(s.rows as usize, |i| {
+        s.row_range(i)
+            .map(move |k| (s.col_at(k) as u32, s.values.get(k, i) as f32))
+    })
 }
 
-impl Csr32 {
-    fn from_sparse(s: &crate::store::Sparse<'_>) -> Self {
-        let rows = s.rows as usize;
-        let mut out = Csr32 {
-            ptr: Vec::with_capacity(rows + 1),
-            col: Vec::with_capacity(s.nnz()),
-            val: Vec::with_capacity(s.nnz()),
-        };
-        out.ptr.push(0);
-        for i in 0..rows {
-            for k in s.row_range(i) {
-                out.col.push(s.col_at(k) as u32);
-                out.val.push(s.values.get(k, i) as f32);
-            }
-            out.ptr.push(out.col.len() as u32);
-        }
-        out
-    }
+/// The stop rule of live light's solves: the relative change and residual of 1e-7 reach the
+/// published lux's fourth digit within a few dozen sweeps over the unseen patches.
+const LIVE_SOLVE: SolveOptions = SolveOptions {
+    tolerance: 1e-7,
+    max_iterations: 300,
+};
 
-    fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let r = self.ptr[i] as usize..self.ptr[i + 1] as usize;
-        self.col[r.clone()]
-            .iter()
-            .zip(&self.val[r])
-            .map(|(&c, &v)| (c as usize, f64::from(v)))
-    }
-
-    fn bytes(&self) -> usize {
-        4 * self.ptr.len() + 4 * self.col.len() + 4 * self.val.len()
-    }
-}
-
-/// Gauss-Seidel for `k` right-hand sides at once over `rows`: `b_i = s_i + ρ_i Σ_j F_ij b_j`
-/// (b laid out `[patch][k]`; rows not listed keep their values). Stops when the largest change
-/// is below `tol` of the largest value, or after `max_sweeps`.
-fn multi_gs(
-    ff: &Csr32,
+/// Solves `B_i = M_i + ρ_i Σ_j F_ij B_j` over `rows` for the `k` right-hand sides of `b`
+/// (patch-major; the other rows held), through the run-time core's iteration.
+fn solve_rows(
+    ff: &Csr<f32>,
     rho: &[f64],
-    rows: &[u32],
-    src: &[f64],
+    rows: Rows<'_>,
+    m: &[f64],
     b: &mut [f64],
     k: usize,
-    max_sweeps: usize,
-) -> usize {
-    let mut acc = vec![0.0; k];
-    for sweep in 1..=max_sweeps {
-        let mut maxd = 0.0f64;
-        let mut maxb = 0.0f64;
-        for &i in rows {
-            let i = i as usize;
-            acc.iter_mut().for_each(|a| *a = 0.0);
-            for (c, v) in ff.row(i) {
-                let bc = &b[c * k..c * k + k];
-                for (a, x) in acc.iter_mut().zip(bc) {
-                    *a += v * x;
-                }
-            }
-            for q in 0..k {
-                let new = src[i * k + q] + rho[i] * acc[q];
-                maxd = maxd.max((new - b[i * k + q]).abs());
-                maxb = maxb.max(new.abs());
-                b[i * k + q] = new;
-            }
-        }
-        if maxd <= 1e-7 * maxb || maxb == 0.0 {
-            return sweep;
-        }
-    }
-    max_sweeps
+) -> Result<SolveReport, SolveError> {
+    let system = CsrSystem { f: ff.view(), rho };
+    let (mut acc, mut state) = (vec![0.0; k], vec![RhsState::default(); k]);
+    let work = Workspace {
+        acc: &mut acc,
+        state: &mut state,
+    };
+    solver::solve(
+        &system,
+        rows,
+        solver::Source::Exitance(m),
+        b,
+        work,
+        LIVE_SOLVE,
+    )
 }
 
 /// A desk's window: samples and their weights.
@@ -339,8 +302,8 @@ pub struct LiveModel {
     seen: Vec<u32>,
     seen_range: Vec<(u32, u32)>,
     unseen: Vec<u32>,
-    ff: Csr32,
-    gather: Csr32,
+    ff: Csr<f32>,
+    gather: Csr<f32>,
     // sensors
     response: Vec<f64>,
     calibrated: Vec<f64>,
@@ -352,7 +315,7 @@ pub struct LiveModel {
     v_seen: Vec<f64>,
     g_sensor: Vec<f64>,
     // full-model basis at seen patches (the night test), computed at boot
-    u_seen: OnceLock<Vec<f64>>,
+    u_seen: Vec<f64>,
 }
 
 impl LiveModel {
@@ -404,7 +367,7 @@ impl LiveModel {
                 let entries: Vec<(usize, f64, f64)> =
                     live.window(sensor).map(|e| live.window_entry(e)).collect();
                 // the residual's Gaussian weights: twice the commissioned fit's width (5 cm in
-                // the open, narrower by a shade's edge: section::window_sigma_m on the
+                // the open, narrower by a shade's edge: window::window_sigma_m on the
                 // commissioned all-on irradiance; the window's radius is its farthest pixel)
                 let radius_m = entries
                     .iter()
@@ -438,8 +401,8 @@ impl LiveModel {
             .flat_map(|sn| (0..l).map(move |j| (sn, j)))
             .map(|(sn, j)| live.sensor_response_lx(sn, j, l))
             .collect();
-        let ff = Csr32::from_sparse(&image.payload.ff);
-        let gather = Csr32::from_sparse(&image.payload.gather);
+        let ff = decode(&image.payload.ff);
+        let gather = decode(&image.payload.gather);
         // emitter groups on unseen patches only
         let k_em = usize::from(live.n_emitters);
         let mut emitter_src = vec![0.0; n_p * k_em];
@@ -474,12 +437,12 @@ impl LiveModel {
             emitter_src,
             v_seen: Vec::new(),
             g_sensor: Vec::new(),
-            u_seen: OnceLock::new(),
+            u_seen: Vec::new(),
         };
-        model.boundary_basis();
+        model.boundary_basis().map_err(LiveError::Solve)?;
         // the night test's basis too, at boot: built at the first night frame it took that
         // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
-        let _ = model.full_basis();
+        model.u_seen = model.full_basis().map_err(LiveError::Solve)?;
         Ok(model)
     }
 
@@ -496,40 +459,31 @@ impl LiveModel {
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is
     /// measured), interreflected over the unseen patches; its incident light at the seen patches
     /// and the sensors' reading of it.
-    fn boundary_basis(&mut self) {
+    fn boundary_basis(&mut self) -> Result<(), SolveError> {
         let (n_p, k) = (self.rho.len(), self.k);
         if k == 0 {
-            return;
+            return Ok(());
         }
         let mut b = vec![0.0; n_p * k];
-        multi_gs(
-            &self.ff,
-            &self.rho,
-            &self.unseen,
-            &self.emitter_src,
-            &mut b,
-            k,
-            300,
-        );
+        let unseen = Rows::Listed(&self.unseen);
+        solve_rows(&self.ff, &self.rho, unseen, &self.emitter_src, &mut b, k)?;
         self.v_seen = incident(&self.ff, &self.seen, &b, k);
         let s = self.ids.len();
         let rows: Vec<u32> = (0..s as u32).collect();
         self.g_sensor = incident(&self.gather, &rows, &b, k);
+        Ok(())
     }
 
     /// The full-model basis at the seen patches: unit emission of each group with every patch
     /// reflecting (for the night test).
-    fn full_basis(&self) -> &[f64] {
-        self.u_seen.get_or_init(|| {
-            let (n_p, k) = (self.rho.len(), self.k);
-            if k == 0 {
-                return Vec::new();
-            }
-            let mut b = vec![0.0; n_p * k];
-            let all: Vec<u32> = (0..n_p as u32).collect();
-            multi_gs(&self.ff, &self.rho, &all, &self.emitter_src, &mut b, k, 300);
-            incident(&self.ff, &self.seen, &b, k)
-        })
+    fn full_basis(&self) -> Result<Vec<f64>, SolveError> {
+        let (n_p, k) = (self.rho.len(), self.k);
+        if k == 0 {
+            return Ok(Vec::new());
+        }
+        let mut b = vec![0.0; n_p * k];
+        solve_rows(&self.ff, &self.rho, Rows::All, &self.emitter_src, &mut b, k)?;
+        Ok(incident(&self.ff, &self.seen, &b, k))
     }
 
     /// Samples.
@@ -589,22 +543,19 @@ impl LiveModel {
                 .map(|w| w.sample.len() * (4 + f))
                 .sum::<usize>()
             + (self.emitter_src.len() + self.v_seen.len() + self.g_sensor.len()) * f
-            + self
-                .u_seen
-                .get()
-                .map_or(self.seen.len() * self.k * f, |u| u.len() * f)
+            + self.u_seen.len() * f
     }
 }
 
 /// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
-fn incident(m: &Csr32, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
+fn incident(m: &Csr<f32>, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
     let mut out = vec![0.0; rows.len() * k];
-    for (r, &i) in rows.iter().enumerate() {
-        for (c, v) in m.row(i as usize) {
-            for q in 0..k {
-                out[r * k + q] += v * b[c * k + q];
-            }
-        }
+    if k == 0 {
+        return out;
+    }
+    let view = m.view();
+    for (o, &i) in out.chunks_exact_mut(k).zip(rows) {
+        view.row_dot_k(i as usize, b, o);
     }
     out
 }
@@ -895,60 +846,156 @@ impl Live {
         self.check_levels(levels)?;
         let verdict = self.check_frame(frame, now_s);
         if verdict != Verdict::Ok {
-            let f = match verdict {
-                Verdict::Stale => flags::STALE,
-                Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
-                _ => flags::BAD_FRAME,
-            };
-            for s in 0..self.desks.len() {
-                self.hold(s, levels, now_s, f);
-            }
-            self.report = Some(FrameReport {
-                verdict,
-                samples_used: 0,
-                samples_occluded: 0,
-                changed_fraction: 0.0,
-                recommission: self.report.is_some_and(|r| r.recommission),
-                night: false,
-                ageing_updated: false,
-                fit_residual: 0.0,
-                daylight_seen_lx: 0.0,
-            });
+            self.reject(verdict, levels, now_s, None);
             return Ok(&self.desks);
         }
-        let m = &self.model;
-        let l = m.luminaires;
         let wa: Vec<f64> = levels
             .iter()
             .zip(&self.ageing)
             .map(|(x, a)| x * a)
             .collect();
-        let g = frame.cd_m2_per_unit;
-        let st = self.settings.clone();
         // 1. per sample: measured illuminance π L / ρ less the artificial part
-        let (mut used, mut occluded, mut with_depth, mut with_ref, mut changed_n) =
-            (0usize, 0usize, 0usize, 0usize, 0usize);
-        for i in 0..m.px.len() {
-            let p = m.px[i] as usize;
+        let counts = self.measure_samples(frame, &wa);
+        let verdict = self.judge_samples(&counts, &wa);
+        let geometry = counts.geometry(frame.depth_mm.is_some(), &self.settings);
+        if verdict != Verdict::Ok {
+            self.reject(verdict, levels, now_s, Some((&counts, &geometry)));
+            return Ok(&self.desks);
+        }
+        // 2. per seen patch: the median residual (daylight) and the artificial part
+        let seen = self.seen_patches(levels);
+        // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
+        let inferred = match self.infer(&seen.d, &seen.w) {
+            Ok(inferred) => inferred,
+            Err(e) => {
+                // the stored system was checked at boot, so this is a broken invariant: no
+                // value of this frame is published, every desk is held and flagged
+                tracing::warn!("live light: the daylight propagation failed ({e}); frame dropped");
+                self.reject(Verdict::Unusable, levels, now_s, None);
+                return Ok(&self.desks);
+            }
+        };
+        let (d_inferred, fit_residual, daylight_seen) = inferred;
+        // 4. ageing: night frames accumulate the luminaires' fit
+        let (night, ageing_updated) = self.ageing_step(&seen.d, &seen.w, &seen.a, daylight_seen);
+        // 5. desks: decided with the model borrowed, applied after
+        let ctx = DeskContext {
+            levels,
+            no_depth: geometry.no_depth,
+            fit_residual,
+            taken_s: frame.taken_s,
+        };
+        let actions: Vec<Action> = (0..self.model.sensors())
+            .map(|s| self.desk_action(s, d_inferred.get(s).copied().unwrap_or(0.0), &ctx))
+            .collect();
+        // a desk whose own window changed for good cannot be measured against the model
+        // any more: that alone advises recommissioning, whatever the area
+        let recommission = geometry.recommission
+            || actions.iter().any(|a| match a {
+                Action::Set(.., f) | Action::Hold(f) => f & flags::GEOMETRY_CHANGED != 0,
+            });
+        for (s, a) in actions.into_iter().enumerate() {
+            match a {
+                Action::Set(art, day, unc, source, f) => {
+                    self.set_desk(s, art, day, unc, source, f, frame.taken_s, now_s)
+                }
+                Action::Hold(f) => self.hold(s, levels, now_s, f),
+            }
+        }
+        self.report = Some(FrameReport {
+            verdict: Verdict::Ok,
+            samples_used: counts.used,
+            samples_occluded: counts.occluded,
+            changed_fraction: geometry.changed_fraction,
+            recommission,
+            night,
+            ageing_updated,
+            fit_residual,
+            daylight_seen_lx: daylight_seen,
+        });
+        Ok(&self.desks)
+    }
+
+    /// A frame not used: every desk held at its last good daylight, flagged; the report
+    /// keeps the frame's sample counts when it got that far.
+    fn reject(
+        &mut self,
+        verdict: Verdict,
+        levels: &[f64],
+        now_s: f64,
+        judged: Option<(&SampleCounts, &Geometry)>,
+    ) {
+        let f = match verdict {
+            Verdict::Stale => flags::STALE,
+            Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
+            _ => flags::BAD_FRAME,
+        };
+        for s in 0..self.desks.len() {
+            self.hold(s, levels, now_s, f);
+        }
+        let previous = self.report.is_some_and(|r| r.recommission);
+        let (counts, geometry) = match judged {
+            Some((c, g)) => (*c, *g),
+            None => (
+                SampleCounts::default(),
+                Geometry {
+                    recommission: previous,
+                    ..Geometry::default()
+                },
+            ),
+        };
+        self.report = Some(FrameReport {
+            verdict,
+            samples_used: counts.used,
+            samples_occluded: counts.occluded,
+            changed_fraction: geometry.changed_fraction,
+            recommission: geometry.recommission,
+            night: false,
+            ageing_updated: false,
+            fit_residual: 0.0,
+            daylight_seen_lx: 0.0,
+        });
+    }
+
+    /// The luminaires' part of sample `i` at the aged levels `wa`, lx.
+    fn sample_artificial_lx(&self, i: usize, wa: &[f64]) -> f64 {
+        let l = self.model.luminaires;
+        self.model.art[i * l..(i + 1) * l]
+            .iter()
+            .zip(wa)
+            .map(|(e, w)| f64::from(*e) * w)
+            .sum()
+    }
+
+    /// Step 1: each sample's state (valid, saturated, occluded by depth, no depth) and its
+    /// extraneous light `d = π g L / ρ − A`; the depth's change count per sample.
+    fn measure_samples(&mut self, frame: &LiveFrame<'_>, wa: &[f64]) -> SampleCounts {
+        let mut c = SampleCounts::default();
+        let g = frame.cd_m2_per_unit;
+        let (tol_m, tol_rel) = (
+            self.settings.depth_tolerance_m,
+            self.settings.depth_tolerance_rel,
+        );
+        for i in 0..self.model.px.len() {
+            let p = self.model.px[i] as usize;
             let v = frame.luminance[p];
             let mut state = 0u8;
             match frame.depth_mm {
                 Some(depth) => {
-                    let (z, r) = (depth[p], m.depth_ref[i]);
-                    with_ref += usize::from(r > 0);
+                    let (z, r) = (depth[p], self.model.depth_ref[i]);
+                    c.with_ref += usize::from(r > 0);
                     if z > 0 && r > 0 {
-                        with_depth += 1;
-                        let tol = (st.depth_tolerance_m * 1000.0)
-                            .max(st.depth_tolerance_rel * f64::from(r));
+                        c.with_depth += 1;
+                        let tol = (tol_m * 1000.0).max(tol_rel * f64::from(r));
                         if (f64::from(z) - f64::from(r)).abs() > tol {
                             state |= S_OCCLUDED;
-                            occluded += 1;
+                            c.occluded += 1;
                             self.changed[i] = self.changed[i].saturating_add(1);
                         } else {
                             self.changed[i] = 0;
                         }
-                        if u32::from(self.changed[i]) >= st.geometry_frames {
-                            changed_n += 1;
+                        if u32::from(self.changed[i]) >= self.settings.geometry_frames {
+                            c.changed += 1;
                         }
                     }
                 }
@@ -959,79 +1006,52 @@ impl Live {
                 state |= S_SATURATED;
             } else if state & S_OCCLUDED == 0 {
                 state |= S_VALID;
-                used += 1;
-                let meas = g * f64::from(v) * m.pi_over_rho[i];
-                let art: f64 = m.art[i * l..(i + 1) * l]
-                    .iter()
-                    .zip(&wa)
-                    .map(|(e, w)| f64::from(*e) * w)
-                    .sum();
-                self.d[i] = meas - art;
+                c.used += 1;
+                let meas = g * f64::from(v) * self.model.pi_over_rho[i];
+                self.d[i] = meas - self.sample_artificial_lx(i, wa);
             }
             self.state[i] = state;
         }
-        let n = m.px.len().max(1);
+        c
+    }
+
+    /// The frame as a whole from its samples: too many saturated, too few usable, or far
+    /// darker than the luminaires alone would make it.
+    fn judge_samples(&self, c: &SampleCounts, wa: &[f64]) -> Verdict {
+        let n = self.model.px.len().max(1);
         let saturated = self.state.iter().filter(|s| **s & S_SATURATED != 0).count();
-        let verdict = if saturated as f64 > st.frame_saturated_fraction * n as f64 {
-            Verdict::Saturated
-        } else if (used as f64) < 0.1 * n as f64 {
-            Verdict::Unusable
-        } else {
-            // darker than the luminaires alone: half of the samples read below 5 % of their
-            // artificial light, which is well above 10 lx
-            let mut rel: Vec<f64> = (0..m.px.len())
-                .filter(|&i| self.state[i] & S_VALID != 0)
-                .filter_map(|i| {
-                    let art: f64 = m.art[i * l..(i + 1) * l]
-                        .iter()
-                        .zip(&wa)
-                        .map(|(e, w)| f64::from(*e) * w)
-                        .sum();
-                    (art > 10.0).then(|| (self.d[i] + art) / art)
-                })
-                .collect();
-            let enough = rel.len() * 4 >= used;
-            match median(&mut rel) {
-                Some(r) if enough && r < 0.05 => Verdict::Dark,
-                _ => Verdict::Ok,
-            }
-        };
-        // a depth frame with a return on under a tenth of the samples (a dead or blinded ToF)
-        // is judged like no depth frame
-        let no_depth = frame.depth_mm.is_none() || with_depth * 10 < with_ref;
-        let changed_fraction = if with_depth > 0 {
-            changed_n as f64 / with_depth as f64
-        } else {
-            0.0
-        };
-        let recommission = changed_fraction > st.geometry_area_fraction;
-        if verdict != Verdict::Ok {
-            let f = match verdict {
-                Verdict::Saturated => flags::BAD_FRAME | flags::SATURATED,
-                _ => flags::BAD_FRAME,
-            };
-            for s in 0..self.desks.len() {
-                self.hold(s, levels, now_s, f);
-            }
-            self.report = Some(FrameReport {
-                verdict,
-                samples_used: used,
-                samples_occluded: occluded,
-                changed_fraction,
-                recommission,
-                night: false,
-                ageing_updated: false,
-                fit_residual: 0.0,
-                daylight_seen_lx: 0.0,
-            });
-            return Ok(&self.desks);
+        if saturated as f64 > self.settings.frame_saturated_fraction * n as f64 {
+            return Verdict::Saturated;
         }
-        // 2. per seen patch: the median residual (daylight) and the artificial part
+        if (c.used as f64) < 0.1 * n as f64 {
+            return Verdict::Unusable;
+        }
+        // darker than the luminaires alone: half of the samples read below 5 % of their
+        // artificial light, which is well above 10 lx
+        let mut rel: Vec<f64> = (0..self.model.px.len())
+            .filter(|&i| self.state[i] & S_VALID != 0)
+            .filter_map(|i| {
+                let art = self.sample_artificial_lx(i, wa);
+                (art > 10.0).then(|| (self.d[i] + art) / art)
+            })
+            .collect();
+        let enough = rel.len() * 4 >= c.used;
+        match median(&mut rel) {
+            Some(r) if enough && r < 0.05 => Verdict::Dark,
+            _ => Verdict::Ok,
+        }
+    }
+
+    /// Step 2: per seen patch, the median extraneous light of its valid samples, its weight
+    /// (their count, at most 64) and the mean artificial light per luminaire at `levels`.
+    fn seen_patches(&self, levels: &[f64]) -> SeenPatches {
         let m = &self.model;
-        let n_seen = m.seen.len();
-        let mut d_seen = vec![0.0; n_seen];
-        let mut w_seen = vec![0.0; n_seen];
-        let mut a_seen = vec![0.0; n_seen * l];
+        let (l, n_seen) = (m.luminaires, m.seen.len());
+        let mut out = SeenPatches {
+            d: vec![0.0; n_seen],
+            w: vec![0.0; n_seen],
+            a: vec![0.0; n_seen * l],
+        };
         let mut buf = Vec::new();
         for (r, &(a, b)) in m.seen_range.iter().enumerate() {
             buf.clear();
@@ -1039,150 +1059,117 @@ impl Live {
             for i in a as usize..b as usize {
                 if self.state[i] & S_VALID != 0 {
                     buf.push(self.d[i]);
-                    for j in 0..l {
-                        a_seen[r * l + j] += f64::from(m.art[i * l + j]) * levels[j];
+                    let art = m.art[i * l..(i + 1) * l].iter().zip(levels);
+                    for (o, (e, x)) in out.a[r * l..(r + 1) * l].iter_mut().zip(art) {
+                        *o += f64::from(*e) * x;
                     }
                     cnt += 1.0;
                 }
             }
             if let Some(med) = median(&mut buf) {
-                d_seen[r] = med;
-                w_seen[r] = cnt.min(64.0);
-                for j in 0..l {
-                    a_seen[r * l + j] /= cnt;
-                }
+                out.d[r] = med;
+                out.w[r] = cnt.min(64.0);
+                out.a[r * l..(r + 1) * l].iter_mut().for_each(|o| *o /= cnt);
             }
         }
-        // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
-        let (d_inferred, fit_residual, daylight_seen) = self.infer(&d_seen, &w_seen);
-        // 4. ageing: night frames accumulate the luminaires' fit
-        let (night, ageing_updated) = self.ageing_step(&d_seen, &w_seen, &a_seen, daylight_seen);
-        // 5. desks: decided with the model borrowed, applied after
-        let m = &self.model;
-        let l = m.luminaires;
-        let mut actions: Vec<(usize, Action)> = Vec::with_capacity(m.sensors());
-        for (s, &inferred) in d_inferred.iter().enumerate().take(m.sensors()) {
-            let w = &m.windows[s];
-            let mut extra = 0u16;
-            if no_depth {
-                extra |= flags::NO_DEPTH;
-            }
-            if self.ageing_flag(s) {
-                extra |= flags::AGEING;
-            }
-            if w.sample.is_empty() {
-                // out of view: the model's light and the inferred daylight
-                let art = self.artificial(s, levels);
-                let day = inferred.max(0.0);
-                let unc = ((st.inferred_rel_uncertainty * day).powi(2)
-                    + (fit_residual * day).powi(2)
-                    + (m.model_rel_uncertainty(s, st.model_rel_uncertainty) * art).powi(2))
-                .sqrt();
-                actions.push((s, Action::Set(art, day, unc, Source::Inferred, extra)));
-                continue;
-            }
-            let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
-            let mut vals: Vec<(f64, f64)> = Vec::with_capacity(w.sample.len());
-            for (&i, &wt) in w.sample.iter().zip(&w.weight) {
-                let i = i as usize;
-                let stt = self.state[i];
-                if stt & S_OCCLUDED != 0 {
-                    n_occ += 1;
-                }
-                if stt & S_SATURATED != 0 {
-                    n_sat += 1;
-                }
-                if u32::from(self.changed[i]) >= st.geometry_frames {
-                    n_chg += 1;
-                }
-                if stt & S_VALID != 0 {
-                    let art: f64 = m.art[i * l..(i + 1) * l]
-                        .iter()
-                        .zip(levels.iter().zip(&self.ageing))
-                        .map(|(e, (x, a))| f64::from(*e) * x * a)
-                        .sum();
-                    if self.d[i] < -(0.3 * art + 5.0) {
-                        n_dark += 1;
-                    }
-                    vals.push((self.d[i], wt));
-                }
-            }
-            let total_w = w.sample.len() as f64;
-            let covered_depth = n_occ as f64 > st.occluded_fraction * total_w;
-            // without depth: most of the window far darker than the luminaires make it
-            let covered_light = no_depth && n_dark as f64 > 0.5 * vals.len().max(1) as f64;
-            let sat = n_sat as f64 > st.window_saturated_fraction * total_w;
-            if n_chg as f64 > 0.5 * total_w {
-                extra |= flags::GEOMETRY_CHANGED;
-            }
-            if covered_depth || covered_light || sat || vals.len() < 3 {
-                let f = extra
-                    | if sat { flags::SATURATED } else { 0 }
-                    | if covered_depth || covered_light || vals.len() < 3 {
-                        flags::OCCLUDED
-                    } else {
-                        0
-                    };
-                // held while the last good value is fresh (a person leaning over the desk);
-                // covered for longer (a box left on it, a desk moved away), the inferred
-                // daylight is the better value, as for a desk out of view
-                let fresh = self.held[s]
-                    .daylight
-                    .is_some_and(|(_, t, _)| frame.taken_s - t <= st.stale_after_s);
-                if fresh {
-                    actions.push((s, Action::Hold(f)));
-                } else {
-                    // nothing measured lately: the inferred daylight, like a desk out of view
-                    let art = self.artificial(s, levels);
-                    let day = inferred.max(0.0);
-                    let unc = ((st.inferred_rel_uncertainty * day).powi(2)
-                        + (m.model_rel_uncertainty(s, st.model_rel_uncertainty) * art).powi(2))
-                    .sqrt();
-                    actions.push((s, Action::Set(art, day, unc, Source::Inferred, f)));
-                }
-                continue;
-            }
-            // the weighted median residual of the window; spread for the uncertainty
-            let mut v2 = vals.clone();
-            let dm = weighted_median(&mut v2).unwrap_or(0.0);
-            let mut dev: Vec<f64> = vals.iter().map(|(x, _)| (x - dm).abs()).collect();
-            let mad = median(&mut dev).unwrap_or(0.0) * 1.4826;
-            let n_eff = vals.len() as f64;
-            let art_full = self.artificial(s, levels);
-            let total = art_full + dm;
-            let day = dm.max(0.0);
-            let art = total - day;
-            let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2)
-                + (st.measured_rel_uncertainty * total).powi(2))
+        out
+    }
+
+    /// Step 5, one desk: out of view (the model's light and the inferred daylight), covered
+    /// or saturated (held, or inferred once the hold is stale), or measured over its window.
+    fn desk_action(&self, s: usize, inferred_lx: f64, ctx: &DeskContext<'_>) -> Action {
+        let st = &self.settings;
+        let mut extra = 0u16;
+        if ctx.no_depth {
+            extra |= flags::NO_DEPTH;
+        }
+        if self.ageing_flag(s) {
+            extra |= flags::AGEING;
+        }
+        let art = self.artificial(s, ctx.levels);
+        let model_rel = self
+            .model
+            .model_rel_uncertainty(s, st.model_rel_uncertainty);
+        let day = inferred_lx.max(0.0);
+        if self.model.windows[s].sample.is_empty() {
+            // out of view: the model's light and the inferred daylight
+            let unc = ((st.inferred_rel_uncertainty * day).powi(2)
+                + (ctx.fit_residual * day).powi(2)
+                + (model_rel * art).powi(2))
             .sqrt();
-            actions.push((s, Action::Set(art, day, unc, Source::Measured, extra)));
+            return Action::Set(art, day, unc, Source::Inferred, extra);
         }
-        // a desk whose own window changed for good cannot be measured against the model
-        // any more: that alone advises recommissioning, whatever the area
-        let recommission = recommission
-            || actions.iter().any(|(_, a)| match a {
-                Action::Set(.., f) | Action::Hold(f) => f & flags::GEOMETRY_CHANGED != 0,
-            });
-        for (s, a) in actions {
-            match a {
-                Action::Set(art, day, unc, source, f) => {
-                    self.set_desk(s, art, day, unc, source, f, frame.taken_s, now_s)
+        let w = self.window_state(s, ctx);
+        if w.changed {
+            extra |= flags::GEOMETRY_CHANGED;
+        }
+        if w.covered || w.saturated {
+            let f = extra
+                | if w.saturated { flags::SATURATED } else { 0 }
+                | if w.covered { flags::OCCLUDED } else { 0 };
+            // held while the last good value is fresh (a person leaning over the desk);
+            // covered for longer (a box left on it, a desk moved away), the inferred
+            // daylight is the better value, as for a desk out of view
+            let fresh = self.held[s]
+                .daylight
+                .is_some_and(|(_, t, _)| ctx.taken_s - t <= st.stale_after_s);
+            if fresh {
+                return Action::Hold(f);
+            }
+            let unc =
+                ((st.inferred_rel_uncertainty * day).powi(2) + (model_rel * art).powi(2)).sqrt();
+            return Action::Set(art, day, unc, Source::Inferred, f);
+        }
+        // the weighted median residual of the window; spread for the uncertainty
+        let mut v2 = w.values.clone();
+        let dm = weighted_median(&mut v2).unwrap_or(0.0);
+        let mut dev: Vec<f64> = w.values.iter().map(|(x, _)| (x - dm).abs()).collect();
+        let mad = median(&mut dev).unwrap_or(0.0) * 1.4826;
+        let n_eff = w.values.len() as f64;
+        let total = art + dm;
+        let day = dm.max(0.0);
+        let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2)
+            + (st.measured_rel_uncertainty * total).powi(2))
+        .sqrt();
+        Action::Set(total - day, day, unc, Source::Measured, extra)
+    }
+
+    /// Desk `s`'s window in this frame: its valid samples' (extraneous light, weight), and
+    /// whether it is covered (by depth, or by darkness without depth), saturated or changed.
+    fn window_state(&self, s: usize, ctx: &DeskContext<'_>) -> WindowState {
+        let st = &self.settings;
+        let (m, l) = (&self.model, self.model.luminaires);
+        let w = &m.windows[s];
+        let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
+        let mut values: Vec<(f64, f64)> = Vec::with_capacity(w.sample.len());
+        for (&i, &wt) in w.sample.iter().zip(&w.weight) {
+            let i = i as usize;
+            let stt = self.state[i];
+            n_occ += usize::from(stt & S_OCCLUDED != 0);
+            n_sat += usize::from(stt & S_SATURATED != 0);
+            n_chg += usize::from(u32::from(self.changed[i]) >= st.geometry_frames);
+            if stt & S_VALID != 0 {
+                let art: f64 = m.art[i * l..(i + 1) * l]
+                    .iter()
+                    .zip(ctx.levels.iter().zip(&self.ageing))
+                    .map(|(e, (x, a))| f64::from(*e) * x * a)
+                    .sum();
+                if self.d[i] < -(0.3 * art + 5.0) {
+                    n_dark += 1;
                 }
-                Action::Hold(f) => self.hold(s, levels, now_s, f),
+                values.push((self.d[i], wt));
             }
         }
-        self.report = Some(FrameReport {
-            verdict: Verdict::Ok,
-            samples_used: used,
-            samples_occluded: occluded,
-            changed_fraction,
-            recommission,
-            night,
-            ageing_updated,
-            fit_residual,
-            daylight_seen_lx: daylight_seen,
-        });
-        Ok(&self.desks)
+        let total_w = w.sample.len() as f64;
+        let covered_depth = n_occ as f64 > st.occluded_fraction * total_w;
+        // without depth: most of the window far darker than the luminaires make it
+        let covered_light = ctx.no_depth && n_dark as f64 > 0.5 * values.len().max(1) as f64;
+        WindowState {
+            covered: covered_depth || covered_light || values.len() < 3,
+            saturated: n_sat as f64 > st.window_saturated_fraction * total_w,
+            changed: n_chg as f64 > 0.5 * total_w,
+            values,
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -1237,7 +1224,11 @@ impl Live {
     /// `ρ D` propagated over the unseen patches (Gauss-Seidel, warm), plus unknown emitters
     /// fitted to what that leaves unexplained on the seen surfaces (robust NNLS). Returns
     /// (daylight per sensor, relative RMS residual, mean fitted daylight on the seen surfaces).
-    fn infer(&mut self, d_seen: &[f64], w_seen: &[f64]) -> (Vec<f64>, f64, f64) {
+    fn infer(
+        &mut self,
+        d_seen: &[f64],
+        w_seen: &[f64],
+    ) -> Result<(Vec<f64>, f64, f64), SolveError> {
         let m = &self.model;
         let (k, n_seen, s_count) = (m.k, m.seen.len(), m.sensors());
         // seen exitance fixed, unseen solved
@@ -1251,7 +1242,7 @@ impl Live {
             };
         }
         let zeros = vec![0.0; b.len()];
-        multi_gs(&m.ff, &m.rho, &m.unseen, &zeros, b, 1, 200);
+        solve_rows(&m.ff, &m.rho, Rows::Listed(&m.unseen), &zeros, b, 1)?;
         let c = incident(&m.ff, &m.seen, b, 1);
         let rows: Vec<u32> = (0..s_count as u32).collect();
         let from_seen = incident(&m.gather, &rows, b, 1);
@@ -1335,11 +1326,11 @@ impl Live {
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
-        (
+        Ok((
             out,
             finite_or(rel, 0.0),
             if sw > 0.0 { fitted / sw } else { 0.0 },
-        )
+        ))
     }
 
     /// The night test and the ageing fit. A frame is night when both fits of the unknown
@@ -1382,7 +1373,7 @@ impl Live {
         {
             // a candidate: fit luminaires and emitters together
             let k = self.model.k;
-            let u = self.model.full_basis();
+            let u = &self.model.u_seen;
             let nv = l + k;
             let mut g = vec![0.0; nv * nv];
             let mut h = vec![0.0; nv];
@@ -1467,6 +1458,70 @@ impl Live {
 }
 
 /// What to do with a desk after a frame.
+/// What the samples of one frame came to.
+#[derive(Debug, Clone, Copy, Default)]
+struct SampleCounts {
+    used: usize,
+    occluded: usize,
+    with_depth: usize,
+    with_ref: usize,
+    changed: usize,
+}
+
+/// The room's geometry as one frame's depth tells it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Geometry {
+    /// No depth frame, or one with a return on under a tenth of the samples.
+    no_depth: bool,
+    /// Samples changed for good, over those with depth.
+    changed_fraction: f64,
+    /// More of the room changed than [`LiveSettings::geometry_area_fraction`].
+    recommission: bool,
+}
+
+impl SampleCounts {
+    fn geometry(&self, has_depth: bool, st: &LiveSettings) -> Geometry {
+        // a depth frame with a return on under a tenth of the samples (a dead or blinded ToF)
+        // is judged like no depth frame
+        let no_depth = !has_depth || self.with_depth * 10 < self.with_ref;
+        let changed_fraction = if self.with_depth > 0 {
+            self.changed as f64 / self.with_depth as f64
+        } else {
+            0.0
+        };
+        Geometry {
+            no_depth,
+            changed_fraction,
+            recommission: changed_fraction > st.geometry_area_fraction,
+        }
+    }
+}
+
+/// Per seen patch (the model's seen order): median extraneous light, weight, and artificial
+/// light per luminaire (`[patch][luminaire]`).
+struct SeenPatches {
+    d: Vec<f64>,
+    w: Vec<f64>,
+    a: Vec<f64>,
+}
+
+/// What every desk of one frame shares.
+struct DeskContext<'a> {
+    levels: &'a [f64],
+    no_depth: bool,
+    fit_residual: f64,
+    taken_s: f64,
+}
+
+/// A desk's window in one frame.
+struct WindowState {
+    covered: bool,
+    saturated: bool,
+    changed: bool,
+    /// (extraneous light, weight) of the valid samples.
+    values: Vec<(f64, f64)>,
+}
+
 enum Action {
     /// (artificial, daylight, uncertainty, source, flags).
     Set(f64, f64, f64, Source, u16),

@@ -5,7 +5,7 @@
 //!
 //! ## Method
 //!
-//! At commissioning ([`section`]) the image gets a live section ([`crate::store::live`]): camera
+//! At commissioning ([`crate::live_section`]) the image gets a live section ([`crate::store::live`]): camera
 //! pixels (every `stride`-th, and all around each in-view desk sensor) with the patch each sees,
 //! the commissioned depth, and the irradiance there from each luminaire at 100 % (`E_l`, from the
 //! one-luminaire frames less the all-off frame, or from the engine on a CAD model).
@@ -25,7 +25,7 @@
 //!   the window (Gaussian weights of twice the fit's σ: 5 cm in the open); artificial
 //!   `Â = Σ_l x_l a_l Ẽ_l` with `Ẽ_l` the desk's camera-calibrated response (the plane fit of
 //!   `E_l` over the window at the sensor, stored at commissioning, with σ chosen per desk by
-//!   [`section::window_sigma_m`]: 2.5 cm in the open, narrower at a shade's edge);
+//!   [`window::window_sigma_m`]: 2.5 cm in the open, narrower at a shade's edge);
 //!   **total = Â + D̂** (*measured*). Daylight = max(D̂, 0); a negative
 //!   residual (the luminaires give less than the model says) counts against the artificial part.
 //! * **A desk the camera does not see**, or a covered one with nothing measured before:
@@ -73,12 +73,11 @@
 
 pub mod estimator;
 pub mod nnls;
-pub mod section;
+pub mod window;
 
 pub use estimator::{
     DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict,
 };
-pub use section::{SectionOptions, from_capture, from_model};
 
 /// Why live light cannot run.
 #[derive(Debug, thiserror::Error)]
@@ -91,6 +90,9 @@ pub enum LiveError {
     /// A setting or an input is unusable.
     #[error("{0}")]
     Input(String),
+    /// The stored radiosity system does not solve (checked at boot).
+    #[error("live light: the stored radiosity system: {0}")]
+    Solve(crate::solver::SolveError),
 }
 
 /// Flag bits of a desk's live value (`DeskLive::flags`, Modbus input 4100 + k): the register
@@ -125,63 +127,5 @@ pub fn aged_response(response_lx: &[f64], ageing: &[f64], out: &mut [f64]) {
     let l = ageing.len().max(1);
     for (k, (o, r)) in out.iter_mut().zip(response_lx).enumerate() {
         *o = r * ageing.get(k % l).copied().unwrap_or(1.0);
-    }
-}
-
-/// Adds a live section to an image, within a flash region of `region_bytes`: the section's
-/// budget is what the region has left (at most `o.budget_bytes`), so the sample stride grows
-/// until it fits. `Ok(None)` when not even a coarse section fits (the image is served without
-/// live light, and the caller says so).
-pub fn attach(
-    image: &[u8],
-    section: impl Fn(&SectionOptions) -> Result<crate::image_build::LiveSectionData, LiveError>,
-    o: &SectionOptions,
-    region_bytes: usize,
-) -> Result<Option<Vec<u8>>, LiveError> {
-    let room = region_bytes.saturating_sub(image.len());
-    if room < 8 * 1024 {
-        return Ok(None);
-    }
-    let mut opts = o.clone();
-    opts.budget_bytes = opts.budget_bytes.min(room - 1024);
-    let data = section(&opts)?;
-    let bytes = crate::image_build::with_live(image, Some(&data))
-        .map_err(|e| LiveError::Input(format!("live section: {e}")))?;
-    Ok((bytes.len() <= region_bytes).then_some(bytes))
-}
-
-/// The image with the live-light section of a commissioning from `capture` added, within the
-/// formfactors flash region; the image as it is when the section cannot be built or does not fit
-/// (logged: the node then serves the model only).
-pub fn with_capture_section(
-    image: Vec<u8>,
-    c: &crate::commission::Commissioned,
-    capture: &crate::camera::capture::Capture,
-) -> Vec<u8> {
-    let o = SectionOptions::default();
-    match attach(
-        &image,
-        |o| from_capture(c, capture, o),
-        &o,
-        crate::image_build::formfactors_region_bytes(),
-    ) {
-        Ok(Some(bytes)) => {
-            tracing::info!(
-                "commission: live-light section of {} bytes added",
-                bytes.len() - image.len()
-            );
-            bytes
-        }
-        Ok(None) => {
-            tracing::warn!(
-                "commission: no room for the live-light section in the flash region; live light \
-                 is off"
-            );
-            image
-        }
-        Err(e) => {
-            tracing::warn!("commission: live-light section: {e}; live light is off");
-            image
-        }
     }
 }

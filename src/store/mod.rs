@@ -37,6 +37,8 @@ pub mod values;
 #[cfg(feature = "std")]
 pub mod devices;
 #[cfg(feature = "std")]
+pub mod encode;
+#[cfg(feature = "std")]
 pub mod file;
 #[cfg(feature = "std")]
 pub mod geometry;
@@ -527,5 +529,11 @@ impl RadiositySystem for ImageSystem<'_, '_> {
     }
     fn gather(&self, i: usize, x: &[f64]) -> f64 {
         self.image.payload.ff.row_dot(i, x)
+    }
+    fn gather_k(&self, i: usize, x: &[f64], acc: &mut [f64]) {
+        self.image.payload.ff.row_dot_k(i, x, acc)
+    }
+    fn gather_column(&self, i: usize, x: &[f64], k: usize, q: usize) -> f64 {
+        self.image.payload.ff.row_dot_column(i, x, k, q)
     }
 }

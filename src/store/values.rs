@@ -242,6 +242,30 @@ impl Sparse<'_> {
         }
     }
 
+    /// `acc[q] += Σ_j A_ij x[j·k + q]` for `k = acc.len()` right-hand sides (entry by entry:
+    /// for the rare solves of several right-hand sides straight from the image).
+    pub fn row_dot_k(&self, i: usize, x: &[f64], acc: &mut [f64]) {
+        let k = acc.len();
+        for e in self.row_range(i) {
+            let (v, j) = (self.values.get(e, i), self.col_at(e));
+            for (a, xj) in acc.iter_mut().zip(&x[j * k..j * k + k]) {
+                *a += v * xj;
+            }
+        }
+    }
+
+    /// `Σ_j A_ij x[j·k + q]` for row `i`: one right-hand side of `k`.
+    pub fn row_dot_column(&self, i: usize, x: &[f64], k: usize, q: usize) -> f64 {
+        if k == 1 {
+            return self.row_dot(i, x);
+        }
+        let mut s = 0.0;
+        for e in self.row_range(i) {
+            s += self.values.get(e, i) * x[self.col_at(e) * k + q];
+        }
+        s
+    }
+
     /// Number of entries.
     pub fn nnz(&self) -> usize {
         if self.rows == 0 {
