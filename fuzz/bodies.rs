@@ -42,10 +42,10 @@ fn text(data: &[u8]) -> String {
 }
 
 /// A request PDU to the register map: every answer well formed (the checks of
-/// `luxnode::modbus::fuzz`); then the same bytes as an RTU frame with the CRC fixed up and
+/// `luxnode::fieldbus::fuzz`); then the same bytes as an RTU frame with the CRC fixed up and
 /// stale, for our unit, another and broadcast.
 pub fn modbus_pdu(data: &[u8]) {
-    let mut f = luxnode::modbus::fuzz::Fuzzer::default();
+    let mut f = luxnode::fieldbus::fuzz::Fuzzer::default();
     let unit = data.first().copied().unwrap_or(7);
     if let Err(e) = f.feed(data, 7, true) {
         panic!("{e}");
@@ -58,10 +58,10 @@ pub fn modbus_pdu(data: &[u8]) {
 /// Raw bytes on the RTU line: the frame decoder, then a node (read-only policy, from the RTU
 /// source) answering what decodes.
 pub fn modbus_rtu(data: &[u8]) {
+    use luxnode::fieldbus::rtu::{RtuCounters, handle_frame};
     use luxnode::modbus::access::Source;
     use luxnode::modbus::frame::{MAX_RTU_FRAME, decode_rtu};
-    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
-    use luxnode::modbus::rtu::{RtuCounters, handle_frame};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
     let _ = decode_rtu(data);
     let model = NodeModel {
         response_lx: vec![100.0, 200.0, 10.0, 20.0],
@@ -199,7 +199,7 @@ pub fn board_toml(data: &[u8]) {
 /// the validation are reached, not just the CRC check), through the whole load path: parse,
 /// the A/B slots of a flash, the register map.
 pub fn flash_image(data: &[u8]) {
-    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
     use luxnode::store::devices::MemFlash;
     use luxnode::store::file::read_bootable;
     use luxnode::store::slots::Slots;

@@ -20,12 +20,12 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use luxnode::modbus::node::{PduHandler, lock};
+use luxnode::fieldbus::tcp::{self, TcpCounters, TcpOptions};
 use luxnode::modbus::pdu::{
     Exception, MAX_PDU, MAX_WRITE, Request, decode_request, encode_exception, encode_registers,
     encode_write_echo,
 };
-use luxnode::modbus::tcp::{self, TcpCounters, TcpOptions};
+use luxnode::{fieldbus::PduHandler, node::lock};
 
 #[derive(Parser)]
 #[command(

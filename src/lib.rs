@@ -15,8 +15,11 @@
 //! nothing of commissioning: it builds without std and runs from flash on a microcontroller.
 //! The commissioning side sits above it: the cameras (sensors) give frames, `commission` turns
 //! them into a mesh with reflectances, the `engine` computes its form factors, and
-//! `image_build` writes them in the store's format. The node (`serve`, `board`, `daemon`) wires
-//! both together. Off-product code (the simulated world, pictures, benchmarks) is on top, behind
+//! `image_build` writes them in the store's format. The node's application state (`node`:
+//! model, levels, targets, control mode, daylight, live values, health) sits just above the
+//! run-time core and knows no protocol; the protocols (`fieldbus`: Modbus TCP/TLS/RTU, the DALI
+//! gateway link) are adapters over it. `serve`, `board` and `daemon` assemble a node and wire
+//! it all together. Off-product code (the simulated world, pictures, benchmarks) is on top, behind
 //! cargo features.
 //!
 //! A module uses only modules of lower layers (never its own layer, never a higher one). The
@@ -29,19 +32,21 @@
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
-//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); TCP/TLS/RTU servers, who may write and how each client reads (access), health, DALI gateway link (std) |
-//! | 5 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
-//! | 6 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
-//! | 7 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
-//! | 8 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
-//! | 9 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
-//! | 10 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
-//! | 11 | `render`, `live_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model |
-//! | 12 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
-//! | 13 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
-//! | 14 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
-//! | 15 | `daemon` | std | the node: boot from flash or commission, serve, systemd |
-//! | 16 | `bench` | feature `bench` | benchmarks that print tables: timing, accuracy, trade-offs, Modbus load and fuzzing |
+//! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); who may write and how each client reads (access), the settings clients wrote (std) |
+//! | 5 | `node` | std | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness) |
+//! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the DALI gateway link and the lighting loop; the frame fuzzer (feature `sim`) |
+//! | 7 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
+//! | 8 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
+//! | 9 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
+//! | 10 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
+//! | 11 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
+//! | 12 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
+//! | 13 | `render`, `live_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model |
+//! | 14 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
+//! | 15 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
+//! | 16 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
+//! | 17 | `daemon` | std | running a node: assembled from its board file (flash, peripherals, cameras, serving, live light), boot from flash or commission, serve, systemd |
+//! | 18 | `bench` | feature `bench` | benchmarks that print tables: timing, accuracy, trade-offs, Modbus load and fuzzing |
 //!
 //! The binary (`src/main.rs`, `src/cli/`) parses arguments and prints; it may use any layer.
 //! Errors are `thiserror` enums in the library and `anyhow` only in the binary; the library
@@ -62,7 +67,8 @@
 //!   builds, for `thumbv7em-none-eabihf` (`cargo build --lib --no-default-features --target
 //!   thumbv7em-none-eabihf`). `--no-default-features --features std` is the product build.
 //! * `sim`: the simulated world (simulated cameras, the demo office, fault injectors, the
-//!   power-cut hook, the simulated controller).
+//!   power-cut hook, the simulated controller, the sim board's files) and the Modbus frame
+//!   fuzzer (tests, benchmarks, the fuzz crate).
 //! * `report`: pictures and reports.
 //! * `bench`: the benchmarks.
 //! * `hil`: the hardware-in-the-loop rig's programs (`gateway-sim`).
@@ -105,6 +111,8 @@ pub mod engine;
 #[cfg(feature = "std")]
 pub mod evaluate;
 #[cfg(feature = "std")]
+pub mod fieldbus;
+#[cfg(feature = "std")]
 pub mod host;
 #[cfg(feature = "std")]
 pub mod image_build;
@@ -116,6 +124,8 @@ pub mod live;
 pub mod live_section;
 #[cfg(feature = "std")]
 pub mod lsc;
+#[cfg(feature = "std")]
+pub mod node;
 #[cfg(feature = "std")]
 pub mod photometry;
 #[cfg(feature = "std")]

@@ -3,7 +3,7 @@
 //! `luxnode serve` runs this; the daemon reuses it.
 //!
 //! Every part is supervised: a TCP or TLS accept loop that fails is rebound, the RTU line is
-//! reopened after any error ([`crate::modbus::rtu::spawn_supervised`]), the gateway link is
+//! reopened after any error ([`crate::fieldbus::rtu::spawn_supervised`]), the gateway link is
 //! restarted; each beats the liveness check of [`Health`] that gates the systemd watchdog, and
 //! its state shows in the communication-health registers. Signals: SIGTERM / Ctrl-C stop;
 //! SIGHUP reloads the configuration (the caller's [`Reload`], the board file for the daemon:
@@ -18,14 +18,14 @@ use std::time::Duration;
 use tokio::sync::watch;
 use tokio::task::JoinHandle;
 
+use crate::fieldbus::gateway::{self, GatewayConfig};
+use crate::fieldbus::rtu::{self, RtuError, RtuOptions};
+use crate::fieldbus::tcp::{self, BindError, TcpOptions};
+use crate::fieldbus::tls::{TlsError, TlsFiles, TlsServer};
 use crate::modbus::access::AccessPolicy;
-use crate::modbus::gateway::{self, GatewayConfig};
-use crate::modbus::health::{Health, state};
-use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::modbus::regmap::Identity;
-use crate::modbus::rtu::{self, RtuError, RtuOptions};
-use crate::modbus::tcp::{self, BindError, TcpOptions};
-use crate::modbus::tls::{TlsError, TlsFiles, TlsServer};
+use crate::node::health::{Health, state};
+use crate::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::store::file::{FileError, read_image_file};
 use crate::store::{Image, ImageError};
 
@@ -87,7 +87,7 @@ pub struct ServeOptions {
     /// Where client settings persist.
     pub settings_path: Option<PathBuf>,
     /// Lighting control: mode, targets, power model, loop knobs (the board's `[control]`).
-    pub control: crate::modbus::node::ControlOptions,
+    pub control: crate::node::ControlOptions,
 }
 
 /// Re-reads the configuration (SIGHUP): new options, or why they are refused.
@@ -307,7 +307,7 @@ fn start_parts(
                 let inner = tokio::spawn(gateway::run(
                     config.clone(),
                     node.clone(),
-                    health.gateway.clone(),
+                    health.counters::<crate::fieldbus::gateway::GatewayCounters>(),
                     stop_rx.clone(),
                     Some(beat.clone()),
                 ));
@@ -328,7 +328,7 @@ fn start_parts(
     {
         // lighting control: always running, commanding nothing while the mode is off
         let (node, gateway, stop_rx) = (node.clone(), options.gateway.clone(), stop_rx.clone());
-        tasks.push(tokio::spawn(crate::modbus::lighting::run(
+        tasks.push(tokio::spawn(crate::fieldbus::lighting::run(
             node, gateway, stop_rx,
         )));
     }
@@ -402,7 +402,7 @@ async fn supervise_tcp(
             l,
             node.clone(),
             options.clone(),
-            health.tcp.clone(),
+            health.counters::<crate::fieldbus::tcp::TcpCounters>(),
             stop_rx.clone(),
             Some(beat.clone()),
         ));

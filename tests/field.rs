@@ -924,7 +924,7 @@ fn kill_at(board: &Path, flash: &Path, extra: &[&str], marker: &str) -> bool {
 /// What a boot would find on `flash`: the generation of the image that passes the whole load
 /// path, if any.
 fn bootable_generation(flash: &Path) -> Option<u64> {
-    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
     let dev = FileFlash::open(flash, flash_bytes()).unwrap();
     read_bootable(&mut Slots::new(dev), |img, g| {
         Node::new(NodeModel::from_image(img, g), NodeOptions::default())

@@ -197,8 +197,8 @@ fn daylight_and_dimming_measured_and_inferred() {
 #[test]
 fn the_node_publishes_live_registers_and_feeds_the_control_loop() {
     use luxnode::daemon::live::{CapturedFrame, StepState, estimator, step};
-    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
     use luxnode::modbus::regmap::{NOT_AVAILABLE_U16, Space, addr, live_flags, live_status};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
     let image = Image::parse(&rig().image).unwrap();
     let mut node = Node::new(NodeModel::from_image(&image, 1), NodeOptions::default()).unwrap();
     let n = image.luminaires();

@@ -668,7 +668,7 @@ fn a_percent_gateway_sets_exact_levels() {
 
 #[test]
 fn a_million_fuzzed_frames_are_answered_well_formed() {
-    let r = luxnode::modbus::fuzz::run(1_000_000, 0x6C75_786E).unwrap_or_else(|f| panic!("{f}"));
+    let r = luxnode::fieldbus::fuzz::run(1_000_000, 0x6C75_786E).unwrap_or_else(|f| panic!("{f}"));
     assert_eq!(r.frames, 1_000_000);
     assert!(r.answers > 50_000 && r.rtu_answered > 100_000, "{r:?}");
 }
@@ -704,7 +704,7 @@ proptest::proptest! {
     ) {
         let mut pdu = vec![fc];
         pdu.extend(rest);
-        let mut f = luxnode::modbus::fuzz::Fuzzer::default();
+        let mut f = luxnode::fieldbus::fuzz::Fuzzer::default();
         if let Err(e) = f.feed(&pdu, unit, fix_crc) {
             proptest::prop_assert!(false, "{}", e);
         }
@@ -714,7 +714,7 @@ proptest::proptest! {
 #[test]
 fn commissioning_switches_luminaires_through_the_gateway() {
     use luxnode::camera::LightControl;
-    use luxnode::modbus::gateway::{GatewayConfig, GatewayWriter};
+    use luxnode::fieldbus::gateway::{GatewayConfig, GatewayWriter};
     let gw = spawn_listening(GATEWAY_SIM, &["--bind".into(), "127.0.0.1:0".into()]);
     for (encoding, want) in [("dali", [254u16, 229, 0, 1]), ("percent", [100, 51, 0, 0])] {
         let config = GatewayConfig::from_toml(&format!(
@@ -750,7 +750,7 @@ struct SlowGateway {
     delay: Duration,
 }
 
-impl luxnode::modbus::node::PduHandler for SlowGateway {
+impl luxnode::fieldbus::PduHandler for SlowGateway {
     fn handle_pdu(
         &mut self,
         _unit: u8,
@@ -791,8 +791,8 @@ impl luxnode::modbus::node::PduHandler for SlowGateway {
 
 #[test]
 fn a_gateway_read_in_flight_never_undoes_a_delivery() {
-    use luxnode::modbus::gateway::{self, GatewayConfig, GatewayCounters};
-    use luxnode::modbus::node::{Node, NodeModel, NodeOptions};
+    use luxnode::fieldbus::gateway::{self, GatewayConfig, GatewayCounters};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
     use std::sync::atomic::{AtomicU64, Ordering};
     use std::sync::{Arc, Mutex};
     let image = common::small_image(1.0);
@@ -826,11 +826,11 @@ fn a_gateway_read_in_flight_never_undoes_a_delivery() {
         read_began: read_began.clone(),
         delay: Duration::from_millis(400),
     }));
-    rt.spawn(luxnode::modbus::tcp::serve(
+    rt.spawn(luxnode::fieldbus::tcp::serve(
         listener,
         handler,
-        luxnode::modbus::tcp::TcpOptions::default(),
-        Arc::new(luxnode::modbus::tcp::TcpCounters::default()),
+        luxnode::fieldbus::tcp::TcpOptions::default(),
+        Arc::new(luxnode::fieldbus::tcp::TcpCounters::default()),
         stop_rx.clone(),
         None,
     ));

@@ -301,7 +301,7 @@ fn two_fisheye_nodes_commission_through_the_binary_into_images_that_fit() {
     // each desk's stated uncertainty is in the image and in the registers (800 + k, 0.1 %)
     let bytes = std::fs::read(&a).expect("image");
     let image = luxnode::store::Image::parse(&bytes).expect("parses");
-    let node = luxnode::modbus::node::NodeModel::from_image(&image, 1);
+    let node = luxnode::node::NodeModel::from_image(&image, 1);
     for (k, u) in node.model_rel_uncertainty.iter().enumerate() {
         let stated = image
             .live

@@ -116,6 +116,7 @@ pub enum CameraBoard {
 
 /// A camera's optics from a board file: intrinsics, lens and a tilt, applied to a scene's
 /// camera (its orientation kept, then tilted; its position kept unless given).
+#[cfg(feature = "sim")]
 #[derive(Debug, Clone, PartialEq)]
 pub struct Optics {
     /// Image width, pixels.
@@ -133,6 +134,7 @@ pub struct Optics {
     pub position_m: Option<[f64; 3]>,
 }
 
+#[cfg(feature = "sim")]
 impl Optics {
     /// The camera `base` with these optics (checked when the optics were read).
     pub fn apply(&self, base: &crate::scene::Camera) -> crate::scene::Camera {
@@ -492,6 +494,7 @@ impl LedBoard {
 #[serde(deny_unknown_fields)]
 pub struct CameraToml {
     source: String,
+    #[cfg(feature = "sim")]
     #[serde(default)]
     sim: Option<SimToml>,
     #[serde(default)]
@@ -504,7 +507,7 @@ pub struct CameraToml {
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
-#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+#[cfg(feature = "sim")]
 struct SimToml {
     seed: Option<u64>,
     range_noise_rel: Option<f64>,
@@ -520,7 +523,7 @@ struct SimToml {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+#[cfg(feature = "sim")]
 struct OpticsToml {
     #[serde(default = "default_model")]
     model: String,
@@ -545,7 +548,7 @@ fn default_model() -> String {
 /// A board's camera position coordinate, at most, m (a building's floor, not a city).
 pub const MAX_CAMERA_COORDINATE_M: f64 = 1000.0;
 
-#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+#[cfg(feature = "sim")]
 fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
     if o.width == 0 || o.height == 0 || o.width > 16384 || o.height > 16384 {
         return err(format!(
@@ -584,7 +587,7 @@ fn optics(o: OpticsToml, what: &str) -> Result<Optics, SectionError> {
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
-#[cfg_attr(not(feature = "sim"), allow(dead_code))]
+#[cfg(feature = "sim")]
 struct FaultsToml {
     #[serde(default)]
     seed: u64,
@@ -733,6 +736,10 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
             Ok(())
         }
     };
+    #[cfg(feature = "sim")]
+    let sim_given = t.sim.is_some();
+    #[cfg(not(feature = "sim"))]
+    let sim_given = false;
     match t.source.as_str() {
         #[cfg(not(feature = "sim"))]
         "sim" => {
@@ -743,59 +750,10 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
             unused("replay", t.replay.is_some())?;
             unused("tof", t.tof.is_some())?;
             unused("colour", t.colour.is_some())?;
-            let s = t.sim.unwrap_or_default();
-            let d0 = SimDepthOptions::default();
-            let depth = SimDepthOptions {
-                seed: s.seed.unwrap_or(d0.seed),
-                range_noise_rel: s.range_noise_rel.unwrap_or(d0.range_noise_rel),
-                flying_pixel_chance: s.flying_pixel_chance.unwrap_or(d0.flying_pixel_chance),
-                dropout_chance: s.dropout_chance.unwrap_or(d0.dropout_chance),
-                max_range_m: s.max_range_m.unwrap_or(d0.max_range_m),
-                ..d0
-            };
-            let l0 = SimLuminanceOptions::default();
-            let luminance = SimLuminanceOptions {
-                seed: s.seed.map_or(l0.seed, |x| x.wrapping_add(1)),
-                cd_m2_per_unit: s.cd_m2_per_unit.unwrap_or(l0.cd_m2_per_unit),
-                noise_rel: s.luminance_noise_rel.unwrap_or(l0.noise_rel),
-                ..l0
-            };
-            // the option checks live with the cameras: build throwaway checks here
-            crate::sim::camera::validate_options(&depth, &luminance)
-                .map_err(|e| format!("camera.sim: {e}"))?;
-            let faults = s.faults.map(|f| Faults {
-                seed: f.seed,
-                timeout_chance: f.timeout_chance,
-                garbage_chance: f.garbage_chance,
-                disconnect_after_frames: f.disconnect_after_frames,
-                timeout_delay_s: f.timeout_delay_s,
-                ..Faults::none()
-            });
-            if let Some(f) = &faults {
-                f.validate()
-                    .map_err(|e| format!("camera.sim.faults: {e}"))?;
-            }
-            let optics = s
-                .optics
-                .map(|o| optics(o, "camera.sim.optics"))
-                .transpose()?;
-            let scenario = s
-                .scenario
-                .map(|f| {
-                    crate::sim::scenario::Scenario::load(&base.join(f))
-                        .map_err(|e| format!("camera.sim.scenario: {e}"))
-                })
-                .transpose()?;
-            Ok(CameraBoard::Sim {
-                depth,
-                luminance,
-                faults,
-                optics,
-                scenario,
-            })
+            sim_camera(t.sim.unwrap_or_default(), base)
         }
         "replay" => {
-            unused("sim", t.sim.is_some())?;
+            unused("sim", sim_given)?;
             unused("tof", t.tof.is_some())?;
             unused("colour", t.colour.is_some())?;
             let r = t
@@ -806,7 +764,7 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
             })
         }
         "hardware" => {
-            unused("sim", t.sim.is_some())?;
+            unused("sim", sim_given)?;
             unused("replay", t.replay.is_some())?;
             let tof = t
                 .tof
@@ -814,152 +772,216 @@ pub(crate) fn camera(t: Option<CameraToml>, base: &Path) -> Result<CameraBoard, 
             let colour = t
                 .colour
                 .ok_or("camera.source = \"hardware\" needs [camera.colour]")?;
-            let tof = match tof.driver.as_str() {
-                "a010" => {
-                    if tof.width.is_some()
-                        || tof.height.is_some()
-                        || tof.format.is_some()
-                        || tof.depth_unit_mm.is_some()
-                        || tof.max_range_m.is_some()
-                    {
-                        return err(
-                            "camera.tof: width, height, format, depth_unit_mm and max_range_m \
-                             are for driver = \"v4l2\" (the A010 is 100 x 100, range 2.5 m)",
-                        );
-                    }
-                    let options = A010Options {
-                        unit_mm: tof.unit_mm.unwrap_or(10),
-                        fps: tof.fps,
-                        disp: tof.disp,
-                        timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
-                    };
-                    options.validate().map_err(|e| format!("camera.tof: {e}"))?;
-                    if ![
-                        9600, 57600, 115_200, 230_400, 460_800, 921_600, 1_000_000, 2_000_000,
-                        3_000_000,
-                    ]
-                    .contains(&tof.baud)
-                    {
-                        return err(format!(
-                            "camera.tof.baud {} is not one the A010 supports",
-                            tof.baud
-                        ));
-                    }
-                    crate::camera::a010::check_link(&options, tof.baud)
-                        .map_err(|e| format!("camera.tof: {e}"))?;
-                    TofBoard::A010 {
-                        device: device("camera.tof.device", &tof.device)?,
-                        baud: tof.baud,
-                        options,
-                        unit_given: tof.unit_mm.is_some(),
-                        calibration: base.join(tof.calibration),
-                    }
-                }
-                "v4l2" => {
-                    let (Some(width), Some(height), Some(max_range_m)) =
-                        (tof.width, tof.height, tof.max_range_m)
-                    else {
-                        return err(
-                            "camera.tof driver = \"v4l2\" needs width, height and max_range_m \
-                             (the camera's range from its datasheet)",
-                        );
-                    };
-                    if tof.format.as_deref().unwrap_or("z16") != "z16" {
-                        return err(format!(
-                            "camera.tof.format {:?}: a V4L2 ToF camera streams \"z16\"",
-                            tof.format.unwrap_or_default()
-                        ));
-                    }
-                    if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
-                        return err(format!(
-                            "camera.tof: size {width}x{height} is outside 1..=4096"
-                        ));
-                    }
-                    let unit = tof.depth_unit_mm.unwrap_or(1.0);
-                    if !(unit.is_finite() && unit > 0.0 && unit <= 100.0) {
-                        return err(format!(
-                            "camera.tof.depth_unit_mm {unit} is outside (0, 100] mm"
-                        ));
-                    }
-                    if !(max_range_m.is_finite() && max_range_m > 0.0 && max_range_m <= 50.0) {
-                        return err(format!(
-                            "camera.tof.max_range_m {max_range_m} is outside (0, 50] m"
-                        ));
-                    }
-                    TofBoard::V4l2 {
-                        device: device("camera.tof.device", &tof.device)?,
-                        width,
-                        height,
-                        depth_unit_mm: unit,
-                        max_range_m,
-                        timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
-                        calibration: base.join(tof.calibration),
-                    }
-                }
-                other => {
-                    return err(format!(
-                        "camera.tof.driver {other:?} is not known (known: \"a010\", \"v4l2\")"
-                    ));
-                }
-            };
-            let colour = match colour.driver.as_str() {
-                "v4l2" => {
-                    let options = V4l2Options {
-                        width: colour.width,
-                        height: colour.height,
-                        format: colour.format,
-                        exposure_s: colour.exposure_s,
-                        calibration_cd_m2_s: colour.calibration_cd_m2_s,
-                        limited_range: colour.limited_range,
-                        timeout: timeout("camera.colour.timeout_s", colour.timeout_s)?,
-                    };
-                    options
-                        .validate()
-                        .map_err(|e| format!("camera.colour: {e}"))?;
-                    let registration = match colour.registration {
-                        Some(r) => Some(
-                            Registration::new(
-                                ColourIntrinsics {
-                                    width: colour.width,
-                                    height: colour.height,
-                                    fx: r.fx,
-                                    fy: r.fy,
-                                    cx: r.cx,
-                                    cy: r.cy,
-                                    k1: r.k1,
-                                    k2: r.k2,
-                                    lens: crate::scene::Lens::from_model(&r.model, r.k)
-                                        .map_err(|m| format!("camera.colour.registration: {m}"))?,
-                                },
-                                ColourFromTof {
-                                    rotation: r.rotation,
-                                    translation_m: r.translation_m,
-                                },
-                            )
-                            .map_err(|e| format!("camera.colour.registration: {e}"))?,
-                        ),
-                        // frames already on the ToF grid (same size), or the capture
-                        // sequence refuses them with a configuration error naming this section
-                        None => None,
-                    };
-                    ColourBoard::V4l2 {
-                        device: device("camera.colour.device", &colour.device)?,
-                        options,
-                        registration,
-                    }
-                }
-                other => {
-                    return err(format!(
-                        "camera.colour.driver {other:?} is not known (known: \"v4l2\")"
-                    ));
-                }
-            };
-            Ok(CameraBoard::Hardware { tof, colour })
+            Ok(CameraBoard::Hardware {
+                tof: tof_board(tof, base)?,
+                colour: colour_board(colour)?,
+            })
         }
         other => err(format!(
             "camera.source {other:?}: use \"sim\", \"replay\" or \"hardware\""
         )),
     }
+}
+
+/// `[camera.sim]`: the simulated cameras' error models, faults, optics and scenario.
+#[cfg(feature = "sim")]
+fn sim_camera(s: SimToml, base: &Path) -> Result<CameraBoard, SectionError> {
+    let d0 = SimDepthOptions::default();
+    let depth = SimDepthOptions {
+        seed: s.seed.unwrap_or(d0.seed),
+        range_noise_rel: s.range_noise_rel.unwrap_or(d0.range_noise_rel),
+        flying_pixel_chance: s.flying_pixel_chance.unwrap_or(d0.flying_pixel_chance),
+        dropout_chance: s.dropout_chance.unwrap_or(d0.dropout_chance),
+        max_range_m: s.max_range_m.unwrap_or(d0.max_range_m),
+        ..d0
+    };
+    let l0 = SimLuminanceOptions::default();
+    let luminance = SimLuminanceOptions {
+        seed: s.seed.map_or(l0.seed, |x| x.wrapping_add(1)),
+        cd_m2_per_unit: s.cd_m2_per_unit.unwrap_or(l0.cd_m2_per_unit),
+        noise_rel: s.luminance_noise_rel.unwrap_or(l0.noise_rel),
+        ..l0
+    };
+    // the option checks live with the cameras: build throwaway checks here
+    crate::sim::camera::validate_options(&depth, &luminance)
+        .map_err(|e| format!("camera.sim: {e}"))?;
+    let faults = s.faults.map(|f| Faults {
+        seed: f.seed,
+        timeout_chance: f.timeout_chance,
+        garbage_chance: f.garbage_chance,
+        disconnect_after_frames: f.disconnect_after_frames,
+        timeout_delay_s: f.timeout_delay_s,
+        ..Faults::none()
+    });
+    if let Some(f) = &faults {
+        f.validate()
+            .map_err(|e| format!("camera.sim.faults: {e}"))?;
+    }
+    let optics = s
+        .optics
+        .map(|o| optics(o, "camera.sim.optics"))
+        .transpose()?;
+    let scenario = s
+        .scenario
+        .map(|f| {
+            crate::sim::scenario::Scenario::load(&base.join(f))
+                .map_err(|e| format!("camera.sim.scenario: {e}"))
+        })
+        .transpose()?;
+    Ok(CameraBoard::Sim {
+        depth,
+        luminance,
+        faults,
+        optics,
+        scenario,
+    })
+}
+
+/// `[camera.tof]` of a hardware board: the A010 or a V4L2 ToF camera.
+fn tof_board(tof: TofToml, base: &Path) -> Result<TofBoard, SectionError> {
+    Ok(match tof.driver.as_str() {
+        "a010" => {
+            if tof.width.is_some()
+                || tof.height.is_some()
+                || tof.format.is_some()
+                || tof.depth_unit_mm.is_some()
+                || tof.max_range_m.is_some()
+            {
+                return err(
+                    "camera.tof: width, height, format, depth_unit_mm and max_range_m \
+                     are for driver = \"v4l2\" (the A010 is 100 x 100, range 2.5 m)",
+                );
+            }
+            let options = A010Options {
+                unit_mm: tof.unit_mm.unwrap_or(10),
+                fps: tof.fps,
+                disp: tof.disp,
+                timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
+            };
+            options.validate().map_err(|e| format!("camera.tof: {e}"))?;
+            if ![
+                9600, 57600, 115_200, 230_400, 460_800, 921_600, 1_000_000, 2_000_000, 3_000_000,
+            ]
+            .contains(&tof.baud)
+            {
+                return err(format!(
+                    "camera.tof.baud {} is not one the A010 supports",
+                    tof.baud
+                ));
+            }
+            crate::camera::a010::check_link(&options, tof.baud)
+                .map_err(|e| format!("camera.tof: {e}"))?;
+            TofBoard::A010 {
+                device: device("camera.tof.device", &tof.device)?,
+                baud: tof.baud,
+                options,
+                unit_given: tof.unit_mm.is_some(),
+                calibration: base.join(tof.calibration),
+            }
+        }
+        "v4l2" => {
+            let (Some(width), Some(height), Some(max_range_m)) =
+                (tof.width, tof.height, tof.max_range_m)
+            else {
+                return err(
+                    "camera.tof driver = \"v4l2\" needs width, height and max_range_m \
+                     (the camera's range from its datasheet)",
+                );
+            };
+            if tof.format.as_deref().unwrap_or("z16") != "z16" {
+                return err(format!(
+                    "camera.tof.format {:?}: a V4L2 ToF camera streams \"z16\"",
+                    tof.format.unwrap_or_default()
+                ));
+            }
+            if !(1..=4096).contains(&width) || !(1..=4096).contains(&height) {
+                return err(format!(
+                    "camera.tof: size {width}x{height} is outside 1..=4096"
+                ));
+            }
+            let unit = tof.depth_unit_mm.unwrap_or(1.0);
+            if !(unit.is_finite() && unit > 0.0 && unit <= 100.0) {
+                return err(format!(
+                    "camera.tof.depth_unit_mm {unit} is outside (0, 100] mm"
+                ));
+            }
+            if !(max_range_m.is_finite() && max_range_m > 0.0 && max_range_m <= 50.0) {
+                return err(format!(
+                    "camera.tof.max_range_m {max_range_m} is outside (0, 50] m"
+                ));
+            }
+            TofBoard::V4l2 {
+                device: device("camera.tof.device", &tof.device)?,
+                width,
+                height,
+                depth_unit_mm: unit,
+                max_range_m,
+                timeout: timeout("camera.tof.timeout_s", tof.timeout_s)?,
+                calibration: base.join(tof.calibration),
+            }
+        }
+        other => {
+            return err(format!(
+                "camera.tof.driver {other:?} is not known (known: \"a010\", \"v4l2\")"
+            ));
+        }
+    })
+}
+
+/// `[camera.colour]` of a hardware board: a V4L2 colour camera and its registration.
+fn colour_board(colour: ColourToml) -> Result<ColourBoard, SectionError> {
+    Ok(match colour.driver.as_str() {
+        "v4l2" => {
+            let options = V4l2Options {
+                width: colour.width,
+                height: colour.height,
+                format: colour.format,
+                exposure_s: colour.exposure_s,
+                calibration_cd_m2_s: colour.calibration_cd_m2_s,
+                limited_range: colour.limited_range,
+                timeout: timeout("camera.colour.timeout_s", colour.timeout_s)?,
+            };
+            options
+                .validate()
+                .map_err(|e| format!("camera.colour: {e}"))?;
+            let registration = match colour.registration {
+                Some(r) => Some(
+                    Registration::new(
+                        ColourIntrinsics {
+                            width: colour.width,
+                            height: colour.height,
+                            fx: r.fx,
+                            fy: r.fy,
+                            cx: r.cx,
+                            cy: r.cy,
+                            k1: r.k1,
+                            k2: r.k2,
+                            lens: crate::scene::Lens::from_model(&r.model, r.k)
+                                .map_err(|m| format!("camera.colour.registration: {m}"))?,
+                        },
+                        ColourFromTof {
+                            rotation: r.rotation,
+                            translation_m: r.translation_m,
+                        },
+                    )
+                    .map_err(|e| format!("camera.colour.registration: {e}"))?,
+                ),
+                // frames already on the ToF grid (same size), or the capture
+                // sequence refuses them with a configuration error naming this section
+                None => None,
+            };
+            ColourBoard::V4l2 {
+                device: device("camera.colour.device", &colour.device)?,
+                options,
+                registration,
+            }
+        }
+        other => {
+            return err(format!(
+                "camera.colour.driver {other:?} is not known (known: \"v4l2\")"
+            ));
+        }
+    })
 }
 
 pub(crate) fn flash(t: Option<FlashToml>, base: &Path) -> Result<FlashBoard, SectionError> {

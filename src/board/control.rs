@@ -28,7 +28,7 @@ use serde::Deserialize;
 
 use super::camera::SectionError;
 use crate::control::regulator::{Mode, Settings};
-use crate::modbus::node::ControlOptions;
+use crate::node::ControlOptions;
 
 #[doc(hidden)]
 #[derive(Deserialize, Default)]

@@ -45,7 +45,7 @@ pub struct Board {
     /// 300 s).
     pub sensor_check: std::time::Duration,
     /// Lighting control (`[control]`).
-    pub control: crate::modbus::node::ControlOptions,
+    pub control: crate::node::ControlOptions,
     /// Live light (`[live]`): the cameras at run time.
     pub live: LiveBoard,
     /// The status LED (`[led]`), if any.
@@ -139,13 +139,13 @@ pub struct ModbusBoard {
     /// Who may write; word orders.
     pub access: crate::modbus::access::AccessPolicy,
     /// Modbus/TCP Security: address and PEM files.
-    pub tls: Option<(std::net::SocketAddr, crate::modbus::tls::TlsFiles)>,
+    pub tls: Option<(std::net::SocketAddr, crate::fieldbus::tls::TlsFiles)>,
     /// TCP idle timeout.
     pub idle_timeout: std::time::Duration,
     /// RTU: device and line settings.
-    pub rtu: Option<(String, crate::modbus::rtu::RtuOptions)>,
+    pub rtu: Option<(String, crate::fieldbus::rtu::RtuOptions)>,
     /// DALI gateway link.
-    pub gateway: Option<crate::modbus::gateway::GatewayConfig>,
+    pub gateway: Option<crate::fieldbus::gateway::GatewayConfig>,
 }
 
 #[derive(Deserialize)]
@@ -265,7 +265,7 @@ fn default_bind() -> String {
     crate::serve::DEFAULT_BIND.into()
 }
 fn default_max_connections() -> usize {
-    crate::modbus::tcp::DEFAULT_MAX_CONNECTIONS
+    crate::fieldbus::tcp::DEFAULT_MAX_CONNECTIONS
 }
 fn default_idle_timeout_s() -> f64 {
     60.0
@@ -278,7 +278,7 @@ struct RtuToml {
     #[serde(default = "default_baud")]
     baud: u32,
     #[serde(default)]
-    parity: crate::modbus::rtu::Parity,
+    parity: crate::fieldbus::rtu::Parity,
     #[serde(default)]
     stop_bits: Option<u8>,
     unit_id: u8,
@@ -298,7 +298,7 @@ struct BoardToml {
     #[serde(default)]
     modbus: ModbusToml,
     #[serde(default)]
-    gateway: Option<crate::modbus::gateway::GatewayConfig>,
+    gateway: Option<crate::fieldbus::gateway::GatewayConfig>,
     #[serde(default)]
     engine: EngineToml,
     #[serde(default)]
@@ -378,49 +378,12 @@ impl Board {
             path: path.to_path_buf(),
             message,
         };
-        let m = &t.modbus;
-        let bind = m.bind.parse().map_err(|e| {
-            bad(format!(
-                "modbus.bind {:?}: {e} (expected ADDR:PORT)",
-                m.bind
-            ))
-        })?;
-        if m.max_connections == 0 || m.max_connections > 1024 {
-            return Err(bad(format!(
-                "modbus.max_connections {} is outside 1..=1024",
-                m.max_connections
-            )));
-        }
-        let max_per_source = m
-            .max_per_source
-            .unwrap_or(crate::modbus::tcp::DEFAULT_MAX_PER_SOURCE.min(m.max_connections));
-        if max_per_source == 0 || max_per_source > m.max_connections {
-            return Err(bad(format!(
-                "modbus.max_per_source {max_per_source} is outside 1..=max_connections ({})",
-                m.max_connections
-            )));
-        }
-        let policy = access(m).map_err(bad)?;
-        let tls = match &m.tls {
-            None => None,
-            Some(t) => {
-                let addr = t.bind.parse().map_err(|e| {
-                    bad(format!(
-                        "modbus.tls.bind {:?}: {e} (expected ADDR:PORT)",
-                        t.bind
-                    ))
-                })?;
-                let dir = path.parent().unwrap_or(Path::new("."));
-                Some((
-                    addr,
-                    crate::modbus::tls::TlsFiles {
-                        cert: dir.join(&t.cert),
-                        key: dir.join(&t.key),
-                        client_ca: dir.join(&t.client_ca),
-                    },
-                ))
-            }
-        };
+        let modbus = modbus_board(
+            &t.modbus,
+            path.parent().unwrap_or(Path::new(".")),
+            t.gateway,
+        )
+        .map_err(bad)?;
         let sensor_check = match t.health.sensor_check_s {
             None => std::time::Duration::from_secs(300),
             Some(s) if s.is_finite() && (0.1..=86_400.0).contains(&s) => {
@@ -432,36 +395,6 @@ impl Board {
                 )));
             }
         };
-        if !(m.idle_timeout_s.is_finite() && m.idle_timeout_s > 0.0 && m.idle_timeout_s < 1e6) {
-            return Err(bad(format!(
-                "modbus.idle_timeout_s {} must be a positive number of seconds",
-                m.idle_timeout_s
-            )));
-        }
-        let rtu = match &m.rtu {
-            None => None,
-            Some(r) => {
-                let options = crate::modbus::rtu::RtuOptions {
-                    unit_id: r.unit_id,
-                    baud: r.baud,
-                    parity: r.parity,
-                    stop_bits: r.stop_bits.unwrap_or(
-                        if r.parity == crate::modbus::rtu::Parity::None {
-                            2
-                        } else {
-                            1
-                        },
-                    ),
-                };
-                options
-                    .validate()
-                    .map_err(|e| bad(format!("modbus.rtu: {e}")))?;
-                Some((r.device.clone(), options))
-            }
-        };
-        if let Some(g) = &t.gateway {
-            g.validate().map_err(|e| bad(format!("gateway: {e}")))?;
-        }
         let preset = match &t.engine.preset {
             None => crate::preset::Preset::default(),
             Some(name) => name
@@ -517,22 +450,97 @@ impl Board {
             description: t.description,
             scene,
             sensor_check,
-            modbus: ModbusBoard {
-                bind,
-                max_connections: m.max_connections,
-                max_per_source,
-                access: policy,
-                tls,
-                idle_timeout: std::time::Duration::from_secs_f64(m.idle_timeout_s),
-                rtu,
-                gateway: t.gateway,
-            },
+            modbus,
             camera,
             flash,
             i2c: t.i2c,
             led: t.led,
         })
     }
+}
+
+/// `[modbus]` and `[gateway]`: the servers' addresses and caps, the access policy, TLS, the
+/// RTU line, the gateway link (`dir`: the board file's directory).
+fn modbus_board(
+    m: &ModbusToml,
+    dir: &Path,
+    gateway: Option<crate::fieldbus::gateway::GatewayConfig>,
+) -> Result<ModbusBoard, String> {
+    let bind = m
+        .bind
+        .parse()
+        .map_err(|e| format!("modbus.bind {:?}: {e} (expected ADDR:PORT)", m.bind))?;
+    if m.max_connections == 0 || m.max_connections > 1024 {
+        return Err(format!(
+            "modbus.max_connections {} is outside 1..=1024",
+            m.max_connections
+        ));
+    }
+    let max_per_source = m
+        .max_per_source
+        .unwrap_or(crate::fieldbus::tcp::DEFAULT_MAX_PER_SOURCE.min(m.max_connections));
+    if max_per_source == 0 || max_per_source > m.max_connections {
+        return Err(format!(
+            "modbus.max_per_source {max_per_source} is outside 1..=max_connections ({})",
+            m.max_connections
+        ));
+    }
+    let policy = access(m)?;
+    let tls = match &m.tls {
+        None => None,
+        Some(t) => {
+            let addr = t
+                .bind
+                .parse()
+                .map_err(|e| format!("modbus.tls.bind {:?}: {e} (expected ADDR:PORT)", t.bind))?;
+            Some((
+                addr,
+                crate::fieldbus::tls::TlsFiles {
+                    cert: dir.join(&t.cert),
+                    key: dir.join(&t.key),
+                    client_ca: dir.join(&t.client_ca),
+                },
+            ))
+        }
+    };
+    if !(m.idle_timeout_s.is_finite() && m.idle_timeout_s > 0.0 && m.idle_timeout_s < 1e6) {
+        return Err(format!(
+            "modbus.idle_timeout_s {} must be a positive number of seconds",
+            m.idle_timeout_s
+        ));
+    }
+    let rtu = match &m.rtu {
+        None => None,
+        Some(r) => {
+            let options = crate::fieldbus::rtu::RtuOptions {
+                unit_id: r.unit_id,
+                baud: r.baud,
+                parity: r.parity,
+                stop_bits: r.stop_bits.unwrap_or(
+                    if r.parity == crate::fieldbus::rtu::Parity::None {
+                        2
+                    } else {
+                        1
+                    },
+                ),
+            };
+            options.validate().map_err(|e| format!("modbus.rtu: {e}"))?;
+            Some((r.device.clone(), options))
+        }
+    };
+    if let Some(g) = &gateway {
+        g.validate().map_err(|e| format!("gateway: {e}"))?;
+    }
+    Ok(ModbusBoard {
+        bind,
+        max_connections: m.max_connections,
+        max_per_source,
+        access: policy,
+        tls,
+        idle_timeout: std::time::Duration::from_secs_f64(m.idle_timeout_s),
+        rtu,
+        gateway,
+    })
 }
 
 #[cfg(all(test, feature = "sim"))]

@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use luxnode::bench;
 use luxnode::engine::{DirectModel, Settings};
-use luxnode::modbus::tcp::TcpOptions;
+use luxnode::fieldbus::tcp::TcpOptions;
 use luxnode::scene::{LoadOptions, Scenario, Scene, TruthRow, read_states, read_truth};
 use luxnode::store::Image;
 use luxnode::store::file::read_image_file;
@@ -595,8 +595,8 @@ fn modbus_load(
     hosts: u8,
     idle_attack: usize,
 ) -> Result<()> {
-    use luxnode::modbus::node::{NodeOptions, lock};
-    use luxnode::modbus::tcp::{self, TcpCounters};
+    use luxnode::fieldbus::tcp::{self, TcpCounters};
+    use luxnode::node::{NodeOptions, lock};
     use std::sync::atomic::Ordering;
     use std::sync::{Arc, Mutex};
     use tokio_modbus::client::Reader;
@@ -739,7 +739,7 @@ fn modbus_load(
 /// `luxnode bench fuzz`.
 fn fuzz(frames: u64, seed: u64) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let r = luxnode::modbus::fuzz::run(frames, seed).map_err(|f| anyhow::anyhow!("{f}"))?;
+    let r = luxnode::fieldbus::fuzz::run(frames, seed).map_err(|f| anyhow::anyhow!("{f}"))?;
     let dt = t0.elapsed().as_secs_f64();
     println!(
         "| frames | seed | answers | exception 01 | exception 02 | exception 03 | not answered (empty) | RTU answered | RTU silent | time | invariant violations |"

@@ -238,7 +238,7 @@ fn inputs(a: &Args) -> Result<Inputs> {
     let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
         (Some(b), _, _) => {
             let board = luxnode::board::Board::load(b)?;
-            let scene = super::run::board_scene(&board)?;
+            let scene = luxnode::daemon::assemble::board_scene(&board)?;
             board_readings = board.luxmeter_rho.clone();
             (scene.luminaires, scene.sensors, scene.desks)
         }

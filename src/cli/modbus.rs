@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use luxnode::modbus::gateway::GatewayConfig;
+use luxnode::fieldbus::gateway::GatewayConfig;
+use luxnode::fieldbus::rtu::{Parity, RtuOptions};
+use luxnode::fieldbus::tcp::TcpOptions;
 use luxnode::modbus::regmap;
-use luxnode::modbus::rtu::{Parity, RtuOptions};
-use luxnode::modbus::tcp::TcpOptions;
 use luxnode::serve::{DEFAULT_BIND, ServeOptions};
 
 /// `luxnode serve`.

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use crate::camera::{DepthCamera, LightControl, LuminanceCamera};
 use crate::live::{DeskLive, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict};
-use crate::modbus::node::{Node, SharedNode, lock};
 use crate::modbus::regmap::{LiveDesk, LiveSource, live_status};
+use crate::node::{Node, SharedNode, lock};
 use crate::store::Image;
 
 /// One frame from the board's cameras, registered to the ToF grid.

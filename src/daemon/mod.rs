@@ -19,6 +19,7 @@
 //! Everything the daemon has to say goes out as `tracing` events (journald-friendly when
 //! stderr is not a terminal); it never prints.
 
+pub mod assemble;
 pub mod live;
 pub mod source;
 pub mod systemd;
@@ -32,9 +33,9 @@ use std::time::{Duration, Instant};
 
 use crate::engine::EngineError;
 use crate::image_build::{BuildError, ImageOptions};
-use crate::modbus::health::Health;
-use crate::modbus::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::modbus::regmap::Identity;
+use crate::node::health::Health;
+use crate::node::{Node, NodeError, NodeModel, NodeOptions, SharedNode, lock};
 use crate::serve::{Reload, ServeError, ServeOptions, Signals, serve_node, wait_for_stop};
 use crate::store::devices::{DeviceError, FileFlash};
 use crate::store::file::{FileError, read_bootable};
@@ -463,6 +464,27 @@ where
 
 use crate::peripherals::led::NodeState;
 
+/// The node's options from the daemon's configuration: the board's name in the device
+/// identification, the servers' settings, the shared health.
+fn node_options(config: &DaemonConfig, health: &Arc<Health>) -> NodeOptions {
+    let mut identity = Identity::default();
+    for c in config.board.chars() {
+        if identity.model.push(c).is_err() {
+            break;
+        }
+    }
+    let _ = identity.application.push_str("commissioned room");
+    NodeOptions {
+        identity,
+        gateway_configured: config.serve.gateway.is_some(),
+        initial_arc: config.serve.initial_arc,
+        policy: config.serve.access.clone(),
+        settings_path: config.serve.settings_path.clone(),
+        health: Some(health.clone()),
+        control: config.serve.control.clone(),
+    }
+}
+
 fn run_inner<F>(
     mut config: DaemonConfig,
     flash: F,
@@ -490,22 +512,7 @@ where
         }
     };
     show(NodeState::Booting);
-    let mut identity = Identity::default();
-    for c in config.board.chars() {
-        if identity.model.push(c).is_err() {
-            break;
-        }
-    }
-    let _ = identity.application.push_str("commissioned room");
-    let options = NodeOptions {
-        identity,
-        gateway_configured: config.serve.gateway.is_some(),
-        initial_arc: config.serve.initial_arc,
-        policy: config.serve.access.clone(),
-        settings_path: config.serve.settings_path.clone(),
-        health: Some(health.clone()),
-        control: config.serve.control.clone(),
-    };
+    let options = node_options(&config, &health);
     let mut accept = |image: &Image<'_>, generation: u64| -> Result<(), String> {
         let probe = NodeOptions {
             settings_path: None,
@@ -551,25 +558,13 @@ where
         (Some(p), Some(_)) => source::AmbientReference::load(p, payload_crc, luminaires),
         _ => None,
     };
-    let watch = Watch {
-        node: node.clone(),
-        als: periph
-            .als
-            .clone()
-            .map(|a| crate::peripherals::node::AlsMonitor::spawn(a, periph.als_period)),
-        reference,
-        tolerance: periph.als_tolerance,
-        led: led.clone(),
-        beat: health.register("peripherals watch", WATCH_LIMIT),
-        hook: periph.levels_hook,
-        open_faults: periph.open_faults,
-    };
+    let watch = Watch::new(&node, periph, reference, led.clone(), &health);
     let serve = config.serve;
     let companion = config.companion;
     let reload = config.reload;
     let probe = config.sensor_probe;
     rt.block_on(async move {
-        let listener = crate::modbus::tcp::bind(serve.bind)
+        let listener = crate::fieldbus::tcp::bind(serve.bind)
             .await
             .map_err(ServeError::from)?;
         let addr = listener.local_addr().map_err(ServeError::Io)?;
@@ -645,7 +640,7 @@ struct Watch {
     tolerance: f64,
     led: Option<Arc<crate::peripherals::node::LedMonitor>>,
     /// Its beat for the watchdog (it is one of the node's supervised parts).
-    beat: crate::modbus::health::Beat,
+    beat: crate::node::health::Beat,
     hook: Option<crate::peripherals::node::LevelsHook>,
     open_faults: Vec<String>,
 }
@@ -659,6 +654,30 @@ const WATCH_LIMIT: Duration = Duration::from_secs(30);
 const CHECK_SETTLE: Duration = Duration::from_secs(3);
 
 impl Watch {
+    /// The peripherals' watch over `node`: the ambient light sensor (its monitor started) and
+    /// its check against `reference`, the LED, the levels hook, the faults found at opening.
+    fn new(
+        node: &SharedNode,
+        periph: crate::peripherals::node::Peripherals,
+        reference: Option<source::AmbientReference>,
+        led: Option<Arc<crate::peripherals::node::LedMonitor>>,
+        health: &Health,
+    ) -> Self {
+        Self {
+            node: node.clone(),
+            als: periph
+                .als
+                .clone()
+                .map(|a| crate::peripherals::node::AlsMonitor::spawn(a, periph.als_period)),
+            reference,
+            tolerance: periph.als_tolerance,
+            led,
+            beat: health.register("peripherals watch", WATCH_LIMIT),
+            hook: periph.levels_hook,
+            open_faults: periph.open_faults,
+        }
+    }
+
     async fn run(mut self) {
         use crate::modbus::regmap::status;
         let mut last_levels: Vec<f64> = Vec::new();

@@ -10,11 +10,12 @@ use std::time::Instant;
 
 use super::{CommissionSource, SourceError};
 use crate::camera::{
-    CameraError, DepthCamera, LightControl, LuminanceCamera, SequenceOptions, capture_sequence_with,
+    CameraError, DepthCamera, LightControl, LuminanceCamera, Sequence, SequenceOptions,
+    capture_sequence_with,
 };
-use crate::commission::{self, CommissionOptions};
+use crate::commission::{self, CommissionOptions, Commissioned};
+use crate::fieldbus::gateway::GatewayWriter;
 use crate::image_build::{ImageOptions, formfactors_region_bytes};
-use crate::modbus::gateway::GatewayWriter;
 use crate::scene::{Desks, Luminaire, Sensor};
 
 /// The DALI gateway switches the luminaires for the capture.
@@ -218,6 +219,48 @@ impl CommissionSource for CameraSource {
 
     fn commission(&mut self) -> Result<Vec<u8>, SourceError> {
         super::check_served(self.sensors.len(), self.luminaires.len())?;
+        let seq = self.capture()?;
+        let mut options = self.commission.clone();
+        self.ambient_gain(&mut options);
+        let go = |o: &CommissionOptions| {
+            commission::from_capture(
+                &seq.capture,
+                self.luminaires.clone(),
+                self.sensors.clone(),
+                self.desks.clone(),
+                o,
+            )
+        };
+        let c = match go(&options) {
+            // the board's luxmeter readings need a gain they do not change: the sensor's,
+            // measured directly, or else the camera's own
+            Err(e)
+                if !options.readings.is_empty()
+                    && matches!(options.gain, commission::Gain::Ambient { .. }) =>
+            {
+                tracing::warn!("commission: {e}; the camera's own gain instead");
+                options.gain = commission::Gain::Camera;
+                go(&options)?
+            }
+            r => r?,
+        };
+        if let commission::Gain::Ambient { .. } = options.gain {
+            log_ambient_gain(
+                c.report.reflectance.gain_cd_m2_per_unit,
+                seq.capture.camera.luminance_cd_m2_per_unit,
+            );
+        }
+        log_report(&c.report);
+        let bytes = self.image(&c, &seq)?;
+        self.report.write(&bytes);
+        self.write_reference(&bytes, &c);
+        Ok(bytes)
+    }
+}
+
+impl CameraSource {
+    /// The capture sequence, one log line per kind of step.
+    fn capture(&mut self) -> Result<Sequence, SourceError> {
         let ids: Vec<u32> = self.luminaires.iter().map(|l| l.id).collect();
         let t0 = Instant::now();
         let mut last = String::new();
@@ -251,15 +294,19 @@ impl CommissionSource for CameraSource {
         for w in &seq.capture.warnings {
             tracing::warn!("capture: {w}");
         }
-        let mut options = self.commission.clone();
-        let camera_gain = seq.capture.camera.luminance_cd_m2_per_unit;
+        Ok(seq)
+    }
+
+    /// With an ambient light sensor, the camera's absolute gain from what the luminaires give
+    /// the sensor (else the camera's own calibration).
+    fn ambient_gain(&mut self, options: &mut CommissionOptions) {
         let ambient = self.ambient.take();
         if let Some(a) = &ambient {
             match self.read_ambient(a) {
                 Ok(lux) => {
                     tracing::info!(
                         "ambient light sensor: the luminaires give it {lux:.2} lx; the camera's \
-                         absolute gain comes from it"
+                     absolute gain comes from it"
                     );
                     options.gain = commission::Gain::Ambient {
                         position_m: a.pose.0,
@@ -275,66 +322,11 @@ impl CommissionSource for CameraSource {
             }
         }
         self.ambient = ambient;
-        let go = |o: &CommissionOptions| {
-            commission::from_capture(
-                &seq.capture,
-                self.luminaires.clone(),
-                self.sensors.clone(),
-                self.desks.clone(),
-                o,
-            )
-        };
-        let c = match go(&options) {
-            // the board's luxmeter readings need a gain they do not change: the sensor's,
-            // measured directly, or else the camera's own
-            Err(e)
-                if !options.readings.is_empty()
-                    && matches!(options.gain, commission::Gain::Ambient { .. }) =>
-            {
-                tracing::warn!("commission: {e}; the camera's own gain instead");
-                options.gain = commission::Gain::Camera;
-                go(&options)?
-            }
-            r => r?,
-        };
-        if let commission::Gain::Ambient { .. } = options.gain {
-            let g = c.report.reflectance.gain_cd_m2_per_unit;
-            match camera_gain {
-                Some(k) => tracing::info!(
-                    "camera gain from the ambient light sensor: {g:.6} cd/m2 per unit; the \
-                     camera's calibration says {k:.6} ({:+.2} %)",
-                    100.0 * (g / k - 1.0)
-                ),
-                None => tracing::info!(
-                    "camera gain from the ambient light sensor: {g:.6} cd/m2 per unit"
-                ),
-            }
-            if let Some(k) = camera_gain
-                && (g / k - 1.0).abs() > 0.10
-            {
-                tracing::warn!(
-                    "camera gain: the ambient light sensor and the camera's calibration differ \
-                     by {:+.1} %: check the camera's exposure and calibration",
-                    100.0 * (g / k - 1.0)
-                );
-            }
-        }
-        let r = &c.report;
-        if let Some(f) = &r.reflectance_fit {
-            tracing::info!("commission: {f}");
-        }
-        for (name, dt) in &r.timings {
-            tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
-        }
-        tracing::info!(
-            "commission: {} planes, {} triangles (seen {:.1} m², inferred {:.1} m²), {} patches, {} warnings",
-            r.planes.len(),
-            r.triangles,
-            r.seen_area_m2,
-            r.inferred_area_m2,
-            r.patches,
-            r.warnings.len()
-        );
+    }
+
+    /// The flash image of a commissioned room, with its live light section, fitted to the
+    /// flash region.
+    fn image(&self, c: &Commissioned, seq: &Sequence) -> Result<Vec<u8>, SourceError> {
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
@@ -348,16 +340,21 @@ impl CommissionSource for CameraSource {
         if image.step > 0 {
             tracing::warn!(
                 "commission: the model is stored at {} with form factors below {:.0e} dropped, to \
-                 fit the flash region with room for live light",
+             fit the flash region with room for live light",
                 image.options.precision.name(),
                 image.options.prune_below
             );
         }
         let image = image.bytes;
-        let bytes = crate::live_section::with_capture_section(image, &c, &seq.capture);
-        self.report.write(&bytes);
+        let bytes = crate::live_section::with_capture_section(image, c, &seq.capture);
+        Ok(bytes)
+    }
+
+    /// The ambient light check's reference: what the luminaires give the sensor, for the
+    /// image just built.
+    fn write_reference(&self, bytes: &[u8], c: &Commissioned) {
         if let (Some(a), Some(per)) = (&self.ambient, &c.report.ambient_response_lx)
-            && let Ok(h) = crate::store::Header::parse(&bytes)
+            && let Ok(h) = crate::store::Header::parse(bytes)
         {
             let r = AmbientReference {
                 image_payload_crc32: h.payload_crc32,
@@ -380,8 +377,48 @@ impl CommissionSource for CameraSource {
                 ),
             }
         }
-        Ok(bytes)
     }
+}
+
+/// The camera gain the ambient light sensor gave (`g`), against the camera's calibration
+/// (`camera_gain`), cd/m² per unit.
+fn log_ambient_gain(g: f64, camera_gain: Option<f64>) {
+    match camera_gain {
+        Some(k) => tracing::info!(
+            "camera gain from the ambient light sensor: {g:.6} cd/m2 per unit; the \
+             camera's calibration says {k:.6} ({:+.2} %)",
+            100.0 * (g / k - 1.0)
+        ),
+        None => tracing::info!("camera gain from the ambient light sensor: {g:.6} cd/m2 per unit"),
+    }
+    if let Some(k) = camera_gain
+        && (g / k - 1.0).abs() > 0.10
+    {
+        tracing::warn!(
+            "camera gain: the ambient light sensor and the camera's calibration differ \
+             by {:+.1} %: check the camera's exposure and calibration",
+            100.0 * (g / k - 1.0)
+        );
+    }
+}
+
+/// The commissioning report's summary in the log.
+fn log_report(r: &commission::Report) {
+    if let Some(f) = &r.reflectance_fit {
+        tracing::info!("commission: {f}");
+    }
+    for (name, dt) in &r.timings {
+        tracing::info!("commission: {name} {:.0} ms", dt.as_secs_f64() * 1e3);
+    }
+    tracing::info!(
+        "commission: {} planes, {} triangles (seen {:.1} m², inferred {:.1} m²), {} patches, {} warnings",
+        r.planes.len(),
+        r.triangles,
+        r.seen_area_m2,
+        r.inferred_area_m2,
+        r.patches,
+        r.warnings.len()
+    );
 }
 
 impl CameraSource {

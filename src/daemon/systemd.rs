@@ -64,8 +64,8 @@ pub fn watchdog_period_from(usec: Option<&str>, pid: Option<&str>, me: u32) -> O
 
 /// Why the watchdog is not petted now (`None`: every part is alive and the node answers).
 pub async fn unhealthy(
-    health: &crate::modbus::health::Health,
-    node: &crate::modbus::node::SharedNode,
+    health: &crate::node::health::Health,
+    node: &crate::node::SharedNode,
 ) -> Option<String> {
     let late = health.late();
     if !late.is_empty() {
@@ -80,7 +80,7 @@ pub async fn unhealthy(
     let locked = tokio::time::timeout(
         Duration::from_secs(1),
         tokio::task::spawn_blocking(move || {
-            drop(crate::modbus::node::lock(&n));
+            drop(crate::node::lock(&n));
         }),
     )
     .await;
@@ -93,8 +93,8 @@ pub async fn unhealthy(
 /// Pets the watchdog at half its period while every part is alive ([`unhealthy`]), forever
 /// (abort the task to stop). A hung or dead part stops the petting: systemd restarts the node.
 pub async fn watchdog_loop(
-    health: std::sync::Arc<crate::modbus::health::Health>,
-    node: crate::modbus::node::SharedNode,
+    health: std::sync::Arc<crate::node::health::Health>,
+    node: crate::node::SharedNode,
 ) {
     let Some(period) = watchdog_period() else {
         return;
@@ -139,8 +139,8 @@ mod tests {
 
     #[test]
     fn the_watchdog_is_not_petted_while_a_part_is_late() {
-        use crate::modbus::health::Health;
-        use crate::modbus::node::{Node, NodeModel, NodeOptions};
+        use crate::node::health::Health;
+        use crate::node::{Node, NodeModel, NodeOptions};
         use std::sync::{Arc, Mutex};
         let health = Arc::new(Health::default());
         let model = NodeModel {

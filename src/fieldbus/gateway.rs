@@ -35,10 +35,12 @@ use tokio::sync::watch;
 use tokio_modbus::client::{Context, Reader, Writer};
 use tokio_modbus::prelude::Slave;
 
-use super::node::NodeError;
-use super::node::{SharedNode, lock};
-use super::pdu::{MAX_READ, MAX_WRITE};
-use super::regmap::U16_LUX_MAX;
+use crate::modbus::pdu::{MAX_READ, MAX_WRITE};
+use crate::modbus::regmap::CommHealth;
+use crate::modbus::regmap::U16_LUX_MAX;
+use crate::node::NodeError;
+use crate::node::health::{CommCounters, low16};
+use crate::node::{SharedNode, lock};
 
 /// Why the gateway link, its configuration or a write to the gateway failed.
 #[derive(Debug, thiserror::Error)]
@@ -285,6 +287,12 @@ pub struct GatewayCounters {
     pub lux_writes: AtomicU64,
 }
 
+impl CommCounters for GatewayCounters {
+    fn report(&self, into: &mut CommHealth) {
+        into.gateway_failures = low16(self.failures.load(Ordering::Relaxed));
+    }
+}
+
 /// Reads the registers at `addrs` (contiguous runs in as few requests as possible).
 async fn read_registers(
     ctx: &mut Context,
@@ -438,7 +446,7 @@ pub async fn run(
     node: SharedNode,
     counters: Arc<GatewayCounters>,
     mut shutdown: watch::Receiver<bool>,
-    beat: Option<crate::modbus::health::Beat>,
+    beat: Option<crate::node::health::Beat>,
 ) -> Result<(), GatewayError> {
     config.validate()?;
     let addr = config.socket_addr()?;

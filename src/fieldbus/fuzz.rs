@@ -15,11 +15,11 @@
 
 use std::sync::atomic::Ordering;
 
-use super::frame::{MAX_RTU_FRAME, crc16, decode_rtu, encode_rtu};
-use super::node::PduHandler;
-use super::pdu::{MAX_PDU, function};
-use super::regmap::{Desk, Quality, RegisterMap};
+use super::PduHandler;
 use super::rtu::{RtuCounters, handle_frame};
+use crate::modbus::frame::{MAX_RTU_FRAME, crc16, decode_rtu, encode_rtu};
+use crate::modbus::pdu::{MAX_PDU, function};
+use crate::modbus::regmap::{Desk, Quality, RegisterMap};
 use crate::rng::SplitMix64;
 
 /// Outcome counts.
@@ -243,7 +243,7 @@ impl Fuzzer {
         };
         let frame = &rtu[..n];
         let mut reply = [0u8; MAX_RTU_FRAME];
-        let source = super::access::Source::Internal;
+        let source = crate::modbus::access::Source::Internal;
         match handle_frame(
             &mut self.handler,
             &source,

@@ -25,11 +25,14 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use super::access::Source;
-use super::frame::{BROADCAST, MAX_RTU_FRAME, decode_rtu, encode_rtu, t35_us};
-use super::health::{Beat, Health, state};
-use super::node::{PduHandler, lock};
-use super::pdu::{MAX_PDU, function};
+use super::PduHandler;
+use crate::modbus::access::Source;
+use crate::modbus::frame::{BROADCAST, MAX_RTU_FRAME, decode_rtu, encode_rtu, t35_us};
+use crate::modbus::pdu::{MAX_PDU, function};
+use crate::modbus::regmap::CommHealth;
+use crate::node::health::{Beat, Health, state};
+use crate::node::health::{CommCounters, low16};
+use crate::node::lock;
 
 /// Line settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,6 +121,15 @@ pub struct RtuCounters {
     pub discarded: AtomicU64,
     /// Times the line was reopened after an error.
     pub reopens: AtomicU64,
+}
+
+impl CommCounters for RtuCounters {
+    fn report(&self, into: &mut CommHealth) {
+        let r = |a: &AtomicU64| low16(a.load(Ordering::Relaxed));
+        into.rtu_reopens = r(&self.reopens);
+        into.rtu_answered = r(&self.answered);
+        into.rtu_discarded = r(&self.discarded);
+    }
 }
 
 /// What to do with one received frame; the reply bytes are in `reply[..n]`.
@@ -282,7 +294,7 @@ pub fn spawn_supervised<H: PduHandler + 'static>(
 ) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         let source = Source::Rtu(device.clone());
-        let counters = health.rtu.clone();
+        let counters = health.counters::<RtuCounters>();
         let mut port = port;
         let mut backoff = Duration::from_millis(500);
         while !stop.load(Ordering::Relaxed) {

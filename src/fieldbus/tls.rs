@@ -3,8 +3,8 @@
 //! every client must present one signed by the configured CA, or the handshake fails (counted,
 //! logged). The client's role, the ModbusRole X.509 v3 extension (OID
 //! 1.3.6.1.4.1.50316.802.1, a UTF8String), is read from its certificate and becomes part of its
-//! [`super::access::Source`]: the write allowlist may name roles (`"role:operator"`) or admit
-//! any authenticated client (`"tls"`).
+//! [`crate::modbus::access::Source`]: the write allowlist may name roles (`"role:operator"`) or
+//! admit any authenticated client (`"tls"`).
 //!
 //! rustls with the ring provider; certificates and keys are PEM files named in the board file
 //! (`[modbus.tls]`).

@@ -2,7 +2,9 @@
 //!
 //! * **Counters and states** of every server (TCP, TLS, RTU) and link (the DALI gateway),
 //!   published in the communication-health registers (input 40..=51) and the status bit
-//!   "communication ok".
+//!   "communication ok". The counters belong to their servers (`crate::fieldbus`): each kind
+//!   implements [`CommCounters`] and is kept here once ([`Health::counters`]), so health reads
+//!   them without knowing the servers.
 //! * **Liveness.** Every long-running part (the TCP accept loop, the RTU line, the gateway
 //!   link, the sensor probe) beats at least once per its limit, even when idle. The systemd
 //!   watchdog is petted only while no registered part is late ([`Health::late`]): a part that
@@ -15,10 +17,9 @@ use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use super::gateway::GatewayCounters;
-use super::regmap::CommHealth;
-use super::rtu::RtuCounters;
-use super::tcp::TcpCounters;
+use std::any::Any;
+
+use crate::modbus::regmap::CommHealth;
 
 /// A server's or link's state.
 pub mod state {
@@ -28,6 +29,19 @@ pub mod state {
     pub const UP: u8 = 1;
     /// Configured but down (being reopened or rebound).
     pub const DOWN: u8 = 2;
+}
+
+/// A server's or link's counters, as the registers show them.
+pub trait CommCounters: Any + Send + Sync + std::fmt::Debug {
+    /// Writes this part's counters into the registers' view.
+    fn report(&self, into: &mut CommHealth);
+}
+
+/// One kind of counters kept: the same object as a reporter and as itself.
+#[derive(Debug)]
+struct Kept {
+    reporter: Arc<dyn CommCounters>,
+    any: Arc<dyn Any + Send + Sync>,
 }
 
 /// One registered part's beat.
@@ -69,12 +83,8 @@ impl Beat {
 pub struct Health {
     start: Instant,
     parts: Mutex<Vec<Part>>,
-    /// TCP and TLS servers' counters.
-    pub tcp: Arc<TcpCounters>,
-    /// RTU server's counters.
-    pub rtu: Arc<RtuCounters>,
-    /// Gateway link's counters.
-    pub gateway: Arc<GatewayCounters>,
+    /// The servers' and links' counters, one of each kind ([`Health::counters`]).
+    counters: Mutex<Vec<Kept>>,
     /// Plain TCP server state ([`state`]).
     pub tcp_state: AtomicU8,
     /// RTU line state.
@@ -92,9 +102,7 @@ impl Default for Health {
         Self {
             start: Instant::now(),
             parts: Mutex::new(Vec::new()),
-            tcp: Arc::default(),
-            rtu: Arc::default(),
-            gateway: Arc::default(),
+            counters: Mutex::new(Vec::new()),
             tcp_state: AtomicU8::new(state::NONE),
             rtu_state: AtomicU8::new(state::NONE),
             tls_state: AtomicU8::new(state::NONE),
@@ -104,11 +112,22 @@ impl Default for Health {
     }
 }
 
-fn low16(x: u64) -> u16 {
-    x as u16
-}
-
 impl Health {
+    /// The counters of kind `T` (a server's or link's), made at the first call and the same
+    /// ones after (they count on across a reload).
+    pub fn counters<T: CommCounters + Default>(&self) -> Arc<T> {
+        let mut kept = super::lock(&self.counters);
+        if let Some(c) = kept.iter().find_map(|k| k.any.clone().downcast::<T>().ok()) {
+            return c;
+        }
+        let c = Arc::new(T::default());
+        kept.push(Kept {
+            reporter: c.clone(),
+            any: c.clone(),
+        });
+        c
+    }
+
     /// Registers a part that beats at least every `limit`; it counts as alive from now.
     pub fn register(&self, name: &str, limit: Duration) -> Beat {
         let beat = Beat {
@@ -116,7 +135,7 @@ impl Health {
             start: self.start,
         };
         beat.beat();
-        let mut parts = super::node::lock(&self.parts);
+        let mut parts = super::lock(&self.parts);
         // retired parts are forgotten when new ones come
         parts.retain(|p| p.last_ms.load(Ordering::Relaxed) != RETIRED);
         parts.push(Part {
@@ -130,7 +149,7 @@ impl Health {
     /// The parts that missed their beat (empty: all alive), with how long they are silent.
     pub fn late(&self) -> Vec<(String, Duration)> {
         let now = self.start.elapsed();
-        super::node::lock(&self.parts)
+        super::lock(&self.parts)
             .iter()
             .filter_map(|p| {
                 let last = p.last_ms.load(Ordering::Relaxed);
@@ -153,25 +172,23 @@ impl Health {
     /// The registers' view.
     pub fn snapshot(&self) -> CommHealth {
         let r = |a: &AtomicU64| low16(a.load(Ordering::Relaxed));
-        CommHealth {
-            tcp_open: self
-                .tcp
-                .open
-                .load(Ordering::Relaxed)
-                .min(usize::from(u16::MAX)) as u16,
-            tcp_refused: r(&self.tcp.refused),
-            tcp_evicted: r(&self.tcp.evicted),
+        let mut c = CommHealth {
             rtu_state: u16::from(self.rtu_state.load(Ordering::Relaxed)),
-            rtu_reopens: r(&self.rtu.reopens),
-            rtu_answered: r(&self.rtu.answered),
-            rtu_discarded: r(&self.rtu.discarded),
-            gateway_failures: r(&self.gateway.failures),
             writes_accepted: r(&self.writes_accepted),
             writes_refused: r(&self.writes_refused),
             tls_state: u16::from(self.tls_state.load(Ordering::Relaxed)),
-            tls_failed: r(&self.tcp.tls_failed),
+            ..CommHealth::default()
+        };
+        for k in super::lock(&self.counters).iter() {
+            k.reporter.report(&mut c);
         }
+        c
     }
+}
+
+/// The low 16 bits of a counter, as the registers show it (it wraps).
+pub fn low16(x: u64) -> u16 {
+    x as u16
 }
 
 #[cfg(test)]
@@ -196,7 +213,18 @@ mod tests {
         b.beat();
         h.rtu_state.store(state::DOWN, Ordering::Relaxed);
         assert!(!h.comm_ok());
-        h.rtu.reopens.store(70_000, Ordering::Relaxed);
+        h.counters::<Reopens>().0.store(70_000, Ordering::Relaxed);
         assert_eq!(h.snapshot().rtu_reopens, (70_000 % 65_536) as u16);
+        // the same counters at the second call
+        assert_eq!(h.counters::<Reopens>().0.load(Ordering::Relaxed), 70_000);
+    }
+
+    #[derive(Debug, Default)]
+    struct Reopens(AtomicU64);
+
+    impl CommCounters for Reopens {
+        fn report(&self, into: &mut CommHealth) {
+            into.rtu_reopens = low16(self.0.load(Ordering::Relaxed));
+        }
     }
 }

@@ -1,48 +1,36 @@
-//! The served state: a commissioned image behind the register map.
+//! The node: the application state of a commissioned node, whatever protocol reads it.
 //!
-//! [`Node`] owns the [`RegisterMap`], the response matrix copied out of the image (sensors ×
-//! luminaires, a few kB) and the current dimming levels. Every change of the dimming state (a
-//! write of the arc-level registers, or a poll of the DALI gateway) recomputes the desk values
-//! at once by superposition, so a read always returns values consistent with the arc levels it
-//! can read next to them. The servers (TCP, RTU) share one node behind a mutex held only for
-//! the few microseconds a request takes.
+//! [`Node`] owns the model copied out of the image (the response matrix, sensors ×
+//! luminaires, a few kB), the current dimming levels, the lighting-control state (mode, desk
+//! targets, power model), lamp ageing, the latest daylight estimate, the live values, the
+//! faults and the [`health`] of its servers. Every change of the dimming state (a write of
+//! the arc levels, or a poll of the DALI gateway) recomputes the desk values at once by
+//! superposition, so a read always returns values consistent with the levels next to them.
+//!
+//! The state is published in the register layer's snapshot ([`RegisterMap`]); the node knows
+//! no protocol. The protocol adapters (`crate::fieldbus`: Modbus TCP, TLS and RTU, the DALI
+//! gateway link; BACnet when it comes) share one node behind a mutex ([`SharedNode`]) held
+//! only for the few microseconds a request takes, and reach it through its methods
+//! ([`Node::on_registers`], [`Node::written`], [`Node::set_arc_levels`], ...).
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::access::{AccessPolicy, Settings, Source, write_span};
-use super::health::Health;
-use super::pdu::{Exception, MAX_PDU, encode_exception};
-use super::regmap::{
-    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, MAX_TARGET_LX, NOT_AVAILABLE_U16, Quality,
-    RegisterMap, WordOrder, addr, status,
-};
+pub mod health;
+
 use crate::control::LuminairePower;
 use crate::control::regulator::{Mode, Settings as RegulatorSettings};
 use crate::dali::{ArcLevel, DimmingCurve};
+use crate::modbus::access::{AccessPolicy, MAX_CLIENT_SETTINGS, Settings, Source};
+use crate::modbus::regmap::{
+    Desk, Effect, Identity, MAX_DESKS, MAX_LUMINAIRES, MAX_TARGET_LX, NOT_AVAILABLE_U16, Quality,
+    RegisterMap, WordOrder, addr, status,
+};
 use crate::runtime::superpose;
 use crate::store::{Image, MAX_LUX, sensor_flags};
-
-/// What a request handler needs: a PDU in, a response PDU out (`None`: no answer).
-pub trait PduHandler: Send {
-    /// Handles one request PDU addressed to `unit`; writes the response into `out`.
-    fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize>;
-
-    /// Handles one request PDU from `source` (the servers call this: the node decides per
-    /// source what it may write and how it reads floats). By default the source is ignored.
-    fn handle_from(
-        &mut self,
-        source: &Source,
-        unit: u8,
-        pdu: &[u8],
-        out: &mut [u8; MAX_PDU],
-    ) -> Option<usize> {
-        let _ = source;
-        self.handle_pdu(unit, pdu, out)
-    }
-}
+use health::Health;
 
 /// The part of an image the server needs, copied out (the image itself can be dropped).
 #[derive(Debug, Clone, PartialEq)]
@@ -80,6 +68,12 @@ pub enum NodeError {
         /// The level.
         level: f64,
     },
+    /// A desk the model does not have.
+    #[error("desk {0}: not in the model")]
+    UnknownDesk(u32),
+    /// A target outside [0, MAX_TARGET_LX] lx, or not finite.
+    #[error("target {0} lx is outside 0..={MAX_TARGET_LX} lx")]
+    Target(f64),
     /// Arc levels of the wrong length.
     #[error("{found} levels given, the image has {expected} luminaires")]
     Length {
@@ -519,7 +513,7 @@ impl Node {
     /// age of the last frame used, s.
     pub fn set_live(
         &mut self,
-        desks: &[super::regmap::LiveDesk],
+        desks: &[crate::modbus::regmap::LiveDesk],
         ageing: &[f64],
         status: u16,
         last_frame_age_s: f64,
@@ -560,7 +554,7 @@ impl Node {
     }
 
     /// Publishes what the control loop decided: per desk met or not (`None`: control off),
-    /// and its flags ([`super::regmap::control_flags`]).
+    /// and its flags ([`crate::modbus::regmap::control_flags`]).
     pub fn set_control_status(&mut self, met: Option<&[bool]>, flags: u16) {
         match met {
             Some(m) => {
@@ -737,84 +731,58 @@ impl Node {
         self.refresh_flags();
     }
 
-    /// Handles a request PDU from `source` addressed to `unit`: writes only from the
-    /// allowlist (others: exception 0x01, counted, logged), floats in the client's word order,
-    /// every executed write logged and its settings persisted.
-    pub fn process_from(
+    /// Runs a register-map operation (a protocol adapter's request) with the clocks updated
+    /// first; `word_order` (when given) is the requesting client's. The desk values are
+    /// recomputed when the operation changed the arc levels or the dimming curve.
+    pub fn on_registers(
         &mut self,
-        source: &Source,
-        unit: u8,
-        pdu: &[u8],
-        out: &mut [u8; MAX_PDU],
+        word_order: Option<WordOrder>,
+        op: impl FnOnce(&mut RegisterMap) -> Option<(usize, Effect)>,
     ) -> Option<(usize, Effect)> {
-        let span = write_span(pdu);
-        if let Some((address, count)) = span
-            && !self.policy.may_write(source, address, count)
-        {
-            self.tick();
-            self.health.writes_refused.fetch_add(1, Ordering::Relaxed);
-            let now = Instant::now();
-            if self
-                .last_refusal_log
-                .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
-            {
-                self.last_refusal_log = Some(now);
-                tracing::warn!(
-                    target: "luxnode::audit",
-                    %source,
-                    address,
-                    count,
-                    "modbus write refused: {source} is not in the write allowlist \
-                     ({count} registers at {address}; {} refused so far)",
-                    self.health.writes_refused.load(Ordering::Relaxed)
-                );
-            }
-            let n = encode_exception(pdu[0], Exception::IllegalFunction, out);
-            return Some((n, Effect::default()));
+        self.tick();
+        if let Some(order) = word_order {
+            self.map.word_order = order;
         }
-        let order = self.policy.word_order(&self.settings, source, unit);
-        self.map.word_order = order;
-        let curve = self.map.curve;
-        let r = self.process(pdu, out);
-        if let (Some((address, count)), Some((n, _))) = (span, r)
-            && n > 0
-            && out[0] == pdu[0]
+        let r = op(&mut self.map);
+        if let Some((_, effect)) = r
+            && (effect.arc_changed || effect.config_changed)
         {
-            self.executed_write(source, address, count, pdu, order, curve);
+            self.recompute();
         }
         r
     }
 
-    /// Logs an executed write, marks the levels it set as known and persists settings.
-    fn executed_write(
+    /// Counts a refused write (clocks updated); returns the refusals so far when one is worth
+    /// a log line (at most one a second), `None` otherwise.
+    pub fn write_refused(&mut self) -> Option<u64> {
+        self.tick();
+        let total = self.health.writes_refused.fetch_add(1, Ordering::Relaxed) + 1;
+        let now = Instant::now();
+        if self
+            .last_refusal_log
+            .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+        {
+            self.last_refusal_log = Some(now);
+            Some(total)
+        } else {
+            None
+        }
+    }
+
+    /// Records an executed write of `count` registers at `address` (`values`: what was
+    /// written) by `source`, who read floats in `order` and found the curve `curve` before it:
+    /// counts it, marks the levels it set as known, keeps what it changed of the settings (the
+    /// client's word order, the dimming curve, the control mode, desk targets) and persists
+    /// them.
+    pub fn written(
         &mut self,
         source: &Source,
-        address: u16,
-        count: u16,
-        pdu: &[u8],
+        (address, count): (u16, u16),
+        values: &[u16],
         order: WordOrder,
         curve: DimmingCurve,
     ) {
         self.health.writes_accepted.fetch_add(1, Ordering::Relaxed);
-        let values: Vec<u16> = if pdu[0] == super::pdu::function::WRITE_SINGLE {
-            pdu.get(3..5)
-                .map(|b| vec![u16::from_be_bytes([b[0], b[1]])])
-                .unwrap_or_default()
-        } else {
-            pdu.get(6..)
-                .unwrap_or(&[])
-                .chunks_exact(2)
-                .take(usize::from(count))
-                .map(|b| u16::from_be_bytes([b[0], b[1]]))
-                .collect()
-        };
-        tracing::info!(
-            target: "luxnode::audit",
-            %source,
-            address,
-            count,
-            "modbus write by {source}: {count} registers at {address} = {values:?}"
-        );
         for (k, v) in values.iter().enumerate() {
             let a = usize::from(address) + k;
             if let Some(j) = a.checked_sub(usize::from(addr::ARC_LEVEL))
@@ -824,28 +792,94 @@ impl Node {
                 *known = true;
             }
         }
-        let mut changed = false;
-        if self.map.word_order != order {
-            let key = source.client_key();
-            if self.settings.word_orders.len() < super::access::MAX_CLIENT_SETTINGS
-                || self.settings.word_orders.contains_key(&key)
-            {
-                self.settings
-                    .word_orders
-                    .insert(key, self.map.word_order as u16);
-                changed = true;
-            } else {
-                tracing::warn!("word order of {source} not kept: too many clients with one");
+        let changed = self.keep_word_order(source, order)
+            | self.keep_curve(curve)
+            | self.keep_control(address, count);
+        if changed {
+            self.save_settings();
+        }
+        self.refresh_flags();
+    }
+
+    /// Persists the settings clients wrote (when the node has a settings file).
+    fn save_settings(&self) {
+        if let Some(path) = &self.settings_path {
+            match self.settings.save(path) {
+                Ok(()) => tracing::info!(
+                    target: "luxnode::audit",
+                    "settings saved to {}",
+                    path.display()
+                ),
+                Err(e) => tracing::error!("{e}: the setting holds until the node restarts"),
             }
         }
-        if self.map.curve != curve {
-            self.settings.dimming_curve = Some(self.map.curve as u16);
-            changed = true;
+    }
+
+    /// Sets the lighting-control mode (an adapter other than the register map: what a client
+    /// writes wins over the board's, and is persisted).
+    pub fn set_control_mode(&mut self, mode: Mode) {
+        self.map.control.mode = mode.code();
+        self.settings.control_mode = Some(mode.code());
+        self.save_settings();
+        self.refresh_flags();
+    }
+
+    /// Sets the target of desk `desk_id`, lx, rounded to whole lux (an adapter other than the
+    /// register map; persisted like a register write).
+    pub fn set_target_lx(&mut self, desk_id: u32, target_lx: f64) -> Result<(), NodeError> {
+        let k = self
+            .model
+            .sensor_ids
+            .iter()
+            .position(|&id| id == desk_id)
+            .ok_or(NodeError::UnknownDesk(desk_id))?;
+        if !(target_lx.is_finite() && (0.0..=f64::from(MAX_TARGET_LX)).contains(&target_lx)) {
+            return Err(NodeError::Target(target_lx));
         }
+        let t = libm::round(target_lx) as u16;
+        if let Some(slot) = self.map.control.targets_lx.get_mut(k) {
+            *slot = t;
+        }
+        self.settings.targets_lx.insert(desk_id, t);
+        self.save_settings();
+        Ok(())
+    }
+
+    /// Keeps the client's word order when a write changed it; true when the settings changed.
+    fn keep_word_order(&mut self, source: &Source, order: WordOrder) -> bool {
+        if self.map.word_order == order {
+            return false;
+        }
+        let key = source.client_key();
+        if self.settings.word_orders.len() < MAX_CLIENT_SETTINGS
+            || self.settings.word_orders.contains_key(&key)
+        {
+            self.settings
+                .word_orders
+                .insert(key, self.map.word_order as u16);
+            true
+        } else {
+            tracing::warn!("word order of {source} not kept: too many clients with one");
+            false
+        }
+    }
+
+    /// Keeps the dimming curve when a write changed it; true when the settings changed.
+    fn keep_curve(&mut self, curve: DimmingCurve) -> bool {
+        if self.map.curve == curve {
+            return false;
+        }
+        self.settings.dimming_curve = Some(self.map.curve as u16);
+        true
+    }
+
+    /// Keeps the control mode and the desk targets a write touched; true when it touched any.
+    fn keep_control(&mut self, address: u16, count: u16) -> bool {
         let touches = |first: u16, n: usize| {
             let end = usize::from(address) + usize::from(count);
             usize::from(address) < usize::from(first) + n && end > usize::from(first)
         };
+        let mut changed = false;
         if touches(addr::CONTROL_MODE, 1) {
             self.settings.control_mode = Some(self.map.control.mode);
             changed = true;
@@ -862,47 +896,7 @@ impl Node {
             }
             changed = true;
         }
-        if changed && let Some(path) = &self.settings_path {
-            match self.settings.save(path) {
-                Ok(()) => tracing::info!(
-                    target: "luxnode::audit",
-                    "settings saved to {}",
-                    path.display()
-                ),
-                Err(e) => tracing::error!("{e}: the setting holds until the node restarts"),
-            }
-        }
-        self.refresh_flags();
-    }
-
-    /// Handles a request PDU: clocks updated, request handled, desk values recomputed when the
-    /// arc levels or the dimming curve changed.
-    pub fn process(&mut self, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<(usize, Effect)> {
-        self.tick();
-        let r = self.map.process(pdu, out);
-        if let Some((_, effect)) = r
-            && (effect.arc_changed || effect.config_changed)
-        {
-            self.recompute();
-        }
-        r
-    }
-}
-
-impl PduHandler for Node {
-    fn handle_pdu(&mut self, unit: u8, pdu: &[u8], out: &mut [u8; MAX_PDU]) -> Option<usize> {
-        self.process_from(&Source::Internal, unit, pdu, out)
-            .map(|(n, _)| n)
-    }
-
-    fn handle_from(
-        &mut self,
-        source: &Source,
-        unit: u8,
-        pdu: &[u8],
-        out: &mut [u8; MAX_PDU],
-    ) -> Option<usize> {
-        self.process_from(source, unit, pdu, out).map(|(n, _)| n)
+        changed
     }
 }
 
@@ -918,250 +912,46 @@ pub fn lock<T: ?Sized>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::modbus::regmap::addr;
 
     fn model() -> NodeModel {
         NodeModel {
-            // 2 sensors × 3 luminaires
-            response_lx: vec![100.0, 200.0, 300.0, 10.0, 20.0, 30.0],
+            response_lx: vec![100.0, 200.0, 10.0, 20.0],
             sensor_ids: vec![7, 9],
-            luminaire_ids: vec![1, 2, 3],
-            sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
-            model_rel_uncertainty: vec![0.03, f64::NAN],
-            generation: 5,
-            luminaire_flux_lm: vec![1200.0; 3],
+            luminaire_ids: vec![1, 2],
+            sensor_flags: vec![0, 0],
+            model_rel_uncertainty: vec![f64::NAN; 2],
+            generation: 1,
+            luminaire_flux_lm: vec![1000.0; 2],
         }
     }
 
-    fn read_input(node: &mut Node, a: u16, q: u16) -> Vec<u16> {
-        let mut out = [0u8; MAX_PDU];
-        let req = [4, (a >> 8) as u8, a as u8, 0, q as u8];
-        let (n, _) = node.process(&req, &mut out).unwrap();
-        assert_eq!(out[0], 4, "{:?}", &out[..n]);
-        out[2..n]
-            .chunks(2)
-            .map(|c| u16::from_be_bytes([c[0], c[1]]))
-            .collect()
-    }
-
     #[test]
-    fn arc_writes_recompute_by_superposition() {
-        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
-        assert_eq!(read_input(&mut node, addr::DESK_U16, 2), vec![0, 0]);
-        // write all three arc levels: 254 (100 %), 0 (off), 1 (0.1 %)
-        let mut out = [0u8; MAX_PDU];
-        let req = [0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 0, 0, 1];
-        node.process_from(&Source::Internal, 1, &req, &mut out)
-            .unwrap();
-        let expect0 = 100.0 + 300.0 * 0.001;
-        let d = node.desks();
-        assert!((d[0].1 - expect0).abs() < 1e-12, "{d:?}");
-        assert_eq!(read_input(&mut node, addr::DESK_U16, 2), vec![100, 10]);
-        // quality: ok, out of view
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
-        // MASK keeps
-        node.set_arc_levels(&[255, 254, 255]).unwrap();
-        assert!((node.desks()[0].1 - (100.0 + 200.0 + 0.3)).abs() < 1e-9);
-        assert!(node.set_arc_levels(&[1, 2]).is_err());
-        // levels set directly (percent gateways): exact, arc registers show the nearest level
-        node.set_levels(&[Some(0.5), None, Some(0.0)]).unwrap();
-        assert!((node.desks()[0].1 - (50.0 + 200.0)).abs() < 1e-9);
-        assert_eq!(node.map().arc[0], 229);
-        assert!(node.set_levels(&[Some(1.5), None, None]).is_err());
-        assert!((node.desks()[0].1 - 250.0).abs() < 1e-9, "unchanged");
-    }
-
-    fn ask(node: &mut Node, src: &Source, unit: u8, pdu: &[u8]) -> Vec<u8> {
-        let mut out = [0u8; MAX_PDU];
-        let (n, _) = node.process_from(src, unit, pdu, &mut out).unwrap();
-        out[..n].to_vec()
-    }
-
-    fn tcp(a: &str) -> Source {
-        Source::Tcp(format!("{a}:1234").parse().unwrap())
-    }
-
-    #[test]
-    fn read_only_by_default_and_writes_only_from_the_allowlist() {
-        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
-        let stranger = tcp("10.9.9.9");
-        // every write function, every writable register: exception 0x01, nothing changes
-        for pdu in [
-            vec![6, 0x03, 0xE8, 0, 0],
-            vec![6, 0x07, 0xD0, 0, 1],
-            vec![6, 0x07, 0xD1, 0, 1],
-            vec![0x10, 0x03, 0xE8, 0, 3, 6, 0, 0, 0, 0, 0, 0],
-        ] {
-            assert_eq!(ask(&mut node, &stranger, 1, &pdu), vec![pdu[0] | 0x80, 1]);
-        }
-        assert_eq!(node.map().arc[..], [0, 0, 0]);
-        assert_eq!(node.health().writes_refused.load(Ordering::Relaxed), 4);
-        let st = read_input(&mut node, addr::STATUS, 1)[0];
-        assert_eq!(st & status::WRITES_ENABLED, 0);
-        // RTU broadcast and master: refused too
-        let rtu = Source::Rtu("/dev/ttyS1".into());
-        assert_eq!(
-            ask(&mut node, &rtu, 0, &[6, 0x03, 0xE8, 0, 0]),
-            vec![0x86, 1]
-        );
-        // reads are open to all
-        assert_eq!(
-            ask(&mut node, &stranger, 1, &[4, 0, 1, 0, 1]),
-            vec![4, 2, 0, 2]
-        );
-        let policy = AccessPolicy::default()
-            .with_writers(&["10.0.0.0/8".into()])
-            .unwrap();
-        node.set_policy(policy);
-        assert_eq!(
-            ask(&mut node, &stranger, 1, &[6, 0x03, 0xE8, 0, 254]),
-            vec![6, 0x03, 0xE8, 0, 254]
-        );
-        assert_eq!(node.map().arc[0], 254);
-        assert_eq!(node.health().writes_accepted.load(Ordering::Relaxed), 1);
-        assert_ne!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::WRITES_ENABLED,
-            0
-        );
-        assert_eq!(
-            ask(&mut node, &tcp("192.168.1.1"), 1, &[6, 0x03, 0xE8, 0, 0]),
-            vec![0x86, 1]
-        );
-    }
-
-    #[test]
-    fn word_order_is_per_client_and_persists() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("settings.json");
-        let mut policy = AccessPolicy::default()
-            .with_writers(&["10.0.0.1".into(), "10.0.0.2".into()])
-            .unwrap();
-        policy.word_orders.units.insert(9, WordOrder::Dcba);
+    fn an_adapter_sets_mode_and_targets_without_registers() {
+        let dir = std::env::temp_dir().join(format!("luxnode-node-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        let path = dir.join("settings.json");
+        let _ = std::fs::remove_file(&path);
         let options = NodeOptions {
-            initial_arc: Some(254),
-            policy,
             settings_path: Some(path.clone()),
             ..NodeOptions::default()
         };
-        let mut node = Node::new(model(), options.clone()).unwrap();
-        let (a, b) = (tcp("10.0.0.1"), tcp("10.0.0.2"));
-        // desk 0 at full output: 600 lx = 0x44160000
-        let float = |node: &mut Node, src: &Source, unit: u8| {
-            ask(node, src, unit, &[4, 0, 100, 0, 2])[2..].to_vec()
-        };
-        assert_eq!(float(&mut node, &a, 1), [0x44, 0x16, 0, 0]);
-        // client a asks for CDAB: only a reads CDAB
-        ask(&mut node, &a, 1, &[6, 0x07, 0xD0, 0, 1]);
-        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
-        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
-        assert_eq!(
-            ask(&mut node, &b, 1, &[3, 0x07, 0xD0, 0, 1]),
-            vec![3, 2, 0, 0]
-        );
-        assert_eq!(ask(&mut node, &a, 1, &[4, 0, 12, 0, 1]), vec![4, 2, 0, 1]);
-        // unit 9 reads DCBA (board table) unless the client set its own
-        assert_eq!(float(&mut node, &b, 9), [0, 0, 0x16, 0x44]);
-        assert_eq!(float(&mut node, &a, 9), [0, 0, 0x44, 0x16]);
-        // the dimming curve is global, and persisted with the word order
-        ask(&mut node, &b, 1, &[6, 0x07, 0xD1, 0, 1]);
-        drop(node);
-        let mut node = Node::new(model(), options).unwrap();
-        assert_eq!(node.map().curve, DimmingCurve::Linear);
-        assert_eq!(float(&mut node, &a, 1), [0, 0, 0x44, 0x16]);
-        assert_eq!(float(&mut node, &b, 1), [0x44, 0x16, 0, 0]);
-        let saved = std::fs::read_to_string(&path).unwrap();
-        assert!(saved.contains("\"10.0.0.1\": 1"), "{saved}");
-    }
-
-    #[test]
-    fn values_are_stale_until_every_level_is_known() {
-        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
-        let me = Source::Internal;
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
-        assert_ne!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
-            0
-        );
-        // two of three set, the third masked: still unknown
-        ask(
-            &mut node,
-            &me,
-            1,
-            &[0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 10, 0, 255],
-        );
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
-        ask(&mut node, &me, 1, &[6, 0x03, 0xEA, 0, 0]);
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
-        assert_eq!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
-            0
-        );
-        // given at start: known
-        let known = NodeOptions {
-            initial_arc: Some(0),
-            ..NodeOptions::default()
-        };
-        let mut node = Node::new(model(), known).unwrap();
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
-    }
-
-    #[test]
-    fn out_of_range_values_are_never_published() {
-        let mut m = model();
-        m.response_lx[0] = -8000.0;
-        let options = NodeOptions {
-            initial_arc: Some(254),
-            ..NodeOptions::default()
-        };
-        let mut node = Node::new(m, options).unwrap();
-        assert_eq!(read_input(&mut node, addr::DESK_FLOAT, 2), vec![0x7FC0, 0]);
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 1), vec![0xFFFF]);
-        assert_ne!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::COMPUTE_ERROR,
-            0
-        );
-    }
-
-    #[test]
-    fn the_sensors_bit_is_cleared_and_set_again() {
-        let mut node = Node::new(model(), NodeOptions::default()).unwrap();
-        assert_ne!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
-            0
-        );
-        node.set_sensors_ok(false);
-        assert_eq!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
-            0
-        );
-        node.set_sensors_ok(true);
-        assert_ne!(
-            read_input(&mut node, addr::STATUS, 1)[0] & status::SENSORS_OK,
-            0
-        );
-    }
-
-    #[test]
-    fn gateway_loss_flags_stale_and_keeps_values() {
-        let options = NodeOptions {
-            gateway_configured: true,
-            initial_arc: Some(254),
-            ..NodeOptions::default()
-        };
-        let mut node = Node::new(model(), options).unwrap();
-        // not up until the first successful poll
-        let st = read_input(&mut node, addr::STATUS, 1)[0];
-        assert_ne!(st & status::VALUES_STALE, 0);
-        node.set_gateway_link(true);
-        let st = read_input(&mut node, addr::STATUS, 1)[0];
-        assert_eq!(st & status::VALUES_STALE, 0);
-        assert_ne!(st & status::GATEWAY_LINK_UP, 0);
-        let before = read_input(&mut node, addr::DESK_FLOAT, 4);
-        node.set_gateway_link(false);
-        assert_eq!(read_input(&mut node, addr::DESK_FLOAT, 4), before);
-        assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
-        let st = read_input(&mut node, addr::STATUS, 1)[0];
-        assert_ne!(st & status::VALUES_STALE, 0);
-        assert_eq!(st & status::GATEWAY_LINK_UP, 0);
+        let mut node = Node::new(model(), options.clone()).expect("node");
+        node.set_control_mode(Mode::DaylightHarvesting);
+        assert_eq!(node.control_mode(), Mode::DaylightHarvesting);
+        node.set_target_lx(9, 420.4).expect("target");
+        assert_eq!(node.targets_lx()[1], 420.0);
+        assert!(matches!(
+            node.set_target_lx(8, 100.0),
+            Err(NodeError::UnknownDesk(8))
+        ));
+        assert!(matches!(
+            node.set_target_lx(7, f64::NAN),
+            Err(NodeError::Target(_))
+        ));
+        // kept across a restart, like a register write
+        let again = Node::new(model(), options).expect("node");
+        assert_eq!(again.control_mode(), Mode::DaylightHarvesting);
+        assert_eq!(again.targets_lx()[1], 420.0);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

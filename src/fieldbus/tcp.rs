@@ -4,8 +4,8 @@
 //! Why not the tokio-modbus server: its request codec drops the connection on a malformed PDU
 //! (a 0x10 whose byte count does not match, a truncated request, an unknown MEI type) where a
 //! field device must answer exception 0x03, and it computes `quantity * 2` in u16 (overflow).
-//! The wire format here is seven bytes of header; everything else is [`super::pdu`], fuzzed.
-//! tokio-modbus remains the client (the DALI gateway link, the tests).
+//! The wire format here is seven bytes of header; everything else is [`crate::modbus::pdu`],
+//! fuzzed. tokio-modbus remains the client (the DALI gateway link, the tests).
 //!
 //! * one task per connection; the shared state is locked only while a request is handled, so a
 //!   slow or hostile client (half a header, never reading its answers) never blocks others;
@@ -25,7 +25,7 @@
 //!   response (an exception if need be).
 //! * the unit id is echoed and not filtered (a TCP device answers every unit id, as gateways
 //!   and most devices do; 0 and 255 are the usual ones). A client may pick its float word order
-//!   by the unit id it addresses ([`super::access`]).
+//!   by the unit id it addresses ([`crate::modbus::access`]).
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -36,10 +36,13 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::TcpListener;
 use tokio::sync::{Notify, watch};
 
-use super::access::Source;
-use super::health::Beat;
-use super::node::{PduHandler, lock};
-use super::pdu::MAX_PDU;
+use super::PduHandler;
+use crate::modbus::access::Source;
+use crate::modbus::pdu::MAX_PDU;
+use crate::modbus::regmap::CommHealth;
+use crate::node::health::Beat;
+use crate::node::health::{CommCounters, low16};
+use crate::node::lock;
 
 /// MBAP header length (transaction, protocol, length, unit).
 pub const MBAP_LEN: usize = 7;
@@ -95,6 +98,16 @@ pub struct TcpCounters {
     pub requests: AtomicU64,
     /// Connections open now.
     pub open: AtomicUsize,
+}
+
+impl CommCounters for TcpCounters {
+    fn report(&self, into: &mut CommHealth) {
+        let r = |a: &AtomicU64| low16(a.load(Ordering::Relaxed));
+        into.tcp_open = self.open.load(Ordering::Relaxed).min(usize::from(u16::MAX)) as u16;
+        into.tcp_refused = r(&self.refused);
+        into.tcp_evicted = r(&self.evicted);
+        into.tls_failed = r(&self.tls_failed);
+    }
 }
 
 /// One open connection, as the admission sees it.

@@ -14,11 +14,11 @@ use tokio::sync::watch;
 use tokio_modbus::client::Context;
 
 use super::gateway::{self, GatewayConfig};
-use super::node::{SharedNode, lock};
-use super::regmap::control_flags;
 use crate::control::regulator::{Inputs, Mode, Regulator};
 use crate::control::{Plant, scratch_len};
 use crate::dali::{ArcLevel, DimmingCurve};
+use crate::modbus::regmap::control_flags;
+use crate::node::{SharedNode, lock};
 
 /// What one tick saw and decided, for the log and the tests.
 #[derive(Debug, Clone, PartialEq)]
