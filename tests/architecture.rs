@@ -601,3 +601,38 @@ fn the_line_counter_sees_what_it_must() {
     assert_eq!(get("p"), Some((12, 3)));
     assert_eq!(found.len(), 4, "{found:?}");
 }
+
+/// docs/architecture.md's picture of the house names every module of the layer table with its
+/// layer number, so the page a newcomer reads stays the rule's picture.
+#[test]
+fn the_architecture_picture_names_every_module_at_its_layer() {
+    let lib = std::fs::read_to_string(src().join("lib.rs")).expect("lib.rs");
+    let layer = layers(&lib);
+    let doc_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/architecture.md");
+    let doc = std::fs::read_to_string(&doc_path).expect("docs/architecture.md");
+    let picture = doc
+        .split("```text")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("a ```text picture in docs/architecture.md");
+    let names = |line: &str| -> BTreeSet<String> {
+        line.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .filter(|w| !w.is_empty())
+            .map(str::to_owned)
+            .collect()
+    };
+    let missing: Vec<String> = layer
+        .iter()
+        .filter(|(name, l)| {
+            !picture
+                .lines()
+                .any(|line| names(line).contains(*name) && line.contains(&format!("({l})")))
+        })
+        .map(|(name, l)| format!("{name} (layer {l})"))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/architecture.md's picture misses: {}",
+        missing.join(", ")
+    );
+}
