@@ -303,6 +303,67 @@ fn clean_capture_and_a_luxmeter_gain() {
     assert!(e <= 0.06 && worst <= 0.12);
 }
 
+/// Issue 34: commissioning that should fail does not write an image: every one-luminaire frame
+/// black, one luminaire's frame the all-off frame, the sensors a metre under the floor.
+#[test]
+fn commissioning_refuses_dark_frames_and_dark_sensors() {
+    let o = CommissionOptions::default();
+    let fails = |cap: &luxnode::camera::capture::Capture, sensors: Vec<luxnode::scene::Sensor>| {
+        let (lums, _, _) = inputs("capture_clean");
+        match commission::from_capture(cap, lums, sensors, None, &o) {
+            Ok(_) => panic!("commissioned"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let (_, sensors, cap) = inputs("capture_clean");
+    let mut black = cap.clone();
+    for (_, f) in &mut black.luminance {
+        f.data.iter_mut().for_each(|v| *v = 0);
+    }
+    let err = fails(&black, sensors.clone());
+    assert!(err.contains("no one-luminaire frame shows light"), "{err}");
+    let mut one_dark = cap.clone();
+    let id = one_dark.luminance[2].0;
+    one_dark.luminance[2].1.data.iter_mut().for_each(|v| *v = 0);
+    let err = fails(&one_dark, sensors.clone());
+    assert!(
+        err.contains(&format!("luminaire {id}:")) && err.contains("dead lamp"),
+        "{err}"
+    );
+    let mut under = sensors.clone();
+    for s in &mut under {
+        s.position_m.z -= 1.75;
+    }
+    let err = fails(&cap, under);
+    assert!(
+        err.contains("gets") && err.contains("under the floor"),
+        "{err}"
+    );
+}
+
+/// Issue 34: a luxmeter gain reading the model cannot reproduce (klx typed as lx: 1.28 for
+/// 1280) is refused like a `--luxmeter-rho` reading, not written into an image with a warning.
+#[test]
+fn a_luxmeter_gain_reading_in_the_wrong_unit_is_refused() {
+    let (lums, sensors, cap) = inputs("capture_clean");
+    let o = CommissionOptions {
+        gain: Gain::Luxmeter {
+            sensor_id: 7,
+            lux_lx: 1.28,
+            levels: vec![1.0; 8],
+        },
+        ..CommissionOptions::default()
+    };
+    let err = match commission::from_capture(&cap, lums, sensors, None, &o) {
+        Ok(_) => panic!("a 1.28 lx reading under every luminaire at full was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("1.3 lx at sensor 7") && err.contains("klx"),
+        "{err}"
+    );
+}
+
 /// Luxmeter readings with every luminaire at full set the reflectance of the walls and ceiling
 /// nobody saw (office_a's are 0.6 and 0.8; the defaults 0.5 and 0.7 read every desk low).
 #[test]

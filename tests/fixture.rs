@@ -216,3 +216,25 @@ fn a_failed_solve_in_the_reflectance_fit_is_an_error() {
         "{err}"
     );
 }
+
+/// Issue 34 / 31: lengths in the wrong unit are refused before any work, with the unit they look
+/// like (a 4 x 3 m room read as millimetres was a valid 4 mm room; as kilometres, 4 km).
+#[test]
+fn a_room_in_the_wrong_unit_is_refused_with_the_unit_it_looks_like() {
+    for (unit_to_m, what) in [(0.001, "4 mm"), (1000.0, "4 km")] {
+        let o = LoadOptions {
+            unit_to_m,
+            ..LoadOptions::default()
+        };
+        let err = Scene::load(&dir(), &o).expect_err(what).to_string();
+        assert!(
+            err.contains("not a room") && err.contains("--unit m"),
+            "{what}: {err}"
+        );
+    }
+    // through the binary: scene check exits non-zero and says so
+    let out = luxnode(&["scene", "check", &dir().to_string_lossy(), "--unit", "mm"]);
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stderr) + String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("--unit m"), "{text}");
+}

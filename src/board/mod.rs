@@ -228,6 +228,12 @@ fn access(m: &ModbusToml) -> Result<crate::modbus::access::AccessPolicy, String>
     let mut p = AccessPolicy::default()
         .with_writers(&m.write_allow)
         .map_err(|e| format!("modbus.{e}"))?;
+    if let Some(entry) = p.admits_everyone() {
+        tracing::warn!(
+            "modbus.write_allow {entry:?} lets every network address write levels, targets and \
+             settings; name the BMS and gateway addresses instead"
+        );
+    }
     if let Some(w) = &m.word_order {
         if let Some(d) = &w.default {
             p.word_orders.default = word_order("modbus.word_order.default", d)?;

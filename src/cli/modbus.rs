@@ -134,6 +134,12 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
         access = access
             .with_writers(&args.allow_writes_from)
             .context("--allow-writes-from")?;
+        if let Some(entry) = access.admits_everyone() {
+            tracing::warn!(
+                "--allow-writes-from {entry} lets every network address write; name the BMS \
+                 and gateway addresses instead"
+            );
+        }
     }
     let idle_timeout = match (args.idle_timeout_s, bm) {
         (Some(s), _) => duration_s("--idle-timeout-s", s)?,

@@ -215,6 +215,65 @@ pub enum CommissionError {
     /// The ambient light sensor's facing is not a direction.
     #[error("ambient light sensor: its facing is not a direction")]
     AmbientFacing,
+    /// No one-luminaire frame of a node shows light beyond its all-off frame.
+    #[error(
+        "{node}no one-luminaire frame shows light beyond the all-off frame (brightest \
+         {mean_units:.3} units a pixel): every frame black, or the luminaires not switched"
+    )]
+    NoLightInFrames {
+        /// The capture set.
+        node: Node,
+        /// The brightest frame's mean light per pixel, frame units.
+        mean_units: f64,
+    },
+    /// A luminaire's frames show (almost) none of its light in every node.
+    #[error(
+        "luminaire {id}: its frames show {share_percent:.2} % of the brightest luminaire's \
+         light in every capture set: a dead lamp, a luminaire not at its address, or frames in \
+         another order"
+    )]
+    LuminaireDark {
+        /// The luminaire.
+        id: u32,
+        /// Its light over the brightest luminaire's, %, the best over the nodes.
+        share_percent: f64,
+    },
+    /// The commissioned model gives a desk sensor (almost) no light.
+    #[error(
+        "sensor {id} at ({:.2}, {:.2}, {:.2}) m gets {lux_lx:.2} lx with every luminaire at \
+         full, the median sensor {median_lx:.0} lx: under the floor, inside an object or \
+         outside the room? (a position in another unit, or typed wrong)",
+        position_m[0], position_m[1], position_m[2]
+    )]
+    SensorDark {
+        /// The sensor.
+        id: u32,
+        /// Its position, m.
+        position_m: [f64; 3],
+        /// Its all-on reading, lx.
+        lux_lx: f64,
+        /// The median sensor's, lx.
+        median_lx: f64,
+    },
+    /// The model cannot read what the gain reading says, however bright or dark the surfaces:
+    /// the same rule as for `--luxmeter-rho` (0.5..2 times the model's).
+    #[error(
+        "{what} reading {reading_lx:.1} lx at {place}: the commissioned model reads \
+         {model_lx:.1} lx there ({ratio:.2} times the reading, with every reflectance at its \
+         limit); wrong sensor, unit (klx for lx?) or dimming state"
+    )]
+    GainReadingImpossible {
+        /// "luxmeter" or "ambient light sensor".
+        what: &'static str,
+        /// Where ("sensor 7", a point).
+        place: String,
+        /// The reading, lx.
+        reading_lx: f64,
+        /// The final model's reading there, lx.
+        model_lx: f64,
+        /// Model over reading.
+        ratio: f64,
+    },
     /// The gain source changed during commissioning (a bug).
     #[error("internal: gain source changed during commissioning")]
     GainSourceChanged,
@@ -849,7 +908,64 @@ fn check_captures(i: &Inputs) -> Result<(), CommissionError> {
             }
         }
     }
+    check_frames_lit(i)
+}
+
+/// A luminaire's share of the brightest below this in every node is a dark luminaire (the
+/// farthest luminaire of the reference open plan gives a pinhole node a few per cent).
+const MIN_LUMINAIRE_SHARE: f64 = 0.002;
+/// A frame whose light beyond the all-off frame is below this per pixel shows none, units.
+const MIN_FRAME_LIGHT_UNITS: f64 = 0.5;
+
+/// Stage "inputs", the frames: each node's one-luminaire frames show light beyond the all-off
+/// frame (the daylight interpolated over the sequence), and each luminaire's somewhere.
+fn check_frames_lit(i: &Inputs) -> Result<(), CommissionError> {
+    let captures = i.captures;
+    let mut best_share = vec![0.0f64; i.luminaires.len()];
+    for (k, capture) in captures.iter().enumerate() {
+        let light: Vec<f64> = (0..capture.luminance.len())
+            .map(|l| frame_light_units(capture, l))
+            .collect();
+        let pixels = capture
+            .luminance
+            .first()
+            .map_or(1, |(_, f)| f.data.len().max(1));
+        let brightest = light.iter().copied().fold(0.0, f64::max);
+        if brightest / pixels as f64 <= MIN_FRAME_LIGHT_UNITS {
+            let node = Node((captures.len() > 1).then(|| (k + 1, capture.dir.clone())));
+            return Err(CommissionError::NoLightInFrames {
+                node,
+                mean_units: brightest / pixels as f64,
+            });
+        }
+        for (b, x) in best_share.iter_mut().zip(&light) {
+            *b = b.max(x / brightest);
+        }
+    }
+    for (l, share) in i.luminaires.iter().zip(&best_share) {
+        if *share < MIN_LUMINAIRE_SHARE {
+            return Err(CommissionError::LuminaireDark {
+                id: l.id,
+                share_percent: 100.0 * share,
+            });
+        }
+    }
     Ok(())
+}
+
+/// Luminaire frame `l`'s light beyond the daylight, summed over the pixels where both are
+/// valid, frame units (signed: noise averages out).
+fn frame_light_units(capture: &crate::camera::capture::Capture, l: usize) -> f64 {
+    let Some((_, frame)) = capture.luminance.get(l) else {
+        return 0.0;
+    };
+    frame
+        .data
+        .iter()
+        .enumerate()
+        .filter(|&(_, &x)| x != u16::MAX)
+        .filter_map(|(p, &x)| Some(f64::from(x) - capture.daylight_value(l, p)?))
+        .sum()
 }
 
 /// Stage "planes": each node's point grid and the dominant planes found in it.
@@ -1504,6 +1620,35 @@ fn gain_through_model(
     Ok((bisect(target)?, g))
 }
 
+/// A sensor reading below this share of the median sensor's, every luminaire at full, is one
+/// the model cannot give (the cosine of a desk at the room's far edge is tens of per cent).
+const MIN_SENSOR_SHARE: f64 = 0.02;
+/// ... or below this, whatever the others read (every sensor under the floor): lx.
+const MIN_SENSOR_LX: f64 = 1.0;
+
+/// The commissioned model checks its own result: no desk sensor left (almost) dark with every
+/// luminaire at full (issue 28: a wall through a sensor published 0 lx; issue 34: sensors under
+/// the floor). Names the sensor, never a silent 0 lx.
+fn check_sensors_lit(i: &Inputs, model: &Model) -> Result<(), CommissionError> {
+    let all_on: Vec<f64> = model.response_lx.iter().map(|r| r.iter().sum()).collect();
+    let mut sorted = all_on.clone();
+    sorted.sort_by(f64::total_cmp);
+    let Some(&median_lx) = sorted.get(sorted.len() / 2) else {
+        return Ok(());
+    };
+    for (s, &lux_lx) in i.sensors.iter().zip(&all_on) {
+        if !(lux_lx.is_finite() && lux_lx >= (MIN_SENSOR_SHARE * median_lx).max(MIN_SENSOR_LX)) {
+            return Err(CommissionError::SensorDark {
+                id: s.id,
+                position_m: s.position_m.to_array(),
+                lux_lx,
+                median_lx,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Stage "engine": the final model at the estimated reflectances; with a gain reading, the
 /// model's own reading checked against it; with an ambient sensor, its response per luminaire.
 fn final_model(
@@ -1516,11 +1661,22 @@ fn final_model(
     let scene = i.scene(reco, &refl.tri_rho);
     let model = run_engine(&scene, &o.engine, &mut report.warnings)?;
     report.patches = model.patches.len();
+    check_sensors_lit(i, &model)?;
     if let Some(GainReading { at, lux_lx, levels }) = &refl.reading {
         let (r, lux) = (
             at.final_reading(&scene, &model, levels, o.gain.response())?,
             *lux_lx,
         );
+        let ratio = r / lux;
+        if !(refit::MIN_RATIO..=refit::MAX_RATIO).contains(&ratio) {
+            return Err(CommissionError::GainReadingImpossible {
+                what: at.what(),
+                place: at.place(),
+                reading_lx: lux,
+                model_lx: r,
+                ratio,
+            });
+        }
         if (r - lux).abs() > 0.05 * lux {
             report.warnings.push(format!(
                 "{} gain: the model reads {r:.0} lx at {}, not {lux:.0} lx \

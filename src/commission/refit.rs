@@ -33,6 +33,8 @@ pub const MAX_RHO: f64 = 0.9;
 pub const MIN_RATIO: f64 = 0.5;
 /// Highest reading over the model's.
 pub const MAX_RATIO: f64 = 2.0;
+/// No luxmeter reading indoors reaches this (direct sun on a desk is about 1e5 lx), lx.
+pub const MAX_READING_LX: f64 = 1e6;
 /// Most readings.
 pub const MAX_READINGS: usize = 64;
 
@@ -104,9 +106,16 @@ pub fn check(readings: &[Reading], sensor_ids: &[u32]) -> Result<(), String> {
         ));
     }
     for (k, r) in readings.iter().enumerate() {
-        if !(r.lux_lx.is_finite() && r.lux_lx > 0.0 && r.lux_lx < 1e6) {
+        if !(r.lux_lx.is_finite() && r.lux_lx > 0.0) {
             return Err(format!(
                 "luxmeter reading {} lx at sensor {}: a number of lux above 0",
+                r.lux_lx, r.sensor_id
+            ));
+        }
+        if r.lux_lx >= MAX_READING_LX {
+            return Err(format!(
+                "luxmeter reading {:e} lx at sensor {}: above any illuminance indoors \
+                 ({MAX_READING_LX:e} lx); a typo?",
                 r.lux_lx, r.sensor_id
             ));
         }

@@ -233,6 +233,15 @@ impl AccessPolicy {
         !self.writers.is_empty()
     }
 
+    /// The allowlist entry that admits every network address (`0.0.0.0/0`, `::/0`), if any:
+    /// legal, but an open door that the node says so at start (issue 34).
+    pub fn admits_everyone(&self) -> Option<String> {
+        self.writers.iter().find_map(|r| match r {
+            WriteRule::Net { addr, prefix: 0 } => Some(format!("{addr}/0")),
+            _ => None,
+        })
+    }
+
     /// The word order in effect for `source` addressing `unit`, given the settings clients
     /// wrote: the client's own, the board's per-client, per-unit, default.
     pub fn word_order(&self, settings: &Settings, source: &Source, unit: u8) -> WordOrder {
@@ -381,6 +390,24 @@ mod tests {
 
     fn tcp(a: &str) -> Source {
         Source::Tcp(format!("{a}:40000").parse().unwrap())
+    }
+
+    #[test]
+    fn an_allowlist_open_to_every_address_is_named() {
+        let open = |rules: &[&str]| {
+            let rules: Vec<String> = rules.iter().map(|r| (*r).to_owned()).collect();
+            AccessPolicy::default()
+                .with_writers(&rules)
+                .unwrap()
+                .admits_everyone()
+        };
+        assert_eq!(open(&["10.0.0.0/8", "0.0.0.0/0"]), Some("0.0.0.0/0".into()));
+        assert_eq!(open(&["::/0"]), Some("::/0".into()));
+        assert_eq!(
+            open(&["10.0.0.0/8", "192.0.2.7", "rtu", "role:operator"]),
+            None
+        );
+        assert_eq!(open(&[]), None);
     }
 
     #[test]

@@ -730,6 +730,88 @@ pub fn load_camera_file(path: &Path) -> Result<Camera, SceneError> {
     load_camera(path, 1.0)
 }
 
+/// A room is at least this wide in its largest horizontal extent, m.
+pub const MIN_ROOM_EXTENT_M: f64 = 1.0;
+/// A room (or a floor of rooms) is at most this long in any extent, m.
+pub const MAX_ROOM_EXTENT_M: f64 = 500.0;
+/// A luminaire hangs at most this high above the geometry's lowest point, m.
+pub const MAX_LUMINAIRE_HEIGHT_M: f64 = 50.0;
+
+/// The unit the lengths look like they are in, for an extent `extent_m` read as `unit_to_m`.
+fn likely_unit(extent_m: f64, unit_to_m: f64) -> &'static str {
+    // the unit that brings the extent into 3..100 m
+    let in_units = extent_m / unit_to_m;
+    [("m", 1.0), ("cm", 0.01), ("mm", 0.001)]
+        .iter()
+        .find(|(_, u)| (3.0..=100.0).contains(&(in_units * u)))
+        .map_or("m", |(name, _)| name)
+}
+
+/// Lengths that cannot be a room's, checked before any work (issue 34: a CAD scene drawn in
+/// millimetres read as metres made a 6 km room and a 24 GB commissioning; read as mm with
+/// metres in the file, a 1 cm room passed): the geometry's extent, the luminaires' heights and
+/// the desks' tops against it, each refusal with the unit the numbers look like.
+fn plausible_extent(
+    dir: &Path,
+    lo: DVec3,
+    hi: DVec3,
+    unit_to_m: f64,
+    luminaires: &[Luminaire],
+    desks: &Option<Desks>,
+) -> Vec<SceneError> {
+    let mut out = Vec::new();
+    let size = hi - lo;
+    let horizontal = size.x.max(size.y);
+    let largest = size.max_element();
+    let bad = |what: &str, message: String| SceneError::Invalid {
+        path: dir.join("scene.obj"),
+        what: what.into(),
+        message,
+    };
+    if largest > MAX_ROOM_EXTENT_M || horizontal < MIN_ROOM_EXTENT_M {
+        out.push(bad(
+            "geometry",
+            format!(
+                "spans {:.3} x {:.3} x {:.3} m, not a room ({MIN_ROOM_EXTENT_M}..{MAX_ROOM_EXTENT_M} m \
+                 across); the file's lengths look like {} (--unit {})",
+                size.x,
+                size.y,
+                size.z,
+                likely_unit(largest, unit_to_m),
+                likely_unit(largest, unit_to_m)
+            ),
+        ));
+        return out;
+    }
+    for l in luminaires {
+        let height_m = l.position_m.z - lo.z;
+        if height_m > MAX_LUMINAIRE_HEIGHT_M {
+            out.push(SceneError::Invalid {
+                path: dir.join("luminaires.json"),
+                what: format!("luminaire {}", l.id),
+                message: format!(
+                    "hangs {height_m:.1} m above the floor (at most {MAX_LUMINAIRE_HEIGHT_M} m): \
+                     a length in another unit (--unit), or a position typed wrong"
+                ),
+            });
+        }
+    }
+    for d in desks.iter().flat_map(|d| &d.desks) {
+        if d.z_m < lo.z - 0.01 {
+            out.push(SceneError::Invalid {
+                path: dir.join("desks.json"),
+                what: format!("desk {}", d.id),
+                message: format!(
+                    "top at {:.3} m is under the floor ({:.3} m): a length in another unit \
+                     (--unit), or a height typed wrong",
+                    d.z_m, lo.z
+                ),
+            });
+        }
+    }
+    out
+}
+
 pub(super) fn load_dir(dir: &Path, options: &LoadOptions) -> Result<Scene, SceneErrors> {
     let mut errors = Vec::new();
     let mut warnings = Vec::new();
@@ -790,6 +872,13 @@ pub(super) fn load_dir(dir: &Path, options: &LoadOptions) -> Result<Scene, Scene
     }
     warnings.extend(obj_report.warnings.iter().cloned());
     let (lo, hi) = mesh.bounds_m();
+    let implausible = plausible_extent(dir, lo, hi, options.unit_to_m, &luminaires, &desks);
+    if !implausible.is_empty() {
+        return Err(SceneErrors {
+            dir: dir.to_path_buf(),
+            errors: implausible,
+        });
+    }
     let margin = 0.01 * (hi - lo).length().max(1e-9);
     let inside = |p: DVec3| p.cmpge(lo - margin).all() && p.cmple(hi + margin).all();
     for l in &luminaires {
