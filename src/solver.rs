@@ -281,6 +281,13 @@ impl Rows<'_> {
     }
 }
 
+/// What a solve works on: the system, the rows it updates and what drives it.
+struct Problem<'p, S> {
+    sys: &'p S,
+    rows: Rows<'p>,
+    source: Source<'p>,
+}
+
 /// One right-hand side's stop state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RhsState {
@@ -350,18 +357,17 @@ fn check_rows<S: RadiositySystem>(sys: &S, rows: Rows<'_>) -> Result<(), SolveEr
 
 /// The relative residual of `b`: `max |B − ρ (E + F B)| / max |B|` (0 for an all-dark room).
 pub fn residual<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64], b: &[f64]) -> f64 {
-    residual_of(sys, Rows::All, &Source::Irradiance(e_direct_lx), b, 1, 0)
+    let problem = Problem {
+        sys,
+        rows: Rows::All,
+        source: Source::Irradiance(e_direct_lx),
+    };
+    residual_of(&problem, b, 1, 0)
 }
 
 /// The relative residual of right-hand side `q` of `k` over the solved rows.
-fn residual_of<S: RadiositySystem>(
-    sys: &S,
-    rows: Rows<'_>,
-    source: &Source<'_>,
-    b: &[f64],
-    k: usize,
-    q: usize,
-) -> f64 {
+fn residual_of<S: RadiositySystem>(p: &Problem<'_, S>, b: &[f64], k: usize, q: usize) -> f64 {
+    let (sys, rows, source) = (p.sys, p.rows, &p.source);
     let mut num: f64 = 0.0;
     let mut den: f64 = 0.0;
     for r in 0..rows.count(sys.len()) {
@@ -419,8 +425,9 @@ pub fn solve<S: RadiositySystem>(
     options: SolveOptions,
 ) -> Result<SolveReport, SolveError> {
     let k = work.acc.len();
-    let result = start(sys, rows, &source, b, &mut *work.state, k)
-        .and_then(|()| sweeps(sys, rows, &source, b, work, options));
+    let problem = Problem { sys, rows, source };
+    let result =
+        start(&problem, b, &mut *work.state, k).and_then(|()| sweeps(&problem, b, work, options));
     if result.is_err() && k > 0 {
         for r in 0..rows.count(sys.len()) {
             let i = rows.at(r);
@@ -435,13 +442,12 @@ pub fn solve<S: RadiositySystem>(
 /// Checks the inputs and resets the state: a non-finite start value at a solved row starts
 /// from 0; a held row must be finite and non-negative.
 fn start<S: RadiositySystem>(
-    sys: &S,
-    rows: Rows<'_>,
-    source: &Source<'_>,
+    p: &Problem<'_, S>,
     b: &mut [f64],
     state: &mut [RhsState],
     k: usize,
 ) -> Result<(), SolveError> {
+    let (sys, rows, source) = (p.sys, p.rows, &p.source);
     let n = sys.len();
     if k == 0 || state.len() != k || b.len() != n * k || source.values().len() != n * k {
         return Err(SolveError::Malformed);
@@ -470,13 +476,12 @@ fn start<S: RadiositySystem>(
 
 /// The sweeps, until every right-hand side has stopped.
 fn sweeps<S: RadiositySystem>(
-    sys: &S,
-    rows: Rows<'_>,
-    source: &Source<'_>,
+    p: &Problem<'_, S>,
     b: &mut [f64],
     work: Workspace<'_>,
     options: SolveOptions,
 ) -> Result<SolveReport, SolveError> {
+    let (sys, rows, source) = (p.sys, p.rows, &p.source);
     let Workspace { acc, state } = work;
     let k = acc.len();
     let count = rows.count(sys.len());
@@ -511,7 +516,7 @@ fn sweeps<S: RadiositySystem>(
             }
         }
         for (q, s) in state.iter_mut().enumerate() {
-            stop_test(sys, rows, source, b, k, q, s, it, options)?;
+            stop_test(p, b, (k, q), s, it, options)?;
         }
         if state.iter().all(|s| s.done.is_some()) {
             return Ok(summary(state));
@@ -520,20 +525,16 @@ fn sweeps<S: RadiositySystem>(
     let q = state.iter().position(|s| s.done.is_none()).unwrap_or(0);
     Err(SolveError::NotConverged {
         iterations: options.max_iterations,
-        residual: residual_of(sys, rows, source, b, k, q),
+        residual: residual_of(p, b, k, q),
     })
 }
 
 /// After sweep `it`: stops right-hand side `q` when its change and then its residual are
 /// within the tolerance; fails when its change has stopped falling.
-#[allow(clippy::too_many_arguments)]
 fn stop_test<S: RadiositySystem>(
-    sys: &S,
-    rows: Rows<'_>,
-    source: &Source<'_>,
+    p: &Problem<'_, S>,
     b: &[f64],
-    k: usize,
-    q: usize,
+    (k, q): (usize, usize),
     s: &mut RhsState,
     it: u32,
     options: SolveOptions,
@@ -550,7 +551,7 @@ fn stop_test<S: RadiositySystem>(
         0.0
     };
     if rel_change <= options.tolerance {
-        let r = residual_of(sys, rows, source, b, k, q);
+        let r = residual_of(p, b, k, q);
         if r <= options.tolerance {
             s.done = Some(SolveReport {
                 iterations: it,
@@ -568,7 +569,7 @@ fn stop_test<S: RadiositySystem>(
         if s.stalled > 50 {
             return Err(SolveError::NotConverged {
                 iterations: it,
-                residual: residual_of(sys, rows, source, b, k, q),
+                residual: residual_of(p, b, k, q),
             });
         }
     }

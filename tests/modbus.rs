@@ -666,6 +666,32 @@ fn a_percent_gateway_sets_exact_levels() {
     });
 }
 
+/// Issue 34: a gateway that answers only out-of-range levels is no link: not "up", the values
+/// stale, never quality good.
+#[test]
+fn a_gateway_of_out_of_range_levels_is_no_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let gw = spawn_listening(
+        GATEWAY_SIM,
+        &[
+            "--bind".into(),
+            "127.0.0.1:0".into(),
+            "--set".into(),
+            "16=500,18=500,20=500,22=500,24=500,26=500,28=500,30=500".into(),
+        ],
+    );
+    let cfg = gateway_toml(dir.path(), gw.addr, "percent");
+    let node = serve(&["--gateway", &cfg.display().to_string()]);
+    rt().block_on(async {
+        let mut bms = connect(node.addr).await;
+        // several poll periods: the link never comes up
+        tokio::time::sleep(Duration::from_millis(1500)).await;
+        let st = bms.read_input_registers(3, 1).await.unwrap().unwrap()[0];
+        assert_eq!(st & status::GATEWAY_LINK_UP, 0, "status {st:#06x}");
+        assert_ne!(st & status::VALUES_STALE, 0, "status {st:#06x}");
+    });
+}
+
 #[test]
 fn a_million_fuzzed_frames_are_answered_well_formed() {
     let r = luxnode::fieldbus::fuzz::run(1_000_000, 0x6C75_786E).unwrap_or_else(|f| panic!("{f}"));

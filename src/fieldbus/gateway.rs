@@ -403,12 +403,22 @@ async fn poll_once(
     let addrs = config.level_addresses(count)?;
     let words = read_registers(c, config.levels.function, &addrs, timeout).await?;
     let mut levels = Vec::with_capacity(count);
+    let mut invalid_now = 0;
     for &w in &words {
         let (x, invalid) = decode_level(config.levels.encoding, w, curve);
         if invalid {
             counters.invalid_values.fetch_add(1, Ordering::Relaxed);
+            invalid_now += 1;
         }
         levels.push(x);
+    }
+    if count > 0 && invalid_now == count {
+        // a gateway that answers with nothing but out-of-range levels tells nothing of the
+        // dimming state: a failed poll (the link goes down, the values stale), not a good one
+        return Err(GatewayError::Answer(format!(
+            "every one of the {count} level registers is out of range ({:?})",
+            &words[..words.len().min(8)]
+        )));
     }
     let lux: Vec<f64> = {
         let mut n = lock(node);
