@@ -166,7 +166,7 @@ fn the_engines_multi_solve_is_the_run_time_iteration_bit_for_bit() {
 /// Issue 34: a one-shot command whose reader goes away ends quietly, as a Unix filter does
 /// (before: "failed printing to stdout: Broken pipe", a panic and exit 101).
 #[test]
-fn a_closed_pipe_ends_a_command_quietly() {
+fn the_cli_ends_quietly_on_a_closed_pipe() {
     use std::os::unix::process::ExitStatusExt;
     for args in [
         vec!["modbus", "map"],
@@ -232,7 +232,11 @@ fn a_room_in_the_wrong_unit_is_refused_with_the_unit_it_looks_like() {
             "{what}: {err}"
         );
     }
-    // through the binary: scene check exits non-zero and says so
+}
+
+/// The same through the binary: `scene check --unit mm` exits non-zero and says so.
+#[test]
+fn the_cli_refuses_a_room_in_the_wrong_unit() {
     let out = luxnode(&["scene", "check", &dir().to_string_lossy(), "--unit", "mm"]);
     assert!(!out.status.success());
     let text = String::from_utf8_lossy(&out.stderr) + String::from_utf8_lossy(&out.stdout);
