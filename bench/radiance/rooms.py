@@ -45,9 +45,10 @@ Truth (--truth). `rtrace -I` at the sensors, one luminaire at a time, scenarios 
 (Radiance is linear in its sources): -aa 0 -ab 8 -ad 1024 -lw 1e-4 -ds 0.05 -dj 1 -dt 0 -dc 1,
 `--seeds` passes (on office_a these settings are 0.4 % from the truth with one pass:
 README.md's sweep); the direct part with -ab 0; the sky (daylight.py's gensky CIE overcast,
-21 March 12:00 solar time, 47.4 N, ground 0.2) with -ad 4096. truth.csv in the shared scenes'
-columns plus `lux_sky`: the overcast sky's illuminance with every luminaire off (the day truth
-of a scenario is lux + lux_sky).
+21 March 12:00 solar time, 47.4 N, ground 0.2) with -ad 32768 and twice the passes (the
+window is a small bright source to -I's sampling). truth.csv in the shared scenes' columns
+plus `lux_sky` (and `lux_sky_stderr`): the overcast sky's illuminance with every luminaire off
+(the day truth of a scenario is lux + lux_sky).
 
 Evaluation (--evaluate). Per room: `luxnode commission` on node a's capture (one node) and on
 both (two nodes, when the room has node b), with `--room-plan room.json` as a further column
@@ -681,6 +682,13 @@ def write_room(room: Room, out: Path) -> Path:
     return d
 
 
+def rel(p: Path) -> str:
+    try:
+        return str(p.resolve().relative_to(REPO))
+    except ValueError:
+        return p.name
+
+
 def rooms_in(out: Path) -> list[Path]:
     return sorted(p for p in out.glob("room_*") if (p / "nodes.json").exists())
 
@@ -699,7 +707,7 @@ def write_all(a) -> None:
     (a.out / "README.md").write_text(
         "# Generated rooms (issue 28's generalization bench)\n\n"
         f"`python3 bench/radiance/rooms.py --write --seed {a.seed} --count {a.count} --out "
-        f"{a.out.name if a.out.parent == REPO / 'scenes' else a.out}`; each room's README gives its "
+        f"{rel(a.out)}`; each room's README gives its "
         "parameters. Method and results: `bench/radiance/rooms.md`.\n")
     if a.check:
         lux = luxnode_bin(a)
@@ -803,9 +811,12 @@ def truth_one(a, d: Path, name: str, files: list[str], sky: bool) -> dict:
     rad = d / "radiance"
     oct_ = octree(files, tmp, name, rad)
     out = {}
-    parts = [("total", a.truth_ab, a.seeds)] + ([] if sky else [("direct", 0, 1)])
+    # the sky through a window is a small bright source to -I's hemisphere sampling: many more
+    # samples (2 passes at -ad 4096 differed by up to 7 % at room_02's desks)
+    parts = ([("total", a.truth_ab, 2 * a.seeds)] if sky else
+             [("total", a.truth_ab, a.seeds), ("direct", 0, 1)])
     for part, ab, seeds in parts:
-        ad = a.truth_ad * (4 if sky else 1)
+        ad = a.sky_ad if sky else a.truth_ad
         opts = ["-I", "-h", "-ov", "-aa", "0", "-ab", str(ab), "-ad", str(ad), "-lw", "1e-4",
                 "-ds", "0.05", "-dj", "1", "-dt", "0", "-dc", "1"]
         dummy = "60 60 1.5 0 0 1\n" * (sum(map(ord, name)) % 89)
@@ -832,7 +843,7 @@ def truth_room(a, d: Path) -> float:
     seeds = a.seeds
     with open(d / "truth.csv", "w") as f:
         f.write("scenario_id,luminaires_on,sensor_id,lux,lux_direct,lux_indirect,lux_stderr,"
-                "lux_sky\n")
+                "lux_sky,lux_sky_stderr\n")
         for sid, on in states:
             for i, s in enumerate(sens):
                 per = [sum(res[f"L{k}"]["total"][i][j] for k in on) for j in range(seeds)]
@@ -840,13 +851,16 @@ def truth_room(a, d: Path) -> float:
                 se = (sum((x - lux) ** 2 for x in per) / (seeds - 1) / seeds) ** 0.5 \
                     if seeds > 1 else 0.0
                 dr = sum(res[f"L{k}"]["direct"][i][0] for k in on)
-                sky = sum(res["sky"]["total"][i]) / seeds
+                sk = res["sky"]["total"][i]
+                sky = statistics.fmean(sk)
+                sky_se = statistics.stdev(sk) / len(sk) ** 0.5 if len(sk) > 1 else 0.0
                 f.write(f"{sid},{';'.join(map(str, on))},{s['id']},{lux:.3f},{dr:.3f},"
-                        f"{lux - dr:.3f},{se:.3f},{sky:.3f}\n")
+                        f"{lux - dr:.3f},{se:.3f},{sky:.3f},{sky_se:.3f}\n")
     (d / "truth.txt").write_text(
         f"truth.csv: rtrace {res['L1']['opts_total']}, {seeds} passes, one luminaire at a time, "
         f"scenarios summed; lux_direct with -ab 0; lux_sky (CIE overcast {SKY[1]}/{SKY[2]} "
-        f"{SKY[3]:.0f}:00 solar, every luminaire off): rtrace {res['sky']['opts_total']}\n")
+        f"{SKY[3]:.0f}:00 solar, every luminaire off): rtrace {res['sky']['opts_total']}, "
+        f"{2 * seeds} passes\n")
     return dt
 
 
@@ -855,8 +869,8 @@ def truth_all(a) -> None:
     for d in selected(a):
         dt = truth_room(a, d)
         timings.setdefault(d.name, {})["truth_s"] = round(dt, 1)
-        timings[d.name]["truth_settings"] = (f"-ab {a.truth_ab} -ad {a.truth_ad} (sky "
-                                             f"{4 * a.truth_ad}) seeds {a.seeds}")
+        timings[d.name]["truth_settings"] = (f"-ab {a.truth_ab} -ad {a.truth_ad} seeds {a.seeds}"
+                                             f" (sky -ad {a.sky_ad}, {2 * a.seeds} passes)")
         print(f"{d.name}: truth in {dt:.0f} s", flush=True)
         save_timings(a, timings)
 
@@ -1178,7 +1192,8 @@ def main(argv=None) -> int:
     ap.add_argument("--frame-ad", type=int, help="override the frames' -ad (smoke runs)")
     ap.add_argument("--truth-ab", type=int, default=8)
     ap.add_argument("--truth-ad", type=int, default=1024)
-    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--sky-ad", type=int, default=32768, help="the sky's truth -ad")
+    ap.add_argument("--seeds", type=int, default=2, help="truth passes (the sky: twice as many)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--luxnode", type=Path, help="the luxnode binary "
                     "(default: target/release/luxnode of this repository)")
