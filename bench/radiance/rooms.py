@@ -50,8 +50,8 @@ window is a small bright source to -I's sampling). truth.csv in the shared scene
 plus `lux_sky` (and `lux_sky_stderr`): the overcast sky's illuminance with every luminaire off
 (the day truth of a scenario is lux + lux_sky).
 
-Evaluation (--evaluate). Per room: `luxnode commission` on node a's capture (one node) and on
-both (two nodes, when the room has node b), with `--room-plan room.json` as a further column
+Evaluation (--evaluate). Per room: `luxnode commission` on node a's capture (one node), and
+when the room has node b on node b's alone (one node (b)) and on both (two nodes), with `--room-plan room.json` as a further column
 when `luxnode commission --help` offers the option (else "n/a"); night: `luxnode simulate
 --image` on states.csv against truth.csv; live: `luxnode live` on each node's frame (two nodes:
 per desk the node that measures it, the smaller uncertainty first). Desk error = sum |lux -
@@ -1047,25 +1047,39 @@ def evaluate(a) -> None:
     helptext = run([lux, "commission", "--help"]).stdout
     has_plan = "--room-plan" in helptext
     print(f"luxnode commission --room-plan: {'accepted' if has_plan else 'not offered (n/a)'}")
-    rows, info, checks = [], [], []
+    rows, info, checks, failures = [], [], [], []
     timings = load_timings(a)
     for d in selected(a):
         rd = res_dir(a, d)
         checks += render_check(a, d)
         nodes = [f"node_{n['id']}" for n in json.loads((d / "nodes.json").read_text())]
         truth = read_truth(d)
-        configs = [("one node", nodes[:1])] + ([("two nodes", nodes[:2])] if len(nodes) > 1 else [])
+        configs = [("one node", nodes[:1])]
+        if len(nodes) > 1:
+            configs += [("one node (b)", nodes[1:2]), ("two nodes", nodes[:2])]
         for cname, cams in configs:
             for plan in ([False, True] if has_plan else [False]):
-                tag = cname.replace(" ", "_") + ("_plan" if plan else "")
+                tag = cname.replace(" ", "_").replace("(", "").replace(")", "") + \
+                    ("_plan" if plan else "")
                 label = cname + (", plan" if plan else "")
-                com = commission(a, d, rd, cams, tag, plan)
+                try:
+                    com = commission(a, d, rd, cams, tag, plan)
+                except RuntimeError as e:
+                    print(f"{d.name} {label}: commissioning FAILED\n{e}", flush=True)
+                    failures.append(f"{d.name}, {label}: commissioning failed "
+                                    f"({str(e).strip().splitlines()[-1][:160]})")
+                    continue
                 timings.setdefault(d.name, {})[f"commission_s {label}"] = round(com["seconds"], 1)
                 rows += desk_rows(d.name, label, "night, model", night_model(a, d, com, truth),
                                   com["flags"])
                 for light in ("night", "day"):
-                    rows += desk_rows(d.name, label, f"{light}, live",
-                                      live_values(a, d, rd, com, truth, light), com["flags"])
+                    try:
+                        rows += desk_rows(d.name, label, f"{light}, live",
+                                          live_values(a, d, rd, com, truth, light), com["flags"])
+                    except RuntimeError as e:
+                        print(f"{d.name} {label} {light}: live FAILED\n{e}", flush=True)
+                        failures.append(f"{d.name}, {label}, {light}: live failed "
+                                        f"({str(e).strip().splitlines()[-1][:160]})")
                 info.append({"room": d.name, "config": label, "seconds": round(com["seconds"], 1)})
                 print(f"{d.name} {label}: commissioned in {com['seconds']:.0f} s", flush=True)
     save_timings(a, timings)
@@ -1079,6 +1093,8 @@ def evaluate(a) -> None:
                  f"{pct(statistics.median(ea))}, p90 {pct(quantile(ea, 0.9))}, worst {pct(max(ea))}; "
                  f"sky frame median {pct(statistics.median(es))}, p90 {pct(quantile(es, 0.9))}, "
                  f"worst {pct(max(es))}. (Single pixels: includes the renderer's noise.)\n")
+    if failures:
+        text += "\n### Failures\n\n" + "".join(f"- {f}\n" for f in failures)
     print(text)
     if a.md:
         Path(a.md).write_text(text)
