@@ -936,7 +936,16 @@ def commission(a, d: Path, rd: Path, cams: list[str], tag: str, plan: bool) -> d
         cmd += ["--room-plan", d / "room.json"]
     cmd += a.commission_args.split()
     t0 = time.time()
-    p = run(cmd)
+    note = ""
+    try:
+        p = run(cmd)
+    except RuntimeError as e:
+        if "FORMFACTORS region" not in str(e):
+            raise
+        # the image does not fit the flash: what the error suggests, larger patches
+        note = "image over the flash region at the defaults; retried with --patch-size 2"
+        print(f"{d.name} {tag}: {note}", flush=True)
+        p = run(cmd + ["--patch-size", "2"])
     dt = time.time() - t0
     (img_dir / "commission.txt").write_text(p.stdout + p.stderr)
     unc = {int(r[0]): float(r[1]) / 100.0 for r in
@@ -944,7 +953,7 @@ def commission(a, d: Path, rd: Path, cams: list[str], tag: str, plan: bool) -> d
     flags = {int(r[0]): int(r[1]) for r in
              table_after(p.stdout, "sensor,flags,mean_abs_error_lx,mean_truth_lx,error_pct")}
     return {"images": {c: img_dir / f"{c}.img" for c in cams}, "unc": unc, "flags": flags,
-            "seconds": dt}
+            "seconds": dt, "note": note}
 
 
 def night_model(a, d: Path, com: dict, truth: dict) -> dict:
@@ -1051,7 +1060,21 @@ def evaluate(a) -> None:
     timings = load_timings(a)
     for d in selected(a):
         rd = res_dir(a, d)
-        checks += render_check(a, d)
+        cache = rd / "eval" / "rows.json"
+        if a.reuse and cache.exists():
+            c = json.loads(cache.read_text())
+            rows += c["rows"]
+            checks += c["frames"]
+            failures += c["failures"]
+            info += c["commissions"]
+            print(f"{d.name}: evaluated before ({cache})")
+            continue
+        if not (rd / "live").exists():
+            print(f"{d.name}: not rendered at {a.width}x{a.height}, skipped")
+            continue
+        n0, f0, i0 = len(rows), len(failures), len(info)
+        checks_room = render_check(a, d)
+        checks += checks_room
         nodes = [f"node_{n['id']}" for n in json.loads((d / "nodes.json").read_text())]
         truth = read_truth(d)
         configs = [("one node", nodes[:1])]
@@ -1070,6 +1093,8 @@ def evaluate(a) -> None:
                                     f"({str(e).strip().splitlines()[-1][:160]})")
                     continue
                 timings.setdefault(d.name, {})[f"commission_s {label}"] = round(com["seconds"], 1)
+                if com["note"]:
+                    failures.append(f"{d.name}, {label}: {com['note']}")
                 rows += desk_rows(d.name, label, "night, model", night_model(a, d, com, truth),
                                   com["flags"])
                 for light in ("night", "day"):
@@ -1082,6 +1107,9 @@ def evaluate(a) -> None:
                                         f"({str(e).strip().splitlines()[-1][:160]})")
                 info.append({"room": d.name, "config": label, "seconds": round(com["seconds"], 1)})
                 print(f"{d.name} {label}: commissioned in {com['seconds']:.0f} s", flush=True)
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        cache.write_text(json.dumps({"rows": rows[n0:], "frames": checks_room,
+                                     "failures": failures[f0:], "commissions": info[i0:]}) + "\n")
     save_timings(a, timings)
     text = report(rows, has_plan, a)
     if checks:
@@ -1094,7 +1122,7 @@ def evaluate(a) -> None:
                  f"sky frame median {pct(statistics.median(es))}, p90 {pct(quantile(es, 0.9))}, "
                  f"worst {pct(max(es))}. (Single pixels: includes the renderer's noise.)\n")
     if failures:
-        text += "\n### Failures\n\n" + "".join(f"- {f}\n" for f in failures)
+        text += "\n### Failures and fallbacks\n\n" + "".join(f"- {f}\n" for f in failures)
     print(text)
     if a.md:
         Path(a.md).write_text(text)
@@ -1214,6 +1242,8 @@ def main(argv=None) -> int:
     ap.add_argument("--luxnode", type=Path, help="the luxnode binary "
                     "(default: target/release/luxnode of this repository)")
     ap.add_argument("--commission-args", default="", help="further `luxnode commission` options")
+    ap.add_argument("--reuse", action="store_true",
+                    help="--evaluate: take a room's rows from its last evaluation (W/room/WxH/eval)")
     ap.add_argument("--md", help="--evaluate: write the tables as Markdown")
     ap.add_argument("--json", help="--evaluate: write the raw rows as JSON")
     a = ap.parse_args(argv)
