@@ -57,7 +57,8 @@ when `luxnode commission --help` offers the option (else "n/a"); night: `luxnode
 per desk the node that measures it, the smaller uncertainty first). Desk error = sum |lux -
 true| / sum true over the desk's values; in view = commission's flags (any node sees it).
 Stated uncertainty: commission's per-desk relative standard uncertainty (night) and live's
-uncertainty_lx (live). Prints the tables; --md FILE writes them as Markdown, --json FILE the
+uncertainty_lx (live). An image over the 4 MiB flash region (room_05's two nodes) is
+commissioned again with --preset fast --precision u8, and the table says so. Prints the tables; --md FILE writes them as Markdown, --json FILE the
 raw numbers.
 
     python3 bench/radiance/rooms.py --write --seed 28 --count 8 --out scenes/rooms --check \\
