@@ -637,8 +637,9 @@ fn the_node_follows_a_dali_gateway_and_flags_its_loss() {
     drop(gw2);
 }
 
-#[test]
-fn a_percent_gateway_sets_exact_levels() {
+/// A simulated percent gateway holding `levels` (ADDR=VALUE,...) and a node following it: the
+/// tempdir and the gateway must live as long as the node is used.
+fn node_with_percent_gateway(levels: &str) -> (tempfile::TempDir, Proc, Proc) {
     let dir = tempfile::tempdir().unwrap();
     let gw = spawn_listening(
         GATEWAY_SIM,
@@ -646,11 +647,18 @@ fn a_percent_gateway_sets_exact_levels() {
             "--bind".into(),
             "127.0.0.1:0".into(),
             "--set".into(),
-            "16=100,18=50,20=0,22=1,24=100,26=100,28=100,30=100".into(),
+            levels.into(),
         ],
     );
     let cfg = gateway_toml(dir.path(), gw.addr, "percent");
     let node = serve(&["--gateway", &cfg.display().to_string()]);
+    (dir, gw, node)
+}
+
+#[test]
+fn a_percent_gateway_sets_exact_levels() {
+    let (_dir, _gw, node) =
+        node_with_percent_gateway("16=100,18=50,20=0,22=1,24=100,26=100,28=100,30=100");
     let bytes = std::fs::read(office_image()).unwrap();
     let image = Image::parse(&bytes).unwrap();
     let levels = [1.0, 0.5, 0.0, 0.01, 1.0, 1.0, 1.0, 1.0];
@@ -670,18 +678,8 @@ fn a_percent_gateway_sets_exact_levels() {
 /// stale, never quality good.
 #[test]
 fn a_gateway_of_out_of_range_levels_is_no_link() {
-    let dir = tempfile::tempdir().unwrap();
-    let gw = spawn_listening(
-        GATEWAY_SIM,
-        &[
-            "--bind".into(),
-            "127.0.0.1:0".into(),
-            "--set".into(),
-            "16=500,18=500,20=500,22=500,24=500,26=500,28=500,30=500".into(),
-        ],
-    );
-    let cfg = gateway_toml(dir.path(), gw.addr, "percent");
-    let node = serve(&["--gateway", &cfg.display().to_string()]);
+    let (_dir, _gw, node) =
+        node_with_percent_gateway("16=500,18=500,20=500,22=500,24=500,26=500,28=500,30=500");
     rt().block_on(async {
         let mut bms = connect(node.addr).await;
         // several poll periods: the link never comes up
