@@ -127,7 +127,7 @@ struct CameraJson {
 }
 
 /// Parses a JSON document into `T`, reporting the JSON path and line of any mismatch.
-fn parse_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, SceneError> {
+pub(crate) fn parse_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, SceneError> {
     let text = read_text(path)?;
     let de = &mut serde_json::Deserializer::from_str(&text);
     serde_path_to_error::deserialize(de).map_err(|e| {

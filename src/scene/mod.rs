@@ -16,6 +16,7 @@ mod builder;
 mod files;
 pub mod lens;
 mod obj;
+pub mod plan;
 mod states;
 mod summary;
 
@@ -31,6 +32,7 @@ pub use files::{
 };
 pub use lens::Lens;
 pub use obj::{ObjReport, load_obj};
+pub use plan::RoomPlan;
 pub use states::{Scenario, TruthRow, UnknownLuminaire, check_scenarios, read_states, read_truth};
 pub use summary::SceneSummary;
 
