@@ -661,7 +661,7 @@ fn two_nodes_commission_the_demo_office_together() {
             .map(|t| r.area_m2(t))
             .sum()
     };
-    let room = nodes[0].report.room.unwrap();
+    let room = nodes[0].report.room.clone().expect("closed");
     let box_area = (room.xy_m[2] - room.xy_m[0]) * (room.xy_m[3] - room.xy_m[1]);
     let merged_floor = floor_area(&nodes[0]);
     assert!(

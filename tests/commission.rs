@@ -191,7 +191,7 @@ fn office_a_noisy_capture_meets_the_accuracy_bounds() {
             .count()
             >= 3
     );
-    let room = r.room.expect("closed");
+    let room = r.room.as_ref().expect("closed");
     assert!((room.ceiling_z_m - 3.0).abs() < 0.02 && (room.xy_m[2] - 6.0).abs() < 0.1);
     // each sensor's stated uncertainty against its error over the 31 scenarios (all 8):
     // measured 7 of 8 within one (sensor 2, in a monitor's shadow, is not), all within two
@@ -555,6 +555,7 @@ fn planes_of_synthetic_depth_have_the_known_heights_and_areas() {
         None,
         None,
         &[],
+        None,
     );
     let area: f64 = (0..m.tris.len()).map(|t| m.area_m2(t)).sum();
     assert!((area - 0.8).abs() < 0.08, "area {area}");

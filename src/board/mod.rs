@@ -55,6 +55,22 @@ pub struct Board {
     /// to them (`crate::commission::refit`; with the camera's own gain or a hooded ambient
     /// light sensor's, measured directly).
     pub luxmeter_rho: Vec<crate::commission::refit::Reading>,
+    /// The room plan (`[room] plan = "room.json"`, relative to the board file), read and
+    /// checked with the board: commissioning builds the walls, windows and ceiling the cameras
+    /// do not see from it.
+    pub room_plan: Option<crate::scene::RoomPlan>,
+}
+
+/// `[room]`: the room plan.
+///
+/// ```toml
+/// [room]
+/// plan = "room.json"   # luxnode-room-plan/1, relative to this file
+/// ```
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RoomToml {
+    plan: Option<String>,
 }
 
 /// `[live]`: live light, the cameras at run time (`crate::live`).
@@ -323,6 +339,8 @@ struct BoardToml {
     led: Option<crate::board::camera::LedBoard>,
     #[serde(default)]
     commissioning: CommissioningToml,
+    #[serde(default)]
+    room: RoomToml,
 }
 
 #[derive(Deserialize)]
@@ -446,7 +464,19 @@ impl Board {
         let ids: Vec<u32> = luxmeter_rho.iter().map(|r| r.sensor_id).collect();
         crate::commission::refit::check(&luxmeter_rho, &ids)
             .map_err(|e| bad(format!("commissioning.luxmeter_rho: {e}")))?;
+        let room_plan = match t.room.plan.as_deref() {
+            None => None,
+            Some(file) => {
+                let (plan, warnings) = crate::scene::RoomPlan::load(&base.join(file))
+                    .map_err(|e| bad(format!("room.plan: {e}")))?;
+                for w in warnings {
+                    tracing::warn!("{w}");
+                }
+                Some(plan)
+            }
+        };
         Ok(Board {
+            room_plan,
             luxmeter_rho,
             control,
             live,

@@ -61,11 +61,21 @@ pub struct Args {
     #[arg(long, default_value_t = commission::ClosureOptions::default().ceiling_rho)]
     ceiling_rho: f64,
     /// Room box x0,y0,x1,y1 in m (default: inferred).
-    #[arg(long, value_delimiter = ',', num_args = 4)]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 4,
+        conflicts_with = "room_plan"
+    )]
     room: Option<Vec<f64>>,
     /// Ceiling height, m (default: just above the highest luminaire opening).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "room_plan")]
     ceiling_height: Option<f64>,
+    /// The room plan (room.json, luxnode-room-plan/1): outline, heights, windows, site. The
+    /// walls, windows and ceiling the cameras do not see are built from it (default: the
+    /// board's `[room] plan`, else an inferred box).
+    #[arg(long, value_name = "room.json")]
+    room_plan: Option<PathBuf>,
     /// Target patch size of the reconstructed mesh (largest rectangle side), m.
     #[arg(long, default_value_t = commission::MeshOptions::default().patch_size_m)]
     mesh_patch_size: f64,
@@ -165,11 +175,28 @@ impl Args {
 /// Runs `luxnode commission`.
 pub fn run(a: &Args) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let (lums, sensors, desks, board_readings) = inputs(a)?;
+    let (lums, sensors, desks, board_readings, board_plan) = inputs(a)?;
     let mut o = a.options(lums.len())?;
     if o.readings.is_empty() && a.luxmeter.is_none() {
         // the board file's [commissioning] luxmeter_rho, unless the command line gives some
         o.readings = board_readings;
+    }
+    o.room_plan = match &a.room_plan {
+        Some(p) => {
+            let (plan, warnings) = luxnode::scene::RoomPlan::load(p)?;
+            for w in warnings {
+                tracing::warn!("{w}");
+            }
+            Some(plan)
+        }
+        None => board_plan,
+    };
+    if let Some(plan) = &o.room_plan {
+        let at = a
+            .room_plan
+            .as_deref()
+            .unwrap_or(std::path::Path::new("room plan"));
+        plan.check_contents(at, &lums, &sensors, desks.as_ref())?;
     }
     luxnode::en12464::check_maintenance_factor(a.maintenance_factor)?;
     let ids: Vec<u32> = lums.iter().map(|l| l.id).collect();
@@ -227,19 +254,27 @@ pub fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
-/// Luminaires, sensors, desks, and the board file's luxmeter readings.
-type Inputs = (Vec<Luminaire>, Vec<Sensor>, Option<Desks>, Vec<Reading>);
+/// Luminaires, sensors, desks, and the board file's luxmeter readings and room plan.
+type Inputs = (
+    Vec<Luminaire>,
+    Vec<Sensor>,
+    Option<Desks>,
+    Vec<Reading>,
+    Option<luxnode::scene::RoomPlan>,
+);
 
 /// The luminaires, sensors and desks (from the board file, or the files given), and the board
 /// file's luxmeter readings.
 fn inputs(a: &Args) -> Result<Inputs> {
     let load = LoadOptions::default();
     let mut board_readings = Vec::new();
+    let mut board_plan = None;
     let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
         (Some(b), _, _) => {
             let board = luxnode::board::Board::load(b)?;
             let scene = luxnode::daemon::assemble::board_scene(&board)?;
             board_readings = board.luxmeter_rho.clone();
+            board_plan = board.room_plan.clone();
             (scene.luminaires, scene.sensors, scene.desks)
         }
         (None, Some(l), Some(s)) => {
@@ -256,7 +291,7 @@ fn inputs(a: &Args) -> Result<Inputs> {
         }
         _ => anyhow::bail!("--luminaires and --sensors, or --board"),
     };
-    Ok((lums, sensors, desks, board_readings))
+    Ok((lums, sensors, desks, board_readings, board_plan))
 }
 
 /// What commissioning found: depth, planes, mesh, room box, reflectances, the luxmeter fit.
@@ -290,6 +325,13 @@ fn print_report(c: &commission::Commissioned) -> Result<()> {
         r.triangles, r.seen_area_m2, r.inferred_area_m2, r.inferred_desk_m2, r.patches
     );
     if let Some(room) = &r.room {
+        if let Some(o) = &room.outline_m {
+            println!(
+                "room plan: {} walls, {} windows and doors",
+                o.len(),
+                room.openings.len()
+            );
+        }
         println!(
             "room box: x {:.2}..{:.2} m, y {:.2}..{:.2} m, floor {:.3} m, ceiling {:.3} m",
             room.xy_m[0],

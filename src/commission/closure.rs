@@ -18,10 +18,13 @@
 //! undersides: office_a's floor sensor 7 lost 12 % of its gather rays to them, and every
 //! desk's interreflected light read low, as light that reaches a hidden face was absorbed.
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::mesh::{MeshOptions, Part, RecoMesh, rect_cover};
+use crate::scene::plan::{WallOpening, polygon_contains, segment_distance};
 use crate::scene::{Luminaire, Sensor};
+
+pub mod plan;
 
 /// Closure knobs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,15 +56,19 @@ impl Default for ClosureOptions {
     }
 }
 
-/// The inferred room box.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The room: inferred as a box, or from the room plan (then its outline and openings).
+#[derive(Debug, Clone, PartialEq)]
 pub struct RoomBox {
-    /// x0, y0, x1, y1, m.
+    /// x0, y0, x1, y1, m (the outline's bounds, with a plan).
     pub xy_m: [f64; 4],
     /// Floor height, m.
     pub floor_z_m: f64,
     /// Ceiling height, m.
     pub ceiling_z_m: f64,
+    /// The floor outline from the room plan (counter-clockwise, m); `None`: the box.
+    pub outline_m: Option<Vec<DVec2>>,
+    /// The plan's windows and doors on the outline's walls.
+    pub openings: Vec<WallOpening>,
 }
 
 /// Half the smallest spacing of distinct coordinates (None with fewer than two).
@@ -116,6 +123,50 @@ impl RoomBox {
         Ok(())
     }
 
+    /// A box room (no plan).
+    pub fn boxed(xy_m: [f64; 4], floor_z_m: f64, ceiling_z_m: f64) -> RoomBox {
+        RoomBox {
+            xy_m,
+            floor_z_m,
+            ceiling_z_m,
+            outline_m: None,
+            openings: Vec::new(),
+        }
+    }
+
+    /// Whether (x, y) is inside the room's outline (its box without a plan).
+    pub fn contains_xy(&self, p: DVec2) -> bool {
+        match &self.outline_m {
+            Some(o) => polygon_contains(o, p),
+            None => {
+                let [x0, y0, x1, y1] = self.xy_m;
+                (x0..=x1).contains(&p.x) && (y0..=y1).contains(&p.y)
+            }
+        }
+    }
+
+    /// The vertical boundary faces: (unit normal into the room, a point on it, the segment's
+    /// ends in x-y).
+    fn walls(&self) -> Vec<(DVec2, DVec2, DVec2)> {
+        let [x0, y0, x1, y1] = self.xy_m;
+        let corners = match &self.outline_m {
+            Some(o) => o.clone(),
+            None => vec![
+                DVec2::new(x0, y0),
+                DVec2::new(x1, y0),
+                DVec2::new(x1, y1),
+                DVec2::new(x0, y1),
+            ],
+        };
+        let n = corners.len();
+        (0..n)
+            .map(|i| {
+                let (a, b) = (corners[i], corners[(i + 1) % n]);
+                ((b - a).perp().normalize_or_zero(), a, b)
+            })
+            .collect()
+    }
+
     /// Quads the closure of this box adds with tiles of at most `patch_size_m`.
     pub fn closure_quads(&self, patch_size_m: f64) -> f64 {
         let [x0, y0, x1, y1] = self.xy_m;
@@ -125,6 +176,10 @@ impl RoomBox {
         2.0 * nx * nz + 2.0 * ny * nz + nx * ny
     }
 }
+
+/// Without a plan, an unseen wall stands at least this far behind a declared sensor or
+/// luminaire, m.
+pub const WALL_CLEARANCE_M: f64 = 0.3;
 
 /// Infers the room box.
 pub fn room_box(
@@ -159,24 +214,25 @@ pub fn room_box(
         for p in seen_m {
             add(p.x, p.y);
         }
+        // an unseen wall stands at least WALL_CLEARANCE_M behind a declared sensor or
+        // luminaire (issue 28: a wall through a sensor at the room's edge made it 0 lx)
+        let c = WALL_CLEARANCE_M;
         for s in sensors {
-            add(s.position_m.x, s.position_m.y);
+            add(s.position_m.x - c, s.position_m.y - c);
+            add(s.position_m.x + c, s.position_m.y + c);
         }
         let xs: Vec<f64> = luminaires.iter().map(|l| l.position_m.x).collect();
         let ys: Vec<f64> = luminaires.iter().map(|l| l.position_m.y).collect();
         let (hx, hy) = (half_spacing(xs.clone()), half_spacing(ys.clone()));
         for l in luminaires {
             let (dx, dy) = (hx.or(hy).unwrap_or(0.0), hy.or(hx).unwrap_or(0.0));
+            let (dx, dy) = (dx.max(c), dy.max(c));
             add(l.position_m.x - dx, l.position_m.y - dy);
             add(l.position_m.x + dx, l.position_m.y + dy);
         }
         b
     });
-    RoomBox {
-        xy_m,
-        floor_z_m,
-        ceiling_z_m,
-    }
+    RoomBox::boxed(xy_m, floor_z_m, ceiling_z_m)
 }
 
 /// Depth of a thin object's hidden face behind its seen face, m (a desk top's thickness).
@@ -189,18 +245,15 @@ pub const BOUNDARY_TOLERANCE_M: f64 = 0.15;
 /// Whether a seen plane (unit normal facing the camera, a point on it) is a thin object inside
 /// the room rather than part of the room's boundary (floor, a wall, the ceiling).
 pub fn is_thin_object(room: &RoomBox, normal: DVec3, origin_m: DVec3) -> bool {
-    let [x0, y0, x1, y1] = room.xy_m;
-    let faces = [
-        (DVec3::Z, room.floor_z_m, origin_m.z),
-        (DVec3::Z, room.ceiling_z_m, origin_m.z),
-        (DVec3::X, x0, origin_m.x),
-        (DVec3::X, x1, origin_m.x),
-        (DVec3::Y, y0, origin_m.y),
-        (DVec3::Y, y1, origin_m.y),
-    ];
-    !faces.iter().any(|&(axis, at, coord)| {
-        normal.dot(axis).abs() > 0.9 && (coord - at).abs() < BOUNDARY_TOLERANCE_M
-    })
+    let tol = BOUNDARY_TOLERANCE_M;
+    let horizontal = [room.floor_z_m, room.ceiling_z_m]
+        .iter()
+        .any(|&z| normal.z.abs() > 0.9 && (origin_m.z - z).abs() < tol);
+    let on_a_wall = room.walls().iter().any(|&(inward, a, b)| {
+        let n = normal.truncate();
+        n.dot(inward).abs() > 0.9 && segment_distance(a, b, origin_m.truncate()) < tol
+    });
+    !(horizontal || on_a_wall)
 }
 
 /// Adds the hidden face of each thin seen plane: its triangles of [`Part::Plane`] `k` for
@@ -339,11 +392,21 @@ pub fn inferred_desk_tops(
     area
 }
 
-/// Adds walls, ceiling and black luminaire openings.
+/// Adds walls, ceiling and black luminaire openings: the plan's (walls along its outline with
+/// its windows and doors, the ceiling over its outline) or the box's.
 pub fn close(out: &mut RecoMesh, room: &RoomBox, luminaires: &[Luminaire], o: &MeshOptions) {
+    match &room.outline_m {
+        Some(outline) => plan::close(out, room, outline, o.patch_size_m),
+        None => close_box(out, room, o.patch_size_m),
+    }
+    luminaire_openings(out, room, luminaires);
+}
+
+/// The box's four walls and ceiling in equal tiles of at most `patch_size_m`.
+fn close_box(out: &mut RecoMesh, room: &RoomBox, patch_size_m: f64) {
     let [x0, y0, x1, y1] = room.xy_m;
     let (z0, z1) = (room.floor_z_m, room.ceiling_z_m);
-    let s = o.patch_size_m.max(0.05);
+    let s = patch_size_m.max(0.05);
     // a rectangle (origin, edge a, edge b) in tiles of at most s, front = a × b
     let mut tile = |org: DVec3, a: DVec3, b: DVec3, part: Part| {
         let (na, nb) = (
@@ -368,6 +431,11 @@ pub fn close(out: &mut RecoMesh, room: &RoomBox, luminaires: &[Luminaire], o: &M
     tile(DVec3::new(x0, y0, z0), dz, dx, Part::Wall); // y = y0, normal +y
     tile(DVec3::new(x0, y1, z0), dx, dz, Part::Wall); // y = y1, normal -y
     tile(DVec3::new(x0, y0, z1), dy, dx, Part::Ceiling); // normal -z
+}
+
+/// Each luminaire's opening: a black quad just below the ceiling, facing along its aim.
+fn luminaire_openings(out: &mut RecoMesh, room: &RoomBox, luminaires: &[Luminaire]) {
+    let z1 = room.ceiling_z_m;
     for l in luminaires {
         let [w, len] = l.opening_m;
         if w <= 0.0 || len <= 0.0 {
@@ -392,11 +460,7 @@ mod tests {
     use super::*;
 
     fn room() -> RoomBox {
-        RoomBox {
-            xy_m: [0.0, 0.0, 6.0, 4.0],
-            floor_z_m: 0.0,
-            ceiling_z_m: 2.8,
-        }
+        RoomBox::boxed([0.0, 0.0, 6.0, 4.0], 0.0, 2.8)
     }
 
     #[test]

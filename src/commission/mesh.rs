@@ -65,7 +65,16 @@ pub enum Part {
     /// The hidden face of seen plane k, a thin object (a desk's underside, a monitor's back;
     /// closure; the reflectance of plane k's seen face).
     HiddenFace(u32),
+    /// Glazing of the room plan's opening k (closure; [`GLAZING_RHO`] at night).
+    Window(u32),
+    /// A door, the room plan's opening k (closure; its reflectance, or the walls').
+    Door(u32),
 }
+
+/// The diffuse reflectance that stands for a window's glazing when the sky is dark: two
+/// uncoated panes reflect about 8 % at normal incidence (Fresnel, n = 1.52), as the benches'
+/// scenes model it.
+pub const GLAZING_RHO: f64 = 0.08;
 
 impl Part {
     /// True for surfaces the camera saw.
@@ -84,6 +93,8 @@ impl Part {
             Part::Opening(id) => format!("luminaire_{id}"),
             Part::HiddenFace(k) => format!("plane_{k}_hidden_face"),
             Part::DeskFill => "desk_inferred".into(),
+            Part::Window(k) => format!("window_{k}"),
+            Part::Door(k) => format!("door_{k}"),
         }
     }
 }
@@ -185,7 +196,8 @@ pub const MAX_SPLAT_M: f64 = 0.15;
 pub const ALSO_SEEN_DISTANCE_M: f64 = 0.05;
 
 /// Meshes one plane. `extent`: rasterise over this world box (x0, y0, x1, y1) instead of the
-/// nodes' bounds (horizontal planes only), filling unseen cells with `fill`. `also_seen_m`:
+/// nodes' bounds (horizontal planes only), filling unseen cells with `fill` (only those inside
+/// `outline`, the room plan's floor polygon, when given). `also_seen_m`:
 /// points on the plane that other cameras saw (another node's view of the floor); each marks
 /// its cell (the closing below fills one-cell gaps between them).
 #[allow(clippy::too_many_arguments)]
@@ -198,6 +210,7 @@ pub fn mesh_plane(
     extent: Option<[f64; 4]>,
     fill: Option<Part>,
     also_seen_m: &[DVec3],
+    outline: Option<&[glam::DVec2]>,
 ) {
     let c = o.cell_m.max(1e-3);
     let room = extent.filter(|_| plane.is_horizontal());
@@ -217,12 +230,21 @@ pub fn mesh_plane(
     let occ: Vec<bool> = occ.iter().zip(&closed).map(|(a, b)| *a || *b).collect();
     let max_cells = (o.patch_size_m / c).floor().max(1.0) as usize;
     let (nx, ny) = (r.nx, r.ny);
+    // the cells of the room's floor: all, or those inside the plan's outline
+    let in_room: Vec<bool> = (0..nx * ny)
+        .map(|i| {
+            outline.is_none_or(|poly| {
+                let p = r.corner(i % nx, i / nx) + (r.e1 * r.ca + r.e2 * r.cb) * 0.5;
+                crate::scene::plan::polygon_contains(poly, p.truncate())
+            })
+        })
+        .collect();
     match (room, fill) {
         (Some(_), Some(fill)) if o.wide_angle => {
             // the floor over the whole room: rectangles up to the patch size regardless of what
             // was seen (the unseen floor takes the seen floor's reflectance anyway), each seen
             // when most of its cells were
-            for (x, y, w, h) in rect_cover(&vec![true; nx * ny], nx, ny, max_cells) {
+            for (x, y, w, h) in rect_cover(&in_room, nx, ny, max_cells) {
                 let seen = (y..y + h)
                     .flat_map(|yy| (x..x + w).map(move |xx| yy * nx + xx))
                     .filter(|&i| occ[i])
@@ -238,7 +260,7 @@ pub fn mesh_plane(
         _ => {
             r.quads(out, &occ, max_cells, Part::Plane(k));
             if let (Some(_), Some(fill)) = (room, fill) {
-                let unseen: Vec<bool> = occ.iter().map(|o| !o).collect();
+                let unseen: Vec<bool> = occ.iter().zip(&in_room).map(|(o, i)| !o && *i).collect();
                 r.quads(out, &unseen, max_cells, fill);
             }
         }

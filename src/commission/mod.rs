@@ -401,6 +401,9 @@ pub struct CommissionOptions {
     pub readings: Vec<refit::Reading>,
     /// Spinners on stderr.
     pub progress: bool,
+    /// The room plan (`--room-plan`, a board's `[room] plan`): walls, windows and ceiling where
+    /// the cameras do not see; `None`: the room box is inferred.
+    pub room_plan: Option<crate::scene::RoomPlan>,
 }
 
 impl Default for CommissionOptions {
@@ -419,6 +422,7 @@ impl Default for CommissionOptions {
             uncertainty: uncertainty::UncertaintyOptions::default(),
             readings: Vec::new(),
             progress: false,
+            room_plan: None,
         }
     }
 }
@@ -1053,17 +1057,25 @@ fn find_floor(planes: &NodePlanes, seen_pts: &[DVec3], warnings: &mut Vec<String
     Floor { of, main, z_m }
 }
 
-/// The room box (with closure on), checked to be a bounded amount of work.
+/// The room (with closure on): the plan's, reconciled with what was seen, or the inferred box;
+/// checked to be a bounded amount of work.
 fn find_room(
     i: &Inputs,
     seen_pts: &[DVec3],
-    floor_z_m: f64,
+    floor: &Floor,
+    warnings: &mut Vec<String>,
 ) -> Result<Option<RoomBox>, CommissionError> {
     let o = i.o;
-    let room = o
-        .closure
-        .enabled
-        .then(|| closure::room_box(seen_pts, floor_z_m, i.luminaires, i.sensors, &o.closure));
+    let floor_z_m = floor.z_m;
+    let room = o.closure.enabled.then(|| match &o.room_plan {
+        Some(plan) => {
+            let seen_floor = floor.main.map(|_| floor_z_m);
+            let (room, w) = closure::plan::room_from_plan(plan, seen_pts, seen_floor);
+            warnings.extend(w);
+            room
+        }
+        None => closure::room_box(seen_pts, floor_z_m, i.luminaires, i.sensors, &o.closure),
+    });
     if let Some(r) = &room {
         // bounded work: a wrong calibration or pose never becomes a room of kilometres
         for c in i.captures {
@@ -1103,12 +1115,12 @@ fn mesh_room(
         .flat_map(|g| g.points_m.iter().flatten().copied())
         .collect();
     let floor = find_floor(planes, &seen_pts, &mut report.warnings);
-    let room = find_room(i, &seen_pts, floor.z_m)?;
+    let room = find_room(i, &seen_pts, &floor, &mut report.warnings)?;
     let NodeMeshes {
         meshes,
         plane_at,
         floor_idx,
-    } = mesh_nodes(i, planes, &floor, room, report);
+    } = mesh_nodes(i, planes, &floor, room.as_ref(), report);
     let reco = merge_nodes(i.captures, depths, meshes, floor_idx);
     Ok(Meshed {
         reco,
@@ -1135,7 +1147,7 @@ fn mesh_nodes(
     i: &Inputs,
     planes: &NodePlanes,
     floor: &Floor,
-    room: Option<RoomBox>,
+    room: Option<&RoomBox>,
     report: &mut Report,
 ) -> NodeMeshes {
     let o = i.o;
@@ -1189,6 +1201,7 @@ fn mesh_nodes(
                     room.filter(|_| is_floor).map(|r| r.xy_m),
                     is_floor.then_some(Part::FloorFill),
                     if is_floor { &other_floor_m } else { &[] },
+                    room.and_then(|r| r.outline_m.as_deref()),
                 );
             }
             for &g in &p.nodes {
@@ -1286,7 +1299,7 @@ fn close_room(i: &Inputs, meshed: &mut Meshed, report: &mut Report) -> Result<()
         report.inferred_desk_m2 = closure::inferred_desk_tops(reco, &tops, i.o.mesh.patch_size_m);
         closure::close(reco, r, i.luminaires, &i.o.mesh);
     }
-    report.room = meshed.room;
+    report.room = meshed.room.clone();
     report.triangles = reco.tris.len();
     (report.seen_area_m2, report.inferred_area_m2) = reco.areas_m2();
     if reco.tris.is_empty() {
@@ -1307,12 +1320,26 @@ fn close_room(i: &Inputs, meshed: &mut Meshed, report: &mut Report) -> Result<()
 
 /// Reflectances before estimation: the closure's walls and ceiling at theirs, openings black,
 /// every seen surface at the start reflectance.
-fn start_rho(reco: &RecoMesh, o: &CommissionOptions) -> Vec<f64> {
+fn start_rho(reco: &RecoMesh, o: &CommissionOptions, room: Option<&RoomBox>) -> Vec<f64> {
+    let plan = o.room_plan.as_ref();
+    let wall_rho = plan.and_then(|p| p.wall_rho).unwrap_or(o.closure.wall_rho);
+    let ceiling_rho = plan
+        .and_then(|p| p.ceiling_rho)
+        .unwrap_or(o.closure.ceiling_rho);
+    let door_rho = |k: u32| match room.and_then(|r| r.openings.get(k as usize)) {
+        Some(crate::scene::plan::WallOpening {
+            kind: crate::scene::plan::OpeningKind::Door { rho: Some(r) },
+            ..
+        }) => *r,
+        _ => wall_rho,
+    };
     reco.part
         .iter()
         .map(|p| match p {
-            Part::Wall => o.closure.wall_rho,
-            Part::Ceiling => o.closure.ceiling_rho,
+            Part::Wall => wall_rho,
+            Part::Ceiling => ceiling_rho,
+            Part::Window(_) => mesh::GLAZING_RHO,
+            Part::Door(k) => door_rho(*k),
             Part::Opening(_) => 0.0,
             _ => o.start_rho,
         })
@@ -1764,7 +1791,7 @@ pub fn from_captures(
     close_room(&i, &mut meshed, &mut report)?;
     st.done(&mut report);
 
-    let start_rho = start_rho(&meshed.reco, o);
+    let start_rho = start_rho(&meshed.reco, o, meshed.room.as_ref());
     let refl = if o.estimate_reflectances {
         estimate_reflectances(&i, &meshed, &start_rho, &mut report)?
     } else {

@@ -59,7 +59,8 @@ impl Inferred {
         match part {
             Part::Plane(_) | Part::Surface => Some(Inferred::Seen),
             Part::FloorFill => Some(Inferred::UnseenFloor),
-            Part::Wall => Some(Inferred::Walls),
+            Part::Wall | Part::Door(_) => Some(Inferred::Walls),
+            Part::Window(_) => None,
             Part::Ceiling => Some(Inferred::Ceiling),
             Part::Opening(_) => None,
             Part::DeskFill => Some(Inferred::DeskTops),

@@ -359,8 +359,10 @@ impl RoomPlan {
         }
         let pts: Vec<DVec3> = corners.iter().map(|c| DVec3::from_array(*c)).collect();
         let on = (0..self.walls()).find(|&i| {
-            pts.iter()
-                .all(|p| segment_distance(self.wall(i).0, self.wall(i).1, p.truncate()) <= ON_WALL_TOLERANCE_M)
+            pts.iter().all(|p| {
+                segment_distance(self.wall(i).0, self.wall(i).1, p.truncate())
+                    <= ON_WALL_TOLERANCE_M
+            })
         });
         let Some(wall) = on else {
             let (d, w) = pts

@@ -344,10 +344,20 @@ fn commission_source(
             board.name
         ))
     })?;
+    if let Some(plan) = &board.room_plan {
+        plan.check_contents(
+            Path::new("room plan"),
+            &scene.luminaires,
+            &scene.sensors,
+            scene.desks.as_ref(),
+        )
+        .map_err(|e| AssembleError::Config(format!("board {}: room.plan: {e}", board.name)))?;
+    }
     let commission = CommissionOptions {
         engine: preset.engine(),
         progress: true,
         readings: board.luxmeter_rho.clone(),
+        room_plan: board.room_plan.clone(),
         ..CommissionOptions::default()
     };
     let Some((what, depth, colour, lights)) =

@@ -76,7 +76,10 @@ fn an_l_shaped_room_contains_its_legs_but_not_its_missing_corner() {
 #[test]
 fn mistakes_in_a_plan_are_refused_with_what_is_wrong() {
     refused(&PLAN.replace("\"site\"", "\"sight\""), "unknown field");
-    refused(&PLAN.replace("luxnode-room-plan/1", "luxnode-room-plan/2"), "expected");
+    refused(
+        &PLAN.replace("luxnode-room-plan/1", "luxnode-room-plan/2"),
+        "expected",
+    );
     // a bow tie
     refused(
         &PLAN.replace(
@@ -93,15 +96,41 @@ fn mistakes_in_a_plan_are_refused_with_what_is_wrong() {
         ),
         "millimetres",
     );
-    refused(&PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 2800"), "millimetres");
-    refused(&PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 0.8"), "above the floor");
+    refused(
+        &PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 2800"),
+        "millimetres",
+    );
+    refused(
+        &PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 0.8"),
+        "above the floor",
+    );
     // the window 30 cm into the room: off every wall
-    refused(&PLAN.replace("[[0.0, 1.05, 0.9], [0.0, 2.0, 0.9], [0.0, 2.0, 2.2], [0.0, 1.05, 2.2]]",
-        "[[0.3, 1.05, 0.9], [0.3, 2.0, 0.9], [0.3, 2.0, 2.2], [0.3, 1.05, 2.2]]"), "on no wall");
-    refused(&PLAN.replace("\"transmittance\": 0.8", "\"transmittance\": 80"), "transmittance");
-    refused(&PLAN.replace("\"ceiling_z_m\": 2.8,", "\"ceiling_z_m\": 2.8, \"wall_rho\": 55,"), "percentage");
-    refused(&PLAN.replace("\"north\": [1.0, 0.0]", "\"north\": [0.0, 0.0]"), "unit vector");
-    refused(&PLAN.replace("\"latitude_deg\": 48.1", "\"latitude_deg\": 148.1"), "-90..90");
+    refused(
+        &PLAN.replace(
+            "[[0.0, 1.05, 0.9], [0.0, 2.0, 0.9], [0.0, 2.0, 2.2], [0.0, 1.05, 2.2]]",
+            "[[0.3, 1.05, 0.9], [0.3, 2.0, 0.9], [0.3, 2.0, 2.2], [0.3, 1.05, 2.2]]",
+        ),
+        "on no wall",
+    );
+    refused(
+        &PLAN.replace("\"transmittance\": 0.8", "\"transmittance\": 80"),
+        "transmittance",
+    );
+    refused(
+        &PLAN.replace(
+            "\"ceiling_z_m\": 2.8,",
+            "\"ceiling_z_m\": 2.8, \"wall_rho\": 55,",
+        ),
+        "percentage",
+    );
+    refused(
+        &PLAN.replace("\"north\": [1.0, 0.0]", "\"north\": [0.0, 0.0]"),
+        "unit vector",
+    );
+    refused(
+        &PLAN.replace("\"latitude_deg\": 48.1", "\"latitude_deg\": 148.1"),
+        "-90..90",
+    );
     refused(
         &PLAN.replace(
             "[[0.0, 0.0], [5.4, 0.0], [5.4, 9.0], [0.0, 9.0]]",
@@ -121,10 +150,21 @@ fn contents_outside_the_outline_are_named() {
         response: crate::lsc::AngularResponse::Cosine,
         note: String::new(),
     };
-    assert!(p.check_contents(Path::new("room.json"), &[], &[sensor(1, 2.0)], None).is_ok());
+    assert!(
+        p.check_contents(Path::new("room.json"), &[], &[sensor(1, 2.0)], None)
+            .is_ok()
+    );
     let e = p
-        .check_contents(Path::new("room.json"), &[], &[sensor(1, 2.0), sensor(7, 6.4)], None)
+        .check_contents(
+            Path::new("room.json"),
+            &[],
+            &[sensor(1, 2.0), sensor(7, 6.4)],
+            None,
+        )
         .expect_err("sensor 7 is 1 m outside");
     let text = e.to_string();
-    assert!(text.contains("sensor 7") && text.contains("1.00 m outside"), "{text}");
+    assert!(
+        text.contains("sensor 7") && text.contains("1.00 m outside"),
+        "{text}"
+    );
 }
