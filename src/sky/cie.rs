@@ -330,12 +330,13 @@ mod tests {
             let patches = horizontal_illuminance_tregenza_lx(&model, sun, 1000.0);
             let exact = 1000.0 * per_lz;
             assert!(
-                (fine / exact - 1.0).abs() < 1e-5,
+                (fine / exact - 1.0).abs() < 1e-6,
                 "type {t}: {fine} vs {exact}"
             );
-            // the patch sum is exact for a uniform sky; within 0.5 % for the graded ones
+            // the patch sum is exact for a uniform sky; within 0.2 % for the graded ones (measured:
+            // quadrature 3.7e-7, patches 1.1e-3 for type 16, 9.1e-4 for type 1)
             assert!(
-                (patches / exact - 1.0).abs() < 5e-3,
+                (patches / exact - 1.0).abs() < 2e-3,
                 "type {t}: {patches} vs {exact}"
             );
             println!(
@@ -364,6 +365,7 @@ mod tests {
             }
         }
         println!("Tregenza sum vs quadrature, worst relative difference: {worst:.2e}");
-        assert!(worst < 0.05, "Tregenza sum vs quadrature: {worst}");
+        // measured 1.6e-2 (the circumsolar peak of the clear skies, sampled at patch centres)
+        assert!(worst < 0.03, "Tregenza sum vs quadrature: {worst}");
     }
 }
