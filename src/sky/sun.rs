@@ -12,9 +12,16 @@
 
 use super::time::UnixTime;
 use core::f64::consts::{FRAC_PI_2, PI, TAU};
-use libm::{asin, atan2, cos, sin, sqrt, tan};
+use libm::{asin, atan2, cos, fmod, sin, sqrt, tan};
 
 const DEG: f64 = PI / 180.0;
+
+/// `x` wrapped into `0..modulus` (`f64::rem_euclid` is std only); `modulus` itself only by
+/// rounding of a tiny negative `x`.
+fn wrap(x: f64, modulus: f64) -> f64 {
+    let r = fmod(x, modulus);
+    if r < 0.0 { r + modulus } else { r }
+}
 
 /// Where the sun is, seen from a site at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +49,7 @@ impl SunPosition {
 
 /// The declination and equation of time at a Julian century since J2000.0 (NOAA).
 fn declination_and_equation_of_time(t: f64) -> (f64, f64) {
-    let mean_longitude_deg = (280.466_46 + t * (36_000.769_83 + t * 0.000_303_2)).rem_euclid(360.0);
+    let mean_longitude_deg = wrap(280.466_46 + t * (36_000.769_83 + t * 0.000_303_2), 360.0);
     let mean_anomaly_deg = 357.529_11 + t * (35_999.050_29 - 0.000_153_7 * t);
     let eccentricity = 0.016_708_634 - t * (0.000_042_037 + 0.000_000_126_7 * t);
     let m = mean_anomaly_deg * DEG;
@@ -90,8 +97,10 @@ pub fn sun_position(time: UnixTime, latitude_deg: f64, longitude_deg: f64) -> Su
     let (declination_rad, equation_of_time_min) = declination_and_equation_of_time(t);
     let minutes_of_day =
         (time.seconds.rem_euclid(86_400) as f64 + f64::from(time.nanoseconds) * 1e-9) / 60.0;
-    let true_solar_min =
-        (minutes_of_day + equation_of_time_min + 4.0 * longitude_deg).rem_euclid(1440.0);
+    let true_solar_min = wrap(
+        minutes_of_day + equation_of_time_min + 4.0 * longitude_deg,
+        1440.0,
+    );
     let hour_angle_rad = (true_solar_min / 4.0 - 180.0) * DEG;
     let lat = latitude_deg * DEG;
     let sin_alt =
@@ -101,7 +110,7 @@ pub fn sun_position(time: UnixTime, latitude_deg: f64, longitude_deg: f64) -> Su
     let east = -cos(declination_rad) * sin(hour_angle_rad);
     let north =
         cos(lat) * sin(declination_rad) - sin(lat) * cos(declination_rad) * cos(hour_angle_rad);
-    let azimuth_rad = atan2(east, north).rem_euclid(TAU);
+    let azimuth_rad = wrap(atan2(east, north), TAU);
     SunPosition {
         altitude_rad,
         azimuth_rad,
@@ -132,7 +141,7 @@ pub fn altitude_azimuth(direction_sky: [f64; 3]) -> (f64, f64) {
     let azimuth_rad = if horizontal == 0.0 {
         0.0
     } else {
-        atan2(x, y).rem_euclid(TAU)
+        wrap(atan2(x, y), TAU)
     };
     (altitude_rad, azimuth_rad)
 }
