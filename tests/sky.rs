@@ -3,7 +3,7 @@
 //! recorded by `scripts/sky_reference.py` in `tests/data/sky_reference.csv` and
 //! `tests/data/sky_luminance_reference.csv`.
 
-use luxnode::sky::{SkyModel, parse_rfc3339, sky_direction, sun_position};
+use luxnode::sky::{SkyFrame, SkyModel, parse_rfc3339, sky_direction, sun_position};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -106,4 +106,23 @@ fn the_sky_shape_agrees_with_gensky() {
         );
     }
     println!("max relative difference: type 12 {worst_clear:.2e}, type 16 {worst_overcast:.2e}");
+}
+
+/// The world direction to the sun in a room whose north is world +x (the room plan's
+/// example): gensky's sun vector (x east, y north, z up) must land at (north, −east, up)
+/// components, i.e. world = (dy, −dx, dz), within the 0.02° of the position test.
+#[test]
+fn the_sun_direction_in_a_turned_room_agrees_with_gensky() {
+    let frame = SkyFrame::new([1.0, 0.0]).expect("north");
+    for row in rows("sky_reference.csv") {
+        let time = parse_rfc3339(&row[0]).expect("UTC time");
+        let sun = sun_position(time, number(&row[1]), number(&row[2]));
+        let ours = frame.world_direction(sun.altitude_rad, sun.azimuth_rad);
+        let (alt, azi) = (number(&row[3]) * DEG, number(&row[4]) * DEG);
+        let [dx, dy, dz] = sky_direction(alt, azi);
+        let expected = [dy, -dx, dz];
+        let dot: f64 = ours.iter().zip(expected).map(|(a, b)| a * b).sum();
+        let angle_deg = dot.clamp(-1.0, 1.0).acos() / DEG;
+        assert!(angle_deg < 0.02, "{}: {angle_deg}°", row[0]);
+    }
 }
