@@ -15,7 +15,9 @@ Writes two files that tests/sky.rs reads:
   "# Solar altitude and azimuth: ALT AZI" to 0.1 degree, azimuth measured from SOUTH, west
   positive; its sky line ("7 1 zenith ground F2 dx dy dz") carries the unit vector to the sun
   to 6 decimals in x east, y north, z up, from which altitude = asin(dz) and azimuth from
-  north, clockwise = atan2(dx, dy) are recovered to ~1e-4 degree. Both are recorded.
+  north, clockwise = atan2(dx, dy) are recovered to ~1e-4 degree. Both are recorded, and the
+  sun of the same command without -y (the older formulas: Spencer-like declination and
+  equation of time from the day of the year, no year, so ~0.5..1 degree off).
 
 * tests/data/sky_luminance_reference.csv: gensky's sky luminance shape. gensky's sky is the
   function `skybr` of skybright.cal; its clear sky (`sunnysky`, type 1) is Kittler's CIE clear
@@ -82,7 +84,8 @@ def radiance_version():
     return run([os.path.join(BIN, "rtrace"), "-version"]).strip()
 
 
-def gensky(utc, lat, lon_east, sky="-s"):
+def gensky(utc, lat, lon_east, sky="-s", michalsky=True):
+    """gensky's command line (without its path), printed angles and sky line's numbers."""
     date, time = utc.rstrip("Z").split("T")
     year, month, day = (int(x) for x in date.split("-"))
     hh, mm, _ = time.split(":")
@@ -91,8 +94,7 @@ def gensky(utc, lat, lon_east, sky="-s"):
         str(month),
         str(day),
         f"{hh}:{mm}",
-        "-y",
-        str(year),
+        *(["-y", str(year)] if michalsky else []),
         "-a",
         str(lat),
         "-o",
@@ -146,50 +148,75 @@ def sky_values(sky_line, function):
     return [(alt, azi, v / zenith) for (alt, azi), v in zip(dirs[:-1], values[:-1])]
 
 
+SUN_HEADER = """\
+# written by scripts/sky_reference.py: Radiance gensky ({version}, pyradiance {pyradiance})
+# command per row: gensky MONTH DAY HH:MM -y YEAR -a LAT -o -LON -m 0 -s
+#   (time in UTC, standard meridian 0, longitude west positive as gensky wants it)
+# altitude_deg, azimuth_deg: from gensky's sun vector (x east, y north, z up);
+#   azimuth from north, clockwise
+# printed_*: gensky's '# Solar altitude and azimuth' line
+#   (0.1 deg; azimuth from south, west positive)
+# simple_*: the same command without -y: gensky's older day-of-year formulas (sun vector)
+utc,latitude_deg,longitude_deg,altitude_deg,azimuth_deg,\
+printed_altitude_deg,printed_azimuth_south_deg,simple_altitude_deg,simple_azimuth_deg,command
+"""
+
+LUMINANCE_HEADER = """\
+# written by scripts/sky_reference.py: Radiance skybright.cal evaluated by rcalc
+#   ({version}, pyradiance {pyradiance})
+# cie_type 12: gensky -s's sunnysky (Kittler's CIE clear sky); 16: gensky -c's cloudysky
+# sun_dx,sun_dy,sun_dz: gensky's sun vector (x east, y north, z up)
+# ratio: L(direction) / L(zenith)
+cie_type,utc,latitude_deg,longitude_deg,sun_dx,sun_dy,sun_dz,altitude_deg,azimuth_deg,ratio
+"""
+
+
+def angles(sky_line):
+    """(altitude, azimuth from north clockwise) in degrees of a sky line's sun vector."""
+    dx, dy, dz = sky_line[4:7]
+    alt = math.degrees(math.asin(max(-1.0, min(1.0, dz))))
+    return alt, math.degrees(math.atan2(dx, dy)) % 360.0
+
+
+def sun_row(utc, lat, lon, command, printed, sky_line):
+    """One row of sky_reference.csv, after checking the vector against the printed angles."""
+    alt, azi = angles(sky_line)
+    # gensky's own azimuth is from south, west positive: from north clockwise is +180
+    check = (printed[1] + 180.0) % 360.0
+    if abs((azi - check + 180.0) % 360.0 - 180.0) > 0.06 or abs(alt - printed[0]) > 0.06:
+        sys.exit(f"{utc}: the vector and the printed angles disagree: {alt} {azi} {printed}")
+    simple_alt, simple_azi = angles(gensky(utc, lat, lon, michalsky=False)[2])
+    return (
+        f"{utc},{lat},{lon},{alt:.5f},{azi:.5f},{printed[0]},{printed[1]},"
+        f"{simple_alt:.5f},{simple_azi:.5f},gensky {command}"
+    )
+
+
 def main():
-    version = radiance_version()
+    names = {"version": radiance_version(), "pyradiance": pyradiance.__version__}
     sun_rows = []
     lum_rows = []
     for utc, lat, lon in CASES:
         command, printed, sky_line = gensky(utc, lat, lon)
-        dx, dy, dz = sky_line[4:7]
-        alt = math.degrees(math.asin(max(-1.0, min(1.0, dz))))
-        azi = math.degrees(math.atan2(dx, dy)) % 360.0
-        # gensky's own azimuth is from south, west positive: from north clockwise is +180
-        check = (printed[1] + 180.0) % 360.0
-        if abs((azi - check + 180.0) % 360.0 - 180.0) > 0.06 or abs(alt - printed[0]) > 0.06:
-            sys.exit(f"{utc}: the vector and the printed angles disagree: {alt} {azi} {printed}")
-        sun_rows.append(
-            f"{utc},{lat},{lon},{alt:.5f},{azi:.5f},{printed[0]},{printed[1]},gensky {command}"
-        )
+        sun_rows.append(sun_row(utc, lat, lon, command, printed, sky_line))
         if printed[0] > 5.0:
+            sun = ",".join(repr(v) for v in sky_line[4:7])
             for alt_d, azi_d, ratio in sky_values(sky_line, "sunnysky"):
-                lum_rows.append(f"12,{utc},{lat},{lon},{dx!r},{dy!r},{dz!r},{alt_d},{azi_d},{ratio!r}")
+                lum_rows.append(f"12,{utc},{lat},{lon},{sun},{alt_d},{azi_d},{ratio!r}")
     # the overcast sky does not depend on the sun; one case is enough
-    _, _, over = gensky(CASES[0][0], CASES[0][1], CASES[0][2], "-c")
-    for alt_d, azi_d, ratio in sky_values([0.0, over[0], over[1], 1.0, 0.0, 0.0, 1.0], "cloudysky"):
-        lum_rows.append(f"16,{CASES[0][0]},{CASES[0][1]},{CASES[0][2]},0,0,1,{alt_d},{azi_d},{ratio!r}")
+    utc, lat, lon = CASES[0]
+    _, _, over = gensky(utc, lat, lon, "-c")
+    overcast = [0.0, over[0], over[1], 1.0, 0.0, 0.0, 1.0]
+    for alt_d, azi_d, ratio in sky_values(overcast, "cloudysky"):
+        lum_rows.append(f"16,{utc},{lat},{lon},0,0,1,{alt_d},{azi_d},{ratio!r}")
 
     data = os.path.join(ROOT, "tests", "data")
     os.makedirs(data, exist_ok=True)
     with open(os.path.join(data, "sky_reference.csv"), "w") as f:
-        f.write(
-            f"# written by scripts/sky_reference.py: Radiance gensky ({version}, from pyradiance "
-            f"{pyradiance.__version__})\n"
-            "# command per row: gensky MONTH DAY HH:MM -y YEAR -a LAT -o -LON -m 0 -s (UTC, west-positive longitude)\n"
-            "# altitude_deg, azimuth_deg: from gensky's sun vector (x east, y north, z up); azimuth from north, clockwise\n"
-            "# printed_*: gensky's '# Solar altitude and azimuth' line (0.1 deg; azimuth from south, west positive)\n"
-            "utc,latitude_deg,longitude_deg,altitude_deg,azimuth_deg,printed_altitude_deg,printed_azimuth_south_deg,command\n"
-        )
+        f.write(SUN_HEADER.format(**names))
         f.write("\n".join(sun_rows) + "\n")
     with open(os.path.join(data, "sky_luminance_reference.csv"), "w") as f:
-        f.write(
-            f"# written by scripts/sky_reference.py: Radiance skybright.cal evaluated by rcalc ({version}, "
-            f"pyradiance {pyradiance.__version__})\n"
-            "# cie_type 12: gensky -s's sunnysky (Kittler's CIE clear sky); 16: gensky -c's cloudysky\n"
-            "# sun_dx,sun_dy,sun_dz: gensky's sun vector (x east, y north, z up); ratio: L(direction) / L(zenith)\n"
-            "cie_type,utc,latitude_deg,longitude_deg,sun_dx,sun_dy,sun_dz,altitude_deg,azimuth_deg,ratio\n"
-        )
+        f.write(LUMINANCE_HEADER.format(**names))
         f.write("\n".join(lum_rows) + "\n")
     print(f"{len(sun_rows)} sun positions, {len(lum_rows)} sky luminance ratios")
 
