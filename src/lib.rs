@@ -28,7 +28,7 @@
 //!
 //! | layer | modules | std? | owns |
 //! |---:|---|---|---|
-//! | 0 | `units`, `layout`, `rng`, `host`, `en12464` | no_std (`rng`, `host`, `en12464`: std) | the reflectance, validated once (other quantities are `f64` named with their unit); the `memory.x` regions; a seedable generator; facts of the host process; the rules of EN 12464-1 (grids, statistics, requirements) |
+//! | 0 | `units`, `layout`, `rng`, `host`, `en12464`, `sky` | no_std (`rng`, `host`, `en12464`: std) | the reflectance, validated once (other quantities are `f64` named with their unit); the `memory.x` regions; a seedable generator; facts of the host process; the rules of EN 12464-1 (grids, statistics, requirements); the sky for daylight coefficients: time, the sun's position, the Tregenza patches, the CIE standard skies |
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
@@ -97,6 +97,7 @@ pub mod dali;
 pub mod modbus;
 pub mod peripherals;
 pub mod runtime;
+pub mod sky;
 pub mod solver;
 pub mod store;
 
