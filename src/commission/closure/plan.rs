@@ -47,12 +47,14 @@ pub fn room_from_plan(
     let mut outline = plan.outline_m.clone();
     for (wall, shift_m, count) in walls_seen_beyond(plan, seen_m, floor_z_m) {
         let (a, b) = plan.wall(wall);
-        warnings.push(format!(
-            "room plan: the cameras see {count} points up to {shift_m:.2} m beyond wall {wall} \
-             (from ({:.2}, {:.2}) to ({:.2}, {:.2}) m): the plan or the camera pose is wrong; \
-             the wall is moved out {shift_m:.2} m to what was seen",
-            a.x, a.y, b.x, b.y
-        ));
+        if shift_m > PLAN_WALL_TOLERANCE_M {
+            warnings.push(format!(
+                "room plan: the cameras see {count} points up to {shift_m:.2} m beyond wall \
+                 {wall} (from ({:.2}, {:.2}) to ({:.2}, {:.2}) m): the plan or the camera pose \
+                 is wrong; the wall is moved out {shift_m:.2} m to what was seen",
+                a.x, a.y, b.x, b.y
+            ));
+        }
         let out = -plan.wall_inward(wall) * shift_m;
         let n = outline.len();
         outline[wall] += out;
@@ -70,8 +72,10 @@ pub fn room_from_plan(
     (room, warnings)
 }
 
-/// The walls the seen points reach beyond: (wall, how far: the 90th percentile of the points
-/// beyond it, how many points).
+/// The walls the seen points reach beyond: (wall, how far it moves out, how many points). A
+/// wall moves out to the [`SEEN_WALL_QUANTILE`] of the seen points beyond it plus
+/// [`SEEN_WALL_MARGIN_M`], so that a wall the cameras see (at the plan's position within the
+/// depth noise) stays in front of the closure's wall and keeps its measured reflectance.
 fn walls_seen_beyond(
     plan: &RoomPlan,
     seen_m: &[DVec3],
@@ -83,7 +87,7 @@ fn walls_seen_beyond(
             continue;
         }
         let (d, wall) = plan.signed_distance_m(p.truncate());
-        if d > PLAN_WALL_TOLERANCE_M {
+        if d > 0.0 {
             beyond[wall].push(d);
         }
     }
@@ -93,11 +97,16 @@ fn walls_seen_beyond(
         .filter(|(_, d)| d.len() >= PLAN_DISAGREE_MIN_POINTS)
         .map(|(wall, mut d)| {
             d.sort_by(f64::total_cmp);
-            let k = ((d.len() as f64 * 0.9) as usize).min(d.len() - 1);
-            (wall, d[k], d.len())
+            let k = ((d.len() as f64 * SEEN_WALL_QUANTILE) as usize).min(d.len() - 1);
+            (wall, d[k] + SEEN_WALL_MARGIN_M, d.len())
         })
         .collect()
 }
+
+/// The quantile of the seen points beyond a wall that it moves out to (the rest: flying pixels).
+pub const SEEN_WALL_QUANTILE: f64 = 0.98;
+/// How far behind the seen points beyond it a wall moves, m.
+pub const SEEN_WALL_MARGIN_M: f64 = 0.005;
 
 /// Cells along a length: a whole number of tiles of at most `patch_size_m`, each of
 /// `patch_size_m / PLAN_CELL_M` cells (equal tiles where nothing is cut out). Returns (cells,
