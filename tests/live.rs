@@ -755,3 +755,44 @@ fn the_live_bench_prints_its_table_and_the_documented_memory() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Issue 28: a value the node cannot estimate is never published as a number, and no value is
+/// stated exact.
+#[test]
+fn a_value_the_node_cannot_estimate_is_nan_and_flagged_never_zero_plus_minus_zero() {
+    let mut live = live_state();
+    let levels = vec![1.0; live.model().luminaires()];
+    let f = frame(&levels, &WorldExtras::default());
+    for d in update(&mut live, &f, &levels, 1.0) {
+        assert!(
+            d.total_lx > 0.0 && d.uncertainty_lx >= live::MIN_UNCERTAINTY_LX,
+            "{d:?}"
+        );
+    }
+    // a level that is not a number (a gateway's garbage) is refused before any work
+    let mut bad = levels.clone();
+    bad[0] = f64::NAN;
+    let (w, h) = live.model().frame_size();
+    let frame = good_frame(&f, w, h);
+    assert!(live.update(&frame, &bad, 2.0).is_err());
+    // a computation that gives no number publishes none: NaN, flagged, 0xFFFF in the registers
+    assert_eq!(
+        live::stated_uncertainty_lx(0.0, 0.0, 0.0),
+        Some(live::MIN_UNCERTAINTY_LX)
+    );
+    assert_eq!(live::stated_uncertainty_lx(500.0, 20.0, 12.0), Some(12.0));
+    for (a, d, u) in [
+        (f64::NAN, 0.0, 1.0),
+        (1.0, f64::INFINITY, 1.0),
+        (1.0, 1.0, f64::NAN),
+    ] {
+        assert_eq!(live::stated_uncertainty_lx(a, d, u), None);
+    }
+    let d = live::DeskLive::not_estimated(7, live::Source::Inferred, flags::HELD, 3.0);
+    assert!(d.total_lx.is_nan() && d.uncertainty_lx.is_nan());
+    assert_eq!(d.flags, flags::HELD | flags::NOT_ESTIMATED);
+    assert_eq!(
+        luxnode::modbus::regmap::lux_u16(d.total_lx),
+        luxnode::modbus::regmap::NOT_AVAILABLE_U16
+    );
+}

@@ -708,6 +708,34 @@ const EDGE_MIN_AGREEMENT: f64 = 0.7;
 /// luminaires alone give more (a wrong exposure, or luminaires far dimmer than their levels).
 const MIN_MEASURED_OVER_ARTIFICIAL: f64 = 0.5;
 
+/// The uncertainty to publish with a desk value (at least [`MIN_UNCERTAINTY_LX`]), or `None`
+/// when the value is not a number: then it is published as not available, never as one.
+pub fn stated_uncertainty_lx(art_lx: f64, day_lx: f64, unc_lx: f64) -> Option<f64> {
+    (art_lx.is_finite() && day_lx.is_finite() && unc_lx.is_finite())
+        .then(|| unc_lx.max(MIN_UNCERTAINTY_LX))
+}
+
+impl DeskLive {
+    /// A desk whose value the node cannot estimate now: NaN (the registers' not available),
+    /// flagged [`flags::NOT_ESTIMATED`].
+    pub fn not_estimated(id: u32, source: Source, f: u16, frame_age_s: f64) -> DeskLive {
+        DeskLive {
+            id,
+            total_lx: f64::NAN,
+            artificial_lx: f64::NAN,
+            daylight_lx: f64::NAN,
+            uncertainty_lx: f64::NAN,
+            source,
+            flags: f | flags::NOT_ESTIMATED,
+            frame_age_s,
+        }
+    }
+}
+
+/// The smallest stated standard uncertainty of a desk value, lx: the registers' resolution
+/// (1 lx) and a class-B luxmeter's; a value is never stated exact (issue 28: 0 lx ± 0).
+pub const MIN_UNCERTAINTY_LX: f64 = 1.0;
+
 const S_VALID: u8 = 1;
 const S_SATURATED: u8 = 2;
 const S_OCCLUDED: u8 = 4;
@@ -895,7 +923,11 @@ impl Live {
             total_lx: finite_or(total, art),
             artificial_lx: finite_or(art, 0.0),
             daylight_lx: finite_or(daylight, 0.0),
-            uncertainty_lx: finite_or(unc.max(self.settings.measured_rel_uncertainty * total), 0.0),
+            uncertainty_lx: finite_or(
+                unc.max(self.settings.measured_rel_uncertainty * total)
+                    .max(MIN_UNCERTAINTY_LX),
+                f64::NAN,
+            ),
             source,
             flags: f,
             frame_age_s: if age.is_finite() { age } else { 0.0 },
@@ -1283,9 +1315,11 @@ impl Live {
         taken_s: f64,
         now_s: f64,
     ) {
-        let art = finite_or(art, 0.0);
-        let day = finite_or(day, 0.0);
-        let unc = finite_or(unc, 0.0);
+        let age_s = finite_or((now_s - taken_s).max(0.0), 0.0);
+        let Some(unc) = stated_uncertainty_lx(art, day, unc) else {
+            self.desks[s] = DeskLive::not_estimated(self.model.ids[s], source, f, age_s);
+            return;
+        };
         // a held value is not new, and a covered desk's inferred one is not its own
         if f & (flags::HELD | flags::OCCLUDED) == 0 {
             self.held[s].daylight = Some((day, taken_s, unc));

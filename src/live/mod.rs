@@ -76,7 +76,8 @@ pub mod nnls;
 pub mod window;
 
 pub use estimator::{
-    DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict,
+    DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings, MIN_UNCERTAINTY_LX, Source,
+    Verdict, stated_uncertainty_lx,
 };
 
 /// Why live light cannot run.
@@ -111,6 +112,7 @@ pub mod flags {
             (AGEING, "ageing"),
             (GEOMETRY_CHANGED, "geometry_changed"),
             (NO_DEPTH, "no_depth"),
+            (NOT_ESTIMATED, "not_estimated"),
         ];
         let v: Vec<&str> = names
             .iter()

@@ -159,6 +159,10 @@ pub mod live_flags {
     pub const GEOMETRY_CHANGED: u16 = 1 << 6;
     /// No depth frame: covering judged from luminance alone.
     pub const NO_DEPTH: u16 = 1 << 7;
+    /// The node cannot estimate this desk's value now (its computation gave no finite
+    /// number): the value and its uncertainty are published as not available (NaN, 0xFFFF),
+    /// never as a number.
+    pub const NOT_ESTIMATED: u16 = 1 << 8;
 }
 
 /// Where a desk's live value comes from (input 3900 + k).
@@ -223,7 +227,7 @@ pub struct LiveRegisters {
 }
 
 /// A lux value as a rounded, saturating u16 ([`NOT_AVAILABLE_U16`] when not finite).
-fn lux_u16(lux: f64) -> u16 {
+pub fn lux_u16(lux: f64) -> u16 {
     if lux.is_finite() {
         let r = libm::round(lux.max(0.0));
         if r >= f64::from(U16_LUX_MAX) {
@@ -1366,7 +1370,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame"
+        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame, 8 not estimated (the value is NaN / 0xFFFF)"
     ),
     row!(
         Input,
