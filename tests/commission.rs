@@ -726,10 +726,19 @@ const OFFICE_A_PLAN: &str = r#"{
 fn a_room_plan_builds_the_unseen_walls_and_window_and_every_desk_improves() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("room.json");
-    std::fs::write(&path, OFFICE_A_PLAN).expect("write");
+    // the plan with office_a's measured reflectances (scene.mtl: walls 0.6, ceiling 0.8), and
+    // the box given the same: what the plan's geometry does, apart from the reflectances
+    let with_rho = OFFICE_A_PLAN.replace(
+        "\"ceiling_z_m\": 3.0,",
+        "\"ceiling_z_m\": 3.0, \"wall_rho\": 0.6, \"ceiling_rho\": 0.8,",
+    );
+    std::fs::write(&path, with_rho).expect("write");
     let (plan, warnings) = luxnode::scene::RoomPlan::load(&path).expect("plan");
     assert!(warnings.is_empty(), "{warnings:?}");
-    let boxed = run("capture", &CommissionOptions::default());
+    let mut o = CommissionOptions::default();
+    o.closure.wall_rho = 0.6;
+    o.closure.ceiling_rho = 0.8;
+    let boxed = run("capture", &o);
     let o = CommissionOptions {
         room_plan: Some(plan),
         ..CommissionOptions::default()
@@ -743,7 +752,10 @@ fn a_room_plan_builds_the_unseen_walls_and_window_and_every_desk_improves() {
         r.warnings
     );
     let room = r.room.as_ref().expect("closed");
-    assert_eq!(room.xy_m, [0.0, 0.0, 6.0, 7.2]);
+    // the seen walls stand within the depth noise of the plan's: at most 15 cm out
+    for (got, want) in room.xy_m.iter().zip([0.0, 0.0, 6.0, 7.2]) {
+        assert!((got - want).abs() <= 0.15, "{:?}", room.xy_m);
+    }
     // the window is modelled as glazing, 4 × 1.5 m (to the wall raster's cells)
     let glazing: f64 = (0..planned.reco.tris.len())
         .filter(|&t| planned.reco.part[t] == commission::Part::Window(0))
@@ -757,7 +769,11 @@ fn a_room_plan_builds_the_unseen_walls_and_window_and_every_desk_improves() {
         "every desk: box {e_box:.4} (worst {worst_box:.4}), plan {e_plan:.4} (worst \
          {worst_plan:.4}) {each:?}"
     );
-    // measured: see docs/generalization.md; the plan must not be worse than the box
-    assert!(e_plan <= e_box + 0.005, "plan {e_plan} vs box {e_box}");
-    assert!(e_plan <= 0.05, "every desk with the plan {e_plan}");
+    // measured (release build, `luxnode commission --room-plan`): box 2.9 % (worst 5.9 %),
+    // plan 1.0 % (worst 2.9 %)
+    assert!(e_plan < e_box, "plan {e_plan} vs box {e_box}");
+    assert!(
+        e_plan <= 0.02 && worst_plan <= 0.045,
+        "{e_plan} {worst_plan}"
+    );
 }
