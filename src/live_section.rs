@@ -14,6 +14,7 @@
 //!   surface point (photometry over the opening, shadow rays) plus its patch's interreflected
 //!   light, as the simulated camera renders it.
 
+use crate::live::DISAGREEMENT_TO_SIGMA;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -470,6 +471,48 @@ fn calibrated_response(
         .collect()
 }
 
+/// Each sensor's stated uncertainty of the model's light: what commissioning inferred (by
+/// sensor id), widened at an in-view desk to what the model's disagreement with the camera's
+/// measurement there implies (issue 28 item 5; [`crate::live::model_camera_disagreement`]). A
+/// disagreement beyond two stated uncertainties is logged: a shade the mesh lost, or a wrong
+/// reflectance, at that desk.
+fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
+    let model = &c.model;
+    (0..model.sensors())
+        .map(|s| {
+            let id = model.sensor_ids[s];
+            let u = c
+                .report
+                .uncertainty
+                .iter()
+                .find(|u| u.sensor_id == id)
+                .map_or(f64::NAN, |u| u.rel);
+            let cam: f64 = camera_lx.get(s).map_or(0.0, |r| r.iter().sum());
+            let mdl: f64 = model.response_lx[s].iter().sum();
+            let Some(d) = crate::live::model_camera_disagreement(mdl, cam) else {
+                return u;
+            };
+            let widened = DISAGREEMENT_TO_SIGMA * d;
+            if d > 2.0 * u.max(0.0) && d > 0.05 {
+                tracing::warn!(
+                    "sensor {id}: the model gives {mdl:.0} lx with every luminaire on, the \
+                     camera measures {cam:.0} lx ({:+.0} %): beyond the stated {:.1} %; a shade \
+                     the mesh lost or a wrong reflectance there; its stated uncertainty is \
+                     widened to {:.1} %",
+                    100.0 * (mdl / cam - 1.0),
+                    100.0 * u,
+                    100.0 * widened
+                );
+            }
+            if u.is_finite() {
+                u.max(widened)
+            } else {
+                widened
+            }
+        })
+        .collect()
+}
+
 /// The section from a commissioning: the capture's one-luminaire frames less its all-off frame.
 pub fn from_capture(
     c: &Commissioned,
@@ -540,19 +583,7 @@ pub fn from_capture(
             (z * 1000.0).round().clamp(0.0, 65535.0) as u16
         })
         .collect();
-    // each sensor's stated uncertainty from what commissioning inferred (by sensor id)
-    let model_rel_uncertainty = c
-        .model
-        .sensor_ids
-        .iter()
-        .map(|id| {
-            c.report
-                .uncertainty
-                .iter()
-                .find(|u| u.sensor_id == *id)
-                .map_or(f64::NAN, |u| u.rel)
-        })
-        .collect();
+    let model_rel_uncertainty = widened_uncertainty(c, &response);
     Ok(LiveSectionData {
         camera: record(camera, Some(gain)),
         source: live_source::CAPTURE,

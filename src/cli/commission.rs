@@ -218,8 +218,8 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let r = &c.report;
     print_report(c)?;
-    write_images(a, &nodes, &caps)?;
-    print_uncertainty(r);
+    let stated = write_images(a, &nodes, &caps)?;
+    print_uncertainty(r, &stated);
     // for the error table: a sensor is in view when some node sees it
     let flags: Vec<u8> = (0..c.sensor_flags.len())
         .map(|k| {
@@ -369,8 +369,15 @@ fn print_report(c: &commission::Commissioned) -> Result<()> {
 }
 
 /// One image per node, each shrunk to fit its flash region unless the storage was chosen.
-fn write_images(a: &Args, nodes: &[commission::Commissioned], caps: &[Capture]) -> Result<()> {
+/// Returns each sensor's stated relative uncertainty as the images hold it (the largest over the
+/// nodes: the model's disagreement with each node's camera widens it, issue 28 item 5).
+fn write_images(
+    a: &Args,
+    nodes: &[commission::Commissioned],
+    caps: &[Capture],
+) -> Result<Vec<f64>> {
     let st = a.store.store(a.engine.preset);
+    let mut stated = vec![f64::NAN; nodes.first().map_or(0, |n| n.model.sensors())];
     for ((node, cap), out) in nodes.iter().zip(caps).zip(&a.out) {
         let flags = node.sensor_flags.clone();
         let options = ImageOptions {
@@ -417,6 +424,11 @@ fn write_images(a: &Args, nodes: &[commission::Commissioned], caps: &[Capture]) 
         // live light: the section that turns run-time frames into desk lux (docs/live.md)
         let bytes = luxnode::live_section::with_capture_section(bytes, node, cap);
         let image = Image::parse(&bytes)?;
+        for (k, u) in stated.iter_mut().enumerate() {
+            if let Some(v) = image.model_rel_uncertainty(k).filter(|v| v.is_finite()) {
+                *u = if u.is_finite() { u.max(v) } else { v };
+            }
+        }
         write_image_file(out, &bytes)?;
         println!(
             "{}: {} bytes, {} patches",
@@ -442,21 +454,33 @@ fn write_images(a: &Args, nodes: &[commission::Commissioned], caps: &[Capture]) 
             }
         }
     }
-    Ok(())
+    Ok(stated)
 }
 
 /// Each desk sensor's stated uncertainty and its largest source.
-fn print_uncertainty(r: &commission::Report) {
+/// Each sensor's stated uncertainty: as the image holds it (`stated`, by sensor index; widened by
+/// the camera's disagreement), else as commissioning inferred it, with its largest source.
+fn print_uncertainty(r: &commission::Report, stated: &[f64]) {
     if !r.uncertainty.is_empty() {
         println!("sensor,stated_uncertainty_pct,all_on_lx,largest_source,its_share_pct");
-        for u in &r.uncertainty {
+        for (k, u) in r.uncertainty.iter().enumerate() {
             let (c, share) = u.dominant();
+            let rel = stated
+                .get(k)
+                .copied()
+                .filter(|v| v.is_finite())
+                .unwrap_or(u.rel);
+            let (c, share) = if rel > u.rel * 1.0001 {
+                ("model vs camera", 1.0)
+            } else {
+                (c.name(), share)
+            };
             println!(
                 "{},{:.1},{:.0},{},{:.0}",
                 u.sensor_id,
-                100.0 * u.rel,
+                100.0 * rel,
                 u.all_on_lx,
-                c.name(),
+                c,
                 100.0 * share
             );
         }

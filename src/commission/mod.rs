@@ -1806,7 +1806,8 @@ pub fn from_captures(
     st.done(&mut report);
 
     let st = Stage::start("uncertainty", o.progress);
-    match uncertainty::per_sensor(&model, &meshed.reco, &o.uncertainty) {
+    let sigma = o.uncertainty.with_plan(o.room_plan.as_ref());
+    match uncertainty::per_sensor(&model, &meshed.reco, &sigma) {
         Ok(u) => report.uncertainty = u,
         Err(e) => report
             .warnings

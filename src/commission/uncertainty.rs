@@ -112,7 +112,26 @@ impl Default for UncertaintyOptions {
     }
 }
 
+/// The standard uncertainty of a reflectance the room plan gives (measured with a reflectance
+/// card or a luminance meter and a reference: a few hundredths).
+pub const PLAN_RHO_SIGMA: f64 = 0.03;
+
 impl UncertaintyOptions {
+    /// These uncertainties with a room plan's measured reflectances: a wall or ceiling
+    /// reflectance the plan gives is known to [`PLAN_RHO_SIGMA`].
+    pub fn with_plan(&self, plan: Option<&crate::scene::RoomPlan>) -> UncertaintyOptions {
+        let mut o = *self;
+        if let Some(p) = plan {
+            if p.wall_rho.is_some() {
+                o.wall_rho = o.wall_rho.min(PLAN_RHO_SIGMA);
+            }
+            if p.ceiling_rho.is_some() {
+                o.ceiling_rho = o.ceiling_rho.min(PLAN_RHO_SIGMA);
+            }
+        }
+        o
+    }
+
     /// The σ of one class.
     pub fn sigma(&self, c: Inferred) -> f64 {
         match c {

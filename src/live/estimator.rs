@@ -459,6 +459,17 @@ impl LiveModel {
         Ok(model)
     }
 
+    /// In-view sensor `s`'s disagreement between the model's all-on response and the
+    /// camera-calibrated one ([`model_camera_disagreement`]); 0 out of view.
+    pub fn disagreement(&self, s: usize) -> f64 {
+        let l = self.luminaires;
+        if !self.in_view(s) {
+            return 0.0;
+        }
+        let row = |v: &[f64]| v.get(s * l..(s + 1) * l).map_or(0.0, |r| r.iter().sum());
+        model_camera_disagreement(row(&self.response), row(&self.calibrated)).unwrap_or(0.0)
+    }
+
     /// Sensor `s`'s stated relative uncertainty of its modelled light (commissioning's, from
     /// what it inferred), or `default` when the image states none.
     fn model_rel_uncertainty(&self, s: usize, default: f64) -> f64 {
@@ -707,6 +718,19 @@ const EDGE_MIN_AGREEMENT: f64 = 0.7;
 /// A frame whose median measured-to-artificial ratio is below this is not believed: the
 /// luminaires alone give more (a wrong exposure, or luminaires far dimmer than their levels).
 const MIN_MEASURED_OVER_ARTIFICIAL: f64 = 0.5;
+
+/// The relative disagreement `|model − camera| / camera` of a desk's all-on light between the
+/// commissioned model and the camera-calibrated measurement (issue 28 item 5); `None` without a
+/// measurement. Two estimates that disagree by `d` are each uncertain by about `d / √2` (which
+/// one is right is not known from them alone): the desk's stated uncertainties take at least
+/// that ([`DISAGREEMENT_TO_SIGMA`]).
+pub fn model_camera_disagreement(model_lx: f64, camera_lx: f64) -> Option<f64> {
+    (camera_lx.is_finite() && model_lx.is_finite() && camera_lx > 0.0)
+        .then(|| (model_lx - camera_lx).abs() / camera_lx)
+}
+
+/// The standard uncertainty that a disagreement `d` between two estimates implies for each.
+pub const DISAGREEMENT_TO_SIGMA: f64 = core::f64::consts::FRAC_1_SQRT_2;
 
 /// The uncertainty to publish with a desk value (at least [`MIN_UNCERTAINTY_LX`]), or `None`
 /// when the value is not a number: then it is published as not available, never as one.
@@ -1259,9 +1283,11 @@ impl Live {
         let n_eff = w.values.len() as f64;
         let total = art + dm;
         let day = dm.max(0.0);
-        let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2)
-            + (st.measured_rel_uncertainty * total).powi(2))
-        .sqrt();
+        // the measurement's own spread, and at least what its disagreement with the model says
+        let rel = st
+            .measured_rel_uncertainty
+            .max(DISAGREEMENT_TO_SIGMA * self.model.disagreement(s));
+        let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2) + (rel * total).powi(2)).sqrt();
         Action::Set(total - day, day, unc, Source::Measured, extra)
     }
 

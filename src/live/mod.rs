@@ -76,8 +76,8 @@ pub mod nnls;
 pub mod window;
 
 pub use estimator::{
-    DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings, MIN_UNCERTAINTY_LX, Source,
-    Verdict, stated_uncertainty_lx,
+    DISAGREEMENT_TO_SIGMA, DeskLive, FrameReport, Live, LiveFrame, LiveModel, LiveSettings,
+    MIN_UNCERTAINTY_LX, Source, Verdict, model_camera_disagreement, stated_uncertainty_lx,
 };
 
 /// Why live light cannot run.
