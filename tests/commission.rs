@@ -710,3 +710,104 @@ fn several_capture_sets_are_checked_before_any_work() {
         "{e}"
     );
 }
+
+/// Issue 34: a camera whose pose in camera.json disagrees with what it sees is refused before
+/// any meshing: its position 100 m off (the floor it sees then lies 97 m above the luminaires),
+/// 100 m off horizontally only, its yaw turned 180° (every luminaire's light then lies under
+/// another one). The genuine captures pass, every luminaire in view within a few decimetres;
+/// a pair of swapped luminaire frames (DALI addresses) is a warning naming both.
+#[test]
+fn a_camera_pose_that_disagrees_with_what_it_sees_is_refused() {
+    use luxnode::commission::pose::{self, DISAGREE_M, PoseError};
+    let o = CommissionOptions::default();
+    let (lums, sensors, cap) = inputs("capture_clean");
+    for name in ["capture", "capture_clean"] {
+        let (_, _, c) = inputs(name);
+        let r = pose::check_captures(std::slice::from_ref(&c), &lums, &o).expect("genuine");
+        let p = &r.pose[0];
+        eprintln!("{name}: {p:?}, warnings {:?}", r.warnings);
+        // office_a: luminaires at 2.997 m over a floor at 0 (independent: luminaires.json)
+        let above = p.luminaires_above_floor_m.expect("floor seen");
+        assert!((above - 2.997).abs() < 0.05, "{above}");
+        assert!(p.offsets_m.len() >= 4, "{:?}", p.offsets_m);
+        assert!(
+            p.offsets_m.iter().all(|&(_, d)| d < 0.5 * DISAGREE_M),
+            "{p:?}"
+        );
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+    let refuse = |c: &Capture| -> luxnode::commission::CommissionError {
+        let t0 = std::time::Instant::now();
+        let e = match commission::from_capture(c, lums.clone(), sensors.clone(), None, &o) {
+            Ok(_) => panic!("commissioned with a wrong pose"),
+            Err(e) => e,
+        };
+        let dt = t0.elapsed().as_secs_f64();
+        eprintln!("refused in {dt:.2} s: {e}");
+        assert!(dt < 10.0, "{dt} s");
+        e
+    };
+    let mut far = cap.clone();
+    far.camera.position_m = DVec3::new(100.0, 100.0, 100.0);
+    let e = refuse(&far);
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            commission::CommissionError::Pose(PoseError::Height { floor_z_m, expected_z_m, .. })
+                if (floor_z_m - 97.02).abs() < 0.1
+                    && expected_z_m[0] < 2.98 && expected_z_m[1] > 2.98
+                    && expected_z_m[1] - expected_z_m[0] < 5.0
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("camera.json position (100.00, 100.00, 100.00)"),
+        "{msg}"
+    );
+    let mut aside = cap.clone();
+    aside.camera.position_m.x += 100.0;
+    let e = refuse(&aside);
+    assert!(
+        matches!(e, commission::CommissionError::Pose(PoseError::FarFromLuminaires { nearest_m, .. }) if nearest_m > 90.0),
+        "{e}"
+    );
+    // the yaw turned 180° about the vertical: R_world_from_camera's x and y columns negated
+    // (as camera.json's right and up negated with look kept)
+    let mut turned = cap.clone();
+    turned.camera.world_from_camera =
+        DMat3::from_rotation_z(std::f64::consts::PI) * turned.camera.world_from_camera;
+    let e = refuse(&turned);
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            commission::CommissionError::Pose(PoseError::Yaw { disagree, in_view, rotation: Some((180, false)), .. })
+                if 2 * disagree > in_view
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("yaw/rotation in camera.json looks wrong by about 180°"),
+        "{msg}"
+    );
+    // two luminaires' frames swapped (a DALI address mix-up): a warning names each
+    let mut swapped = cap.clone();
+    let (a, b) = (
+        swapped.luminance[0].1.clone(),
+        swapped.luminance[1].1.clone(),
+    );
+    swapped.luminance[0].1 = b;
+    swapped.luminance[1].1 = a;
+    let r = pose::check_captures(std::slice::from_ref(&swapped), &lums, &o).expect("a warning");
+    eprintln!("swapped: {:?} {:?}", r.pose[0].offsets_m, r.warnings);
+    for id in [lums[0].id, lums[1].id] {
+        assert!(
+            r.warnings
+                .iter()
+                .any(|w| w.contains(&format!("luminaire {id}:")) && w.contains("DALI address")),
+            "{id}: {:?}",
+            r.warnings
+        );
+    }
+}

@@ -21,6 +21,7 @@ pub mod grid;
 pub mod mesh;
 pub mod output;
 pub mod planes;
+pub mod pose;
 pub mod refit;
 pub mod reflectance;
 pub mod uncertainty;
@@ -174,6 +175,9 @@ pub enum CommissionError {
         /// Triangles of the mesh.
         triangles: usize,
     },
+    /// A camera's pose disagrees with what it sees ([`pose`]).
+    #[error(transparent)]
+    Pose(#[from] pose::PoseError),
     /// Luxmeter readings ([`CommissionOptions::readings`]) that cannot be used.
     #[error("{0}")]
     Readings(String),
@@ -609,6 +613,8 @@ pub struct Report {
     /// Each desk sensor's stated uncertainty from what was inferred (empty when it could not
     /// be computed: a warning says why).
     pub uncertainty: Vec<uncertainty::SensorUncertainty>,
+    /// Per node: its camera pose against what it sees ([`pose`]).
+    pub pose: Vec<pose::NodePose>,
     /// Warnings (also those of the capture).
     pub warnings: Vec<String>,
 }
@@ -1754,6 +1760,10 @@ pub fn from_captures(
 
     let st = Stage::start("planes", o.progress);
     let planes = find_planes(&i, &depths);
+    st.done(&mut report);
+
+    let st = Stage::start("pose", o.progress);
+    pose::check(&i, &planes, &mut report)?;
     st.done(&mut report);
 
     let st = Stage::start("mesh", o.progress);
