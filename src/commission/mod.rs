@@ -177,7 +177,7 @@ pub enum CommissionError {
     },
     /// A camera's pose disagrees with what it sees ([`pose`]).
     #[error(transparent)]
-    Pose(#[from] pose::PoseError),
+    Pose(#[from] Box<pose::PoseError>),
     /// Luxmeter readings the fit cannot reproduce with reflectances at their limits.
     #[error(transparent)]
     RefitAtLimit(#[from] refit::AtLimit),

@@ -169,14 +169,15 @@ pub(super) fn check(
         let floor = node_floor(&planes.found[n]);
         let mut pose = NodePose::default();
         if let Some(f) = floor {
-            let above = check_height(&node, &capture.camera, f, i.luminaires)?;
+            let above = check_height(&node, &capture.camera, f, i.luminaires).map_err(Box::new)?;
             pose.floor_z_m = Some(f.origin_m.z);
             pose.luminaires_above_floor_m = Some(above);
-            check_floor_xy(&node, planes, n, f, i.luminaires, &capture.camera)?;
+            check_floor_xy(&node, planes, n, f, i.luminaires, &capture.camera).map_err(Box::new)?;
         }
         let samples = samples(capture, planes, n, i.luminaires.len());
         if samples.points_m.len() >= MIN_SAMPLES {
-            pose.offsets_m = check_yaw(&node, capture, i.luminaires, &samples, report)?;
+            pose.offsets_m =
+                check_yaw(&node, capture, i.luminaires, &samples, report).map_err(Box::new)?;
         }
         report.pose.push(pose);
     }

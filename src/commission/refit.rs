@@ -117,7 +117,10 @@ impl ReflectanceFit {
             .iter()
             .zip(&self.after_lx)
             .map(|(&(sensor_id, reading_lx, _), &model_lx)| (sensor_id, reading_lx, model_lx))
-            .filter(|&(_, r, m)| !((m / r - 1.0).abs() <= MAX_REL_RESIDUAL_AT_LIMIT))
+            .filter(|&(_, r, m)| {
+                let rel = (m / r - 1.0).abs();
+                rel.is_nan() || rel > MAX_REL_RESIDUAL_AT_LIMIT
+            })
             .max_by(|a, b| (a.2 / a.1 - 1.0).abs().total_cmp(&(b.2 / b.1 - 1.0).abs()));
         match worst {
             None => Ok(()),
