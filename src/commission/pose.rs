@@ -124,8 +124,8 @@ pub const MAX_FLOOR_TO_LUMINAIRE_XY_M: f64 = 10.0;
 /// from the camera's nadir, flattened). Office luminaires are spaced 1.5 m and more, so 1 m is five times the
 /// genuine error and below what a swap of neighbours gives.
 pub const DISAGREE_M: f64 = 1.0;
-/// At most this many samples per node and luminaire-hypothesis pass (bounds the work to a few
-/// million intensity look-ups whatever the number of luminaires).
+/// Intensity look-ups of one node's yaw check at most (samples × luminaires × 8 rotations and
+/// mirrors): the samples are thinned to keep it, whatever the number of luminaires.
 const MAX_LOOKUPS: usize = 4_000_000;
 /// Pixels on horizontal surfaces needed for the yaw check.
 const MIN_SAMPLES: usize = 100;
