@@ -777,3 +777,163 @@ fn a_room_plan_builds_the_unseen_walls_and_window_and_every_desk_improves() {
         "{e_plan} {worst_plan}"
     );
 }
+
+/// Issue 34: a camera whose pose in camera.json disagrees with what it sees is refused before
+/// any meshing: its position 100 m off (the floor it sees then lies 97 m above the luminaires),
+/// 100 m off horizontally only, its yaw turned 180° (every luminaire's light then lies under
+/// another one). The genuine captures pass, every luminaire in view within a few decimetres;
+/// a pair of swapped luminaire frames (DALI addresses) is a warning naming both.
+#[test]
+fn a_camera_pose_that_disagrees_with_what_it_sees_is_refused() {
+    use luxnode::commission::pose::{self, DISAGREE_M, PoseError};
+    let o = CommissionOptions::default();
+    let (lums, sensors, cap) = inputs("capture_clean");
+    for name in ["capture", "capture_clean"] {
+        let (_, _, c) = inputs(name);
+        let r = pose::check_captures(std::slice::from_ref(&c), &lums, &o).expect("genuine");
+        let p = &r.pose[0];
+        eprintln!("{name}: {p:?}, warnings {:?}", r.warnings);
+        // office_a: luminaires at 2.997 m over a floor at 0 (independent: luminaires.json)
+        let above = p.luminaires_above_floor_m.expect("floor seen");
+        assert!((above - 2.997).abs() < 0.05, "{above}");
+        assert!(p.offsets_m.len() >= 4, "{:?}", p.offsets_m);
+        assert!(
+            p.offsets_m.iter().all(|&(_, d)| d < 0.5 * DISAGREE_M),
+            "{p:?}"
+        );
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+    let refuse = |c: &Capture| -> (PoseError, String) {
+        let t0 = std::time::Instant::now();
+        let e = match commission::from_capture(c, lums.clone(), sensors.clone(), None, &o) {
+            Ok(_) => panic!("commissioned with a wrong pose"),
+            Err(e) => e,
+        };
+        let dt = t0.elapsed().as_secs_f64();
+        eprintln!("refused in {dt:.2} s: {e}");
+        assert!(dt < 10.0, "{dt} s");
+        let msg = e.to_string();
+        match e {
+            commission::CommissionError::Pose(p) => (*p, msg),
+            other => panic!("not a pose error: {other}"),
+        }
+    };
+    let mut far = cap.clone();
+    far.camera.position_m = DVec3::new(100.0, 100.0, 100.0);
+    let (e, msg) = refuse(&far);
+    assert!(
+        matches!(
+            e,
+            PoseError::Height { floor_z_m, expected_z_m, .. }
+                if (floor_z_m - 97.02).abs() < 0.1
+                    && expected_z_m[0] < 2.98 && expected_z_m[1] > 2.98
+                    && expected_z_m[1] - expected_z_m[0] < 5.0
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("camera.json position (100.00, 100.00, 100.00)"),
+        "{msg}"
+    );
+    let mut aside = cap.clone();
+    aside.camera.position_m.x += 100.0;
+    let (e, msg) = refuse(&aside);
+    assert!(
+        matches!(e, PoseError::FarFromLuminaires { nearest_m, .. } if nearest_m > 90.0),
+        "{msg}"
+    );
+    // the yaw turned 180° about the vertical: R_world_from_camera's x and y columns negated
+    // (as camera.json's right and up negated with look kept)
+    let mut turned = cap.clone();
+    turned.camera.world_from_camera =
+        DMat3::from_rotation_z(std::f64::consts::PI) * turned.camera.world_from_camera;
+    let (e, msg) = refuse(&turned);
+    assert!(
+        matches!(
+            e,
+            PoseError::Yaw { disagree, in_view, rotation: Some((180, false)), .. }
+                if 2 * disagree > in_view
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("yaw/rotation in camera.json looks wrong by about 180°"),
+        "{msg}"
+    );
+    // two luminaires' frames swapped (a DALI address mix-up): a warning names each
+    let mut swapped = cap.clone();
+    let (a, b) = (
+        swapped.luminance[0].1.clone(),
+        swapped.luminance[1].1.clone(),
+    );
+    swapped.luminance[0].1 = b;
+    swapped.luminance[1].1 = a;
+    let r = pose::check_captures(std::slice::from_ref(&swapped), &lums, &o).expect("a warning");
+    eprintln!("swapped: {:?} {:?}", r.pose[0].offsets_m, r.warnings);
+    for id in [lums[0].id, lums[1].id] {
+        assert!(
+            r.warnings
+                .iter()
+                .any(|w| w.contains(&format!("luminaire {id}:")) && w.contains("DALI address")),
+            "{id}: {:?}",
+            r.warnings
+        );
+    }
+}
+
+/// Issue 34: a luxmeter reading 1.9 times the model (office_a's truth at sensor 7 times 1.9)
+/// pins the walls and ceiling at the 0.9 limit and leaves the model about a third below it:
+/// refused, naming the reading, the model's value and the limits, unless forced; forced, the
+/// report warns and every desk is flagged estimated in the image.
+#[test]
+fn a_luxmeter_refit_at_its_limits_is_refused_unless_forced() {
+    let truth = read_truth(&common::office_a().join("truth.csv")).expect("truth");
+    let true_lx = truth
+        .iter()
+        .find(|r| r.scenario == "9" && r.sensor == 7)
+        .expect("row")
+        .lux;
+    let (lums, sensors, cap) = inputs("capture");
+    let mut o = CommissionOptions {
+        readings: vec![Reading {
+            sensor_id: 7,
+            lux_lx: 1.9 * true_lx,
+        }],
+        ..CommissionOptions::default()
+    };
+    let t0 = std::time::Instant::now();
+    let e = match commission::from_capture(&cap, lums.clone(), sensors.clone(), None, &o) {
+        Ok(_) => panic!("a reading 1.9 times the truth was fitted"),
+        Err(e) => e,
+    };
+    eprintln!("refused in {:.1} s: {e}", t0.elapsed().as_secs_f64());
+    let commission::CommissionError::RefitAtLimit(at) = &e else {
+        panic!("{e}");
+    };
+    assert_eq!(at.sensor_id, 7);
+    // the model at the limits stays 20 to 50 % below the reading (issue 34: 35 %)
+    let short = 1.0 - at.model_lx / at.reading_lx;
+    assert!((0.2..0.5).contains(&short), "{short}: {e}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("at its limit 0.90") && msg.contains("--force"),
+        "{msg}"
+    );
+    o.force = true;
+    let c = commission::from_capture(&cap, lums, sensors, None, &o).expect("forced");
+    assert!(
+        c.report
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("--force: luxmeter reading") && w.contains("sensor 7")),
+        "{:?}",
+        c.report.warnings
+    );
+    assert!(
+        c.sensor_flags
+            .iter()
+            .all(|f| f & sensor_flags::ESTIMATED != 0),
+        "{:?}",
+        c.sensor_flags
+    );
+}

@@ -212,10 +212,11 @@ fn plausible_but_wrong_commissioning_inputs_fail_fast() {
         f.data.fill(65535);
     }
     fails_fast(&c, "see nothing");
-    // the camera 1 km outside the room
+    // the camera 1 km outside the room: the floor it sees is nowhere near a luminaire (issue
+    // 34's pose check, before the room box is inferred)
     let mut c = cap.clone();
     c.camera.position_m.x += 1000.0;
-    fails_fast(&c, "room");
+    fails_fast(&c, "from the nearest luminaire in luminaires.json");
     // and the same values in a camera.json are refused at load, naming the key
     let dir = tempfile::tempdir().unwrap();
     let src = manifest().join("../shared/scenes/office_a/capture_clean/camera.json");

@@ -796,3 +796,90 @@ fn a_value_the_node_cannot_estimate_is_nan_and_flagged_never_zero_plus_minus_zer
         luxnode::modbus::regmap::NOT_AVAILABLE_U16
     );
 }
+
+/// Issue 34: the sim board's injected camera faults reach live light. With every read timing
+/// out (`[camera.sim.faults] timeout_chance = 1`), the board's live cameras give no frame; the
+/// registers stop saying "measured" from a fresh frame: status bit "frame rejected", then
+/// "camera stale" past the stale time, every desk flagged held then stale with its frame age
+/// growing, the last good values held (finite).
+#[test]
+fn the_sim_boards_injected_camera_timeouts_reach_live_light() {
+    use luxnode::daemon::live::{CapturedFrame, StepState, estimator, step};
+    use luxnode::modbus::regmap::{LiveSource, Space, addr, live_flags, live_status};
+    use luxnode::node::{Node, NodeModel, NodeOptions};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("boards/sim/board.toml");
+    let sim = std::fs::read_to_string(&path).unwrap();
+    let text =
+        format!("{sim}\n[live]\nperiod_s = 1.0\n[camera.sim.faults]\ntimeout_chance = 1.0\n");
+    let board = luxnode::board::Board::parse(&text, &path).expect("the faulty sim board");
+    let image = Image::parse(&rig().image).unwrap();
+    let mut node = Node::new(NodeModel::from_image(&image, 1), NodeOptions::default()).unwrap();
+    let read = |node: &Node, a: u16| node.map().read(Space::Input, a);
+    let mut live = estimator(&image, &LiveSettings::default()).unwrap();
+    let stale_after_s = live.settings().stale_after_s;
+    let mut state = StepState::default();
+    let n = image.luminaires();
+    node.set_levels(&vec![Some(0.8); n]).unwrap();
+    let levels = node.levels().to_vec();
+    // a good frame first: the desks in view measured, frame age 0
+    let f = frame(&levels, &WorldExtras::default());
+    let (w, h) = live.model().frame_size();
+    let good = CapturedFrame {
+        width: w,
+        height: h,
+        luminance: f.0,
+        cd_m2_per_unit: f.1,
+        depth_mm: Some(f.2),
+        levels: levels.clone(),
+    };
+    let t0 = std::time::Instant::now();
+    let st = step(&mut live, &mut state, Ok(good), 0.0, &mut node, 0.0);
+    assert_eq!(
+        st & (live_status::FRAME_REJECTED | live_status::CAMERA_STALE),
+        0
+    );
+    let (k, _) = desk_in_view();
+    assert_eq!(
+        read(&node, addr::LIVE_SOURCE + k as u16),
+        Some(LiveSource::Measured as u16)
+    );
+    assert_eq!(read(&node, addr::LIVE_FRAME_AGE + k as u16), Some(0));
+    let before: Vec<f64> = live.desks().iter().map(|d| d.total_lx).collect();
+    // the board's live cameras, every read timing out
+    let mut task = luxnode::daemon::assemble::live_task(&board).expect("live light on");
+    for t_s in [10.0, 20.0, stale_after_s + 10.0] {
+        let taken = (task.capture)(&levels);
+        assert!(
+            taken.as_ref().is_err_and(|e| e.contains("no frame within")),
+            "an injected timeout did not reach live light: {:?}",
+            taken.as_ref().map(|f| f.width)
+        );
+        let st = step(&mut live, &mut state, taken, t_s, &mut node, t_s);
+        assert_eq!(read(&node, addr::LIVE_STATUS), Some(st));
+        assert_ne!(st & live_status::FRAME_REJECTED, 0, "{t_s} s");
+        let stale = t_s > stale_after_s;
+        assert_eq!(st & live_status::CAMERA_STALE != 0, stale, "{t_s} s");
+        assert_eq!(read(&node, addr::LIVE_LAST_FRAME_AGE), Some(t_s as u16));
+        for (j, d) in live.desks().iter().enumerate() {
+            let flags = read(&node, addr::LIVE_FLAGS + j as u16).unwrap();
+            assert_ne!(flags & live_flags::HELD, 0, "desk {j} at {t_s} s");
+            assert_eq!(flags & live_flags::STALE != 0, stale, "desk {j} at {t_s} s");
+            // no desk "measured" from a fresh frame
+            let age = read(&node, addr::LIVE_FRAME_AGE + j as u16).unwrap();
+            let source = read(&node, addr::LIVE_SOURCE + j as u16).unwrap();
+            assert!(
+                source != LiveSource::Measured as u16 || age >= t_s as u16,
+                "desk {j} at {t_s} s: source {source}, frame age {age} s"
+            );
+            // the last good value held (the same levels, no daylight)
+            assert!(
+                (d.total_lx - before[j]).abs() <= 0.05 * before[j].max(1.0),
+                "desk {j}"
+            );
+        }
+    }
+    eprintln!(
+        "the faulty board's three frames and steps: {:?}",
+        t0.elapsed()
+    );
+}

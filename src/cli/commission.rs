@@ -88,6 +88,10 @@ pub struct Args {
     /// (with camera.json's gain; docs/commissioning.md).
     #[arg(long, value_name = "ID:LUX", conflicts_with = "luxmeter")]
     luxmeter_rho: Vec<String>,
+    /// Commission even when a luxmeter refit hits its reflectance limits and still misses a
+    /// reading: a warning in the report, the desks flagged estimated in the image.
+    #[arg(long)]
+    force: bool,
     /// Estimate reflectances (off: every seen surface gets --start-rho).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     reflectances: OnOff,
@@ -151,6 +155,7 @@ impl Args {
         let mut o = CommissionOptions {
             gain,
             readings: luxmeter_rho,
+            force: self.force,
             engine: self.engine.settings(),
             progress: true,
             start_rho: self.start_rho,

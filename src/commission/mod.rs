@@ -21,6 +21,7 @@ pub mod grid;
 pub mod mesh;
 pub mod output;
 pub mod planes;
+pub mod pose;
 pub mod refit;
 pub mod reflectance;
 pub mod uncertainty;
@@ -174,6 +175,12 @@ pub enum CommissionError {
         /// Triangles of the mesh.
         triangles: usize,
     },
+    /// A camera's pose disagrees with what it sees ([`pose`]).
+    #[error(transparent)]
+    Pose(#[from] Box<pose::PoseError>),
+    /// Luxmeter readings the fit cannot reproduce with reflectances at their limits.
+    #[error(transparent)]
+    RefitAtLimit(#[from] refit::AtLimit),
     /// Luxmeter readings ([`CommissionOptions::readings`]) that cannot be used.
     #[error("{0}")]
     Readings(String),
@@ -399,6 +406,10 @@ pub struct CommissionOptions {
     /// Luxmeter readings with every luminaire at full that set the unseen walls' and ceiling's
     /// reflectance ([`refit`]; with camera.json's gain only).
     pub readings: Vec<refit::Reading>,
+    /// Commission even when a check the engineer may override fails (a refit at its limits,
+    /// [`refit::ReflectanceFit::check_limits`]): a warning in the report, the desks flagged
+    /// [`sensor_flags::ESTIMATED`].
+    pub force: bool,
     /// Spinners on stderr.
     pub progress: bool,
     /// The room plan (`--room-plan`, a board's `[room] plan`): walls, windows and ceiling where
@@ -421,6 +432,7 @@ impl Default for CommissionOptions {
             engine: Settings::default(),
             uncertainty: uncertainty::UncertaintyOptions::default(),
             readings: Vec::new(),
+            force: false,
             progress: false,
             room_plan: None,
         }
@@ -613,6 +625,8 @@ pub struct Report {
     /// Each desk sensor's stated uncertainty from what was inferred (empty when it could not
     /// be computed: a warning says why).
     pub uncertainty: Vec<uncertainty::SensorUncertainty>,
+    /// Per node: its camera pose against what it sees ([`pose`]).
+    pub pose: Vec<pose::NodePose>,
     /// Warnings (also those of the capture).
     pub warnings: Vec<String>,
 }
@@ -807,6 +821,7 @@ fn with_readings(
         &o.readings,
     )
     .map_err(CommissionError::Readings)?;
+    let at_limit = refit_limits(&f, o.force)?;
     plain.closure.wall_rho = f.wall_rho.1;
     plain.closure.ceiling_rho = f.ceiling_rho.1;
     plain.uncertainty.wall_rho = f.sigma_after.0;
@@ -814,8 +829,24 @@ fn with_readings(
     let mut nodes = from_captures(captures, luminaires, sensors, desks, &plain)?;
     for n in &mut nodes {
         n.report.reflectance_fit = Some(f.clone());
+        if let Some(w) = &at_limit {
+            n.report.warnings.push(w.clone());
+            n.sensor_flags
+                .iter_mut()
+                .for_each(|x| *x |= sensor_flags::ESTIMATED);
+        }
     }
     Ok(nodes)
+}
+
+/// A refit at its reflectance limits that misses a reading: an error, or with `force` the
+/// warning for the report (the desks are then flagged estimated).
+fn refit_limits(f: &refit::ReflectanceFit, force: bool) -> Result<Option<String>, CommissionError> {
+    match f.check_limits() {
+        Ok(()) => Ok(None),
+        Err(e) if force => Ok(Some(format!("--force: {e}"))),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// What commissioning works from: the capture sets, the room's luminaires, sensors and desks,
@@ -1781,6 +1812,10 @@ pub fn from_captures(
 
     let st = Stage::start("planes", o.progress);
     let planes = find_planes(&i, &depths);
+    st.done(&mut report);
+
+    let st = Stage::start("pose", o.progress);
+    pose::check(&i, &planes, &mut report)?;
     st.done(&mut report);
 
     let st = Stage::start("mesh", o.progress);

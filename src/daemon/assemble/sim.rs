@@ -104,25 +104,29 @@ pub(super) fn rig(
 
 /// Live light's simulated cameras over the board's scene: one world for the node's life, so
 /// cameras opened again after a failure see the same room, and a scenario runs on from where
-/// it was.
+/// it was. With `[camera.sim.faults]` the cameras go through the fault injector as at
+/// commissioning (issue 34: live light ignored them), its seed advanced at each opening so a
+/// camera opened again after a fault does not replay the same faults.
 pub(super) fn live_cameras(board: &Board) -> Option<FrameSource> {
     let CameraBoard::Sim {
         depth,
         luminance,
         optics,
         scenario,
-        ..
+        faults,
     } = &board.camera
     else {
         return None;
     };
-    let (scene_source, depth, luminance, optics, scenario) = (
+    let (scene_source, depth, luminance, optics, scenario, faults) = (
         board.scene.clone(),
         depth.clone(),
         luminance.clone(),
         optics.clone(),
         scenario.clone(),
+        faults.clone(),
     );
+    let mut opened: u64 = 0;
     let mut world: Option<SimWorld> = None;
     Some(camera_source(
         move || -> Result<OpenedCameras, String> {
@@ -147,6 +151,18 @@ pub(super) fn live_cameras(board: &Board) -> Option<FrameSource> {
             let c = world
                 .luminance_camera(luminance.clone())
                 .map_err(|e| e.to_string())?;
+            let Some(f) = &faults else {
+                return Ok((Box::new(d), Box::new(c), Some(Box::new(world))));
+            };
+            let f = crate::camera::Faults {
+                seed: f.seed.wrapping_add(opened),
+                ..f.clone()
+            };
+            opened += 1;
+            let d = FaultInjector::new(d, f.clone(), "simulated ToF camera")
+                .map_err(|e| e.to_string())?;
+            let c =
+                FaultInjector::new(c, f, "simulated colour camera").map_err(|e| e.to_string())?;
             Ok((Box::new(d), Box::new(c), Some(Box::new(world))))
         },
         None,
