@@ -393,7 +393,10 @@ fn coefficients_through_interreflection_superpose() {
         ..DaylightSettings::default()
     };
     let direct = room.direct_sky(&settings).expect("direct sky");
-    let d = room.coefficients(&direct).expect("coefficients");
+    let importance = room.importance().expect("importance");
+    let d = room
+        .coefficients(&direct, &importance)
+        .expect("coefficients");
     assert_eq!(d.rows(), 2);
     assert_eq!(d.bytes(), 2 * COLUMNS * 4);
     // a non-uniform sky: the sum of the columns equals one solve with the summed source
@@ -425,6 +428,30 @@ fn coefficients_through_interreflection_superpose() {
         assert!((v - once).abs() < 1e-5 * once, "{v} vs {once}");
         // interreflection adds light: more than the direct part
         assert!(*v > direct_sensor[si]);
+    }
+    // the sun through the importance equals a forward solve of its direct patch irradiance
+    let sun = DVec3::from_array(sky_direction(35f64.to_radians(), 200f64.to_radians()));
+    let by_importance = room
+        .sun_coefficients(&[sun], &settings, &importance)
+        .expect("sun");
+    let direct_sun = room.direct_sun(sun, &settings).expect("direct sun");
+    assert!(direct_sun.patch_lx.iter().any(|e| *e > 0.0));
+    let solved = multisolve::solve_all(
+        &model.ff.f,
+        &p.rho,
+        std::slice::from_ref(&direct_sun.patch_lx),
+        model.settings.solve,
+    )
+    .expect("a solve");
+    for (si, v) in by_importance[0].iter().enumerate() {
+        let once = direct_sun.sensor_lx[si]
+            + model
+                .gather
+                .row(si)
+                .map(|(j, g)| g * solved[0].0[j as usize])
+                .sum::<f64>();
+        println!("sun, sensor {si}: by importance {v:.6} lx/lx, forward solve {once:.6} lx/lx");
+        assert!((v - once).abs() < 1e-6 * once, "{v} vs {once}");
     }
 }
 
@@ -515,5 +542,134 @@ fn sun_patch_falls_where_geometry_says() {
             }
         }
         assert!(checked.0 > 10 && checked.1 > 10, "{checked:?}");
+    }
+}
+
+/// An office-sized room (6 × 4 × 3 m, ρ 0.5 walls, 0.2 floor), two desks, four luminaires,
+/// eight desk sensors and a 4 × 1.5 m south window.
+fn office(patch_size_m: f64) -> (Scene, Settings, Window) {
+    let p = DVec3::new;
+    let mut b = MeshBuilder::new();
+    let wall = b.material("wall", 0.5).expect("a reflectance");
+    let floor = b.material("floor", 0.2).expect("a reflectance");
+    let desk = b.material("desk", 0.4).expect("a reflectance");
+    let glass = b.material("glazing", 0.08).expect("a reflectance");
+    b.room(p(6.0, 4.0, 3.0), wall, &["wall_s", "floor"]);
+    b.quad(
+        [p(0., 0., 0.), p(6., 0., 0.), p(6., 4., 0.), p(0., 4., 0.)],
+        "floor",
+        floor,
+    );
+    for (x0, x1, z0, z1, name, m) in [
+        (0.0, 6.0, 0.0, 0.9, "wall_s", wall),
+        (0.0, 6.0, 2.4, 3.0, "wall_s", wall),
+        (0.0, 1.0, 0.9, 2.4, "wall_s", wall),
+        (5.0, 6.0, 0.9, 2.4, "wall_s", wall),
+        (1.0, 5.0, 0.9, 2.4, "window_0", glass),
+    ] {
+        b.quad(
+            [p(x0, 0., z0), p(x0, 0., z1), p(x1, 0., z1), p(x1, 0., z0)],
+            name,
+            m,
+        );
+    }
+    b.solid_box(p(0.8, 1.0, 0.0), p(2.8, 1.8, 0.75), "desk_1", desk);
+    b.solid_box(p(3.2, 1.0, 0.0), p(5.2, 1.8, 0.75), "desk_2", desk);
+    let lums = (0..4)
+        .map(|k| {
+            let pos = p(1.5 + 3.0 * (k % 2) as f64, 1.0 + 2.0 * (k / 2) as f64, 2.95);
+            common::luminaire(k, pos, [0.6, 0.6], false, |g: f64| {
+                1000.0 * g.cos().max(0.0)
+            })
+        })
+        .collect();
+    let sensors = [
+        (1.2, 1.2, 0.751),
+        (2.4, 1.6, 0.751),
+        (3.6, 1.2, 0.751),
+        (4.8, 1.6, 0.751),
+        (1.0, 3.0, 0.8),
+        (3.0, 3.0, 0.8),
+        (5.0, 3.0, 0.8),
+        (3.0, 0.5, 0.8),
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, (x, y, z))| sensor(i as u32, p(*x, *y, *z)))
+    .collect();
+    let settings = Settings {
+        patches: PatchSettings {
+            patch_size_m,
+            ..PatchSettings::default()
+        },
+        ..Settings::default()
+    };
+    let w = Window {
+        corner_m: p(1.0, 0.0, 0.9),
+        edge_u_m: p(4.0, 0.0, 0.0),
+        edge_v_m: p(0.0, 0.0, 1.5),
+        inward: DVec3::Y,
+        transmittance: 0.7,
+        glazing: Glazing::ClearGlass,
+    };
+    (scene(b.build(), lums, sensors), settings, w)
+}
+
+/// The cost of the daylight coefficients against commissioning, office-sized rooms. Run with
+/// `cargo test --test daylight cost -- --ignored --nocapture` (timings, not a check).
+#[test]
+#[ignore]
+fn cost_of_daylight_coefficients() {
+    use std::time::Instant;
+    for patch_size_m in [0.5, 0.3] {
+        let (s, settings, w) = office(patch_size_m);
+        let t0 = Instant::now();
+        let model = engine::compute_model(&s, &settings).expect("a model");
+        let commission = t0.elapsed().as_secs_f64();
+        let caster = RayCaster::new(&model.patches);
+        let pts = sensor_points(&s);
+        let windows = [w];
+        let room = DaylightRoom::of_model(&model, &caster, &pts, &windows, north_y());
+        println!(
+            "{} patches, {} sensors: commissioning {commission:.2} s",
+            model.patches.len(),
+            pts.len()
+        );
+        for (patch_samples, sensor_samples) in [(16, 1024), (64, 4096)] {
+            let ds = DaylightSettings {
+                patch_samples,
+                sensor_samples,
+                ..DaylightSettings::default()
+            };
+            let t1 = Instant::now();
+            let direct = room.direct_sky(&ds).expect("direct sky");
+            let t_direct = t1.elapsed().as_secs_f64();
+            let importance = room.importance().expect("importance");
+            let t_importance = t1.elapsed().as_secs_f64() - t_direct;
+            let d = room
+                .coefficients(&direct, &importance)
+                .expect("coefficients");
+            let t_all = t1.elapsed().as_secs_f64();
+            let suns: Vec<DVec3> = (0..24)
+                .map(|k| {
+                    let az = PI / 2.0 + PI * k as f64 / 23.0;
+                    DVec3::from_array(sky_direction(30f64.to_radians(), az))
+                })
+                .collect();
+            let t2 = Instant::now();
+            let sun = room.sun_coefficients(&suns, &ds, &importance).expect("sun");
+            let t_sun = t2.elapsed().as_secs_f64();
+            println!(
+                "  {patch_samples}/{sensor_samples} samples per patch/sensor: direct {t_direct:.2} s, \
+                 importance {t_importance:.2} s, total {t_all:.2} s (+{:.0} % of commissioning); \
+                 D {} B, importance {} B (f32); patch matrix {} B (not stored); \
+                 24 suns {t_sun:.2} s ({} B as f32)",
+                100.0 * t_all / commission,
+                d.bytes(),
+                importance.bytes(),
+                direct.patch.bytes(),
+                sun.len() * pts.len() * 4
+            );
+        }
     }
 }

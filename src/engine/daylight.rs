@@ -35,11 +35,13 @@
 //! equations rather than fitted. [`Glazing::Constant`] keeps τ_n at every angle (the closed-form
 //! tests).
 //!
-//! **Interreflection.** Each column's direct patch irradiance is a right-hand side of
-//! `B = ρ (E + F B)` ([`super::multisolve::solve_all`], all columns in the same sweeps), and a
-//! sensor gathers `E_s = E_s^dir + g_s · B` with its gather row `g_s` over the full exitance
-//! (the model's final gather is for luminaires; the daylight's first bounce comes through the
-//! patches).
+//! **Interreflection.** A sensor reads `E_s = E_s^dir + g_s · B` with `B = ρ (E + F B)` and
+//! `g_s` its gather row over the full exitance (the model's final gather is for luminaires;
+//! the daylight's first bounce comes through the patches). Rather than one radiosity solve per
+//! column (146 right-hand sides), each sensor's *importance* `x_s` is solved once, over the
+//! transposed form factors ([`Importance`]: one right-hand side per sensor, through
+//! [`super::multisolve::solve_all`]), and then `D_sj = E_sj^dir + x_s · E_j` for every column
+//! and `S_s(sun) = E_s^dir(sun) + x_s · E(sun)` for any sun, without a further solve.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -496,37 +498,63 @@ impl<'a> DaylightRoom<'a> {
         })
     }
 
-    /// Solves the radiosity system for each right-hand side of patch irradiances and gathers
-    /// at the sensors: `[rhs][sensor]`, lx (direct sensor values added by the caller).
-    fn interreflected(&self, e_patch_lx: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, DaylightError> {
-        let solved =
-            multisolve::solve_all(self.form_factors, &self.patches.rho, e_patch_lx, self.solve)?;
-        Ok(solved
-            .iter()
-            .map(|(b, _)| {
-                (0..self.sensors.len())
-                    .map(|s| self.gather.row(s).map(|(j, w)| w * b[j as usize]).sum())
-                    .collect()
+    /// Each sensor's importance over the patches (the adjoint solve; see [`Importance`]).
+    pub fn importance(&self) -> Result<Importance, DaylightError> {
+        let n = self.patches.len();
+        if self.gather.rows() != self.sensors.len() || self.form_factors.rows() != n {
+            return Err(DaylightError::Input(
+                "gather rows, sensors and patches differ".into(),
+            ));
+        }
+        let ft = transpose(self.form_factors, n);
+        let g: Vec<Vec<f64>> = (0..self.sensors.len())
+            .map(|s| {
+                let mut g = vec![0.0; n];
+                for (j, w) in self.gather.row(s) {
+                    if let Some(gj) = g.get_mut(j as usize) {
+                        *gj += w;
+                    }
+                }
+                g
             })
-            .collect())
+            .collect();
+        let solved = multisolve::solve_all(&ft, &self.patches.rho, &g, self.solve)?;
+        Ok(Importance {
+            per_sensor: solved.into_iter().map(|(x, _)| x).collect(),
+        })
     }
 
     /// The daylight coefficients at the sensors, through the interreflections: `D` (sensors ×
-    /// [`COLUMNS`]), lx per cd/m², from the direct sky component.
-    pub fn coefficients(&self, direct: &DirectSky) -> Result<SkyMatrix, DaylightError> {
-        if direct.patch.rows() != self.patches.len() || direct.sensor.rows() != self.sensors.len() {
+    /// [`COLUMNS`]), lx per cd/m², from the direct sky component and the sensors' importance.
+    pub fn coefficients(
+        &self,
+        direct: &DirectSky,
+        importance: &Importance,
+    ) -> Result<SkyMatrix, DaylightError> {
+        let n = self.patches.len();
+        if direct.patch.rows() != n
+            || direct.sensor.rows() != self.sensors.len()
+            || importance.per_sensor.len() != self.sensors.len()
+            || importance.per_sensor.iter().any(|x| x.len() != n)
+        {
             return Err(DaylightError::Input(
-                "the direct sky component is of another room".into(),
+                "the direct sky component or the importance is of another room".into(),
             ));
         }
-        let columns: Vec<Vec<f64>> = (0..COLUMNS).map(|j| direct.patch.column(j)).collect();
-        let bounced = self.interreflected(&columns)?;
         let rows = (0..self.sensors.len())
+            .into_par_iter()
             .map(|s| {
-                let own = direct.sensor.row(s);
                 let mut row = [0.0; COLUMNS];
-                for (j, r) in row.iter_mut().enumerate() {
-                    *r = f64::from(own[j]) + bounced[j][s];
+                for (r, d) in row.iter_mut().zip(direct.sensor.row(s)) {
+                    *r = f64::from(*d);
+                }
+                for (i, x) in importance.per_sensor[s].iter().enumerate() {
+                    if *x == 0.0 {
+                        continue;
+                    }
+                    for (r, e) in row.iter_mut().zip(direct.patch.row(i)) {
+                        *r += x * f64::from(*e);
+                    }
                 }
                 row
             })
@@ -536,25 +564,78 @@ impl<'a> DaylightRoom<'a> {
 
     /// The sun's contribution at the sensors through the interreflections, for each sun
     /// direction (world, toward the sun): `[sun][sensor]`, lx per lx of direct normal
-    /// illuminance. All directions are solved in the same sweeps: a table over the year's sun
-    /// positions is one call.
+    /// illuminance. No solve: the direct sun on the patches weighed by the importance.
     pub fn sun_coefficients(
         &self,
         suns_world: &[DVec3],
         settings: &DaylightSettings,
+        importance: &Importance,
     ) -> Result<Vec<Vec<f64>>, DaylightError> {
-        let direct: Vec<DirectSun> = suns_world
+        suns_world
             .iter()
-            .map(|s| self.direct_sun(*s, settings))
-            .collect::<Result<_, _>>()?;
-        let rhs: Vec<Vec<f64>> = direct.iter().map(|d| d.patch_lx.clone()).collect();
-        let bounced = self.interreflected(&rhs)?;
-        Ok(direct
+            .map(|s| {
+                let d = self.direct_sun(*s, settings)?;
+                importance.sensor_lx(&d)
+            })
+            .collect()
+    }
+}
+
+/// Each sensor's importance: how much a unit irradiance on each patch adds to the sensor's
+/// reading through the interreflections, lx per lx.
+///
+/// A sensor reads `g · B` (its gather row over the exitances) with `B = (I − ρF)⁻¹ ρ E` for a
+/// direct patch irradiance E, so `g · B = x · E` with `x = ρ ⊙ z`, `(I − ρF)ᵀ z = g`, i.e.
+/// `x = ρ ⊙ (g + Fᵀ x)`: the radiosity system over the transposed form factors with the gather
+/// row as its source, which the same solver solves. One solve per sensor instead of one per
+/// sky column (the adjoint, or importance, of radiosity: Smits, Arvo and Salesin, "An
+/// importance-driven radiosity algorithm", SIGGRAPH 1992). Its iteration matrix `ρFᵀ` is
+/// similar to `ρF` by reciprocity (`Fᵀ = A F A⁻¹`), so it converges as the forward solve does.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Importance {
+    /// `[sensor][patch]`, lx per lx.
+    pub per_sensor: Vec<Vec<f64>>,
+}
+
+impl Importance {
+    /// The readings of every sensor (lx) for a direct sun (its direct sensor values plus the
+    /// interreflected part of its patch irradiances).
+    pub fn sensor_lx(&self, sun: &DirectSun) -> Result<Vec<f64>, DaylightError> {
+        if sun.sensor_lx.len() != self.per_sensor.len()
+            || self
+                .per_sensor
+                .iter()
+                .any(|x| x.len() != sun.patch_lx.len())
+        {
+            return Err(DaylightError::Input(
+                "the direct sun is of another room".into(),
+            ));
+        }
+        Ok(self
+            .per_sensor
             .iter()
-            .zip(bounced)
-            .map(|(d, b)| d.sensor_lx.iter().zip(b).map(|(a, b)| a + b).collect())
+            .zip(&sun.sensor_lx)
+            .map(|(x, d)| d + x.iter().zip(&sun.patch_lx).map(|(x, e)| x * e).sum::<f64>())
             .collect())
     }
+
+    /// Storage as f32, bytes.
+    pub fn bytes(&self) -> usize {
+        self.per_sensor.iter().map(Vec::len).sum::<usize>() * std::mem::size_of::<f32>()
+    }
+}
+
+/// The transpose of an n × n sparse matrix.
+fn transpose(f: &Csr, n: usize) -> Csr {
+    let mut rows: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    for i in 0..f.rows() {
+        for (j, v) in f.row(i) {
+            if let Some(r) = rows.get_mut(j as usize) {
+                r.push((i as u32, v));
+            }
+        }
+    }
+    Csr::from_rows(rows)
 }
 
 #[cfg(test)]
