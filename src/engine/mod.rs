@@ -20,6 +20,7 @@
 //! opening emits rays weighted by its LDC (`I`, not the consistent `I / cos γ`), its flux lands
 //! on the patches it hits, and sensors see the opening as a Lambertian patch of exitance Φ/A.
 
+pub mod daylight;
 pub mod dense;
 pub mod direct;
 pub mod formfactor;
