@@ -273,16 +273,24 @@ fn seen_patches(hits: &[Option<PixelHit>], patches: usize) -> Vec<bool> {
 /// Groups the unseen, reflecting patches into candidate emitters: by the dominant axis of their
 /// normal (walls; upward-facing floor and furniture; the ceiling only when asked), then by a
 /// cell of `cell_m` over the plane's two other axes. The cell grows until there are at most
-/// [`MAX_EMITTERS`] groups.
-fn emitter_groups(model: &Model, seen: &[bool], o: &SectionOptions) -> (Vec<u8>, u16) {
+/// [`MAX_EMITTERS`] groups. With `glazing` (the room plan's windows, when the cameras see none
+/// of some), only the unseen glazing emits: daylight enters there, and the unseen walls and
+/// floor are lit by it through the interreflection (issue 28 item 3).
+fn emitter_groups(
+    model: &Model,
+    seen: &[bool],
+    glazing: Option<&[bool]>,
+    o: &SectionOptions,
+) -> (Vec<u8>, u16) {
     let p = &model.patches;
+    let candidate = |i: usize| glazing.is_none_or(|g| g.get(i).copied().unwrap_or(false));
     let mut cell = o.emitter_cell_m;
     loop {
         let mut keys: std::collections::BTreeMap<(u8, i64, i64), u8> = Default::default();
         let mut out = vec![NO_EMITTER; p.len()];
         let mut overflow = false;
         for i in 0..p.len() {
-            if seen[i] || p.rho[i] <= 0.0 {
+            if seen[i] || p.rho[i] <= 0.0 || !candidate(i) {
                 continue;
             }
             let n = p.normal[i];
@@ -380,6 +388,7 @@ fn layout(
     model: &Model,
     sensors: &[Sensor],
     flags: &[u8],
+    glazing: Option<&[bool]>,
     o: &SectionOptions,
 ) -> Layout {
     let caster = RayCaster::new(&model.patches);
@@ -421,7 +430,8 @@ fn layout(
         })
         .collect();
     let seen = seen_patches(&hits, model.patches.len());
-    let (patch_emitter, n_emitters) = emitter_groups(model, &seen, o);
+    let unseen_glazing = glazing.filter(|g| g.iter().zip(&seen).any(|(g, s)| *g && !*s));
+    let (patch_emitter, n_emitters) = emitter_groups(model, &seen, unseen_glazing, o);
     Layout {
         stride,
         samples,
@@ -513,6 +523,18 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
         .collect()
 }
 
+/// The patches of the room plan's windows (mesh groups `window_<k>` of
+/// [`crate::commission::Part::Window`]), or `None` when the room has none.
+fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
+    let groups = &c.scene.mesh.groups;
+    let is_window: Vec<bool> = groups.iter().map(|g| g.starts_with("window_")).collect();
+    let p = &c.model.patches;
+    let mask: Vec<bool> = (0..p.len())
+        .map(|i| is_window.get(p.group[i] as usize).copied().unwrap_or(false))
+        .collect();
+    mask.iter().any(|&m| m).then_some(mask)
+}
+
 /// The section from a commissioning: the capture's one-luminaire frames less its all-off frame.
 pub fn from_capture(
     c: &Commissioned,
@@ -538,7 +560,15 @@ pub fn from_capture(
     }
     let model = &c.model;
     let l_count = model.luminaires();
-    let lay = layout(camera, model, &c.scene.sensors, &c.sensor_flags, o);
+    let glazing = glazing_patches(c);
+    let lay = layout(
+        camera,
+        model,
+        &c.scene.sensors,
+        &c.sensor_flags,
+        glazing.as_deref(),
+        o,
+    );
     let rho = &model.patches.rho;
     // E_l = π g (L_l − L_off) / ρ of the pixel's patch
     let e_at = |l: usize, px: u32, patch: usize| -> f64 {
@@ -663,7 +693,7 @@ pub fn from_model(
             }
         })
         .collect();
-    let lay = layout(camera, model, &scene.sensors, &flags, o);
+    let lay = layout(camera, model, &scene.sensors, &flags, None, o);
     let indirect = indirect_lx(&model.ff.f, &model.basis_b);
     let points: Vec<Vec<DVec3>> = scene
         .luminaires

@@ -771,6 +771,24 @@ fn a_room_plan_builds_the_unseen_walls_and_window_and_every_desk_improves() {
     );
     // measured (release build, `luxnode commission --room-plan`): box 2.9 % (worst 5.9 %),
     // plan 1.0 % (worst 2.9 %)
+    // live light's daylight enters through the plan's window (out of view): its glazing is
+    // the only emitter
+    let (_, _, cap) = inputs("capture");
+    let section = luxnode::live_section::from_capture(&planned, &cap, &Default::default())
+        .expect("live section");
+    let p = &planned.model.patches;
+    let groups = &planned.scene.mesh.groups;
+    let mut emitting = 0;
+    for (i, &e) in section.patch_emitter.iter().enumerate() {
+        if e != luxnode::store::live::NO_EMITTER {
+            emitting += 1;
+            assert!(
+                groups[p.group[i] as usize].starts_with("window_"),
+                "patch {i}"
+            );
+        }
+    }
+    assert!(emitting > 0 && section.n_emitters >= 1);
     assert!(e_plan < e_box, "plan {e_plan} vs box {e_box}");
     assert!(
         e_plan <= 0.02 && worst_plan <= 0.045,
