@@ -469,16 +469,17 @@ fn print_uncertainty(r: &commission::Report, stated: &[f64]) {
     if !r.uncertainty.is_empty() {
         println!("sensor,stated_uncertainty_pct,all_on_lx,largest_source,its_share_pct");
         for (k, u) in r.uncertainty.iter().enumerate() {
-            let (c, share) = u.dominant();
+            let (c, share) = u.largest_source();
             let rel = stated
                 .get(k)
                 .copied()
                 .filter(|v| v.is_finite())
                 .unwrap_or(u.rel);
-            let (c, share) = if rel > u.rel * 1.0001 {
+            // the image stores it to 1e-4: only a widening beyond that is the camera's
+            let (c, share) = if rel > u.rel + 2e-4 {
                 ("model vs camera", 1.0)
             } else {
-                (c.name(), share)
+                (c, share)
             };
             println!(
                 "{},{:.1},{:.0},{},{:.0}",

@@ -770,6 +770,19 @@ pub const MAX_NODES: usize = 16;
 
 /// Whether node `j` sees the world point `p`: it projects into `j`'s image, where the depth seen
 /// is within 5 cm + 3 % of the point's.
+/// Per sensor: whether no node sees it.
+fn out_of_every_view(captures: &[Capture], depths: &[DepthMap], sensors: &[Sensor]) -> Vec<bool> {
+    sensors
+        .iter()
+        .map(|s| {
+            !captures
+                .iter()
+                .zip(depths)
+                .any(|(c, d)| node_sees(&c.camera, d, s.position_m))
+        })
+        .collect()
+}
+
 fn node_sees(cam: &crate::scene::Camera, depth: &DepthMap, p: DVec3) -> bool {
     let Some((u, v)) = cam.pixel_of(p) else {
         return false;
@@ -1842,7 +1855,10 @@ pub fn from_captures(
 
     let st = Stage::start("uncertainty", o.progress);
     let sigma = o.uncertainty.with_plan(o.room_plan.as_ref());
-    match uncertainty::per_sensor(&model, &meshed.reco, &sigma) {
+    let out_of_view = out_of_every_view(captures, &depths, &scene.sensors);
+    let occluder_lx =
+        uncertainty::unseen_occluder_lx(&model, &scene.sensors, &scene.luminaires, &out_of_view);
+    match uncertainty::per_sensor(&model, &meshed.reco, &sigma, &occluder_lx) {
         Ok(u) => report.uncertainty = u,
         Err(e) => report
             .warnings
