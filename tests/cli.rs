@@ -467,7 +467,7 @@ fn report_from_an_image_and_a_states_file() {
 fn commission_takes_one_capture_set_per_node() {
     // two nodes at the same pose see the same room: the merged model is the single node's
     // (ties go to the first node), and each node gets its own image
-    let s = "../shared/scenes/office_a";
+    let s = "reference/scenes/office_a";
     let dir = tempfile::tempdir().unwrap();
     let path = |f: &str| dir.path().join(f).to_string_lossy().into_owned();
     let (a, b, one) = (path("a.img"), path("b.img"), path("one.img"));

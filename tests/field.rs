@@ -219,7 +219,7 @@ fn plausible_but_wrong_commissioning_inputs_fail_fast() {
     fails_fast(&c, "from the nearest luminaire in luminaires.json");
     // and the same values in a camera.json are refused at load, naming the key
     let dir = tempfile::tempdir().unwrap();
-    let src = manifest().join("../shared/scenes/office_a/capture_clean/camera.json");
+    let src = manifest().join("reference/scenes/office_a/capture_clean/camera.json");
     let text = std::fs::read_to_string(src).unwrap();
     for (from, to, says) in [
         ("\"fx\": 160.00000000000003", "\"fx\": 1e-9", "fx"),

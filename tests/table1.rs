@@ -29,7 +29,7 @@ fn bench_table1_reproduces_docs_accuracy() {
     let doc = std::fs::read_to_string(root.join("docs/accuracy.md")).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_luxnode"))
         .args(["bench", "table1", "--scene"])
-        .arg(root.join("../shared/scenes/office_a"))
+        .arg(root.join("reference/scenes/office_a"))
         .output()
         .expect("luxnode bench table1");
     let text = String::from_utf8_lossy(&out.stdout);

@@ -1,6 +1,7 @@
 //! What the tests share: where the reference scenes are (`office_a` and the rest of
-//! `../shared/`) and their loaders; independent references (configuration factors of the Howell
-//! catalogue in closed form, physics.md §2); small scenes built in code. Every test file that
+//! `reference/`, the repository's copy of `../shared/`) and their loaders; independent
+//! references (configuration factors of the Howell catalogue in closed form, physics.md §2);
+//! small scenes built in code. Every test file that
 //! needs one of these takes it from here (`mod common;`), never writes its own.
 #![allow(dead_code)]
 
@@ -25,12 +26,13 @@ pub fn manifest() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A path under the shared reference data (`../shared/`).
+/// A path under the reference data (`reference/`: the repository's copy of the shared
+/// reference scenes and photometry, so a clean clone needs nothing beside it).
 pub fn shared(rel: &str) -> PathBuf {
-    manifest().join("../shared").join(rel)
+    manifest().join("reference").join(rel)
 }
 
-/// The reference office's scene directory (`../shared/scenes/office_a`).
+/// The reference office's scene directory (`reference/scenes/office_a`).
 pub fn office_a() -> PathBuf {
     shared("scenes/office_a")
 }
