@@ -275,6 +275,16 @@ pub fn hidden_faces(out: &mut RecoMesh, thin: &[(u32, DVec3)]) {
     }
 }
 
+/// Whether a point lies on one of these desk tops (within its outline, within
+/// [`DESK_HEIGHT_TOLERANCE_M`] of its height).
+pub fn on_a_desk(desks: &[crate::scene::Desk], p: DVec3) -> bool {
+    desks.iter().any(|d| {
+        (d.x_m[0]..=d.x_m[1]).contains(&p.x)
+            && (d.y_m[0]..=d.y_m[1]).contains(&p.y)
+            && (p.z - d.z_m).abs() < DESK_HEIGHT_TOLERANCE_M
+    })
+}
+
 /// A desk sensor this far above the floor or more stands on furniture, m.
 pub const DESK_SENSOR_MIN_HEIGHT_M: f64 = 0.3;
 

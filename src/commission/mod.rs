@@ -1855,7 +1855,14 @@ pub fn from_captures(
 
     let st = Stage::start("uncertainty", o.progress);
     let sigma = o.uncertainty.with_plan(o.room_plan.as_ref());
-    let out_of_view = out_of_every_view(captures, &depths, &scene.sensors);
+    // an unseen monitor stands on a desk: a sensor out of view on a declared desk (on any,
+    // without desks.json) may be behind one
+    let desks = i.desks.map(|d| &d.desks[..]);
+    let out_of_view: Vec<bool> = out_of_every_view(captures, &depths, &scene.sensors)
+        .into_iter()
+        .zip(&scene.sensors)
+        .map(|(out, s)| out && desks.is_none_or(|d| closure::on_a_desk(d, s.position_m)))
+        .collect();
     let occluder_lx =
         uncertainty::unseen_occluder_lx(&model, &scene.sensors, &scene.luminaires, &out_of_view);
     match uncertainty::per_sensor(&model, &meshed.reco, &sigma, &occluder_lx) {

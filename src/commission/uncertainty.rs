@@ -188,8 +188,8 @@ pub const UNSEEN_OCCLUDER_SHARE: f64 = 0.5;
 pub const UNSEEN_OCCLUDER_ELEVATION_RAD: f64 = core::f64::consts::FRAC_PI_4;
 
 /// Per sensor, what an unseen object could shade, lx ([`UNSEEN_OCCLUDER_SHARE`] of the largest
-/// direct light of a luminaire below [`UNSEEN_OCCLUDER_ELEVATION_RAD`]); 0 for a sensor some
-/// camera sees (`out_of_view` false).
+/// direct light of a luminaire below [`UNSEEN_OCCLUDER_ELEVATION_RAD`]); 0 where `out_of_view`
+/// is false (a sensor some camera sees, or not on a desk, where monitors stand).
 pub fn unseen_occluder_lx(
     model: &Model,
     sensors: &[crate::scene::Sensor],
