@@ -75,69 +75,64 @@ fn an_l_shaped_room_contains_its_legs_but_not_its_missing_corner() {
 
 #[test]
 fn mistakes_in_a_plan_are_refused_with_what_is_wrong() {
-    refused(&PLAN.replace("\"site\"", "\"sight\""), "unknown field");
-    refused(
-        &PLAN.replace("luxnode-room-plan/1", "luxnode-room-plan/2"),
-        "expected",
-    );
-    // a bow tie
-    refused(
-        &PLAN.replace(
-            "[[0.0, 0.0], [5.4, 0.0], [5.4, 9.0], [0.0, 9.0]]",
+    const OUTLINE: &str = "[[0.0, 0.0], [5.4, 0.0], [5.4, 9.0], [0.0, 9.0]]";
+    const WINDOW: &str = "[[0.0, 1.05, 0.9], [0.0, 2.0, 0.9], [0.0, 2.0, 2.2], [0.0, 1.05, 2.2]]";
+    // (what is typed in place of what, and the words of the refusal)
+    let mistakes = [
+        ("\"site\"", "\"sight\"", "unknown field"),
+        ("luxnode-room-plan/1", "luxnode-room-plan/2", "expected"),
+        (
+            OUTLINE,
             "[[0.0, 0.0], [5.4, 9.0], [5.4, 0.0], [0.0, 9.0]]",
+            "intersects itself",
         ),
-        "intersects itself",
-    );
-    // millimetres
-    refused(
-        &PLAN.replace(
-            "[[0.0, 0.0], [5.4, 0.0], [5.4, 9.0], [0.0, 9.0]]",
+        (
+            OUTLINE,
             "[[0.0, 0.0], [5400.0, 0.0], [5400.0, 9000.0], [0.0, 9000.0]]",
+            "millimetres",
         ),
-        "millimetres",
-    );
-    refused(
-        &PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 2800"),
-        "millimetres",
-    );
-    refused(
-        &PLAN.replace("\"ceiling_z_m\": 2.8", "\"ceiling_z_m\": 0.8"),
-        "above the floor",
-    );
-    // the window 30 cm into the room: off every wall
-    refused(
-        &PLAN.replace(
-            "[[0.0, 1.05, 0.9], [0.0, 2.0, 0.9], [0.0, 2.0, 2.2], [0.0, 1.05, 2.2]]",
-            "[[0.3, 1.05, 0.9], [0.3, 2.0, 0.9], [0.3, 2.0, 2.2], [0.3, 1.05, 2.2]]",
+        (
+            OUTLINE,
+            "[[0.0, 0.0], [5.4, 0.0], [5.4, 0.0], [0.0, 9.0]]",
+            "typed twice",
         ),
-        "on no wall",
-    );
-    refused(
-        &PLAN.replace("\"transmittance\": 0.8", "\"transmittance\": 80"),
-        "transmittance",
-    );
-    refused(
-        &PLAN.replace(
+        (
+            "\"ceiling_z_m\": 2.8",
+            "\"ceiling_z_m\": 2800",
+            "millimetres",
+        ),
+        (
+            "\"ceiling_z_m\": 2.8",
+            "\"ceiling_z_m\": 0.8",
+            "above the floor",
+        ),
+        // the window 30 cm into the room: off every wall
+        (WINDOW, &WINDOW.replace("[0.0,", "[0.3,"), "on no wall"),
+        (
+            "\"transmittance\": 0.8",
+            "\"transmittance\": 80",
+            "transmittance",
+        ),
+        (
             "\"ceiling_z_m\": 2.8,",
             "\"ceiling_z_m\": 2.8, \"wall_rho\": 55,",
+            "percentage",
         ),
-        "percentage",
-    );
-    refused(
-        &PLAN.replace("\"north\": [1.0, 0.0]", "\"north\": [0.0, 0.0]"),
-        "unit vector",
-    );
-    refused(
-        &PLAN.replace("\"latitude_deg\": 48.1", "\"latitude_deg\": 148.1"),
-        "-90..90",
-    );
-    refused(
-        &PLAN.replace(
-            "[[0.0, 0.0], [5.4, 0.0], [5.4, 9.0], [0.0, 9.0]]",
-            "[[0.0, 0.0], [5.4, 0.0], [5.4, 0.0], [0.0, 9.0]]",
+        (
+            "\"north\": [1.0, 0.0]",
+            "\"north\": [0.0, 0.0]",
+            "unit vector",
         ),
-        "typed twice",
-    );
+        (
+            "\"latitude_deg\": 48.1",
+            "\"latitude_deg\": 148.1",
+            "-90..90",
+        ),
+    ];
+    for (from, to, needle) in mistakes {
+        assert!(PLAN.contains(from), "{from}");
+        refused(&PLAN.replace(from, to), needle);
+    }
 }
 
 #[test]
