@@ -317,6 +317,8 @@ pub struct LiveModel {
     response: Vec<f64>,
     calibrated: Vec<f64>,
     model_rel: Vec<f64>,
+    /// Per sensor, the model's disagreement with the camera at all on (0 out of view).
+    disagreement: Vec<f64>,
     windows: Vec<Window>,
     // emitters: boundary basis (seen exitance fixed), at seen patches and sensors
     k: usize,
@@ -443,6 +445,7 @@ impl LiveModel {
             model_rel: (0..s)
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
+            disagreement: Vec::new(),
             windows,
             k: k_em,
             emitter_src,
@@ -452,6 +455,7 @@ impl LiveModel {
             edges: Vec::new(),
         };
         model.edges = model.luminance_edges();
+        model.disagreement = (0..s).map(|k| model.disagreement_at_boot(k)).collect();
         model.boundary_basis().map_err(LiveError::Solve)?;
         // the night test's basis too, at boot: built at the first night frame it took that
         // frame from 20 to 130 ms (docs/live.md, `luxnode bench live`)
@@ -462,6 +466,11 @@ impl LiveModel {
     /// In-view sensor `s`'s disagreement between the model's all-on response and the
     /// camera-calibrated one ([`model_camera_disagreement`]); 0 out of view.
     pub fn disagreement(&self, s: usize) -> f64 {
+        self.disagreement.get(s).copied().unwrap_or(0.0)
+    }
+
+    /// [`Self::disagreement`], computed once at boot from the stored rows.
+    fn disagreement_at_boot(&self, s: usize) -> f64 {
         let l = self.luminaires;
         if !self.in_view(s) {
             return 0.0;
