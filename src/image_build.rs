@@ -139,6 +139,12 @@ pub fn sections(image: &Image<'_>) -> Sections {
     let geometry = image
         .geometry_bytes()
         .map_or(0, |g| g.len() + crate::store::SECTION_FRAME_LEN);
+    let daylight = image.daylight.as_ref().map_or(0, |d| {
+        d.seen_patch.0.len()
+            + d.seen_lx.0.len()
+            + d.sensor_lx.0.len()
+            + crate::store::SECTION_FRAME_LEN
+    });
     let mut parts = vec![
         ("header", HEADER_LEN),
         ("form factors (row starts, columns, values)", sparse(&p.ff)),
@@ -166,11 +172,15 @@ pub fn sections(image: &Image<'_>) -> Sections {
                 - p.direct_sensor_lx.0.len()
                 - p.first_bounce_sensor_lx.0.len()
                 - p.response_lx.0.len()
-                - live,
+                - live
+                - daylight,
         ),
     ];
     if image.live.is_some() {
         parts.push(("live light (samples, windows, emitters)", live));
+    }
+    if image.daylight.is_some() {
+        parts.push(("daylight coefficients (unseen windows)", daylight));
     }
     Sections {
         parts,
@@ -647,7 +657,21 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
 /// `None`): the payload and every other section are kept byte for byte, the header's length and
 /// CRC rewritten, and the result parsed and checked.
 pub fn with_live(image: &[u8], live: Option<&LiveSectionData>) -> Result<Vec<u8>, BuildError> {
-    use crate::store::{LIVE_MAGIC, SECTION_FRAME_LEN};
+    use crate::store::{LIVE_MAGIC, live::LIVE_VERSION};
+    let body = live.map(encode_live).transpose()?;
+    with_section(image, LIVE_MAGIC, LIVE_VERSION, body.as_deref())
+}
+
+/// The image with its section `magic` replaced by `body` (added when it has none; removed with
+/// `None`): the payload and every other section kept byte for byte, the header's length and CRC
+/// rewritten, and the result parsed and checked.
+pub fn with_section(
+    image: &[u8],
+    magic: [u8; 4],
+    version: u16,
+    section: Option<&[u8]>,
+) -> Result<Vec<u8>, BuildError> {
+    use crate::store::SECTION_FRAME_LEN;
     let parsed = Image::parse(image).map_err(BuildError::Parse)?;
     let payload = &image[HEADER_LEN..parsed.len()];
     let (_, mut rest): (PayloadV1<'_>, &[u8]) = postcard::take_from_bytes(payload)
@@ -657,16 +681,14 @@ pub fn with_live(image: &[u8], live: Option<&LiveSectionData>) -> Result<Vec<u8>
     while rest.len() >= SECTION_FRAME_LEN {
         let len = u32::from_le_bytes([rest[6], rest[7], rest[8], rest[9]]) as usize;
         let end = (SECTION_FRAME_LEN + len).min(rest.len());
-        if rest[0..4] != LIVE_MAGIC {
+        if rest[0..4] != magic {
             body.extend_from_slice(&rest[..end]);
         }
         rest = &rest[end..];
     }
-    if let Some(live) = live {
-        let encoded = encode_live(live)?;
-        let frame =
-            crate::store::frame_section(LIVE_MAGIC, crate::store::live::LIVE_VERSION, &encoded)
-                .ok_or_else(|| BuildError::Limits("live section over 4 GiB".into()))?;
+    if let Some(encoded) = section {
+        let frame = crate::store::frame_section(magic, version, encoded)
+            .ok_or_else(|| BuildError::Limits("section over 4 GiB".into()))?;
         body.extend(frame);
     }
     let header = Header {

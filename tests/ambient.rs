@@ -111,13 +111,16 @@ fn the_hooded_ambient_light_sensor_calibrates_the_camera_gain_directly() {
     let (err_bright, _, _) = commission(&hood, 0.6);
     assert!((err_bright - err).abs() < 1e-9, "{err} vs {err_bright}");
     // the run-time check's reference: the final model predicts the hooded sensor's reading
-    // per luminaire (measured: within 4 % for the luminaires that light its cone)
+    // per luminaire (measured: within 4 % for the luminaires that light its cone). In total
+    // -4.8 % since the reflectance fit holds the seen patches at their measured exitance (stop
+    // 37): the seen reflectances no longer run high to make up for the unseen walls' default
+    // (0.5 here), and the sensor's cone takes in much of those walls; the guard is 6 %.
     let reference = c.report.ambient_response_lx.clone().unwrap();
     let total: f64 = per_lum.iter().sum();
     let predicted: f64 = reference.iter().sum();
     eprintln!("per luminaire truth {per_lum:.2?} model {reference:.2?}");
     assert!(
-        (predicted / total - 1.0).abs() < 0.03,
+        (predicted / total - 1.0).abs() < 0.06,
         "{predicted} vs {total}"
     );
     for (j, (m, t)) in reference.iter().zip(&per_lum).enumerate() {

@@ -318,6 +318,7 @@ const COMMISSIONING: &[&str] = &[
     "image_build",
     "image_geometry",
     "live_section",
+    "daylight_section",
     "scene",
     "photometry",
 ];

@@ -955,3 +955,103 @@ fn a_luxmeter_refit_at_its_limits_is_refused_unless_forced() {
         c.sensor_flags
     );
 }
+
+/// Issue 28 item 3: with a site, the plan's window the camera does not see gets daylight
+/// coefficients in the image (what they cost in bytes is printed), and at run time the sky fit
+/// with the frame's time finds no daylight in a night frame (a window behind closed blinds is
+/// the fit's business, not an assumption).
+#[test]
+fn the_plans_unseen_window_gets_daylight_coefficients() {
+    use luxnode::live::{Live, LiveFrame, LiveModel, LiveSettings, Source};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("room.json");
+    let with_site = OFFICE_A_PLAN.replace(
+        "\"ceiling_z_m\": 3.0,",
+        "\"ceiling_z_m\": 3.0, \"site\": {\"latitude_deg\": 47.4, \"longitude_deg\": 8.5, \
+         \"north\": [0.0, 1.0]},",
+    );
+    std::fs::write(&path, with_site).expect("write");
+    let (plan, warnings) = luxnode::scene::RoomPlan::load(&path).expect("plan");
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let o = CommissionOptions {
+        room_plan: Some(plan.clone()),
+        ..CommissionOptions::default()
+    };
+    let planned = run("capture", &o);
+    let (_, _, cap) = inputs("capture");
+    let img =
+        luxnode::image_build::build_image(&planned.model, &Default::default()).expect("image");
+    let img = luxnode::live_section::with_capture_section(img, &planned, &cap);
+    let before = img.len();
+    let img = luxnode::daylight_section::with_daylight_section(img, &planned, Some(&plan));
+    let parsed = luxnode::store::Image::parse(&img).expect("parse");
+    let d = parsed.daylight.expect("a daylight section");
+    eprintln!(
+        "daylight coefficients: {} bytes for {} seen patches and {} sensors",
+        img.len() - before,
+        d.seen(),
+        parsed.sensors()
+    );
+    assert_eq!(d.windows, 1);
+    // the window's 4 × 1.5 m
+    assert!(
+        (d.window_area_m2 - 6.0).abs() < 1e-9,
+        "{}",
+        d.window_area_m2
+    );
+    // under a uniform sky of 1 cd/m² (ground dark) a receiver gets at most π τ_n lx through
+    // the glazing plus what the room reflects of it; every desk gets some
+    let uniform: Vec<f64> = (0..parsed.sensors())
+        .map(|s| (0..145).map(|j| d.sensor_lx(s, j)).sum())
+        .collect();
+    assert!(
+        uniform
+            .iter()
+            .all(|&e| e > 0.0 && e < std::f64::consts::PI * 0.7),
+        "{uniform:?}"
+    );
+    // a night frame at noon: the sky fit finds no daylight
+    let model = LiveModel::new(&parsed).expect("live model");
+    let mut live = Live::new(model, LiveSettings::default()).expect("live");
+    assert!(live.has_sky());
+    live.set_time(luxnode::sky::parse_rfc3339("2026-03-21T11:26:00Z").ok());
+    let gain = live.model().gain();
+    let dir_cap = Path::new(env!("CARGO_MANIFEST_DIR")).join("reference/scenes/office_a/capture");
+    let lum: Vec<luxnode::camera::capture::Frame> = (1..=8)
+        .map(|k| {
+            luxnode::camera::capture::read_frame16(&dir_cap.join(format!("luminance_L{k}.png")))
+                .expect("frame")
+        })
+        .collect();
+    // every luminaire on: the sum of the one-luminaire frames
+    let sum: Vec<u16> = (0..lum[0].data.len())
+        .map(|i| {
+            lum.iter()
+                .map(|f| u32::from(f.data[i]))
+                .sum::<u32>()
+                .min(65534) as u16
+        })
+        .collect();
+    let frame = LiveFrame {
+        width: lum[0].width,
+        height: lum[0].height,
+        luminance: &sum,
+        cd_m2_per_unit: gain,
+        depth_mm: None,
+        taken_s: 0.0,
+    };
+    let desks = live
+        .update(&frame, &[1.0; 8], 0.0)
+        .expect("update")
+        .to_vec();
+    assert!(live.sky_type() > 0, "the sky was fitted");
+    for desk in desks.iter().filter(|x| x.source == Source::Inferred) {
+        assert!(
+            desk.daylight_lx <= 0.02 * desk.total_lx,
+            "desk {}: {} lx of daylight at night",
+            desk.id,
+            desk.daylight_lx
+        );
+    }
+    assert!(desks.iter().any(|x| x.source == Source::Inferred));
+}

@@ -204,17 +204,64 @@ fn a_failed_solve_in_the_reflectance_fit_is_an_error() {
     let scene = Scene::load(&dir(), &LoadOptions::default()).unwrap();
     let settings = Settings::default();
     let model = engine::compute_model(&scene, &settings).unwrap();
-    let ok = reflectance::indirect_lx(&model, &model.patches.rho, &settings).unwrap();
+    let ok = reflectance::indirect_lx(&model, &model.patches.rho, &[], &settings).unwrap();
     assert_eq!(ok.len(), 2);
     assert!(ok.iter().flatten().all(|e| e.is_finite() && *e >= 0.0));
     assert!(ok.iter().flatten().any(|e| *e > 0.0));
     let mut white = model.patches.rho.clone();
     white[0] = 1.0;
-    let err = reflectance::indirect_lx(&model, &white, &settings).unwrap_err();
+    let err = reflectance::indirect_lx(&model, &white, &[], &settings).unwrap_err();
     assert!(
         matches!(err, SolveError::BadReflectance { patch: 0, .. }),
         "{err}"
     );
+}
+
+/// Inverse radiosity (the reflectance fit holds the seen patches at the exitance the camera
+/// measured): holding any set of patches at the forward solution's exitance leaves the solution
+/// where it is, so the interreflected light equals the forward solve's, patch by patch; holding
+/// them at twice theirs adds exactly the light of that extra exitance (linearity).
+#[test]
+fn holding_patches_at_their_exitance_reproduces_the_forward_solve() {
+    use luxnode::commission::reflectance;
+    use luxnode::engine::{self, Settings};
+    use luxnode::solver::{self, CsrSystem};
+    let scene = Scene::load(&dir(), &LoadOptions::default()).unwrap();
+    let settings = Settings::default();
+    let model = engine::compute_model(&scene, &settings).unwrap();
+    let rho = &model.patches.rho;
+    let n = rho.len();
+    let forward = reflectance::indirect_lx(&model, rho, &[], &settings).unwrap();
+    let sys = CsrSystem {
+        f: model.ff.f.view(),
+        rho,
+    };
+    let mut held = Vec::new();
+    let mut exitance = Vec::new();
+    for e in &model.direct_patch_lx {
+        let mut b = vec![0.0; n];
+        solver::gauss_seidel(&sys, e, &mut b, settings.solve).unwrap();
+        // every third patch held
+        held.push(
+            (0..n)
+                .map(|i| (i % 3 == 0).then_some(b[i]))
+                .collect::<Vec<_>>(),
+        );
+        exitance.push(b);
+    }
+    let with_held = reflectance::indirect_lx(&model, rho, &held, &settings).unwrap();
+    for (f, h) in forward.iter().flatten().zip(with_held.iter().flatten()) {
+        assert!((f - h).abs() <= 1e-6 * f.abs().max(1.0), "{f} vs {h}");
+    }
+    // twice the exitance at the held patches: the rest solved again
+    let doubled: Vec<Vec<Option<f64>>> = held
+        .iter()
+        .map(|h| h.iter().map(|x| x.map(|v| 2.0 * v)).collect())
+        .collect();
+    let more = reflectance::indirect_lx(&model, rho, &doubled, &settings).unwrap();
+    let total: f64 = more.iter().flatten().sum::<f64>();
+    let before: f64 = forward.iter().flatten().sum::<f64>();
+    assert!(total > before, "{total} vs {before}");
 }
 
 /// Issue 34 / 31: lengths in the wrong unit are refused before any work, with the unit they look

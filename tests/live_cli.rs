@@ -197,6 +197,22 @@ fn json_output_and_bad_input() {
             vec!["--frame", "/nonexistent.png", "--arc", ALL_ON],
             "nonexistent",
         ),
+        // the frame's time (issue 28): unparsable, or in the future
+        (
+            vec!["--frame", &f, "--arc", ALL_ON, "--time", "21.3.2026 12:00"],
+            "RFC 3339",
+        ),
+        (
+            vec![
+                "--frame",
+                &f,
+                "--arc",
+                ALL_ON,
+                "--time",
+                "2999-01-01T00:00:00Z",
+            ],
+            "in the future",
+        ),
     ] {
         let (ok, _, err) = live(&args);
         assert!(!ok, "{args:?}");

@@ -973,13 +973,26 @@ def night_model(a, d: Path, com: dict, truth: dict) -> dict:
     return out
 
 
+# The frames' time for `luxnode live --time`: the day sky is gensky's for 21 March, 12:00 at
+# longitude 0 (`-o 0 -m 0`); the plans' site is at 8.5 E, where the sun stands as high and in
+# the same direction 34 minutes earlier in UTC (8.5 degrees of longitude).
+def frame_time(d: Path) -> str:
+    site = json.loads((d / "room.json").read_text()).get("site") or {}
+    minutes = 12 * 60 - round(4 * float(site.get("longitude_deg", 0.0)))
+    return f"2026-03-21T{minutes // 60:02d}:{minutes % 60:02d}:00Z"
+
+
 def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dict:
     n_lum = len(json.loads((d / "luminaires.json").read_text()))
     arc = ",".join(["254"] * n_lum)
     per_node = []
+    has_time = "--time" in run([luxnode_bin(a), "live", "--help"]).stdout
     for cam, img in com["images"].items():
-        p = run([luxnode_bin(a), "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
-                 "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"])
+        cmd = [luxnode_bin(a), "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
+               "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"]
+        if has_time:
+            cmd += ["--time", frame_time(d)]
+        p = run(cmd)
         rows = {int(r["sensor_id"]): r for r in csv.DictReader(p.stdout.splitlines())}
         per_node.append(rows)
     out = {}

@@ -223,7 +223,7 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let r = &c.report;
     print_report(c)?;
-    let stated = write_images(a, &nodes, &caps)?;
+    let stated = write_images(a, &nodes, &caps, o.room_plan.as_ref())?;
     print_uncertainty(r, &stated);
     // for the error table: a sensor is in view when some node sees it
     let flags: Vec<u8> = (0..c.sensor_flags.len())
@@ -380,6 +380,7 @@ fn write_images(
     a: &Args,
     nodes: &[commission::Commissioned],
     caps: &[Capture],
+    plan: Option<&luxnode::scene::RoomPlan>,
 ) -> Result<Vec<f64>> {
     let st = a.store.store(a.engine.preset);
     let mut stated = vec![f64::NAN; nodes.first().map_or(0, |n| n.model.sensors())];
@@ -428,6 +429,8 @@ fn write_images(
         };
         // live light: the section that turns run-time frames into desk lux (docs/live.md)
         let bytes = luxnode::live_section::with_capture_section(bytes, node, cap);
+        // daylight through the plan's windows the camera does not see (docs/live.md)
+        let bytes = luxnode::daylight_section::with_daylight_section(bytes, node, plan);
         let image = Image::parse(&bytes)?;
         for (k, u) in stated.iter_mut().enumerate() {
             if let Some(v) = image.model_rel_uncertainty(k).filter(|v| v.is_finite()) {

@@ -36,6 +36,11 @@ pub struct Args {
     /// The luminaires' dimming curve.
     #[arg(long, value_enum, default_value_t = Curve::Logarithmic)]
     curve: Curve,
+    /// When the frame was taken, RFC 3339 (`2026-03-21T12:00:00Z`, or with an offset): the
+    /// sun's position for the sky fit through the room plan's windows the camera does not see.
+    /// Required when the image has daylight coefficients; a time in the future is refused.
+    #[arg(long, value_name = "RFC3339")]
+    pub time: Option<String>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]
     format: OutputFormat,
@@ -115,6 +120,7 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     let mut live = Live::new(model, LiveSettings::default())?;
+    live.set_time(frame_time(a.time.as_deref(), live.has_sky())?);
     let f = LiveFrame {
         width: w,
         height: h,
@@ -123,7 +129,13 @@ pub fn run(a: &Args) -> Result<()> {
         depth_mm: depth.as_ref().map(|d| &d.data[..]),
         taken_s: 0.0,
     };
-    let desks = live.update(&f, &levels, 0.0)?;
+    let desks = live.update(&f, &levels, 0.0)?.to_vec();
+    if live.sky_type() > 0 {
+        tracing::info!(
+            "live: the daylight through the unseen windows is fitted by CIE sky type {}",
+            live.sky_type()
+        );
+    }
     let source = |s: Source| match s {
         Source::Model => "model",
         Source::Measured => "measured",
@@ -132,7 +144,7 @@ pub fn run(a: &Args) -> Result<()> {
     match a.format {
         OutputFormat::Csv => {
             println!("sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx");
-            for d in desks {
+            for d in &desks {
                 println!(
                     "{},{:.2},{:.2},{:.2},{},{},{:.2}",
                     d.id,
@@ -164,4 +176,37 @@ pub fn run(a: &Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Most a frame's time may lie ahead of this machine's clock (clock skew), s.
+const FUTURE_TOLERANCE_S: f64 = 300.0;
+
+/// The frame's time from `--time`: parsed, not in the future; required when the image has
+/// daylight coefficients (the sun's position decides the sky's shape).
+fn frame_time(text: Option<&str>, required: bool) -> Result<Option<luxnode::sky::UnixTime>> {
+    let Some(text) = text else {
+        if required {
+            bail!(
+                "--time RFC3339 is required: the image has daylight coefficients (a room plan \
+                 with windows the camera does not see), and the sky fit needs the sun's \
+                 position when the frame was taken (e.g. --time 2026-03-21T12:00:00Z)"
+            );
+        }
+        return Ok(None);
+    };
+    let t = luxnode::sky::parse_rfc3339(text).map_err(|e| {
+        anyhow::anyhow!("--time {text:?}: {e} (RFC 3339, e.g. 2026-03-21T12:00:00Z)")
+    })?;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0);
+    if t.as_seconds_f64() > now + FUTURE_TOLERANCE_S {
+        bail!(
+            "--time {text}: in the future (this machine's clock reads {:.0} s earlier); a frame \
+             is live light of a moment that has been",
+            t.as_seconds_f64() - now
+        );
+    }
+    Ok(Some(t))
 }

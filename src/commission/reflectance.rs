@@ -60,6 +60,12 @@ pub struct ReflectanceOptions {
     pub rho_max: f64,
     /// Points over a luminaire's opening for each pixel's direct light.
     pub opening_points: usize,
+    /// The interreflections hold every seen patch at the exitance the camera measured there
+    /// (inverse radiosity) rather than at the previous estimate's reflectances. The plain
+    /// fixed point `ρ ← π L / (E_dir + E_ind(ρ))` oscillates where the seen walls carry most
+    /// of the interreflections: on the generalization bench's fisheye rooms it ended 10-25 %
+    /// high after its 2 rounds (docs/generalization.md).
+    pub hold_seen: bool,
 }
 
 impl Default for ReflectanceOptions {
@@ -73,6 +79,7 @@ impl Default for ReflectanceOptions {
             rho_min: 0.02,
             rho_max: 0.95,
             opening_points: 16,
+            hold_seen: true,
         }
     }
 }
@@ -196,25 +203,92 @@ pub fn sample(
 }
 
 /// Interreflected irradiance per luminaire on each patch, lx: `Σ_j F_ij B_j` with
-/// `B = ρ (E_dir + F B)`.
+/// `B = ρ (E_dir + F B)` over the patches without a measured exitance, and `B_i` held at
+/// `held[l][i]` where the camera measured it (inverse radiosity: Yu, Debevec, Malik and
+/// Hawkins, "Inverse global illumination", SIGGRAPH 1999, hold the seen surfaces at their
+/// measured radiance). `held` empty: every patch solved.
 pub fn indirect_lx(
     model: &Model,
     patch_rho: &[f64],
+    held: &[Vec<Option<f64>>],
     settings: &Settings,
 ) -> Result<Vec<Vec<f64>>, SolveError> {
     let sys = CsrSystem {
         f: model.ff.f.view(),
         rho: patch_rho,
     };
+    let n = patch_rho.len();
     model
         .direct_patch_lx
         .par_iter()
-        .map(|e| {
-            let mut b = vec![0.0; patch_rho.len()];
-            solver::gauss_seidel(&sys, e, &mut b, settings.solve)?;
-            Ok((0..patch_rho.len())
+        .enumerate()
+        .map(|(l, e)| {
+            let mut b = vec![0.0; n];
+            match held.get(l) {
+                Some(h) if h.len() == n => {
+                    let mut rows = Vec::with_capacity(n);
+                    for (i, hi) in h.iter().enumerate() {
+                        match hi {
+                            Some(x) => b[i] = *x,
+                            None => rows.push(i as u32),
+                        }
+                    }
+                    let (mut acc, mut state) = ([0.0], [solver::RhsState::default()]);
+                    let work = solver::Workspace {
+                        acc: &mut acc,
+                        state: &mut state,
+                    };
+                    let rows = solver::Rows::Listed(&rows);
+                    let source = solver::Source::Irradiance(e);
+                    solver::solve(&sys, rows, source, &mut b, work, settings.solve)?;
+                }
+                _ => {
+                    solver::gauss_seidel(&sys, e, &mut b, settings.solve)?;
+                }
+            }
+            Ok((0..n)
                 .map(|i| model.ff.f.row(i).map(|(j, f)| f * b[j as usize]).sum())
                 .collect())
+        })
+        .collect()
+}
+
+/// Fewest pixels of a patch for its measured exitance to be held.
+const HELD_MIN_PIXELS: usize = 3;
+
+/// The measured exitance per luminaire on each patch the camera sees, lm/m²: the median of
+/// `π gain L` over the patch's pixels (a Lambertian surface's exitance is π times its
+/// luminance), where at least [`HELD_MIN_PIXELS`] pixels have a value in that frame.
+pub fn measured_exitance(
+    samples: &Samples,
+    n_patches: usize,
+    n_lum: usize,
+    gain: f64,
+) -> Vec<Vec<Option<f64>>> {
+    let mut by_patch: Vec<Vec<usize>> = vec![Vec::new(); n_patches];
+    for (k, &p) in samples.patch.iter().enumerate() {
+        if let Some(v) = by_patch.get_mut(p as usize) {
+            v.push(k);
+        }
+    }
+    (0..n_lum)
+        .map(|l| {
+            let mut buf = Vec::new();
+            by_patch
+                .iter()
+                .map(|ks| {
+                    buf.clear();
+                    buf.extend(
+                        ks.iter()
+                            .filter_map(|&k| samples.value[k].get(l).copied())
+                            .filter(|v| v.is_finite() && *v >= 0.0)
+                            .map(|v| std::f64::consts::PI * gain * v),
+                    );
+                    (buf.len() >= HELD_MIN_PIXELS)
+                        .then(|| median(&mut buf))
+                        .flatten()
+                })
+                .collect()
         })
         .collect()
 }
@@ -412,6 +486,11 @@ pub fn estimate(
         ..Estimate::default()
     };
     let n_lum = model.direct_patch_lx.len();
+    let held = if o.hold_seen {
+        measured_exitance(samples, model.patches.len(), n_lum, gain)
+    } else {
+        Vec::new()
+    };
     for it in 0..=o.iterations {
         let e_ind: Vec<Vec<f64>> = if it == 0 {
             vec![vec![0.0; model.patches.len()]; n_lum]
@@ -422,7 +501,7 @@ pub fn estimate(
                 .iter()
                 .map(|&t| tri_rho[t as usize])
                 .collect();
-            indirect_lx(model, &patch_rho, settings)?
+            indirect_lx(model, &patch_rho, &held, settings)?
         };
         let mut per_tri: Vec<Vec<f64>> = vec![Vec::new(); n_tri];
         let mut floor_px = Vec::new();

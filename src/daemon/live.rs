@@ -163,6 +163,21 @@ fn register(d: &DeskLive) -> LiveDesk {
     }
 }
 
+/// The firmware's date: a wall clock earlier than this was never set (an RTC without a
+/// battery, no NTP yet), and the sky fit is not given its time (`live_status::CLOCK_UNSET`).
+pub const FIRMWARE_DATE: &str = "2026-11-26T00:00:00Z";
+
+/// The wall clock's time for the sky fit, or `None` when the clock is not set (before
+/// [`FIRMWARE_DATE`]).
+pub fn wall_clock() -> Option<crate::sky::UnixTime> {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .ok()?;
+    let floor = crate::sky::parse_rfc3339(FIRMWARE_DATE).ok()?;
+    let t = crate::sky::UnixTime::from_seconds(i64::try_from(now.as_secs()).ok()?);
+    (t.as_seconds_f64() >= floor.as_seconds_f64()).then_some(t)
+}
+
 /// What the task remembers between frames.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct StepState {
@@ -196,6 +211,13 @@ pub fn step(
     });
     if moved {
         tracing::debug!("live: the dimming state changed during the frame; frame skipped");
+    }
+    if live.has_sky() {
+        let t = wall_clock();
+        if t.is_none() {
+            status |= live_status::CLOCK_UNSET;
+        }
+        live.set_time(t);
     }
     let result = match (&frame, known && !moved) {
         (Ok(f), true) => live.update(
@@ -358,5 +380,25 @@ mod tests {
         }
         assert!(with_depth > 70_000, "{with_depth}");
         assert!(same * 1000 >= with_depth * 999, "{same} of {with_depth}");
+    }
+}
+
+#[cfg(test)]
+mod clock_tests {
+    use super::*;
+
+    /// The firmware's date parses, and this machine's clock (set: CI and development machines
+    /// run NTP) reads after it, so the sky fit gets its time; a date far ahead would not.
+    #[test]
+    fn the_firmware_date_is_a_valid_floor_for_the_clock() {
+        let floor = crate::sky::parse_rfc3339(FIRMWARE_DATE).expect("FIRMWARE_DATE parses");
+        let t = wall_clock().expect("this machine's clock is set");
+        assert!(t.as_seconds_f64() >= floor.as_seconds_f64());
+        assert!(
+            crate::sky::parse_rfc3339("2999-01-01T00:00:00Z")
+                .expect("parses")
+                .seconds
+                > t.seconds
+        );
     }
 }

@@ -347,7 +347,10 @@ impl CameraSource {
         }
         let image = image.bytes;
         let bytes = crate::live_section::with_capture_section(image, c, &seq.capture);
-        Ok(bytes)
+        let plan = self.commission.room_plan.as_ref();
+        Ok(crate::daylight_section::with_daylight_section(
+            bytes, c, plan,
+        ))
     }
 
     /// The ambient light check's reference: what the luminaires give the sensor, for the

@@ -105,7 +105,8 @@ impl Window {
         }
     }
 
-    fn check(&self) -> Result<(), DaylightError> {
+    /// Checks the rectangle: finite, non-degenerate, its inward normal across its plane.
+    pub fn check(&self) -> Result<(), DaylightError> {
         let finite = [self.corner_m, self.edge_u_m, self.edge_v_m, self.inward]
             .iter()
             .all(|v| v.is_finite());
@@ -351,11 +352,24 @@ impl<'a> DaylightRoom<'a> {
 
     /// The direct sky component at every patch and sensor.
     pub fn direct_sky(&self, settings: &DaylightSettings) -> Result<DirectSky, DaylightError> {
+        self.direct_sky_where(settings, |_| true)
+    }
+
+    /// The direct sky component at the patches `wanted` selects (the others' rows are zero)
+    /// and at every sensor.
+    pub fn direct_sky_where(
+        &self,
+        settings: &DaylightSettings,
+        wanted: impl Fn(usize) -> bool + Sync,
+    ) -> Result<DirectSky, DaylightError> {
         self.check(settings)?;
         let patches = self.patches;
         let patch_rows: Vec<[f64; COLUMNS]> = (0..patches.len())
             .into_par_iter()
             .map(|i| {
+                if !wanted(i) {
+                    return [0.0; COLUMNS];
+                }
                 let (shift, _) = patch_jitter(i, settings.seed ^ 0x5C7);
                 let n = patches.normal[i];
                 let at = |k: usize| Point {

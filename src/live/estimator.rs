@@ -8,8 +8,10 @@ use crate::solver::{
 use crate::store::Image;
 
 use super::nnls::nnls_gram;
+use super::sky_fit::{SkyBasis, SkyCoefficients};
 use super::window::window_sigma_m;
 use super::{LiveError, flags};
+use crate::sky::UnixTime;
 
 /// Where a desk's value comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -327,6 +329,8 @@ pub struct LiveModel {
     g_sensor: Vec<f64>,
     // full-model basis at seen patches (the night test), computed at boot
     u_seen: Vec<f64>,
+    // daylight coefficients through the plan's unseen windows (None: the emitters alone)
+    sky: Option<SkyCoefficients>,
     // neighbouring samples across an edge of the commissioned luminance: (i, j, ln L_i/L_j)
     edges: Vec<(u32, u32, f32)>,
 }
@@ -452,8 +456,10 @@ impl LiveModel {
             v_seen: Vec::new(),
             g_sensor: Vec::new(),
             u_seen: Vec::new(),
+            sky: None,
             edges: Vec::new(),
         };
+        model.sky = SkyCoefficients::from_image(image, &model.seen);
         model.edges = model.luminance_edges();
         model.disagreement = (0..s).map(|k| model.disagreement_at_boot(k)).collect();
         model.boundary_basis().map_err(LiveError::Solve)?;
@@ -616,6 +622,7 @@ impl LiveModel {
                 .sum::<usize>()
             + (self.emitter_src.len() + self.v_seen.len() + self.g_sensor.len()) * f
             + self.u_seen.len() * f
+            + self.sky.as_ref().map_or(0, SkyCoefficients::memory_bytes)
             + self.edges.len() * 12
     }
 }
@@ -709,6 +716,10 @@ pub struct Live {
     acc: AgeingAcc,
     desks: Vec<DeskLive>,
     report: Option<FrameReport>,
+    /// The frame's time for the sky fit (`None`: unknown, the emitters alone).
+    time: Option<UnixTime>,
+    /// The sky the last frame's fit chose (0: none).
+    sky_type: u8,
     // scratch
     d: Vec<f64>,
     state: Vec<u8>,
@@ -804,11 +815,30 @@ impl Live {
             },
             desks,
             report: None,
+            time: None,
+            sky_type: 0,
             d: vec![0.0; n],
             state: vec![0; n],
             model,
             settings,
         })
+    }
+
+    /// The time of the frames to come, for the sky fit through the room plan's unseen windows
+    /// (`None`: unknown; the unknown emitters fit the daylight instead). The caller checks the
+    /// clock (`crate::cli` refuses a time in the future, the daemon an unset clock).
+    pub fn set_time(&mut self, t: Option<UnixTime>) {
+        self.time = t;
+    }
+
+    /// Whether the image has daylight coefficients (a room plan with windows no camera sees).
+    pub fn has_sky(&self) -> bool {
+        self.model.sky.is_some()
+    }
+
+    /// The CIE sky type (1..=16) the last frame's fit chose; 0 when none was fitted.
+    pub fn sky_type(&self) -> u8 {
+        self.sky_type
     }
 
     /// The model.
@@ -1416,7 +1446,6 @@ impl Live {
         let from_seen = incident(&m.gather, &rows, b, 1);
         // emitters: y = D − c ≈ V w, weighted, twice (the second without outliers: sun patches)
         let mut w_use: Vec<f64> = w_seen.to_vec();
-        let mut x = vec![0.0; k];
         let y: Vec<f64> = (0..n_seen).map(|r| d_seen[r] - c[r]).collect();
         // direct sun: seen patches far brighter than the diffuse daylight of the rest (a sun
         // patch on the floor gets tens of klx where the sky gives hundreds of lx) are measured
@@ -1433,50 +1462,36 @@ impl Live {
                 }
             }
         }
-        let mut resid = vec![0.0; n_seen];
-        for pass in 0..2 {
-            if k > 0 {
-                let mut g = vec![0.0; k * k];
-                let mut h = vec![0.0; k];
-                for r in 0..n_seen {
-                    let wr = w_use[r];
-                    if wr <= 0.0 {
-                        continue;
-                    }
-                    let v = &m.v_seen[r * k..(r + 1) * k];
-                    for a in 0..k {
-                        h[a] += wr * v[a] * y[r];
-                        for bb in 0..k {
-                            g[a * k + bb] += wr * v[a] * v[bb];
-                        }
+        // the sky through the plan's unseen windows when the image has its coefficients and
+        // the time is known; else the unknown emitters
+        let bases = match (&m.sky, self.time) {
+            (Some(sky), Some(t)) => sky.bases(t).inspect(|_| {
+                // the fit over the seen rows whose coefficients the image stores
+                for (r, w) in w_use.iter_mut().enumerate() {
+                    if !sky.stored(r) {
+                        *w = 0.0;
                     }
                 }
-                // ridge: an emitter the seen surfaces hardly see cannot be estimated from them
-                // (unregularised, one such group reached 2e7 lm/m² and put 27 klx on a desk)
-                let mean_diag = (0..k).map(|a| g[a * k + a]).sum::<f64>() / k as f64;
-                let ridge = RIDGE * mean_diag;
-                for a in 0..k {
-                    g[a * k + a] += ridge;
-                }
-                x = nnls_gram(&g, &h, k);
+            }),
+            _ => None,
+        };
+        let (x, resid, w_use, chosen) = match bases {
+            Some(mut bases) if !bases.is_empty() => {
+                let (best, x, resid, w) = best_sky(&bases, &y, &w_use, d_seen);
+                let b = bases.swap_remove(best);
+                (x, resid, w, Some(b))
             }
-            for r in 0..n_seen {
-                let fit: f64 = (0..k).map(|q| m.v_seen[r * k + q] * x[q]).sum();
-                resid[r] = y[r] - fit;
+            _ => {
+                let mut w = w_use;
+                let (x, resid) = robust_fit(&m.v_seen, k, &y, &mut w);
+                (x, resid, w, None)
             }
-            if pass == 0 {
-                let mut a: Vec<f64> = (0..n_seen)
-                    .filter(|&r| w_use[r] > 0.0)
-                    .map(|r| resid[r].abs())
-                    .collect();
-                let mad = median(&mut a).unwrap_or(0.0) * 1.4826;
-                for r in 0..n_seen {
-                    if resid[r].abs() > 3.0 * mad + 5.0 {
-                        w_use[r] = 0.0;
-                    }
-                }
-            }
-        }
+        };
+        self.sky_type = chosen.as_ref().map_or(0, |b| b.sky_type);
+        let (v_basis, g_basis, k): (&[f64], &[f64], usize) = match &chosen {
+            Some(b) => (&b.seen_lx, &b.sensor_lx, 1),
+            None => (&m.v_seen, &m.g_sensor, k),
+        };
         let (mut num, mut den, mut sw, mut fitted) = (0.0, 0.0, 0.0, 0.0);
         for r in 0..n_seen {
             let wr = w_use[r];
@@ -1484,13 +1499,13 @@ impl Live {
                 num += wr * resid[r] * resid[r];
                 den += wr * d_seen[r].max(1.0).powi(2);
                 sw += wr;
-                fitted += wr * (c[r] + (0..k).map(|q| m.v_seen[r * k + q] * x[q]).sum::<f64>());
+                fitted += wr * (c[r] + (0..k).map(|q| v_basis[r * k + q] * x[q]).sum::<f64>());
             }
         }
         let rel = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
         let out = (0..s_count)
             .map(|s| {
-                let e: f64 = (0..k).map(|q| m.g_sensor[s * k + q] * x[q]).sum();
+                let e: f64 = (0..k).map(|q| g_basis[s * k + q] * x[q]).sum();
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
@@ -1699,4 +1714,98 @@ enum Action {
 
 fn finite_or(x: f64, fallback: f64) -> f64 {
     if x.is_finite() { x } else { fallback }
+}
+
+/// The robust non-negative fit of `y ≈ V x` (V: rows × k, row-major) with weights `w`, twice:
+/// the second time without the outliers of the first (their weight set to 0). A small ridge:
+/// a column the seen surfaces hardly see cannot be estimated from them (unregularised, one
+/// emitter group reached 2e7 lm/m² and put 27 klx on a desk). Returns (x, residuals).
+fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64>, Vec<f64>) {
+    let n_seen = y.len();
+    let mut x = vec![0.0; k];
+    let mut resid = vec![0.0; n_seen];
+    for pass in 0..2 {
+        if k > 0 {
+            let mut g = vec![0.0; k * k];
+            let mut h = vec![0.0; k];
+            for r in 0..n_seen {
+                let wr = w_use[r];
+                if wr <= 0.0 {
+                    continue;
+                }
+                let v = &v[r * k..(r + 1) * k];
+                for a in 0..k {
+                    h[a] += wr * v[a] * y[r];
+                    for bb in 0..k {
+                        g[a * k + bb] += wr * v[a] * v[bb];
+                    }
+                }
+            }
+            // ridge: an emitter the seen surfaces hardly see cannot be estimated from them
+            // (unregularised, one such group reached 2e7 lm/m² and put 27 klx on a desk)
+            let mean_diag = (0..k).map(|a| g[a * k + a]).sum::<f64>() / k as f64;
+            let ridge = RIDGE * mean_diag;
+            for a in 0..k {
+                g[a * k + a] += ridge;
+            }
+            x = nnls_gram(&g, &h, k);
+        }
+        for r in 0..n_seen {
+            let fit: f64 = (0..k).map(|q| v[r * k + q] * x[q]).sum();
+            resid[r] = y[r] - fit;
+        }
+        if pass == 0 {
+            let mut a: Vec<f64> = (0..n_seen)
+                .filter(|&r| w_use[r] > 0.0)
+                .map(|r| resid[r].abs())
+                .collect();
+            let mad = median(&mut a).unwrap_or(0.0) * 1.4826;
+            for r in 0..n_seen {
+                if resid[r].abs() > 3.0 * mad + 5.0 {
+                    w_use[r] = 0.0;
+                }
+            }
+        }
+    }
+    (x, resid)
+}
+
+/// One sky's fit: its index, scale, residuals and weights.
+struct SkyFitResult {
+    index: usize,
+    x: Vec<f64>,
+    resid: Vec<f64>,
+    w: Vec<f64>,
+}
+
+/// The sky whose basis explains the seen daylight best (least weighted residual over every
+/// seen patch after the robust fit of its scale). Returns (its index, its scale, residuals,
+/// weights).
+fn best_sky(
+    bases: &[SkyBasis],
+    y: &[f64],
+    w0: &[f64],
+    d_seen: &[f64],
+) -> (usize, Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut best: Option<(f64, SkyFitResult)> = None;
+    for (index, b) in bases.iter().enumerate() {
+        let mut w = w0.to_vec();
+        let (x, resid) = robust_fit(&b.seen_lx, 1, y, &mut w);
+        let (mut num, mut den) = (0.0, 0.0);
+        for r in 0..y.len() {
+            if w0[r] > 0.0 {
+                // every seen patch counts in the comparison (not only each fit's inliers)
+                num += w0[r] * resid[r] * resid[r];
+                den += w0[r] * d_seen[r].max(1.0).powi(2);
+            }
+        }
+        let score = if den > 0.0 { num / den } else { f64::INFINITY };
+        if best.as_ref().is_none_or(|(s, _)| score < *s) {
+            best = Some((score, SkyFitResult { index, x, resid, w }));
+        }
+    }
+    match best {
+        Some((_, f)) => (f.index, f.x, f.resid, f.w),
+        None => (0, vec![0.0], vec![0.0; y.len()], w0.to_vec()),
+    }
 }

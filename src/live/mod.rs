@@ -73,6 +73,7 @@
 
 pub mod estimator;
 pub mod nnls;
+pub mod sky_fit;
 pub mod window;
 
 pub use estimator::{

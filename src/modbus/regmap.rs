@@ -139,6 +139,9 @@ pub mod live_status {
     pub const NIGHT: u16 = 1 << 3;
     /// The last frame was rejected (dark, saturated, wrong size, stale).
     pub const FRAME_REJECTED: u16 = 1 << 4;
+    /// The node's clock is not set (earlier than the firmware's date): the sky fit through
+    /// the room plan's unseen windows is off (the unknown emitters fit the daylight instead).
+    pub const CLOCK_UNSET: u16 = 1 << 5;
 }
 
 /// Live-light flags per desk (input 4100 + k); the same bits as `crate::live::flags`.
@@ -1260,7 +1263,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "live light: bit 0 on (the image has a live section and the board a camera), 1 camera stale (values held, then model only), 2 recommissioning advised (a large part of the room changed), 3 the last frame had no daylight, 4 the last frame was rejected"
+        "live light: bit 0 on (the image has a live section and the board a camera), 1 camera stale (values held, then model only), 2 recommissioning advised (a large part of the room changed), 3 the last frame had no daylight, 4 the last frame was rejected, 5 the clock is not set (the sky fit through the plan's unseen windows is off)"
     ),
     row!(
         Input,

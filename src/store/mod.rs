@@ -28,6 +28,7 @@
 //! can panic and no value is non-finite or negative.
 
 mod crc32;
+pub mod daylight;
 mod header;
 pub mod live;
 pub mod nor;
@@ -48,6 +49,7 @@ pub mod mtd;
 use serde::{Deserialize, Serialize};
 
 pub use crc32::{Crc32, crc32};
+pub use daylight::{DAYLIGHT_MAGIC, DaylightV1};
 pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
 pub use live::{LIVE_MAGIC, LiveV1};
 pub use values::{Bytes, Precision, Sparse, Values};
@@ -213,6 +215,7 @@ pub const SECTION_FRAME_LEN: usize = 10;
 struct Found<'a> {
     geometry: Option<&'a [u8]>,
     live: Option<&'a [u8]>,
+    daylight: Option<&'a [u8]>,
 }
 
 /// The sections of what follows the version-1 payload, checked: none for no bytes; each frame
@@ -236,8 +239,11 @@ fn unframe(mut rest: &[u8]) -> Result<Found<'_>, ImageError> {
         let slot = match magic {
             SECTION_MAGIC if version == SECTION_VERSION => &mut found.geometry,
             live::LIVE_MAGIC if version == live::LIVE_VERSION => &mut found.live,
+            daylight::DAYLIGHT_MAGIC if version == daylight::DAYLIGHT_VERSION => {
+                &mut found.daylight
+            }
             // a known section at a version this build does not read
-            SECTION_MAGIC | live::LIVE_MAGIC => continue,
+            SECTION_MAGIC | live::LIVE_MAGIC | daylight::DAYLIGHT_MAGIC => continue,
             _ => return Err(ImageError::Inconsistent("bytes after the payload")),
         };
         check(slot.is_none(), "a section twice")?;
@@ -269,6 +275,8 @@ pub struct Image<'a> {
     geometry: Option<&'a [u8]>,
     /// The live-light section, when the image has one ([`live`]).
     pub live: Option<LiveV1<'a>>,
+    /// The daylight coefficients through the room plan's unseen windows ([`daylight`]).
+    pub daylight: Option<DaylightV1<'a>>,
 }
 
 fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
@@ -377,6 +385,7 @@ impl<'a> Image<'a> {
             payload,
             geometry: found.geometry,
             live: None,
+            daylight: None,
         };
         image.validate()?;
         if let Some(body) = found.live {
@@ -386,6 +395,9 @@ impl<'a> Image<'a> {
                 image.luminaires(),
                 image.sensors(),
             )?);
+        }
+        if let Some(body) = found.daylight {
+            image.daylight = Some(DaylightV1::parse(body, image.patches(), image.sensors())?);
         }
         Ok(image)
     }

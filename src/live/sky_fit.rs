@@ -1,0 +1,133 @@
+//! Daylight through the room plan's unseen windows at run time: the image's daylight
+//! coefficients ([`crate::store::daylight`]) and the frame's time give, for each CIE standard
+//! sky at the frame's sun, one *sky basis*: its light on the seen surfaces and at the desks per
+//! unit zenith luminance. The live estimator fits each basis's scale to the daylight the camera
+//! sees (the same robust fit as its unknown emitters) and keeps the sky that explains it best;
+//! the desks the camera does not see get that sky's daylight.
+//!
+//! The 15 skies of ISO 15469 and the 1942 overcast sky differ in how the light is spread over
+//! the vault, which the seen surfaces tell apart only partly: the desks' spread over the skies
+//! that fit nearly as well as the best is part of their stated uncertainty.
+
+use crate::sky::{SkyFrame, SkyModel, UnixTime, patches, sun_position};
+use crate::store::Image;
+use crate::store::daylight::COLUMNS;
+
+/// The sun must be at least this high for the sky fit, rad (below: civil twilight, the
+/// emitter fit handles whatever light there is).
+pub const MIN_SUN_ALTITUDE_RAD: f64 = 0.0;
+
+/// The sky types fitted: ISO 15469's 1..=15 and the 1942 overcast sky (16).
+pub const SKY_TYPES: core::ops::RangeInclusive<u8> = 1..=16;
+
+/// The stored coefficients, decoded at boot in the live estimator's seen order.
+#[derive(Debug, Clone)]
+pub struct SkyCoefficients {
+    latitude_deg: f64,
+    longitude_deg: f64,
+    ground_rho: f64,
+    /// `[seen row of the estimator][COLUMNS]`.
+    seen: Vec<f64>,
+    /// Whether the image stores seen row r's coefficients (a subset is stored; the fit uses
+    /// only those rows).
+    stored: Vec<bool>,
+    /// `[sensor][COLUMNS]`.
+    sensor: Vec<f64>,
+}
+
+/// One candidate sky: its basis at the seen patches and the sensors, per cd/m² of zenith
+/// luminance.
+#[derive(Debug, Clone)]
+pub struct SkyBasis {
+    /// The sky type (1..=16).
+    pub sky_type: u8,
+    /// At each seen patch (the estimator's order), lx.
+    pub seen_lx: Vec<f64>,
+    /// At each sensor, lx.
+    pub sensor_lx: Vec<f64>,
+}
+
+impl SkyCoefficients {
+    /// From an image's daylight section, with the estimator's seen patches (ascending patch
+    /// ids); `None` without a section.
+    pub fn from_image(image: &Image<'_>, seen: &[u32]) -> Option<Self> {
+        let d = image.daylight.as_ref()?;
+        // the columns are in the sky frame already: north only checks the section
+        SkyFrame::new(d.north)?;
+        let stored: Vec<usize> = (0..d.seen()).map(|r| d.seen_patch(r)).collect();
+        let mut seen_rows = vec![0.0; seen.len() * COLUMNS];
+        let mut has = vec![false; seen.len()];
+        for (r, &p) in seen.iter().enumerate() {
+            if let Ok(q) = stored.binary_search(&(p as usize)) {
+                has[r] = true;
+                for j in 0..COLUMNS {
+                    seen_rows[r * COLUMNS + j] = d.seen_lx(q, j);
+                }
+            }
+        }
+        let sensors = image.sensors();
+        let sensor = (0..sensors * COLUMNS)
+            .map(|k| d.sensor_lx(k / COLUMNS, k % COLUMNS))
+            .collect();
+        Some(Self {
+            latitude_deg: d.latitude_deg,
+            longitude_deg: d.longitude_deg,
+            ground_rho: d.ground_rho,
+            seen: seen_rows,
+            stored: has,
+            sensor,
+        })
+    }
+
+    /// The relative luminance per column of sky `sky_type` with the sun at `sun_sky`: the
+    /// Tregenza patches' centre luminance over the zenith's, and the ground's from the sky's
+    /// horizontal illuminance (`ρ_g E_h / π`, sun excluded).
+    fn columns(&self, model: &SkyModel, sun_sky: [f64; 3]) -> [f64; COLUMNS] {
+        let mut out = [0.0; COLUMNS];
+        let mut e_h = 0.0;
+        for (o, p) in out.iter_mut().zip(patches()) {
+            *o = model.relative_luminance(p.centre(), sun_sky);
+            e_h += *o * p.projected_solid_angle_sr;
+        }
+        out[COLUMNS - 1] = self.ground_rho * e_h / core::f64::consts::PI;
+        out
+    }
+
+    /// The candidate skies at time `t`, or `None` when the sun is below
+    /// [`MIN_SUN_ALTITUDE_RAD`] there.
+    pub fn bases(&self, t: UnixTime) -> Option<Vec<SkyBasis>> {
+        let sun = sun_position(t, self.latitude_deg, self.longitude_deg);
+        if sun.apparent_altitude_rad() < MIN_SUN_ALTITUDE_RAD {
+            return None;
+        }
+        let sun_sky = crate::sky::sky_direction(sun.apparent_altitude_rad(), sun.azimuth_rad);
+        let dot = |rows: &[f64], f: &[f64; COLUMNS]| -> Vec<f64> {
+            rows.chunks_exact(COLUMNS)
+                .map(|r| r.iter().zip(f).map(|(a, b)| a * b).sum())
+                .collect()
+        };
+        Some(
+            SKY_TYPES
+                .filter_map(|t| {
+                    let model = SkyModel::cie_standard(t)?;
+                    let f = self.columns(&model, sun_sky);
+                    Some(SkyBasis {
+                        sky_type: t,
+                        seen_lx: dot(&self.seen, &f),
+                        sensor_lx: dot(&self.sensor, &f),
+                    })
+                })
+                .collect(),
+        )
+    }
+
+    /// Whether seen row r has stored coefficients (the sky fit's rows).
+    pub fn stored(&self, r: usize) -> bool {
+        self.stored.get(r).copied().unwrap_or(false)
+    }
+
+    /// Heap bytes.
+    pub fn memory_bytes(&self) -> usize {
+        (self.seen.len() + self.sensor.len()) * core::mem::size_of::<f64>()
+    }
+}

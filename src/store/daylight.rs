@@ -1,0 +1,206 @@
+//! The daylight-coefficient section: how the sky, seen through the room plan's windows that
+//! no camera sees, lights the surfaces the camera sees and the desk sensors (issue 28, item 3).
+//! `no_std`, borrowed like the rest of the image.
+//!
+//! Column j < 145 is Tregenza sky patch j, column 145 the ground below the horizon; a value is
+//! lx per cd/m² of that column's luminance. Both matrices are *boundary* coefficients: the
+//! sky's direct light through the windows plus its interreflections over the patches the
+//! camera does not see, with the seen patches held at zero exitance (their light is measured
+//! at run time and propagated by the live estimator itself, `crate::live`):
+//!
+//! * `seen_lx[r][j]`: irradiance on seen patch `seen_patch[r]`;
+//! * `sensor_lx[s][j]`: irradiance at desk sensor s (direct sky plus its gather over the
+//!   unseen patches' exitance).
+//!
+//! With the sky's luminance `L_j` (a CIE standard sky at the frame's sun, scaled by the fit),
+//! the seen patch gets `Σ_j seen_lx[r][j] L_j` and the sensor `Σ_j sensor_lx[s][j] L_j`.
+
+use serde::{Deserialize, Serialize};
+
+use super::values::f16_bits_to_f64;
+use super::{Bytes, ImageError, check};
+
+/// Magic of the daylight-coefficient section.
+pub const DAYLIGHT_MAGIC: [u8; 4] = *b"LXDC";
+/// Version of the section this build writes and reads.
+pub const DAYLIGHT_VERSION: u16 = 1;
+/// Columns: the 145 Tregenza patches and the ground.
+pub const COLUMNS: usize = 146;
+/// Largest coefficient accepted, lx per cd/m² (a receiver at a window sees at most π sr of
+/// sky: π).
+pub const MAX_COEFFICIENT: f32 = 4.0;
+
+/// The daylight-coefficient section (version [`DAYLIGHT_VERSION`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DaylightV1<'a> {
+    /// [`DAYLIGHT_VERSION`].
+    pub version: u16,
+    /// Site latitude, degrees north.
+    pub latitude_deg: f64,
+    /// Site longitude, degrees east.
+    pub longitude_deg: f64,
+    /// Geographic north in the room's x-y plane (unit vector).
+    pub north: [f64; 2],
+    /// Ground reflectance outside (the ground column's luminance is `ρ_g E_h / π`).
+    pub ground_rho: f64,
+    /// Windows the coefficients go through.
+    pub windows: u16,
+    /// Their glazed area, m².
+    pub window_area_m2: f64,
+    /// Seen patches, ascending u32 LE.
+    #[serde(borrow)]
+    pub seen_patch: Bytes<'a>,
+    /// `[seen][COLUMNS]` IEEE half floats (f16) LE, lx per cd/m² (3 significant digits: the
+    /// sky fit's scale absorbs a common factor, and the sampling noise of 64 window points per
+    /// patch is larger).
+    #[serde(borrow)]
+    pub seen_lx: Bytes<'a>,
+    /// `[sensor][COLUMNS]` f16 LE, lx per cd/m².
+    #[serde(borrow)]
+    pub sensor_lx: Bytes<'a>,
+}
+
+impl<'a> DaylightV1<'a> {
+    /// Decodes and checks a section body against an image of `patches` patches and `sensors`
+    /// sensors.
+    pub fn parse(body: &'a [u8], patches: usize, sensors: usize) -> Result<Self, ImageError> {
+        let d: DaylightV1<'a> = postcard::from_bytes(body).map_err(|_| ImageError::Decode)?;
+        d.validate(patches, sensors)?;
+        Ok(d)
+    }
+
+    fn validate(&self, patches: usize, sensors: usize) -> Result<(), ImageError> {
+        check(self.version == DAYLIGHT_VERSION, "daylight section version")?;
+        check(
+            self.latitude_deg.is_finite()
+                && self.longitude_deg.is_finite()
+                && (-90.0..=90.0).contains(&self.latitude_deg)
+                && (-180.0..=180.0).contains(&self.longitude_deg),
+            "daylight site",
+        )?;
+        let [nx, ny] = self.north;
+        let len2 = nx * nx + ny * ny;
+        check(
+            len2.is_finite() && (len2 - 1.0).abs() < 1e-6,
+            "daylight north",
+        )?;
+        check(
+            self.ground_rho.is_finite() && (0.0..=1.0).contains(&self.ground_rho),
+            "daylight ground reflectance",
+        )?;
+        check(
+            self.window_area_m2.is_finite() && self.window_area_m2 >= 0.0,
+            "daylight window area",
+        )?;
+        let n = self
+            .seen_patch
+            .count(4)
+            .ok_or(ImageError::Inconsistent("daylight seen"))?;
+        let mut last: Option<u32> = None;
+        for r in 0..n {
+            let p = self.seen_patch.u32_at(r);
+            check((p as usize) < patches, "daylight seen patch out of range")?;
+            check(
+                last.is_none_or(|q| q < p),
+                "daylight seen patches not ascending",
+            )?;
+            last = Some(p);
+        }
+        let rows_ok = |b: &Bytes<'_>, rows: usize| -> Result<(), ImageError> {
+            let want = rows.checked_mul(COLUMNS);
+            check(
+                want.is_some() && b.count(2) == want,
+                "daylight coefficients",
+            )?;
+            for k in 0..rows * COLUMNS {
+                let x = f16_bits_to_f64(b.u16_at(k));
+                check(
+                    x.is_finite() && (0.0..=f64::from(MAX_COEFFICIENT)).contains(&x),
+                    "daylight coefficient out of range",
+                )?;
+            }
+            Ok(())
+        };
+        rows_ok(&self.seen_lx, n)?;
+        rows_ok(&self.sensor_lx, sensors)
+    }
+
+    /// Seen patches.
+    pub fn seen(&self) -> usize {
+        self.seen_patch.0.len() / 4
+    }
+
+    /// Seen patch of row r.
+    pub fn seen_patch(&self, r: usize) -> usize {
+        self.seen_patch.u32_at(r) as usize
+    }
+
+    /// Coefficient of seen row r, column j.
+    pub fn seen_lx(&self, r: usize, j: usize) -> f64 {
+        f16_bits_to_f64(self.seen_lx.u16_at(r * COLUMNS + j))
+    }
+
+    /// Coefficient of sensor s, column j.
+    pub fn sensor_lx(&self, s: usize, j: usize) -> f64 {
+        f16_bits_to_f64(self.sensor_lx.u16_at(s * COLUMNS + j))
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use std::vec::Vec;
+
+    fn f16s(v: &[f32]) -> Vec<u8> {
+        v.iter()
+            .flat_map(|x| half::f16::from_f32(*x).to_bits().to_le_bytes())
+            .collect()
+    }
+
+    /// A section over `seen` patches (of 10) and 2 sensors, coefficients `c`, and its parse.
+    fn parse_with(seen: &[u32], c: f32, north: [f64; 2]) -> Result<(), ImageError> {
+        let seen_b: Vec<u8> = seen.iter().flat_map(|p| p.to_le_bytes()).collect();
+        let seen_lx = f16s(&std::vec![c; seen.len() * COLUMNS]);
+        let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
+        let d = DaylightV1 {
+            version: DAYLIGHT_VERSION,
+            latitude_deg: 47.4,
+            longitude_deg: 8.5,
+            north,
+            ground_rho: 0.2,
+            windows: 1,
+            window_area_m2: 6.0,
+            seen_patch: Bytes(&seen_b),
+            seen_lx: Bytes(&seen_lx),
+            sensor_lx: Bytes(&sensor_lx),
+        };
+        let body = postcard::to_stdvec(&d).map_err(|_| ImageError::Decode)?;
+        let parsed = DaylightV1::parse(&body, 10, 2)?;
+        assert_eq!(parsed.seen(), seen.len());
+        assert!((parsed.sensor_lx(1, 7) - 0.5).abs() < 1e-3);
+        Ok(())
+    }
+
+    #[test]
+    fn a_section_parses_and_every_corruption_is_refused() {
+        assert_eq!(parse_with(&[1, 4, 9], 0.25, [0.0, 1.0]), Ok(()));
+        for (seen, c, north, what) in [
+            (&[1u32, 4, 4][..], 0.25, [0.0, 1.0], "not ascending"),
+            (&[1, 4, 10][..], 0.25, [0.0, 1.0], "out of range"),
+            (&[1][..], f32::NAN, [0.0, 1.0], "coefficient"),
+            (&[1][..], -0.5, [0.0, 1.0], "coefficient"),
+            (&[1][..], 9.0, [0.0, 1.0], "coefficient"),
+            (&[1][..], 0.25, [0.0, 2.0], "north"),
+        ] {
+            match parse_with(seen, c, north) {
+                Err(ImageError::Inconsistent(w)) => assert!(w.contains(what), "{w} / {what}"),
+                other => panic!("{what}: {other:?}"),
+            }
+        }
+        // a truncated body
+        assert_eq!(
+            DaylightV1::parse(&[1, 2, 3], 10, 2).err(),
+            Some(ImageError::Decode)
+        );
+    }
+}
