@@ -92,6 +92,7 @@ pub mod layout {
     );
 }
 
+pub mod bacnet;
 pub mod control;
 pub mod dali;
 pub mod modbus;
