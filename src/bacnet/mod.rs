@@ -23,6 +23,8 @@ pub mod fuzz;
 #[cfg(feature = "std")]
 pub mod objects;
 #[cfg(feature = "std")]
+pub mod pics;
+#[cfg(feature = "std")]
 pub mod property;
 #[cfg(feature = "std")]
 pub mod service;

@@ -273,3 +273,38 @@ fn check_map(path: &Path) -> Result<()> {
     println!("{}: register map up to date", path.display());
     Ok(())
 }
+
+/// `luxnode bacnet`.
+#[derive(clap::Subcommand)]
+pub enum BacnetCommand {
+    /// Print the PICS as markdown (docs/bacnet.md), or check a file against it.
+    Pics {
+        /// Compare this file with the PICS instead of printing; non-zero exit if they differ.
+        #[arg(long, value_name = "FILE")]
+        check: Option<PathBuf>,
+    },
+}
+
+/// Runs `luxnode bacnet ...`.
+pub fn bacnet(command: &BacnetCommand) -> Result<()> {
+    let BacnetCommand::Pics { check } = command;
+    let want = luxnode::bacnet::pics::markdown();
+    match check {
+        None => {
+            print!("{want}");
+            Ok(())
+        }
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            if !text.contains(want.trim()) {
+                bail!(
+                    "{} does not contain the PICS of this build: regenerate it with `luxnode bacnet pics`",
+                    path.display()
+                );
+            }
+            println!("{}: PICS up to date", path.display());
+            Ok(())
+        }
+    }
+}

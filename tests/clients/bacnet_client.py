@@ -6,9 +6,11 @@ Each command prints one JSON object on stdout:
     bacnet_client.py --local 127.0.0.1:47900 --target 127.0.0.1:47808 whois [--low N --high N]
     ... read                   every object of the device: RPM ALL per object, RP Present_Value
     ... write OBJ PROP VALUE   WriteProperty (e.g. analog-value,1000 present-value 420)
-    ... cov OBJ --write OBJ2 VALUE [--confirmed] [--subscribers N]
-                               SubscribeCOV (N subscriptions, process ids 1..N), then the write,
-                               then the time until every subscriber saw a notification
+    ... cov OBJ (--write OBJ2 VALUE | --write-modbus HOST:PORT REGISTER VALUE)
+            [--confirmed] [--subscribers N]
+                               SubscribeCOV (N subscriptions, process ids 1..N), then the write
+                               (BACnet, or Modbus with pymodbus), then the time until each
+                               subscriber saw a notification
     ... raw HEX                one datagram as is; the first answer's bytes (hex) or none
 
 --local is the client's own address (another loopback address, e.g. 127.0.0.2, is another
@@ -119,10 +121,25 @@ async def cmd_cov(app, target, a):
         contexts.append(scm)
     for scm in contexts:
         initial.append(await asyncio.wait_for(drain_value(scm), 3))
-    w = await app.write_property(addr, ObjectIdentifier(a.write[0]), "present-value", Real(float(a.write[1])))
-    t0 = time.monotonic()
-    if isinstance(w, ErrorRejectAbortNack):
-        return {"ok": False, "error": error_text(w)}
+    if a.write_modbus:
+        from pymodbus.client import ModbusTcpClient
+
+        host, port = a.write_modbus[0].rsplit(":", 1)
+        mb = ModbusTcpClient(host, port=int(port), timeout=3)
+        if not mb.connect():
+            return {"ok": False, "error": "modbus: cannot connect"}
+        r = mb.write_register(int(a.write_modbus[1]), int(a.write_modbus[2]), device_id=1)
+        t0 = time.monotonic()
+        mb.close()
+        if r.isError():
+            return {"ok": False, "error": f"modbus write: {r}"}
+    else:
+        w = await app.write_property(
+            addr, ObjectIdentifier(a.write[0]), "present-value", Real(float(a.write[1]))
+        )
+        t0 = time.monotonic()
+        if isinstance(w, ErrorRejectAbortNack):
+            return {"ok": False, "error": error_text(w)}
     after, elapsed = [], []
     for scm in contexts:
         try:
@@ -176,7 +193,8 @@ async def main() -> int:
     wr.add_argument("--priority", type=int)
     c = sub.add_parser("cov")
     c.add_argument("object")
-    c.add_argument("--write", nargs=2, required=True)
+    c.add_argument("--write", nargs=2, metavar=("OBJECT", "VALUE"))
+    c.add_argument("--write-modbus", nargs=3, metavar=("ADDR", "REGISTER", "VALUE"))
     c.add_argument("--confirmed", action="store_true")
     c.add_argument("--subscribers", type=int, default=1)
     r = sub.add_parser("raw")
