@@ -54,23 +54,12 @@ pub fn peer() -> SocketAddr {
     SocketAddr::from(([10, 0, 0, 9], 47808))
 }
 
-/// A node like a commissioned one's: 4 desks (one never computed), 3 luminaires, writes
-/// allowed from [`peer`].
+/// A node like a commissioned one's: 4 desks (desk 1 without a stated uncertainty), 3
+/// luminaires at arc 200, writes allowed from [`peer`].
 pub fn sample_node() -> Node {
     let model = NodeModel {
         response_lx: vec![
-            100.0,
-            200.0,
-            300.0,
-            10.0,
-            20.0,
-            30.0,
-            5.0,
-            0.0,
-            1.0,
-            f64::NAN,
-            1.0,
-            1.0,
+            100.0, 200.0, 300.0, 10.0, 20.0, 30.0, 5.0, 0.0, 1.0, 1.0, 1.0, 1.0,
         ],
         sensor_ids: vec![7, 9, 11, 13],
         luminaire_ids: vec![1, 2, 3],
@@ -221,7 +210,7 @@ fn mutate(rng: &mut SplitMix64, seed: &[u8]) -> Vec<u8> {
         }
     }
     // half the time the BVLC is made valid again, so the mutation reaches the decoders below
-    if rng.next_u64() % 2 == 0 && f.len() >= 4 && f.len() <= usize::from(u16::MAX) {
+    if rng.next_u64().is_multiple_of(2) && f.len() >= 4 && f.len() <= usize::from(u16::MAX) {
         f[0] = 0x81;
         let n = f.len() as u16;
         f[2..4].copy_from_slice(&n.to_be_bytes());

@@ -169,6 +169,19 @@ fn datagram(
     })
 }
 
+/// The BVLC-Result NAK code for a BBMD function sent to the node (Annex J.2.1.1).
+fn nak(function: u8) -> Option<u16> {
+    Some(match function {
+        bvlc::WRITE_BDT => 0x0010,
+        bvlc::READ_BDT => 0x0020,
+        bvlc::REGISTER_FOREIGN_DEVICE => bvlc::RESULT_REGISTER_FD_NAK,
+        bvlc::READ_FDT => 0x0040,
+        bvlc::DELETE_FDT_ENTRY => 0x0050,
+        bvlc::DISTRIBUTE_BROADCAST => 0x0060,
+        _ => return None,
+    })
+}
+
 /// A BVLC-Result datagram.
 fn bvlc_result(to: SocketAddr, result: u16) -> Outgoing {
     let mut d = vec![bvlc::TYPE_BIP, bvlc::RESULT, 0, 6];
@@ -246,17 +259,9 @@ impl Server {
                 }
                 return Vec::new();
             }
-            // a BBMD's functions: the node is none, NAK (result code = function << 4)
-            (
-                f @ (bvlc::WRITE_BDT
-                | bvlc::READ_BDT
-                | bvlc::REGISTER_FOREIGN_DEVICE
-                | bvlc::READ_FDT
-                | bvlc::DELETE_FDT_ENTRY
-                | bvlc::DISTRIBUTE_BROADCAST),
-                _,
-            ) => {
-                return vec![bvlc_result(from, u16::from(f) << 4)];
+            // a BBMD's functions: the node is none, NAK
+            (f, _) if nak(f).is_some() => {
+                return vec![bvlc_result(from, nak(f).unwrap_or_default())];
             }
             _ => return Vec::new(),
         };
@@ -446,48 +451,17 @@ impl Server {
 
     fn read_property_multiple(&self, node: &Node, r: &mut Reader<'_>) -> Result<Reply, Failure> {
         // parse the whole request first: a malformed one is rejected, not half answered
-        let mut specs: Vec<(ObjectId, Vec<(u32, Option<u64>)>)> = Vec::new();
-        while !r.is_empty() {
-            let id = r.context_object_id(0)?;
-            r.opening(1)?;
-            let mut props = Vec::new();
-            while !r.at_closing(1) {
-                let prop = r.context_enumerated(0)?;
-                props.push((prop, r.optional_context_unsigned(1)?));
-            }
-            r.closing(1)?;
-            if props.is_empty() {
-                return Err(Failure::Reject(reject::MISSING_REQUIRED_PARAMETER));
-            }
-            specs.push((id, props));
-        }
-        if specs.is_empty() {
-            return Err(Failure::Reject(reject::MISSING_REQUIRED_PARAMETER));
-        }
+        let specs = parse_rpm(r)?;
         let v = view(node, &self.config, &self.cov_increments);
         let mut buf = vec![0u8; MAX_APDU];
         let mut scratch = vec![0u8; MAX_APDU];
         let mut w = Writer::new(&mut buf);
-        for (id, props) in &specs {
-            w.context_object_id(0, *id)?;
+        for spec in &specs {
+            w.context_object_id(0, spec.id)?;
             w.opening(1)?;
-            let object = v.resolve(*id);
-            for &(prop, index) in props {
-                let expanded: Vec<u32> = match (object, prop) {
-                    (Some((class, _)), p::ALL) => properties(class).to_vec(),
-                    (Some((class, _)), p::REQUIRED) => properties(class)
-                        .iter()
-                        .copied()
-                        .filter(|x| !OPTIONAL_PROPERTIES.contains(x))
-                        .collect(),
-                    (Some((class, _)), p::OPTIONAL) => properties(class)
-                        .iter()
-                        .copied()
-                        .filter(|x| OPTIONAL_PROPERTIES.contains(x))
-                        .collect(),
-                    _ => vec![prop],
-                };
-                for x in expanded {
+            let object = v.resolve(spec.id);
+            for &(prop, index) in &spec.props {
+                for x in expand(object.map(|o| o.0), prop) {
                     w.context_enumerated(2, x)?;
                     if let Some(i) = index {
                         w.context_unsigned(3, i)?;
@@ -495,7 +469,7 @@ impl Server {
                     let mut s = Writer::new(&mut scratch);
                     let result = match object {
                         None => Err(PropertyError::bacnet(ec::OBJECT, code::UNKNOWN_OBJECT)),
-                        Some(o) => encode(&v, *id, o, x, index, &mut s),
+                        Some(o) => encode(&v, spec.id, o, x, index, &mut s),
                     };
                     match result {
                         Ok(()) => {
@@ -739,6 +713,53 @@ impl Server {
     }
 }
 
+/// A property reference: identifier and array index.
+type PropertyRef = (u32, Option<u64>);
+
+/// One ReadAccessSpecification of ReadPropertyMultiple.
+struct ReadAccessSpec {
+    id: ObjectId,
+    props: Vec<PropertyRef>,
+}
+
+/// The ReadAccessSpecifications of a ReadPropertyMultiple request (at least one, each with at
+/// least one property).
+fn parse_rpm(r: &mut Reader<'_>) -> Result<Vec<ReadAccessSpec>, Failure> {
+    let mut specs = Vec::new();
+    while !r.is_empty() {
+        let id = r.context_object_id(0)?;
+        r.opening(1)?;
+        let mut props = Vec::new();
+        while !r.at_closing(1) {
+            let prop = r.context_enumerated(0)?;
+            props.push((prop, r.optional_context_unsigned(1)?));
+        }
+        r.closing(1)?;
+        if props.is_empty() {
+            return Err(Failure::Reject(reject::MISSING_REQUIRED_PARAMETER));
+        }
+        specs.push(ReadAccessSpec { id, props });
+    }
+    if specs.is_empty() {
+        return Err(Failure::Reject(reject::MISSING_REQUIRED_PARAMETER));
+    }
+    Ok(specs)
+}
+
+/// ALL, REQUIRED and OPTIONAL as the object's properties (an unknown object: as asked).
+fn expand(class: Option<&super::objects::ObjectClass>, prop: u32) -> Vec<u32> {
+    let Some(class) = class else {
+        return vec![prop];
+    };
+    let all = properties(class).iter().copied();
+    match prop {
+        p::ALL => all.collect(),
+        p::REQUIRED => all.filter(|x| !OPTIONAL_PROPERTIES.contains(x)).collect(),
+        p::OPTIONAL => all.filter(|x| OPTIONAL_PROPERTIES.contains(x)).collect(),
+        _ => vec![prop],
+    }
+}
+
 /// A written value as a number: Real, Double, Unsigned or Signed, alone.
 fn number(value: &[u8]) -> Option<f64> {
     let mut r = Reader::new(value);
@@ -759,3 +780,6 @@ pub fn is_served_type(id: ObjectId) -> bool {
         ot::DEVICE | ot::ANALOG_INPUT | ot::ANALOG_VALUE
     )
 }
+
+#[cfg(all(test, feature = "sim"))]
+mod tests;
