@@ -56,15 +56,15 @@ pub fn modbus_pdu(data: &[u8]) {
     }
 }
 
-/// A BACnet/IP datagram to the server (`luxnode::bacnet::fuzz`): every answer well formed
+/// A BACnet/IP datagram to the server (`luxnode::fieldbus::bacnet::fuzz`): every answer well formed
 /// (BVLC, NPDU, APDU parse; a confirmed request's answer carries its invoke id); then the same
 /// bytes as an APDU behind a valid BVLC and NPDU header.
 pub fn bacnet_datagram(data: &[u8]) {
-    let mut f = luxnode::bacnet::fuzz::Fuzzer::default();
+    let mut f = luxnode::fieldbus::bacnet::fuzz::Fuzzer::default();
     if let Err(e) = f.feed(data) {
         panic!("{e}");
     }
-    if let Err(e) = f.feed(&luxnode::bacnet::fuzz::frame(false, data)) {
+    if let Err(e) = f.feed(&luxnode::fieldbus::bacnet::fuzz::frame(false, data)) {
         panic!("{e}");
     }
 }

@@ -394,7 +394,7 @@ fn writes_only_from_the_allowlist() {
 
 /// A confirmed request datagram (invoke id 9, `max_apdu_code`), `body` its service data.
 fn request(service: u8, max_apdu_code: u8, body: impl FnOnce(&mut Writer<'_>)) -> Vec<u8> {
-    let mut d = luxnode::bacnet::fuzz::request(service, body);
+    let mut d = luxnode::fieldbus::bacnet::fuzz::request(service, body);
     d[6 + 1] = max_apdu_code;
     d[6 + 2] = 9;
     d
@@ -450,7 +450,7 @@ fn refusals_are_bacnet_rejects_and_aborts_and_service_survives_garbage() {
     });
     assert_eq!(apdu(exchange(&sock, to, &short)), Some(vec![0x60, 9, 5]));
     // 20 000 datagrams of garbage and mutations: answered or dropped, the node still serves
-    let seeds = luxnode::bacnet::fuzz::seeds();
+    let seeds = luxnode::fieldbus::bacnet::fuzz::seeds();
     let mut x = 0x2545_F491_4F6C_DD1Du64;
     for i in 0..20_000usize {
         x ^= x << 13;
@@ -477,7 +477,8 @@ fn refusals_are_bacnet_rejects_and_aborts_and_service_survives_garbage() {
 #[test]
 fn a_hundred_thousand_malformed_datagrams_neither_panic_nor_hang() {
     let t0 = Instant::now();
-    let r = luxnode::bacnet::fuzz::run(100_000, 0xBAC0_0001).unwrap_or_else(|f| panic!("{f}"));
+    let r = luxnode::fieldbus::bacnet::fuzz::run(100_000, 0xBAC0_0001)
+        .unwrap_or_else(|f| panic!("{f}"));
     eprintln!("{r:?} in {:?}", t0.elapsed());
     assert_eq!(r.datagrams, 100_000);
     assert!(r.acks > 1_000 && r.refusals > 1_000, "{r:?}");
@@ -490,10 +491,10 @@ proptest::proptest! {
     /// Arbitrary bytes behind a valid BVLC and NPDU header: handled, never a panic.
     #[test]
     fn arbitrary_apdus_never_panic(body in proptest::collection::vec(proptest::num::u8::ANY, 0..200)) {
-        let mut node = luxnode::bacnet::fuzz::sample_node();
-        let mut server = luxnode::bacnet::fuzz::sample_server();
-        let d = luxnode::bacnet::fuzz::frame(false, &body);
-        let out = server.handle(&mut node, luxnode::bacnet::fuzz::peer(), &d, Instant::now());
+        let mut node = luxnode::fieldbus::bacnet::fuzz::sample_node();
+        let mut server = luxnode::fieldbus::bacnet::fuzz::sample_server();
+        let d = luxnode::fieldbus::bacnet::fuzz::frame(false, &body);
+        let out = server.handle(&mut node, luxnode::fieldbus::bacnet::fuzz::peer(), &d, Instant::now());
         proptest::prop_assert!(out.len() <= 2);
     }
 }

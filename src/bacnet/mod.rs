@@ -7,24 +7,21 @@
 //! * `objects` (std): the node's objects (Device, the desks' Analog Inputs, the luminaires' and
 //!   targets' Analog Values) read from the node's register snapshot; their table generates
 //!   docs/bacnet.md;
-//! * `service` (std): the services over one datagram (Who-Is, ReadProperty,
-//!   ReadPropertyMultiple, WriteProperty, SubscribeCOV, DeviceCommunicationControl), and the
-//!   COV subscriptions and notifications.
+//! * `property` (std): one property of one object, encoded;
+//! * `cov` (std): the COV subscriptions and what each is owed;
+//! * `pics` (std): the PICS (docs/bacnet.md) from the object table.
 //!
-//! The UDP server that runs them is an adapter of the node, `crate::fieldbus::bacnet`.
+//! The services over datagrams and the UDP server are an adapter of the node,
+//! `crate::fieldbus::bacnet`.
 
 pub mod consts;
 pub mod wire;
 
 #[cfg(feature = "std")]
 pub mod cov;
-#[cfg(feature = "sim")]
-pub mod fuzz;
 #[cfg(feature = "std")]
 pub mod objects;
 #[cfg(feature = "std")]
 pub mod pics;
 #[cfg(feature = "std")]
 pub mod property;
-#[cfg(feature = "std")]
-pub mod service;

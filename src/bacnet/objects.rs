@@ -1,6 +1,6 @@
 //! The node's BACnet objects, read from its register snapshot: one table ([`TABLE`]) says
 //! which objects exist, their instance numbers, names, units and properties; docs/bacnet.md is
-//! generated from it ([`crate::bacnet::service::pics_markdown`]).
+//! generated from it ([`crate::bacnet::pics::markdown`]).
 //!
 //! Instance numbers follow the desks' and luminaires' order in the image (k = desk index,
 //! j = luminaire index, both from 0), like the Modbus blocks:

@@ -16,8 +16,8 @@
 use serde::Deserialize;
 
 use crate::bacnet::objects::{DEFAULT_VENDOR_ID, DeviceInfo};
-use crate::bacnet::service::ServerConfig;
 use crate::bacnet::wire::ObjectId;
+use crate::fieldbus::bacnet::service::ServerConfig;
 use crate::fieldbus::bacnet::{BacnetOptions, BbmdConfig};
 
 /// The `[bacnet]` table.

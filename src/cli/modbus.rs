@@ -6,8 +6,8 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use luxnode::bacnet::objects::DeviceInfo;
-use luxnode::bacnet::service::ServerConfig;
 use luxnode::fieldbus::bacnet::BacnetOptions;
+use luxnode::fieldbus::bacnet::service::ServerConfig;
 use luxnode::fieldbus::gateway::GatewayConfig;
 use luxnode::fieldbus::rtu::{Parity, RtuOptions};
 use luxnode::fieldbus::tcp::TcpOptions;

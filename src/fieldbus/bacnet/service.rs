@@ -1,7 +1,7 @@
 //! The BACnet/IP services over one datagram: what the node answers, and the notifications it
 //! owes. [`Server::handle`] takes a datagram and its UDP source and returns the datagrams to
 //! send; [`Server::poll_cov`] returns the COV notifications due. Neither blocks nor panics on
-//! any input; the UDP task (`crate::fieldbus::bacnet`) owns the socket and the node's lock.
+//! any input; the UDP task ([`super::serve`]) owns the socket and the node's lock.
 //!
 //! * Who-Is (local or global broadcast, or unicast; with or without a range) → I-Am, sent
 //!   unicast to the requester (through its router when it came through one);
@@ -19,14 +19,14 @@ use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::time::{Duration, Instant};
 
-use super::consts::{
+use crate::bacnet::consts::{
     MAX_APDU, confirmed, error_class as ec, error_code as code, object_type as ot, property as p,
     reject, unconfirmed,
 };
-use super::cov::{CovTable, Full, Peer, Told};
-use super::objects::{DeviceInfo, Kind, OPTIONAL_PROPERTIES, View};
-use super::property::{PropertyError, encode, properties};
-use super::wire::{Apdu, AppValue, Bvlc, Npdu, ObjectId, Reader, WireError, Writer, bvlc};
+use crate::bacnet::cov::{CovTable, Full, Peer, Told};
+use crate::bacnet::objects::{DeviceInfo, Kind, OPTIONAL_PROPERTIES, View};
+use crate::bacnet::property::{PropertyError, encode, properties};
+use crate::bacnet::wire::{Apdu, AppValue, Bvlc, Npdu, ObjectId, Reader, WireError, Writer, bvlc};
 use crate::modbus::access::Source;
 use crate::modbus::regmap::addr;
 use crate::node::Node;
@@ -101,7 +101,7 @@ impl From<WireError> for Failure {
             }
             WireError::OutOfRange => reject::PARAMETER_OUT_OF_RANGE,
             WireError::Overflow => {
-                return Failure::Abort(super::consts::abort::SEGMENTATION_NOT_SUPPORTED);
+                return Failure::Abort(crate::bacnet::consts::abort::SEGMENTATION_NOT_SUPPORTED);
             }
             _ => reject::OTHER,
         })
@@ -315,7 +315,7 @@ impl Server {
             w.put(&[0x10, unconfirmed::I_AM])?;
             w.object_id(device)?;
             w.unsigned(MAX_APDU as u64)?;
-            w.enumerated(super::consts::NO_SEGMENTATION)?;
+            w.enumerated(crate::bacnet::consts::NO_SEGMENTATION)?;
             w.unsigned(vendor)
         })
         .ok()
@@ -346,7 +346,7 @@ impl Server {
         }
         let result = if segmented {
             Err(Failure::Abort(
-                super::consts::abort::SEGMENTATION_NOT_SUPPORTED,
+                crate::bacnet::consts::abort::SEGMENTATION_NOT_SUPPORTED,
             ))
         } else {
             self.dispatch(node, peer, service, data, now)
@@ -355,7 +355,7 @@ impl Server {
         let mut out = Vec::new();
         let reply = match &result {
             Ok(Reply::Complex(body)) if body.len() + 3 > limit => Err(Failure::Abort(
-                super::consts::abort::SEGMENTATION_NOT_SUPPORTED,
+                crate::bacnet::consts::abort::SEGMENTATION_NOT_SUPPORTED,
             )),
             Ok(r) => Ok(r),
             Err(f) => Err(*f),
@@ -747,7 +747,7 @@ fn parse_rpm(r: &mut Reader<'_>) -> Result<Vec<ReadAccessSpec>, Failure> {
 }
 
 /// ALL, REQUIRED and OPTIONAL as the object's properties (an unknown object: as asked).
-fn expand(class: Option<&super::objects::ObjectClass>, prop: u32) -> Vec<u32> {
+fn expand(class: Option<&crate::bacnet::objects::ObjectClass>, prop: u32) -> Vec<u32> {
     let Some(class) = class else {
         return vec![prop];
     };

@@ -5,7 +5,7 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use super::*;
-use crate::bacnet::fuzz::{frame, peer, request, sample_node, sample_server};
+use crate::fieldbus::bacnet::fuzz::{frame, peer, request, sample_node, sample_server};
 
 fn apdus(out: &[Outgoing]) -> Vec<Vec<u8>> {
     out.iter()

@@ -1,4 +1,5 @@
-//! The BACnet/IP server (tokio, UDP): datagrams onto [`crate::bacnet::service::Server`] with
+//! The BACnet/IP adapter of the node: the services over datagrams ([`service`]), and the
+//! server (tokio, UDP): datagrams onto [`service::Server`] with
 //! the node locked only while one is handled, COV notifications every
 //! [`crate::bacnet::cov::POLL`], and, when the board names a BBMD, foreign-device registration
 //! (renewed at half its time-to-live; retried with a doubling backoff of 1 s to 60 s when the
@@ -14,11 +15,16 @@ use tokio::net::UdpSocket;
 use tokio::sync::watch;
 
 use crate::bacnet::cov::POLL;
-use crate::bacnet::service::{Outgoing, Server, ServerConfig};
 use crate::bacnet::wire::bvlc;
 use crate::modbus::regmap::CommHealth;
 use crate::node::health::{Beat, CommCounters};
 use crate::node::{SharedNode, lock};
+use service::{Outgoing, Server, ServerConfig};
+
+pub mod service;
+
+#[cfg(feature = "sim")]
+pub mod fuzz;
 
 /// The BACnet/IP port (0xBAC0).
 pub const DEFAULT_PORT: u16 = 47808;

@@ -16,10 +16,10 @@
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use super::consts::{confirmed, property};
-use super::objects::DeviceInfo;
 use super::service::{Outgoing, Server, ServerConfig};
-use super::wire::{Apdu, Bvlc, Npdu, ObjectId, Writer};
+use crate::bacnet::consts::{confirmed, property};
+use crate::bacnet::objects::DeviceInfo;
+use crate::bacnet::wire::{Apdu, Bvlc, Npdu, ObjectId, Writer};
 use crate::modbus::access::AccessPolicy;
 use crate::node::{Node, NodeModel, NodeOptions};
 use crate::rng::SplitMix64;
