@@ -509,3 +509,75 @@ fn the_pics_is_generated_from_the_object_table() {
         "docs/bacnet.md differs from the object table: regenerate it with `luxnode bacnet pics`"
     );
 }
+
+#[test]
+fn foreign_device_registration_is_retried_with_backoff_and_local_service_goes_on() {
+    use luxnode::bacnet::objects::DeviceInfo;
+    use luxnode::fieldbus::bacnet::service::ServerConfig;
+    use luxnode::fieldbus::bacnet::{BacnetCounters, BacnetOptions, BbmdConfig, bind, serve};
+    use std::sync::atomic::Ordering;
+    use std::sync::{Arc, Mutex};
+    use tokio::time::timeout;
+    rt().block_on(async {
+        let bbmd = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let options = BacnetOptions {
+            bind: "127.0.0.1:0".parse().unwrap(),
+            server: ServerConfig {
+                device: DeviceInfo::new(1234, "test"),
+                dcc_password: None,
+            },
+            bbmd: Some(BbmdConfig {
+                address: bbmd.local_addr().unwrap(),
+                ttl_s: 60,
+            }),
+        };
+        let socket = bind(options.bind).await.unwrap();
+        let node_addr = socket.local_addr().unwrap();
+        let node = Arc::new(Mutex::new(luxnode::fieldbus::bacnet::fuzz::sample_node()));
+        let counters = Arc::new(BacnetCounters::default());
+        let (stop, stop_rx) = tokio::sync::watch::channel(false);
+        let task = tokio::spawn(serve(
+            socket,
+            node,
+            options,
+            counters.clone(),
+            stop_rx,
+            None,
+        ));
+        let mut buf = [0u8; 64];
+        // the first registration at once (TTL 60 s); the BBMD stays silent
+        let (n, _) = timeout(Duration::from_secs(1), bbmd.recv_from(&mut buf))
+            .await
+            .expect("a registration")
+            .unwrap();
+        assert_eq!(&buf[..n], &[0x81, 0x05, 0, 6, 0, 60]);
+        let t1 = Instant::now();
+        // local service does not wait for the BBMD
+        let client = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let who_is = luxnode::fieldbus::bacnet::fuzz::frame(true, &[0x10, 0x08]);
+        client.send_to(&who_is, node_addr).await.unwrap();
+        let (n, _) = timeout(Duration::from_secs(1), client.recv_from(&mut buf))
+            .await
+            .expect("an I-Am while the BBMD is silent")
+            .unwrap();
+        assert_eq!(&buf[6..8], &[0x10, 0x00], "I-Am: {:02x?}", &buf[..n]);
+        // no answer in 2 s: a failure, retried after the first backoff (1 s)
+        let (_, from) = timeout(Duration::from_secs(5), bbmd.recv_from(&mut buf))
+            .await
+            .expect("a retry")
+            .unwrap();
+        let gap = t1.elapsed();
+        assert!(
+            gap >= Duration::from_millis(2900) && gap < Duration::from_millis(3600),
+            "retry after {gap:?}"
+        );
+        assert!(!counters.fd_registered.load(Ordering::Relaxed));
+        assert_eq!(counters.fd_failures.load(Ordering::Relaxed), 1);
+        // the BBMD accepts: registered
+        bbmd.send_to(&[0x81, 0x00, 0, 6, 0, 0], from).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert!(counters.fd_registered.load(Ordering::Relaxed));
+        let _ = stop.send(true);
+        let _ = task.await;
+    });
+}
