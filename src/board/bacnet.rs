@@ -95,3 +95,37 @@ pub fn bacnet_options(t: &BacnetToml, model: &str) -> Result<BacnetOptions, Stri
         bbmd,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<BacnetOptions, String> {
+        let t: BacnetToml = toml::from_str(text).map_err(|e| e.to_string())?;
+        bacnet_options(&t, "rpi4")
+    }
+
+    #[test]
+    fn a_bacnet_section_parses_and_bad_values_are_refused() {
+        let o = parse(
+            "device_id = 1201\nlocation = \"room 12\"\nbbmd = \"10.1.0.1:47808\"\nbbmd_ttl_s = 5",
+        )
+        .unwrap();
+        assert_eq!(o.bind, "0.0.0.0:47808".parse().unwrap());
+        assert_eq!(o.server.device.instance, 1201);
+        assert_eq!(o.server.device.name, "rpi4 1201");
+        assert_eq!(o.server.device.vendor_id, DEFAULT_VENDOR_ID);
+        assert_eq!(o.server.dcc_password, None);
+        assert_eq!(o.bbmd.map(|b| b.ttl_s), Some(30), "at least 30 s");
+        for bad in [
+            "device_id = 4194303",
+            "bind = \"nowhere\"\ndevice_id = 1",
+            "device_id = 1\nbbmd = \"10.1.0.1\"",
+            "device_id = 1\ndcc_password = \"\"",
+            "device_id = 1\nunknown = 3",
+            "location = \"no id\"",
+        ] {
+            assert!(parse(bad).is_err(), "{bad}");
+        }
+    }
+}
