@@ -13,6 +13,8 @@ use super::wire::{NetAddress, ObjectId};
 
 /// Most subscriptions held at once.
 pub const MAX_SUBSCRIPTIONS: usize = 256;
+/// Most subscriptions of one IP address (one client cannot take the whole table).
+pub const MAX_PER_ADDRESS: usize = 128;
 /// How often the server looks for changes.
 pub const POLL: Duration = Duration::from_millis(100);
 /// Longest lifetime a subscriber may ask for, s (a day; longer is clamped).
@@ -67,7 +69,9 @@ impl Subscription {
 
 /// The table is full.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("{MAX_SUBSCRIPTIONS} COV subscriptions held: no room for another")]
+#[error(
+    "no room for another COV subscription ({MAX_SUBSCRIPTIONS} in all, {MAX_PER_ADDRESS} per address)"
+)]
 pub struct Full;
 
 /// The subscriptions.
@@ -115,7 +119,12 @@ impl CovTable {
             *s = sub;
             return Ok(());
         }
-        if self.subs.len() >= MAX_SUBSCRIPTIONS {
+        let same_ip = self
+            .subs
+            .iter()
+            .filter(|s| s.peer.addr.ip() == peer.addr.ip())
+            .count();
+        if self.subs.len() >= MAX_SUBSCRIPTIONS || same_ip >= MAX_PER_ADDRESS {
             return Err(Full);
         }
         self.subs.push(sub);
@@ -207,12 +216,28 @@ mod tests {
         let later = now + Duration::from_secs(3);
         assert!(t.due(later, |_| None).is_empty());
         assert_eq!(t.len(), 0, "expired");
-        for k in 0..MAX_SUBSCRIPTIONS as u32 {
+        for k in 0..MAX_PER_ADDRESS as u32 {
             t.subscribe(peer(2), k, o, false, 0, now).unwrap();
         }
-        assert_eq!(t.subscribe(peer(3), 0, o, false, 0, now), Err(Full));
+        assert_eq!(
+            t.subscribe(peer(2), 999, o, false, 0, now),
+            Err(Full),
+            "one address's share"
+        );
+        let other = |port| Peer {
+            addr: SocketAddr::from(([127, 0, 0, 2], port)),
+            route: None,
+        };
+        for k in 0..(MAX_SUBSCRIPTIONS - MAX_PER_ADDRESS) as u32 {
+            t.subscribe(other(1), k, o, false, 0, now).unwrap();
+        }
+        let third = Peer {
+            addr: SocketAddr::from(([127, 0, 0, 3], 1)),
+            route: None,
+        };
+        assert_eq!(t.subscribe(third, 0, o, false, 0, now), Err(Full), "all");
         t.cancel(&peer(2), 5, o);
         assert_eq!(t.len(), MAX_SUBSCRIPTIONS - 1);
-        t.subscribe(peer(3), 0, o, false, 0, now).unwrap();
+        t.subscribe(third, 0, o, false, 0, now).unwrap();
     }
 }

@@ -431,8 +431,9 @@ impl Server {
         let object = v
             .resolve(id)
             .ok_or(error(ec::OBJECT, code::UNKNOWN_OBJECT))?;
+        // ALL, REQUIRED and OPTIONAL belong to ReadPropertyMultiple
         if matches!(prop, p::ALL | p::REQUIRED | p::OPTIONAL) {
-            return Err(error(ec::SERVICES, code::OTHER));
+            return Err(error(ec::PROPERTY, code::UNKNOWN_PROPERTY));
         }
         let mut buf = vec![0u8; MAX_APDU];
         let mut w = Writer::new(&mut buf);
