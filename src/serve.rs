@@ -461,6 +461,17 @@ fn log_status(node: &SharedNode) {
         c.writes_refused,
         n.health().late()
     );
+    let b = n
+        .health()
+        .counters::<crate::fieldbus::bacnet::BacnetCounters>();
+    tracing::info!(
+        "status: bacnet {} datagrams received, {} COV notifications sent, foreign device \
+         registered {} ({} failed registrations)",
+        b.received.load(Ordering::Relaxed),
+        b.notifications.load(Ordering::Relaxed),
+        b.fd_registered.load(Ordering::Relaxed),
+        b.fd_failures.load(Ordering::Relaxed)
+    );
 }
 
 /// A configuration's TLS acceptor and opened RTU line.

@@ -11,6 +11,8 @@ Each command prints one JSON object on stdout:
                                SubscribeCOV (N subscriptions, process ids 1..N), then the write
                                (BACnet, or Modbus with pymodbus), then the time until each
                                subscriber saw a notification
+    ... hold OBJ [--subscribers N --seconds S]
+                               N subscriptions held S seconds; notifications counted per one
     ... raw HEX                one datagram as is; the first answer's bytes (hex) or none
 
 --local is the client's own address (another loopback address, e.g. 127.0.0.2, is another
@@ -154,6 +156,31 @@ async def cmd_cov(app, target, a):
     return {"ok": True, "initial": initial, "after": after, "elapsed_s": elapsed}
 
 
+async def cmd_hold(app, target, a):
+    """Holds N subscriptions for S seconds; counts the notifications each received."""
+    addr = Address(target)
+    obj = ObjectIdentifier(a.object)
+    contexts = []
+    for pid in range(1, a.subscribers + 1):
+        scm = app.change_of_value(addr, obj, pid, False, 300)
+        await scm.__aenter__()
+        contexts.append(scm)
+    counts = [0] * len(contexts)
+
+    async def count(k, scm):
+        while True:
+            await drain_value(scm)
+            counts[k] += 1
+
+    tasks = [asyncio.create_task(count(k, s)) for k, s in enumerate(contexts)]
+    await asyncio.sleep(a.seconds)
+    for t in tasks:
+        t.cancel()
+    for scm in contexts:
+        await scm.__aexit__(None, None, None)
+    return {"notifications": counts}
+
+
 async def drain_value(scm):
     """The next Present_Value notified (Status_Flags and others skipped)."""
     while True:
@@ -197,6 +224,10 @@ async def main() -> int:
     c.add_argument("--write-modbus", nargs=3, metavar=("ADDR", "REGISTER", "VALUE"))
     c.add_argument("--confirmed", action="store_true")
     c.add_argument("--subscribers", type=int, default=1)
+    h = sub.add_parser("hold")
+    h.add_argument("object")
+    h.add_argument("--subscribers", type=int, default=100)
+    h.add_argument("--seconds", type=float, default=10)
     r = sub.add_parser("raw")
     r.add_argument("hex")
     a = ap.parse_args()
@@ -205,7 +236,7 @@ async def main() -> int:
         return 0
     app = await make_app(a.local)
     try:
-        f = {"whois": cmd_whois, "read": cmd_read, "write": cmd_write, "cov": cmd_cov}[a.cmd]
+        f = {"whois": cmd_whois, "read": cmd_read, "write": cmd_write, "cov": cmd_cov, "hold": cmd_hold}[a.cmd]
         out = await f(app, a.target, a)
     finally:
         app.close()
