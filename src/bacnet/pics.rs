@@ -77,7 +77,7 @@ const BIBBS: &[(&str, &str, &str)] = &[
     (
         "DS-COV-B",
         "yes, partly",
-        "SubscribeCOV, confirmed and unconfirmed, lifetimes (0 = indefinite, at most 86 400 s), up to 256 subscriptions (128 per IP address), an initial notification, Present_Value and Status_Flags notified within 100 ms of a change by COV_Increment or of a flag; confirmed notifications are sent once: their acknowledgement is not awaited and a lost one is not retried; subscriptions do not survive a restart",
+        "SubscribeCOV, confirmed and unconfirmed, lifetimes (0 = indefinite, at most 86 400 s), up to 256 subscriptions (128 per IP address), an initial notification, Present_Value and Status_Flags notified within 100 ms of a change by COV_Increment or of a flag; a confirmed notification unacknowledged for APDU_Timeout (3 s) is sent again, at most 3 times (Number_Of_APDU_Retries); subscriptions do not survive a restart",
     ),
     (
         "DM-DDB-B",

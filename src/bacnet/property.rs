@@ -190,7 +190,7 @@ fn device_property(view: &View<'_>, prop: u32, w: &mut Writer<'_>) -> Result<(),
         p::MAX_APDU_LENGTH_ACCEPTED => w.unsigned(MAX_APDU as u64),
         p::SEGMENTATION_SUPPORTED => w.enumerated(NO_SEGMENTATION),
         p::APDU_TIMEOUT => w.unsigned(3000),
-        p::NUMBER_OF_APDU_RETRIES => w.unsigned(0),
+        p::NUMBER_OF_APDU_RETRIES => w.unsigned(3),
         // an empty list: the node binds no device addresses
         p::DEVICE_ADDRESS_BINDING => Ok(()),
         p::DATABASE_REVISION => w.unsigned(u64::from(view.map.generation)),

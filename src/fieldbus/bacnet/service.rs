@@ -121,6 +121,23 @@ const fn error(class: u32, c: u32) -> Failure {
     Failure::Error(class, c)
 }
 
+/// How long a confirmed notification waits for its acknowledgement (Device APDU_Timeout).
+pub const APDU_TIMEOUT: Duration = Duration::from_secs(3);
+/// How often an unacknowledged confirmed notification is sent again (Number_Of_APDU_Retries).
+pub const APDU_RETRIES: u8 = 3;
+/// Most confirmed notifications awaiting an acknowledgement (the oldest is given up).
+const MAX_PENDING: usize = 256;
+
+/// A confirmed notification awaiting its acknowledgement.
+#[derive(Debug)]
+struct Pending {
+    invoke_id: u8,
+    to: SocketAddr,
+    datagram: Vec<u8>,
+    sent: Instant,
+    tries: u8,
+}
+
 /// The BACnet/IP server state: settings, COV subscriptions, written COV increments.
 #[derive(Debug)]
 pub struct Server {
@@ -129,6 +146,8 @@ pub struct Server {
     cov: CovTable,
     invoke_id: u8,
     dcc: Dcc,
+    /// Confirmed notifications not yet acknowledged.
+    pending: Vec<Pending>,
     /// Counters.
     pub counters: Counters,
     /// The last BVLC-Result received: its sender and code (the BBMD's answer to a
@@ -198,6 +217,7 @@ impl Server {
             cov: CovTable::default(),
             invoke_id: 0,
             dcc: Dcc::Enabled,
+            pending: Vec::new(),
             counters: Counters::default(),
             last_bvlc_result: None,
         }
@@ -285,7 +305,16 @@ impl Server {
                 .into_iter()
                 .collect(),
             Apdu::ConfirmedRequest { .. } => self.confirmed(node, &peer, apdu, now),
-            // answers to the node's confirmed notifications: nothing to do (no retries)
+            // an answer to a confirmed notification: delivered (an Error, Reject or Abort too:
+            // the subscriber heard it and refused; resending would not change that)
+            Apdu::SimpleAck { invoke_id, .. }
+            | Apdu::Error { invoke_id, .. }
+            | Apdu::Reject { invoke_id, .. }
+            | Apdu::Abort { invoke_id, .. } => {
+                self.pending
+                    .retain(|x| !(x.invoke_id == invoke_id && x.to.ip() == addr.ip()));
+                Vec::new()
+            }
             _ => Vec::new(),
         }
     }
@@ -661,10 +690,38 @@ impl Server {
         Ok(Reply::Simple)
     }
 
-    /// The COV notifications due now (none while communication is disabled).
+    /// Confirmed notifications unanswered for [`APDU_TIMEOUT`]: sent again, at most
+    /// [`APDU_RETRIES`] times, then given up.
+    fn retries(&mut self, now: Instant) -> Vec<Outgoing> {
+        let mut out = Vec::new();
+        self.pending.retain_mut(|x| {
+            if now.duration_since(x.sent) < APDU_TIMEOUT {
+                return true;
+            }
+            if x.tries >= APDU_RETRIES {
+                tracing::debug!("bacnet: COV notification to {} not acknowledged", x.to);
+                return false;
+            }
+            x.tries += 1;
+            x.sent = now;
+            out.push(Outgoing {
+                to: x.to,
+                datagram: x.datagram.clone(),
+            });
+            true
+        });
+        out
+    }
+
+    /// The COV notifications due now, and confirmed ones to send again (none while
+    /// communication is disabled).
     pub fn poll_cov(&mut self, node: &Node, now: Instant) -> Vec<Outgoing> {
-        if self.cov.is_empty() || !matches!(self.dcc_now(now), Dcc::Enabled) {
+        if !matches!(self.dcc_now(now), Dcc::Enabled) {
             return Vec::new();
+        }
+        let mut out = self.retries(now);
+        if self.cov.is_empty() {
+            return out;
         }
         let v = view(node, &self.config, &self.cov_increments);
         let due = self.cov.due(now, |id| {
@@ -677,7 +734,6 @@ impl Server {
             Some((told, v.cov_increment(id, class.kind, k)))
         });
         let device = self.config.device.id();
-        let mut out = Vec::new();
         for s in due {
             let Some(told) = s.told else { continue };
             let invoke_id = self.invoke_id;
@@ -707,6 +763,18 @@ impl Server {
             });
             if let Ok(o) = sent {
                 self.counters.notifications += 1;
+                if s.confirmed {
+                    if self.pending.len() >= MAX_PENDING {
+                        self.pending.remove(0);
+                    }
+                    self.pending.push(Pending {
+                        invoke_id,
+                        to: o.to,
+                        datagram: o.datagram.clone(),
+                        sent: now,
+                        tries: 0,
+                    });
+                }
                 out.push(o);
             }
         }

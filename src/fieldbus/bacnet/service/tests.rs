@@ -373,3 +373,54 @@ fn device_communication_control_needs_the_password_and_the_allowlist() {
         Some((ec::SERVICES, code::SERVICE_REQUEST_DENIED))
     );
 }
+
+#[test]
+fn confirmed_notifications_are_sent_again_until_acknowledged() {
+    let (mut node, mut s) = (sample_node(), sample_server());
+    let ai = ObjectId::new(ot::ANALOG_INPUT, 0);
+    let sub = request(confirmed::SUBSCRIBE_COV, |w| {
+        let _ = w.context_unsigned(0, 5);
+        let _ = w.context_object_id(1, ai);
+        let _ = w.context_bool(2, true);
+        let _ = w.context_unsigned(3, 600);
+    });
+    let t0 = Instant::now();
+    let a = apdus(&s.handle(&mut node, peer(), &sub, t0));
+    assert_eq!(a.len(), 2, "ACK and the initial notification");
+    let Ok(Apdu::ConfirmedRequest {
+        invoke_id, service, ..
+    }) = Apdu::parse(&a[1])
+    else {
+        panic!("{:02x?}", a[1]);
+    };
+    assert_eq!(service, confirmed::COV_NOTIFICATION);
+    // not acknowledged: the same datagram again after 3 s, 3 times, then given up
+    assert!(s.poll_cov(&node, t0 + Duration::from_secs(2)).is_empty());
+    let mut t = t0;
+    for _ in 0..APDU_RETRIES {
+        t += APDU_TIMEOUT;
+        let again = apdus(&s.poll_cov(&node, t));
+        assert_eq!(again, vec![a[1].clone()]);
+    }
+    assert!(s.poll_cov(&node, t + APDU_TIMEOUT).is_empty(), "given up");
+    // a change, acknowledged at once: never sent again
+    let level = request(confirmed::WRITE_PROPERTY, |w| {
+        let _ = w.context_object_id(0, ObjectId::new(ot::ANALOG_VALUE, 0));
+        let _ = w.context_enumerated(1, p::PRESENT_VALUE);
+        let _ = w.opening(3);
+        let _ = w.real(0.0);
+        let _ = w.closing(3);
+    });
+    s.handle(&mut node, peer(), &level, t);
+    let n = apdus(&s.poll_cov(&node, t));
+    let Ok(Apdu::ConfirmedRequest { invoke_id: id2, .. }) = Apdu::parse(&n[0]) else {
+        panic!("{:02x?}", n[0]);
+    };
+    assert_ne!(id2, invoke_id);
+    let ack = frame(false, &[0x20, id2, confirmed::COV_NOTIFICATION]);
+    assert!(s.handle(&mut node, peer(), &ack, t).is_empty());
+    assert!(
+        s.poll_cov(&node, t + APDU_TIMEOUT).is_empty(),
+        "acknowledged"
+    );
+}
