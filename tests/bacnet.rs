@@ -575,7 +575,14 @@ fn foreign_device_registration_is_retried_with_backoff_and_local_service_goes_on
         assert_eq!(counters.fd_failures.load(Ordering::Relaxed), 1);
         // the BBMD accepts: registered
         bbmd.send_to(&[0x81, 0x00, 0, 6, 0, 0], from).await.unwrap();
-        tokio::time::sleep(Duration::from_millis(300)).await;
+        // registered: the device announces itself through the BBMD (Distribute-Broadcast-To-
+        // Network, an I-Am of device 1234)
+        let (n, _) = timeout(Duration::from_secs(1), bbmd.recv_from(&mut buf))
+            .await
+            .expect("an I-Am through the BBMD")
+            .unwrap();
+        assert_eq!(&buf[..2], &[0x81, 0x09], "{:02x?}", &buf[..n]);
+        assert_eq!(&buf[6..13], &[0x10, 0x00, 0xC4, 0x02, 0x00, 0x04, 0xD2]);
         assert!(counters.fd_registered.load(Ordering::Relaxed));
         let _ = stop.send(true);
         let _ = task.await;

@@ -82,7 +82,7 @@ const BIBBS: &[(&str, &str, &str)] = &[
     (
         "DM-DDB-B",
         "yes, partly",
-        "Who-Is (with or without a range; local, global or directed) answered with I-Am, unicast to the requester; the node does not broadcast an I-Am at start",
+        "Who-Is (with or without a range; local, global or directed) answered with I-Am, unicast to the requester; an I-Am broadcast at start (to 255.255.255.255 on the node's port; not tested: the tests run on loopback, which cannot broadcast) and, as a foreign device, through the BBMD once registered (tested)",
     ),
     ("DM-DOB-B", "no", "Who-Has / I-Have are not executed"),
     (
@@ -200,7 +200,7 @@ pub fn markdown() -> String {
     );
     for (name, ex, init) in [
         ("Who-Is", "yes", "no"),
-        ("I-Am", "no", "yes (answer to Who-Is)"),
+        ("I-Am", "no", "yes (answer to Who-Is; at start)"),
         ("ReadProperty", "yes", "no"),
         ("ReadPropertyMultiple", "yes", "no"),
         ("WriteProperty", "yes", "no"),

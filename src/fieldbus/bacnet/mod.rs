@@ -124,9 +124,11 @@ impl Registration {
         self.backoff = (self.backoff * 2).min(BACKOFF_MAX);
     }
 
-    fn result(&mut self, now: Instant, code: u16, counters: &BacnetCounters) {
+    /// Takes the BBMD's answer; true when the node has just become registered.
+    fn result(&mut self, now: Instant, code: u16, counters: &BacnetCounters) -> bool {
         if code == bvlc::RESULT_OK {
-            if !counters.fd_registered.swap(true, Ordering::Relaxed) {
+            let new = !counters.fd_registered.swap(true, Ordering::Relaxed);
+            if new {
                 tracing::info!(
                     "bacnet: registered as a foreign device with {} (ttl {} s)",
                     self.config.address,
@@ -136,8 +138,10 @@ impl Registration {
             self.sent = None;
             self.backoff = Duration::from_secs(1);
             self.next = now + Duration::from_secs(u64::from(self.config.ttl_s / 2).max(1));
+            new
         } else {
             self.failed(now, counters, &format!("result code {code:#06x}"));
+            false
         }
     }
 }
@@ -164,6 +168,16 @@ pub async fn serve(
     let mut tick = tokio::time::interval(POLL);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut buf = vec![0u8; 2048];
+    // announce the device on the local network (a socket on loopback cannot broadcast: said in
+    // the debug log, nothing else)
+    if let (Ok(local), None) = (socket.local_addr(), &registration) {
+        let all = SocketAddr::from(([255, 255, 255, 255], local.port()));
+        if let Some(o) = server.i_am(bvlc::ORIGINAL_BROADCAST, all, None)
+            && let Err(e) = socket.send_to(&o.datagram, o.to).await
+        {
+            tracing::debug!("bacnet: I-Am broadcast at start: {e}");
+        }
+    }
     loop {
         tokio::select! {
             r = socket.recv_from(&mut buf) => {
@@ -183,8 +197,11 @@ pub async fn serve(
                 };
                 if let (Some(reg), Some((at, code))) = (registration.as_mut(), server.last_bvlc_result.take())
                     && at == reg.config.address
+                    && reg.result(now, code, &counters)
+                    && let Some(o) = server.i_am(bvlc::DISTRIBUTE_BROADCAST, at, None)
                 {
-                    reg.result(now, code, &counters);
+                    // registered: announce the device through the BBMD
+                    send_all(&socket, vec![o]).await;
                 }
                 send_all(&socket, out).await;
             }

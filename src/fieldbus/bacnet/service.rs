@@ -26,7 +26,9 @@ use crate::bacnet::consts::{
 use crate::bacnet::cov::{CovTable, Full, Peer, Told};
 use crate::bacnet::objects::{DeviceInfo, Kind, OPTIONAL_PROPERTIES, View};
 use crate::bacnet::property::{PropertyError, encode, properties};
-use crate::bacnet::wire::{Apdu, AppValue, Bvlc, Npdu, ObjectId, Reader, WireError, Writer, bvlc};
+use crate::bacnet::wire::{
+    Apdu, AppValue, Bvlc, NetAddress, Npdu, ObjectId, Reader, WireError, Writer, bvlc,
+};
 use crate::modbus::access::Source;
 use crate::modbus::regmap::addr;
 use crate::node::Node;
@@ -174,13 +176,23 @@ fn datagram(
     expecting_reply: bool,
     apdu: impl FnOnce(&mut Writer<'_>) -> Result<(), WireError>,
 ) -> Result<Outgoing, WireError> {
+    datagram_as(bvlc::ORIGINAL_UNICAST, peer, expecting_reply, apdu)
+}
+
+/// [`datagram`] with another BVLC function (a broadcast).
+fn datagram_as(
+    function: u8,
+    peer: &Peer,
+    expecting_reply: bool,
+    apdu: impl FnOnce(&mut Writer<'_>) -> Result<(), WireError>,
+) -> Result<Outgoing, WireError> {
     let mut buf = vec![0u8; DATAGRAM_MAX];
     let mut w = Writer::new(&mut buf[4..]);
     Npdu::to(peer.route, expecting_reply).emit(&mut w)?;
     apdu(&mut w)?;
     let body = w.len();
     let mut h = Writer::new(&mut buf[..4]);
-    Bvlc::emit_header(bvlc::ORIGINAL_UNICAST, body, &mut h)?;
+    Bvlc::emit_header(function, body, &mut h)?;
     buf.truncate(4 + body);
     Ok(Outgoing {
         to: peer.addr,
@@ -338,9 +350,28 @@ impl Server {
                 return None;
             }
         }
+        self.i_am(bvlc::ORIGINAL_UNICAST, peer.addr, peer.route)
+    }
+
+    /// An I-Am datagram to `to` as BVLC `function` (Original-Unicast to a requester,
+    /// Original-Broadcast on the local network, Distribute-Broadcast-To-Network to a BBMD);
+    /// none while DeviceCommunicationControl disables initiation.
+    pub fn i_am(
+        &self,
+        function: u8,
+        to: SocketAddr,
+        route: Option<NetAddress>,
+    ) -> Option<Outgoing> {
+        if matches!(self.dcc, Dcc::Disabled(_))
+            || (function != bvlc::ORIGINAL_UNICAST
+                && matches!(self.dcc, Dcc::InitiationDisabled(_)))
+        {
+            return None;
+        }
         let device = self.config.device.id();
         let vendor = u64::from(self.config.device.vendor_id);
-        datagram(peer, false, |w| {
+        let peer = Peer { addr: to, route };
+        datagram_as(function, &peer, false, |w| {
             w.put(&[0x10, unconfirmed::I_AM])?;
             w.object_id(device)?;
             w.unsigned(MAX_APDU as u64)?;
