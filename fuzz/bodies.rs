@@ -17,6 +17,7 @@ pub type Body = fn(&[u8]);
 pub const TARGETS: &[(&str, Body)] = &[
     ("modbus_pdu", modbus_pdu),
     ("modbus_rtu", modbus_rtu),
+    ("bacnet_datagram", bacnet_datagram),
     ("eulumdat", eulumdat),
     ("ies", ies),
     ("obj_mtl", obj_mtl),
@@ -51,6 +52,19 @@ pub fn modbus_pdu(data: &[u8]) {
         panic!("{e}");
     }
     if let Err(e) = f.feed(data, unit, false) {
+        panic!("{e}");
+    }
+}
+
+/// A BACnet/IP datagram to the server (`luxnode::fieldbus::bacnet::fuzz`): every answer well formed
+/// (BVLC, NPDU, APDU parse; a confirmed request's answer carries its invoke id); then the same
+/// bytes as an APDU behind a valid BVLC and NPDU header.
+pub fn bacnet_datagram(data: &[u8]) {
+    let mut f = luxnode::fieldbus::bacnet::fuzz::Fuzzer::default();
+    if let Err(e) = f.feed(data) {
+        panic!("{e}");
+    }
+    if let Err(e) = f.feed(&luxnode::fieldbus::bacnet::fuzz::frame(false, data)) {
         panic!("{e}");
     }
 }

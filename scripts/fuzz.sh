@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Coverage-guided fuzzing of luxnode's decoders with cargo-fuzz (libFuzzer, nightly toolchain).
-# Targets (fuzz/fuzz_targets/, bodies in fuzz/bodies.rs): modbus_pdu modbus_rtu eulumdat ies
+# Targets (fuzz/fuzz_targets/, bodies in fuzz/bodies.rs): modbus_pdu modbus_rtu bacnet_datagram eulumdat ies
 # obj_mtl scene_json capture_png board_toml flash_image calibration_record live_section.
 # Corpora: fuzz/corpus/<target>/ (seeds from fuzz/make-corpus.py and docs/fuzzing.md; new finds go to fuzz/target/corpus-work/, not into the repository).
 #
@@ -14,7 +14,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS=(modbus_pdu modbus_rtu eulumdat ies obj_mtl scene_json capture_png board_toml flash_image calibration_record live_section)
+TARGETS=(modbus_pdu modbus_rtu bacnet_datagram eulumdat ies obj_mtl scene_json capture_png board_toml flash_image calibration_record live_section)
 
 if ! cargo +nightly --version >/dev/null 2>&1; then
   echo "== fuzz: no nightly toolchain; the stable smoke (tests/fuzz_smoke.rs) covers every target's body"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The real client programs the tests run: mbpoll, socat, openssl (Debian) and pymodbus (PyPI)
-# for the Modbus tests; systemd's analyzers for the deployment tests; chromium (Debian) for the
+# for the Modbus tests; bacpypes3 (PyPI) for the BACnet/IP tests; systemd's analyzers for the deployment tests; chromium (Debian) for the
 # report test (tests/report.rs opens report.html in it).
 # Installs only what is missing; scripts/test.sh calls it.
 set -euo pipefail
@@ -23,4 +23,8 @@ PY="${LUXNODE_PYTHON:-python3}"
 if ! "$PY" -c 'import pymodbus, serial' >/dev/null 2>&1; then
   echo "== installing pymodbus (pip)"
   "$PY" -m pip install -q --disable-pip-version-check 'pymodbus[serial]==3.16.1'
+fi
+if ! "$PY" -c 'import bacpypes3' >/dev/null 2>&1; then
+  echo "== installing bacpypes3 (pip)"
+  "$PY" -m pip install -q --disable-pip-version-check 'bacpypes3==0.0.110'
 fi

@@ -33,8 +33,8 @@
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
 //! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); who may write and how each client reads (access), the settings clients wrote (std) |
-//! | 5 | `node` | std | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness) |
-//! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the DALI gateway link and the lighting loop; the frame fuzzer (feature `sim`) |
+//! | 5 | `node`, `bacnet` | std (`bacnet`: no_std core) | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness); BACnet: BVLC/NPDU/APDU wire format and tagged encodings (no_std), the node's objects over the register snapshot, COV subscriptions, the PICS |
+//! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the BACnet/IP services and UDP server, the DALI gateway link and the lighting loop; the frame and datagram fuzzers (feature `sim`) |
 //! | 7 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
 //! | 8 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 9 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
@@ -43,7 +43,7 @@
 //! | 12 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
 //! | 13 | `render`, `live_section`, `daylight_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model; the daylight coefficients through the room plan's windows the camera does not see |
 //! | 14 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
-//! | 15 | `serve` | std | serving an image over Modbus TCP and RTU, following a DALI gateway |
+//! | 15 | `serve` | std | serving an image over Modbus TCP and RTU and BACnet/IP, following a DALI gateway |
 //! | 16 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
 //! | 17 | `daemon` | std | running a node: assembled from its board file (flash, peripherals, cameras, serving, live light), boot from flash or commission, serve, systemd |
 //! | 18 | `bench` | feature `bench` | benchmarks that print tables: timing, accuracy, trade-offs, Modbus load and fuzzing |
@@ -92,6 +92,7 @@ pub mod layout {
     );
 }
 
+pub mod bacnet;
 pub mod control;
 pub mod dali;
 pub mod modbus;

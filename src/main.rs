@@ -34,12 +34,18 @@ enum Command {
         #[command(subcommand)]
         command: Box<cli::image::Command>,
     },
-    /// Serve a commissioned image over Modbus TCP (and RTU), optionally following a DALI gateway.
+    /// Serve a commissioned image over Modbus TCP (and RTU, BACnet/IP), optionally following a
+    /// DALI gateway.
     Serve(Box<cli::modbus::ServeArgs>),
     /// The Modbus register map.
     Modbus {
         #[command(subcommand)]
         command: cli::modbus::ModbusCommand,
+    },
+    /// BACnet/IP: the PICS (docs/bacnet.md).
+    Bacnet {
+        #[command(subcommand)]
+        command: cli::modbus::BacnetCommand,
     },
     /// Commission from a capture set (ToF depth + luminance frames, no CAD model) and write
     /// the flash image.
@@ -80,6 +86,7 @@ fn main() -> ExitCode {
         Command::Image { command } => cli::image::run(&command).map(|()| ExitCode::SUCCESS),
         Command::Serve(a) => cli::modbus::serve(&a).map(|()| ExitCode::SUCCESS),
         Command::Modbus { command } => cli::modbus::modbus(&command).map(|()| ExitCode::SUCCESS),
+        Command::Bacnet { command } => cli::modbus::bacnet(&command).map(|()| ExitCode::SUCCESS),
         Command::Commission(a) => cli::commission::run(&a).map(|()| ExitCode::SUCCESS),
         #[cfg(feature = "bench")]
         Command::Bench { command } => cli::bench::run(command).map(|()| ExitCode::SUCCESS),

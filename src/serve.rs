@@ -88,6 +88,8 @@ pub struct ServeOptions {
     pub settings_path: Option<PathBuf>,
     /// Lighting control: mode, targets, power model, loop knobs (the board's `[control]`).
     pub control: crate::node::ControlOptions,
+    /// BACnet/IP server (`--bacnet`, the board's `[bacnet]`).
+    pub bacnet: Option<crate::fieldbus::bacnet::BacnetOptions>,
 }
 
 /// Re-reads the configuration (SIGHUP): new options, or why they are refused.
@@ -225,7 +227,7 @@ struct Parts {
 fn comm_key(o: &ServeOptions) -> String {
     let t = &o.tcp;
     format!(
-        "{:?} {} {} {:?} {:?} {:?} {:?} {:?}",
+        "{:?} {} {} {:?} {:?} {:?} {:?} {:?} {:?}",
         o.bind,
         t.max_connections,
         t.max_per_source,
@@ -233,7 +235,8 @@ fn comm_key(o: &ServeOptions) -> String {
         t.evictable_after,
         o.tls,
         o.rtu,
-        o.gateway
+        o.gateway,
+        o.bacnet
     )
 }
 
@@ -324,6 +327,14 @@ fn start_parts(
             }
             beat.retire();
         }));
+    }
+    if let Some(bacnet) = options.bacnet.clone() {
+        tasks.push(tokio::spawn(crate::fieldbus::bacnet::supervise(
+            node.clone(),
+            bacnet,
+            health.clone(),
+            stop_rx.clone(),
+        )));
     }
     {
         // lighting control: always running, commanding nothing while the mode is off
@@ -449,6 +460,17 @@ fn log_status(node: &SharedNode) {
         c.writes_accepted,
         c.writes_refused,
         n.health().late()
+    );
+    let b = n
+        .health()
+        .counters::<crate::fieldbus::bacnet::BacnetCounters>();
+    tracing::info!(
+        "status: bacnet {} datagrams received, {} COV notifications sent, foreign device \
+         registered {} ({} failed registrations)",
+        b.received.load(Ordering::Relaxed),
+        b.notifications.load(Ordering::Relaxed),
+        b.fd_registered.load(Ordering::Relaxed),
+        b.fd_failures.load(Ordering::Relaxed)
     );
 }
 

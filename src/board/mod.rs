@@ -1,6 +1,7 @@
 //! Board files: hardware as data (`boards/<name>/board.toml`). Core logic never reads them; the
 //! binary turns them into typed settings. Unknown keys are errors so a typo fails loudly.
 
+pub mod bacnet;
 pub mod camera;
 pub mod control;
 pub mod hardware;
@@ -30,6 +31,8 @@ pub struct Board {
     pub scene: SceneSource,
     /// Modbus: TCP server, RTU line, DALI gateway.
     pub modbus: ModbusBoard,
+    /// BACnet/IP (`[bacnet]`), if the board serves it.
+    pub bacnet: Option<crate::fieldbus::bacnet::BacnetOptions>,
     /// Engine and store settings (`[engine] preset = "balanced"`; balanced when absent).
     pub preset: crate::preset::Preset,
     /// The installation's maintenance factor for the commissioning report's maintained values
@@ -341,6 +344,8 @@ struct BoardToml {
     commissioning: CommissioningToml,
     #[serde(default)]
     room: RoomToml,
+    #[serde(default)]
+    bacnet: Option<crate::board::bacnet::BacnetToml>,
 }
 
 #[derive(Deserialize)]
@@ -475,7 +480,14 @@ impl Board {
                 Some(plan)
             }
         };
+        let bacnet = t
+            .bacnet
+            .as_ref()
+            .map(|b| crate::board::bacnet::bacnet_options(b, &t.name))
+            .transpose()
+            .map_err(bad)?;
         Ok(Board {
+            bacnet,
             room_plan,
             luxmeter_rho,
             control,

@@ -5,6 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use luxnode::bacnet::objects::DeviceInfo;
+use luxnode::fieldbus::bacnet::BacnetOptions;
+use luxnode::fieldbus::bacnet::service::ServerConfig;
 use luxnode::fieldbus::gateway::GatewayConfig;
 use luxnode::fieldbus::rtu::{Parity, RtuOptions};
 use luxnode::fieldbus::tcp::TcpOptions;
@@ -61,6 +64,13 @@ pub struct ServeArgs {
     /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
     #[arg(long)]
     pub seconds: Option<f64>,
+    /// Also serve BACnet/IP on this UDP address (port 0: any free port, printed at start)
+    /// [default: the board's `[bacnet]`, or none]. Writes follow the Modbus write allowlist.
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub bacnet: Option<SocketAddr>,
+    /// BACnet Device object instance (0..=4194302) [default: the board's, or 1].
+    #[arg(long, value_name = "N")]
+    pub bacnet_device_id: Option<u32>,
 }
 
 /// Parity on the command line.
@@ -154,6 +164,7 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
     if max_connections == 0 || max_per_source == 0 {
         bail!("--max-connections and --max-per-source must be at least 1");
     }
+    let bacnet = bacnet_options(args, board.as_ref())?;
     luxnode::serve::serve(
         &args.image,
         ServeOptions {
@@ -174,6 +185,7 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
                 .map(|b| b.control.clone())
                 .unwrap_or_default(),
             model_name: board.map_or("luxnode serve".into(), |b| b.name),
+            bacnet,
             initial_arc: args.arc,
             run_for: args
                 .seconds
@@ -182,6 +194,48 @@ pub fn serve(args: &ServeArgs) -> Result<()> {
         },
     )?;
     Ok(())
+}
+
+/// The BACnet/IP options: the board's `[bacnet]`, `--bacnet` and `--bacnet-device-id` over it.
+fn bacnet_options(
+    args: &ServeArgs,
+    board: Option<&luxnode::board::Board>,
+) -> Result<Option<BacnetOptions>> {
+    let from_board = board.and_then(|b| b.bacnet.clone());
+    let mut options = match (args.bacnet, from_board) {
+        (None, None) => {
+            if args.bacnet_device_id.is_some() {
+                bail!("--bacnet-device-id needs --bacnet ADDR:PORT (or a board with [bacnet])");
+            }
+            return Ok(None);
+        }
+        (Some(bind), None) => {
+            let model = board.map_or("luxnode serve", |b| b.name.as_str());
+            BacnetOptions {
+                bind,
+                server: ServerConfig {
+                    device: DeviceInfo::new(1, model),
+                    dcc_password: None,
+                },
+                bbmd: None,
+            }
+        }
+        (bind, Some(mut o)) => {
+            if let Some(b) = bind {
+                o.bind = b;
+            }
+            o
+        }
+    };
+    if let Some(id) = args.bacnet_device_id {
+        let id = luxnode::board::bacnet::check_device_id(id)
+            .map_err(anyhow::Error::msg)
+            .context("--bacnet-device-id")?;
+        let d = &mut options.server.device;
+        d.name = d.name.replace(&d.instance.to_string(), &id.to_string());
+        d.instance = id;
+    }
+    Ok(Some(options))
 }
 
 /// `luxnode modbus`.
@@ -218,4 +272,39 @@ fn check_map(path: &Path) -> Result<()> {
     }
     println!("{}: register map up to date", path.display());
     Ok(())
+}
+
+/// `luxnode bacnet`.
+#[derive(clap::Subcommand)]
+pub enum BacnetCommand {
+    /// Print the PICS as markdown (docs/bacnet.md), or check a file against it.
+    Pics {
+        /// Compare this file with the PICS instead of printing; non-zero exit if they differ.
+        #[arg(long, value_name = "FILE")]
+        check: Option<PathBuf>,
+    },
+}
+
+/// Runs `luxnode bacnet ...`.
+pub fn bacnet(command: &BacnetCommand) -> Result<()> {
+    let BacnetCommand::Pics { check } = command;
+    let want = luxnode::bacnet::pics::markdown();
+    match check {
+        None => {
+            print!("{want}");
+            Ok(())
+        }
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            if !text.contains(want.trim()) {
+                bail!(
+                    "{} does not contain the PICS of this build: regenerate it with `luxnode bacnet pics`",
+                    path.display()
+                );
+            }
+            println!("{}: PICS up to date", path.display());
+            Ok(())
+        }
+    }
 }

@@ -10,8 +10,10 @@
 //! * `fuzz` (feature `sim`: tests, benchmarks, the fuzz crate): the wire format and the
 //!   register map under random frames.
 //!
-//! A BACnet server would be one more adapter here, beside Modbus.
+//! * [`bacnet`]: the BACnet/IP server (UDP), one more adapter beside Modbus
+//!   ([`crate::bacnet`]: codec, objects, services).
 
+pub mod bacnet;
 pub mod gateway;
 pub mod lighting;
 pub mod registers;

@@ -51,6 +51,8 @@ pub enum Source {
     },
     /// The master on an RTU line (the serial device).
     Rtu(String),
+    /// A BACnet/IP client (its UDP address; the same allowlist rules as a TCP client).
+    Bacnet(SocketAddr),
     /// The node itself (the DALI gateway link, tests): always allowed.
     Internal,
 }
@@ -59,7 +61,7 @@ impl Source {
     /// The client's IP address, for TCP and TLS.
     pub fn ip(&self) -> Option<IpAddr> {
         match self {
-            Source::Tcp(a) | Source::Tls { peer: a, .. } => Some(a.ip()),
+            Source::Tcp(a) | Source::Tls { peer: a, .. } | Source::Bacnet(a) => Some(a.ip()),
             _ => None,
         }
     }
@@ -67,7 +69,7 @@ impl Source {
     /// The key of the client's own settings: its IP address, or `rtu`.
     pub fn client_key(&self) -> String {
         match self {
-            Source::Tcp(a) | Source::Tls { peer: a, .. } => a.ip().to_string(),
+            Source::Tcp(a) | Source::Tls { peer: a, .. } | Source::Bacnet(a) => a.ip().to_string(),
             Source::Rtu(_) => "rtu".into(),
             Source::Internal => "internal".into(),
         }
@@ -84,6 +86,7 @@ impl std::fmt::Display for Source {
             } => write!(f, "tls {peer} (role {r})"),
             Source::Tls { peer, role: None } => write!(f, "tls {peer}"),
             Source::Rtu(d) => write!(f, "rtu {d}"),
+            Source::Bacnet(a) => write!(f, "bacnet {a}"),
             Source::Internal => f.write_str("internal"),
         }
     }

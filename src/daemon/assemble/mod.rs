@@ -434,6 +434,7 @@ pub fn serve_options(
         access: m.access.clone(),
         settings_path,
         control: board.control.clone(),
+        bacnet: board.bacnet.clone(),
     }
 }
 
