@@ -9,7 +9,7 @@
 
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use luxnode::bacnet::consts::{confirmed, property};
@@ -21,30 +21,12 @@ use tokio_modbus::client::Reader;
 use tokio_modbus::prelude::Slave;
 
 mod common;
-use common::office_a;
 use common::procs::{LUXNODE, Proc, floats_abcd, rt, spawn_listening};
 
 const DEVICE: u32 = 4321;
 
 fn office_image() -> PathBuf {
-    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bacnet-office_a.img");
-    if let Ok(bytes) = std::fs::read(&path)
-        && Image::parse(&bytes).is_ok()
-    {
-        return path;
-    }
-    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let st = Command::new(LUXNODE)
-        .args(["image", "build", "--scene"])
-        .arg(office_a())
-        .arg("--out")
-        .arg(&tmp)
-        .stdout(Stdio::null())
-        .status()
-        .expect("run luxnode image build");
-    assert!(st.success());
-    std::fs::rename(&tmp, &path).expect("rename image");
-    path
+    common::procs::cli_office_image("bacnet")
 }
 
 /// A node serving Modbus and BACnet (device 4321, any free UDP port on 127.0.0.1), writes

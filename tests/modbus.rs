@@ -8,7 +8,7 @@
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use luxnode::modbus::regmap::{MAP_VERSION, status};
@@ -25,27 +25,8 @@ use common::procs::{
     GATEWAY_SIM, LUXNODE, Proc, floats_abcd, mbpoll_values, need, pty_pair, rt, spawn_listening,
 };
 
-/// office_a's image, built once by the CLI and shared by the tests of this file (atomic rename,
-/// so parallel test processes never see half a file).
 fn office_image() -> PathBuf {
-    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("modbus-office_a.img");
-    if let Ok(bytes) = std::fs::read(&path)
-        && Image::parse(&bytes).is_ok()
-    {
-        return path;
-    }
-    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let st = Command::new(LUXNODE)
-        .args(["image", "build", "--scene"])
-        .arg(office_a())
-        .arg("--out")
-        .arg(&tmp)
-        .stdout(Stdio::null())
-        .status()
-        .expect("run luxnode image build");
-    assert!(st.success());
-    std::fs::rename(&tmp, &path).expect("rename image");
-    path
+    common::procs::cli_office_image("modbus")
 }
 
 /// `luxnode serve` on office_a's image; writes allowed from loopback and the RTU line (the

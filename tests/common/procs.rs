@@ -174,3 +174,28 @@ pub fn pty_pair() -> PtyPair {
         _dir: dir,
     }
 }
+
+/// office_a's image, built once by the CLI into the test target's temporary directory as
+/// `<tag>-office_a.img` and shared by the tests of a file (atomic rename, so parallel test
+/// processes never see half a file).
+pub fn cli_office_image(tag: &str) -> std::path::PathBuf {
+    let path =
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{tag}-office_a.img"));
+    if let Ok(bytes) = std::fs::read(&path)
+        && luxnode::store::Image::parse(&bytes).is_ok()
+    {
+        return path;
+    }
+    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+    let st = Command::new(LUXNODE)
+        .args(["image", "build", "--scene"])
+        .arg(super::office_a())
+        .arg("--out")
+        .arg(&tmp)
+        .stdout(Stdio::null())
+        .status()
+        .expect("run luxnode image build");
+    assert!(st.success());
+    std::fs::rename(&tmp, &path).expect("rename image");
+    path
+}
