@@ -1037,3 +1037,21 @@ fn a_boards_luxmeter_readings_reach_first_boot_commissioning() {
         "the ALS check's reference: {err}"
     );
 }
+
+/// Issue 34: `luxnode commission --force` has its board-file form for the node's own first-boot
+/// commissioning, `[commissioning] force = true` (default false); anything but a boolean is
+/// refused with the key's name.
+#[test]
+fn a_boards_commissioning_force_is_read_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = luxnode::board::Board::load(&board(dir.path(), "")).expect("sim board");
+    assert!(!plain.force);
+    let forced = luxnode::board::Board::load(&board(dir.path(), "[commissioning]\nforce = true\n"))
+        .expect("board with force");
+    assert!(forced.force);
+    let err = luxnode::board::Board::load(&board(dir.path(), "[commissioning]\nforce = \"yes\"\n"))
+        .map(|_| ())
+        .expect_err("a string is not a boolean")
+        .to_string();
+    assert!(err.contains("force"), "{err}");
+}

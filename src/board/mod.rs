@@ -58,6 +58,10 @@ pub struct Board {
     /// to them (`crate::commission::refit`; with the camera's own gain or a hooded ambient
     /// light sensor's, measured directly).
     pub luxmeter_rho: Vec<crate::commission::refit::Reading>,
+    /// `[commissioning] force = true`: the node's own commissioning goes on past the refusals
+    /// that `luxnode commission --force` overrides (a reflectance refit at its limits), with the
+    /// desks it concerns flagged ESTIMATED; default false.
+    pub force: bool,
     /// The room plan (`[room] plan = "room.json"`, relative to the board file), read and
     /// checked with the board: commissioning builds the walls, windows and ceiling the cameras
     /// do not see from it.
@@ -115,6 +119,8 @@ struct LiveToml {
 struct CommissioningToml {
     #[serde(default)]
     luxmeter_rho: Vec<String>,
+    #[serde(default)]
+    force: bool,
 }
 
 /// `[engine]`: which preset commissioning uses.
@@ -486,9 +492,17 @@ impl Board {
             .map(|b| crate::board::bacnet::bacnet_options(b, &t.name))
             .transpose()
             .map_err(bad)?;
+        if t.commissioning.force {
+            tracing::warn!(
+                "board {}: [commissioning] force = true: a reflectance refit at its limits is \
+                 accepted (its desks flagged ESTIMATED) instead of refused",
+                t.name
+            );
+        }
         Ok(Board {
             bacnet,
             room_plan,
+            force: t.commissioning.force,
             luxmeter_rho,
             control,
             live,

@@ -180,8 +180,10 @@ impl Args {
 /// Runs `luxnode commission`.
 pub fn run(a: &Args) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let (lums, sensors, desks, board_readings, board_plan) = inputs(a)?;
+    let (lums, sensors, desks, board_readings, board_plan, board_force) = inputs(a)?;
     let mut o = a.options(lums.len())?;
+    // `--force`, or the board file's `[commissioning] force = true`
+    o.force |= board_force;
     if o.readings.is_empty() && a.luxmeter.is_none() {
         // the board file's [commissioning] luxmeter_rho, unless the command line gives some
         o.readings = board_readings;
@@ -259,13 +261,14 @@ pub fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
-/// Luminaires, sensors, desks, and the board file's luxmeter readings and room plan.
+/// Luminaires, sensors, desks, and the board file's luxmeter readings, room plan and force.
 type Inputs = (
     Vec<Luminaire>,
     Vec<Sensor>,
     Option<Desks>,
     Vec<Reading>,
     Option<luxnode::scene::RoomPlan>,
+    bool,
 );
 
 /// The luminaires, sensors and desks (from the board file, or the files given), and the board
@@ -274,12 +277,14 @@ fn inputs(a: &Args) -> Result<Inputs> {
     let load = LoadOptions::default();
     let mut board_readings = Vec::new();
     let mut board_plan = None;
+    let mut board_force = false;
     let (lums, sensors, desks) = match (&a.board, &a.luminaires, &a.sensors) {
         (Some(b), _, _) => {
             let board = luxnode::board::Board::load(b)?;
             let scene = luxnode::daemon::assemble::board_scene(&board)?;
             board_readings = board.luxmeter_rho.clone();
             board_plan = board.room_plan.clone();
+            board_force = board.force;
             (scene.luminaires, scene.sensors, scene.desks)
         }
         (None, Some(l), Some(s)) => {
@@ -296,7 +301,14 @@ fn inputs(a: &Args) -> Result<Inputs> {
         }
         _ => anyhow::bail!("--luminaires and --sensors, or --board"),
     };
-    Ok((lums, sensors, desks, board_readings, board_plan))
+    Ok((
+        lums,
+        sensors,
+        desks,
+        board_readings,
+        board_plan,
+        board_force,
+    ))
 }
 
 /// What commissioning found: depth, planes, mesh, room box, reflectances, the luxmeter fit.

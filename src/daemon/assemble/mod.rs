@@ -358,6 +358,7 @@ fn commission_source(
         progress: true,
         readings: board.luxmeter_rho.clone(),
         room_plan: board.room_plan.clone(),
+        force: board.force,
         ..CommissionOptions::default()
     };
     let Some((what, depth, colour, lights)) =
