@@ -149,7 +149,61 @@ impl<'a> DaylightV1<'a> {
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
     use std::vec::Vec;
+
+    /// A valid body: 3 seen patches of 10, 2 sensors.
+    fn valid_body() -> Vec<u8> {
+        let seen_b: Vec<u8> = [1u32, 4, 9].iter().flat_map(|p| p.to_le_bytes()).collect();
+        let seen_lx = f16s(&std::vec![0.25; 3 * COLUMNS]);
+        let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
+        let d = DaylightV1 {
+            version: DAYLIGHT_VERSION,
+            latitude_deg: 47.4,
+            longitude_deg: 8.5,
+            north: [0.0, 1.0],
+            ground_rho: 0.2,
+            windows: 1,
+            window_area_m2: 6.0,
+            seen_patch: Bytes(&seen_b),
+            seen_lx: Bytes(&seen_lx),
+            sensor_lx: Bytes(&sensor_lx),
+        };
+        postcard::to_stdvec(&d).expect("encode")
+    }
+
+    proptest! {
+        /// A corrupted section (bytes flipped, or cut short) is refused or, when it still
+        /// parses, every coefficient it gives is finite and in range: never a panic, never a
+        /// NaN into the sky fit.
+        #[test]
+        fn a_corrupted_section_is_refused_or_sane(
+            flips in proptest::collection::vec((0usize..4096, any::<u8>()), 1..8),
+            cut in 0usize..4096,
+        ) {
+            let mut body = valid_body();
+            for (at, x) in flips {
+                let n = body.len();
+                body[at % n] ^= x;
+            }
+            body.truncate(body.len() - cut % body.len().max(1));
+            if let Ok(d) = DaylightV1::parse(&body, 10, 2) {
+                for r in 0..d.seen() {
+                    prop_assert!(d.seen_patch(r) < 10);
+                    for j in 0..COLUMNS {
+                        let x = d.seen_lx(r, j);
+                        prop_assert!(x.is_finite() && (0.0..=4.0).contains(&x));
+                    }
+                }
+                for s in 0..2 {
+                    for j in 0..COLUMNS {
+                        let x = d.sensor_lx(s, j);
+                        prop_assert!(x.is_finite() && (0.0..=4.0).contains(&x));
+                    }
+                }
+            }
+        }
+    }
 
     fn f16s(v: &[f32]) -> Vec<u8> {
         v.iter()
