@@ -1465,18 +1465,17 @@ impl Live {
         // the sky through the plan's unseen windows when the image has its coefficients and
         // the time is known; else the unknown emitters
         let bases = match (&m.sky, self.time) {
-            (Some(sky), Some(t)) => sky.bases(t).inspect(|_| {
+            (Some(sky), Some(t)) => sky.bases(t).map(|b| (sky, b)),
+            _ => None,
+        };
+        let (x, resid, w_use, chosen) = match bases {
+            Some((sky, mut bases)) if !bases.is_empty() => {
                 // the fit over the seen rows whose coefficients the image stores
                 for (r, w) in w_use.iter_mut().enumerate() {
                     if !sky.stored(r) {
                         *w = 0.0;
                     }
                 }
-            }),
-            _ => None,
-        };
-        let (x, resid, w_use, chosen) = match bases {
-            Some(mut bases) if !bases.is_empty() => {
                 let (best, x, resid, w) = best_sky(&bases, &y, &w_use, d_seen);
                 let b = bases.swap_remove(best);
                 (x, resid, w, Some(b))

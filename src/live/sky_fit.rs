@@ -101,9 +101,14 @@ impl SkyCoefficients {
             return None;
         }
         let sun_sky = crate::sky::sky_direction(sun.apparent_altitude_rad(), sun.azimuth_rad);
-        let dot = |rows: &[f64], f: &[f64; COLUMNS]| -> Vec<f64> {
+        let dot = |rows: &[f64], stored: Option<&[bool]>, f: &[f64; COLUMNS]| -> Vec<f64> {
             rows.chunks_exact(COLUMNS)
-                .map(|r| r.iter().zip(f).map(|(a, b)| a * b).sum())
+                .enumerate()
+                .map(|(r, row)| match stored.and_then(|m| m.get(r)) {
+                    // a seen row the image does not store is out of the fit: no work per frame
+                    Some(false) => 0.0,
+                    _ => row.iter().zip(f).map(|(a, b)| a * b).sum(),
+                })
                 .collect()
         };
         Some(
@@ -113,8 +118,8 @@ impl SkyCoefficients {
                     let f = self.columns(&model, sun_sky);
                     Some(SkyBasis {
                         sky_type: t,
-                        seen_lx: dot(&self.seen, &f),
-                        sensor_lx: dot(&self.sensor, &f),
+                        seen_lx: dot(&self.seen, Some(&self.stored), &f),
+                        sensor_lx: dot(&self.sensor, None, &f),
                     })
                 })
                 .collect(),

@@ -152,16 +152,16 @@ mod tests {
     use proptest::prelude::*;
     use std::vec::Vec;
 
-    /// A valid body: 3 seen patches of 10, 2 sensors.
-    fn valid_body() -> Vec<u8> {
-        let seen_b: Vec<u8> = [1u32, 4, 9].iter().flat_map(|p| p.to_le_bytes()).collect();
-        let seen_lx = f16s(&std::vec![0.25; 3 * COLUMNS]);
+    /// A section body over `seen` patches (of 10) and 2 sensors, seen coefficients `c`.
+    fn body(seen: &[u32], c: f32, north: [f64; 2]) -> Vec<u8> {
+        let seen_b: Vec<u8> = seen.iter().flat_map(|p| p.to_le_bytes()).collect();
+        let seen_lx = f16s(&std::vec![c; seen.len() * COLUMNS]);
         let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
         let d = DaylightV1 {
             version: DAYLIGHT_VERSION,
             latitude_deg: 47.4,
             longitude_deg: 8.5,
-            north: [0.0, 1.0],
+            north,
             ground_rho: 0.2,
             windows: 1,
             window_area_m2: 6.0,
@@ -170,6 +170,11 @@ mod tests {
             sensor_lx: Bytes(&sensor_lx),
         };
         postcard::to_stdvec(&d).expect("encode")
+    }
+
+    /// A valid body: 3 seen patches of 10, 2 sensors.
+    fn valid_body() -> Vec<u8> {
+        body(&[1, 4, 9], 0.25, [0.0, 1.0])
     }
 
     proptest! {
@@ -211,24 +216,9 @@ mod tests {
             .collect()
     }
 
-    /// A section over `seen` patches (of 10) and 2 sensors, coefficients `c`, and its parse.
+    /// The parse of [`body`]`(seen, c, north)`.
     fn parse_with(seen: &[u32], c: f32, north: [f64; 2]) -> Result<(), ImageError> {
-        let seen_b: Vec<u8> = seen.iter().flat_map(|p| p.to_le_bytes()).collect();
-        let seen_lx = f16s(&std::vec![c; seen.len() * COLUMNS]);
-        let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
-        let d = DaylightV1 {
-            version: DAYLIGHT_VERSION,
-            latitude_deg: 47.4,
-            longitude_deg: 8.5,
-            north,
-            ground_rho: 0.2,
-            windows: 1,
-            window_area_m2: 6.0,
-            seen_patch: Bytes(&seen_b),
-            seen_lx: Bytes(&seen_lx),
-            sensor_lx: Bytes(&sensor_lx),
-        };
-        let body = postcard::to_stdvec(&d).map_err(|_| ImageError::Decode)?;
+        let body = body(seen, c, north);
         let parsed = DaylightV1::parse(&body, 10, 2)?;
         assert_eq!(parsed.seen(), seen.len());
         assert!((parsed.sensor_lx(1, 7) - 0.5).abs() < 1e-3);
