@@ -1055,3 +1055,93 @@ fn the_plans_unseen_window_gets_daylight_coefficients() {
     }
     assert!(desks.iter().any(|x| x.source == Source::Inferred));
 }
+
+/// Issue 28 item 5: a shade the mesh does not have (a luminaire's light halved on a desk, in its
+/// one-luminaire frame only, the depth unchanged) is found by the model-against-camera check and
+/// the desk's response to that luminaire calibrated by the frames, to the imposed factor; its
+/// other luminaires keep the model's light and the desk is flagged.
+#[test]
+fn a_shade_the_mesh_lost_is_calibrated_from_the_one_luminaire_frames() {
+    use luxnode::live_section::calibrate::calibrate_desks;
+    let o = CommissionOptions::default();
+    let (lums, sensors, cap) = inputs("capture_clean");
+    let c = commission::from_capture(&cap, lums.clone(), sensors.clone(), None, &o)
+        .expect("commissions");
+    // the in-view desk with the most light, and its brightest luminaire
+    let s = (0..c.model.sensors())
+        .filter(|&k| c.sensor_flags[k] & sensor_flags::OUT_OF_VIEW == 0)
+        .max_by(|&a, &b| {
+            let t = |k: usize| c.model.response_lx[k].iter().sum::<f64>();
+            t(a).total_cmp(&t(b))
+        })
+        .expect("an in-view desk");
+    let row = c.model.response_lx[s].clone();
+    let j = (0..row.len())
+        .max_by(|&a, &b| row[a].total_cmp(&row[b]))
+        .expect("a luminaire");
+    let mut clean = vec![c];
+    let before = calibrate_desks(&mut clean, std::slice::from_ref(&cap));
+    let id = clean[0].model.sensor_ids[s];
+    let lum_id = clean[0].model.luminaire_ids[j];
+    let at = before.iter().find(|d| d.sensor_id == id).expect("measured");
+    assert!(
+        !at.replaced_luminaire_ids.contains(&lum_id),
+        "the clean frames already disagree: {at:?}"
+    );
+    // halve luminaire j's light within 0.25 m of the desk sensor, in its frame only
+    let camera = &cap.camera;
+    let p = sensors[s].position_m;
+    let (u0, v0) = camera.project_world(p).expect("in view");
+    let (u1, _) = camera
+        .project_world(p + DVec3::new(0.25, 0.0, 0.0))
+        .expect("in view");
+    let r_px = (u1 - u0).abs().max(3.0);
+    let mut shaded = cap.clone();
+    let f = &mut shaded.luminance[j].1;
+    for v in 0..f.height {
+        for u in 0..f.width {
+            if (f64::from(u) - u0).hypot(f64::from(v) - v0) <= r_px {
+                let x = &mut f.data[(v * f.width + u) as usize];
+                *x /= 2;
+            }
+        }
+    }
+    let c = commission::from_capture(&shaded, lums, sensors, None, &o).expect("commissions");
+    let model_row = c.model.response_lx[s].clone();
+    let mut nodes = vec![c];
+    let done = calibrate_desks(&mut nodes, std::slice::from_ref(&shaded));
+    let at = done.iter().find(|d| d.sensor_id == id).expect("measured");
+    assert!(at.replaced_luminaire_ids.contains(&lum_id), "{at:?}");
+    assert!(nodes[0].sensor_flags[s] & sensor_flags::CALIBRATED != 0);
+    let cal = &nodes[0].model.response_lx[s];
+    let got = cal[j] / model_row[j];
+    assert!(
+        (got - 0.5).abs() <= 0.1,
+        "luminaire {lum_id}: {got:.3} of the model's light, want 0.5"
+    );
+    for (k, (a, b)) in cal.iter().zip(&model_row).enumerate() {
+        if k != j
+            && !at
+                .replaced_luminaire_ids
+                .contains(&clean[0].model.luminaire_ids[k])
+        {
+            assert_eq!(a, b, "luminaire {k} changed");
+        }
+    }
+    // the image the node serves holds it (its response is re-derived from the stored direct,
+    // first-bounce and gathered parts)
+    let bytes =
+        luxnode::image_build::build_image(&nodes[0].model, &Default::default()).expect("image");
+    let image = luxnode::store::Image::parse(&bytes).expect("parses");
+    let stored = image.response_lx(s, j);
+    assert!(
+        (stored / cal[j] - 1.0).abs() < 0.01,
+        "the image serves {stored:.1} lx for {:.1}",
+        cal[j]
+    );
+    println!(
+        "sensor {id}: luminaire {lum_id} at {got:.3} of the model's light (imposed 0.5), camera \
+         scale {:.3}; the image serves {stored:.1} lx",
+        at.scale
+    );
+}

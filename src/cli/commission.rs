@@ -219,12 +219,16 @@ pub fn run(a: &Args) -> Result<()> {
         .iter()
         .map(|d| Capture::load(d, &ids))
         .collect::<Result<Vec<_>, _>>()?;
-    let nodes = commission::from_captures(&caps, lums, sensors, desks, &o)?;
+    let mut nodes = commission::from_captures(&caps, lums, sensors, desks, &o)?;
+    // the model against the cameras at the desks they see (docs/commissioning.md)
+    let calibrated = luxnode::live_section::calibrate::calibrate_desks(&mut nodes, &caps);
+    luxnode::live_section::calibrate::log(&calibrated);
     let Some(c) = nodes.first() else {
         anyhow::bail!("no capture set");
     };
     let r = &c.report;
     print_report(c)?;
+    print_calibration(&calibrated);
     let stated = write_images(a, &nodes, &caps, o.room_plan.as_ref())?;
     print_uncertainty(r, &stated);
     // for the error table: a sensor is in view when some node sees it
@@ -459,7 +463,7 @@ fn write_images(
         for (s, f) in node.model.sensor_ids.iter().zip(&flags) {
             if *f != 0 {
                 println!(
-                    "sensor {s}:{}{}",
+                    "sensor {s}:{}{}{}",
                     if f & sensor_flags::OUT_OF_VIEW != 0 {
                         " out of view"
                     } else {
@@ -469,12 +473,41 @@ fn write_images(
                         " estimated"
                     } else {
                         ""
+                    },
+                    if f & sensor_flags::CALIBRATED != 0 {
+                        " calibrated by the camera"
+                    } else {
+                        ""
                     }
                 );
             }
         }
     }
     Ok(stated)
+}
+
+/// What the one-luminaire frames showed at each desk a camera sees, and what was done.
+fn print_calibration(done: &[luxnode::live_section::calibrate::DeskCalibration]) {
+    if done.is_empty() {
+        return;
+    }
+    println!("sensor,node,camera_scale,calibrated_luminaires,model_all_on_lx,calibrated_all_on_lx");
+    for d in done {
+        let ids: Vec<String> = d
+            .replaced_luminaire_ids
+            .iter()
+            .map(u32::to_string)
+            .collect();
+        println!(
+            "{},{},{:.3},{},{:.0},{:.0}",
+            d.sensor_id,
+            d.node,
+            d.scale,
+            ids.join(";"),
+            d.model_all_on_lx,
+            d.calibrated_all_on_lx
+        );
+    }
 }
 
 /// Each desk sensor's stated uncertainty and its largest source.

@@ -246,5 +246,31 @@ fn info(file: &std::path::Path) -> Result<()> {
     if !fits {
         println!("{}", too_large_message(&image, region));
     }
+    print_sensors(&image);
     Ok(())
+}
+
+/// Each desk sensor with every luminaire at 100 %: the model's light and, where the camera sees
+/// the desk, the camera's measured (calibrated) light, with the stated uncertainty.
+fn print_sensors(image: &Image<'_>) {
+    let l = image.luminaires();
+    println!("sensor,out_of_view,model_all_on_lx,camera_all_on_lx,stated_uncertainty_pct");
+    for k in 0..image.sensors() {
+        let model: f64 = (0..l).map(|j| image.response_lx(k, j)).sum();
+        let camera = image
+            .live
+            .as_ref()
+            .filter(|v| !v.window(k).is_empty())
+            .map(|v| (0..l).map(|j| v.sensor_response_lx(k, j, l)).sum::<f64>());
+        let out = image.sensor_flags(k) & luxnode::store::sensor_flags::OUT_OF_VIEW != 0;
+        println!(
+            "{},{},{model:.1},{},{}",
+            image.sensor_id(k),
+            u8::from(out),
+            camera.map_or(String::new(), |c| format!("{c:.1}")),
+            image
+                .model_rel_uncertainty(k)
+                .map_or(String::new(), |u| format!("{:.1}", 100.0 * u))
+        );
+    }
 }

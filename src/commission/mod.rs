@@ -653,6 +653,9 @@ pub struct Commissioned {
     pub sensor_flags: Vec<u8>,
     /// What was found and done.
     pub report: Report,
+    /// Per sensor, the model's light with every luminaire at 100 % before the cameras'
+    /// one-luminaire frames calibrated it (`crate::live_section::calibrate`; empty before), lx.
+    pub uncalibrated_all_on_lx: Vec<f64>,
 }
 
 struct Stage {
@@ -1907,6 +1910,7 @@ fn per_node(
                 depth,
                 sensor_flags: flags,
                 report: report.clone(),
+                uncalibrated_all_on_lx: Vec::new(),
             }
         })
         .collect()

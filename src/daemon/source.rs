@@ -231,7 +231,7 @@ impl CommissionSource for CameraSource {
                 o,
             )
         };
-        let c = match go(&options) {
+        let mut c = match go(&options) {
             // the board's luxmeter readings need a gain they do not change: the sensor's,
             // measured directly, or else the camera's own
             Err(e)
@@ -251,6 +251,11 @@ impl CommissionSource for CameraSource {
             );
         }
         log_report(&c.report);
+        let calibrated = crate::live_section::calibrate::calibrate_desks(
+            core::slice::from_mut(&mut c),
+            core::slice::from_ref(&seq.capture),
+        );
+        crate::live_section::calibrate::log(&calibrated);
         let bytes = self.image(&c, &seq)?;
         self.report.write(&bytes);
         self.write_reference(&bytes, &c);

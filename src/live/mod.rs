@@ -71,6 +71,7 @@
 //! then plans without daylight, the safe side); [`Live::ageing`] the factor per luminaire, which
 //! [`aged_response`] applies to the response matrix of the control plant.
 
+pub mod desk_scale;
 pub mod estimator;
 pub mod nnls;
 pub mod sky_fit;

@@ -201,6 +201,10 @@ pub mod sensor_flags {
     pub const OUT_OF_VIEW: u8 = 1;
     /// Its reading rests on estimated (defaulted) reflectances or geometry.
     pub const ESTIMATED: u8 = 2;
+    /// The camera sees it, and its modelled response was calibrated by the one-luminaire frames
+    /// where they showed less (or more) light from some luminaires than the model: a shade the
+    /// mesh lost (`crate::live::desk_scale`).
+    pub const CALIBRATED: u8 = 4;
 }
 
 /// Magic of the optional geometry section after the payload ([`geometry`] with std).

@@ -14,6 +14,8 @@
 //!   surface point (photometry over the opening, shadow rays) plus its patch's interreflected
 //!   light, as the simulated camera renders it.
 
+pub mod calibrate;
+
 use crate::live::DISAGREEMENT_TO_SIGMA;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -486,6 +488,10 @@ fn calibrated_response(
 /// measurement there implies (issue 28 item 5; [`crate::live::model_camera_disagreement`]). A
 /// disagreement beyond two stated uncertainties is logged: a shade the mesh lost, or a wrong
 /// reflectance, at that desk.
+/// The smallest stated uncertainty of a desk whose response the camera calibrated: the live
+/// measurement's ([`crate::live::LiveSettings`]' `measured_rel_uncertainty`).
+pub const CALIBRATED_MIN_REL: f64 = 0.04;
+
 fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
     let model = &c.model;
     (0..model.sensors())
@@ -497,8 +503,27 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
                 .iter()
                 .find(|u| u.sensor_id == id)
                 .map_or(f64::NAN, |u| u.rel);
-            let cam: f64 = camera_lx.get(s).map_or(0.0, |r| r.iter().sum());
-            let mdl: f64 = model.response_lx[s].iter().sum();
+            let row = camera_lx.get(s).map_or(&[][..], |r| &r[..]);
+            // the camera at its scale at the desk (crate::live::desk_scale)
+            let k = crate::live::desk_scale::measurement_scale(&model.response_lx[s], row);
+            let cam: f64 = row.iter().sum::<f64>() / k;
+            // the model as it was before the cameras calibrated it: how far it was off says how
+            // hard the desk is for both
+            let mdl: f64 = c
+                .uncalibrated_all_on_lx
+                .get(s)
+                .copied()
+                .unwrap_or_else(|| model.response_lx[s].iter().sum());
+            // a calibrated desk's light is partly the camera's measurement
+            let u = if c
+                .sensor_flags
+                .get(s)
+                .is_some_and(|f| f & sensor_flags::CALIBRATED != 0)
+            {
+                u.max(CALIBRATED_MIN_REL)
+            } else {
+                u
+            };
             let Some(d) = crate::live::model_camera_disagreement(mdl, cam) else {
                 return u;
             };
