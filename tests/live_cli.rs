@@ -166,6 +166,20 @@ fn json_output_and_bad_input() {
             .any(|d| d["flags"].as_str().unwrap().contains("no_depth")),
         "{out}"
     );
+    // --repeat times further updates of the same frame and gives the same values
+    let (ok, again, err) = live(&[
+        "--frame",
+        &frame("luminance_all.png"),
+        "--arc",
+        ALL_ON,
+        "--format",
+        "json",
+        "--repeat",
+        "3",
+    ]);
+    assert!(ok, "{err}");
+    assert_eq!(again, out);
+    assert!(err.contains("live update: 3 updates, median"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let small = dir.path().join("small.png");
     image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(4, 3, vec![100; 12])

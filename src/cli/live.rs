@@ -44,6 +44,10 @@ pub struct Args {
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]
     format: OutputFormat,
+    /// Time this many more updates with the same frame and print the cost of one (the live
+    /// update's time on this image, sky fit included; docs/live.md).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=10_000))]
+    repeat: u32,
 }
 
 /// `--curve`.
@@ -130,6 +134,7 @@ pub fn run(a: &Args) -> Result<()> {
         taken_s: 0.0,
     };
     let desks = live.update(&f, &levels, 0.0)?.to_vec();
+    time_updates(&mut live, &f, &levels, a.repeat)?;
     if live.sky_type() > 0 {
         tracing::info!(
             "live: the daylight through the unseen windows is fitted by CIE sky type {}",
@@ -209,4 +214,29 @@ fn frame_time(text: Option<&str>, required: bool) -> Result<Option<luxnode::sky:
         );
     }
     Ok(Some(t))
+}
+
+/// `--repeat`: `n` more updates of the same frame, a second apart; their cost on stderr.
+fn time_updates(live: &mut Live, f: &LiveFrame<'_>, levels: &[f64], n: u32) -> Result<()> {
+    if n == 0 {
+        return Ok(());
+    }
+    let mut ms = Vec::with_capacity(n as usize);
+    for i in 1..=n {
+        let frame = LiveFrame {
+            taken_s: f64::from(i),
+            ..*f
+        };
+        let t = std::time::Instant::now();
+        live.update(&frame, levels, f64::from(i))?;
+        ms.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    ms.sort_by(f64::total_cmp);
+    eprintln!(
+        "live update: {n} updates, median {:.2} ms, max {:.2} ms (sky fit {})",
+        ms[ms.len() / 2],
+        ms[ms.len() - 1],
+        if live.sky_type() > 0 { "on" } else { "off" }
+    );
+    Ok(())
 }
