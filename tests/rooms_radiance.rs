@@ -1,0 +1,235 @@
+//! The generalization bench's guard (issue 28, docs/generalization.md): one of its rooms, not
+//! office_a, commissioned from its Radiance-rendered capture and scored against Radiance's truth,
+//! through the command line as an engineer runs it.
+//!
+//! room_02 of seed 28 (`scenes/rooms/room_02`: a 7.3 × 5.4 m office, four luminaires, ten
+//! desks, one pinhole node tilted toward half of it, the windows out of view). Its capture and
+//! live frames are `tests/data/rooms/room_02` (provenance in `tests/data/rooms/README.md`).
+//! Four of its in-view desks sit behind monitors the mesh loses (seen edge-on): before the
+//! model was checked against the camera they read 7-16 % high.
+//!
+//! Tolerances: twice the values measured when this was written (in the comments), which the
+//! bench's rows for room_02 repeat (`bench/radiance/results/rooms.json`).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const LUXNODE: &str = env!("CARGO_BIN_EXE_luxnode");
+
+fn manifest() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn room() -> PathBuf {
+    manifest().join("scenes/rooms/room_02")
+}
+
+fn data() -> PathBuf {
+    manifest().join("tests/data/rooms/room_02")
+}
+
+/// `luxnode ARGS`: (stdout, stderr), asserting success.
+fn luxnode(args: &[String]) -> (String, String) {
+    let out = Command::new(LUXNODE).args(args).output().expect("runs");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert!(out.status.success(), "luxnode {args:?}: {e}");
+    (o, e)
+}
+
+fn p(path: PathBuf) -> String {
+    path.display().to_string()
+}
+
+/// Commissions the node (with the room plan when `plan`); returns the image and stdout.
+fn commission(dir: &Path, plan: bool) -> (PathBuf, String) {
+    let img = dir.join(if plan { "plan.img" } else { "plain.img" });
+    let mut args: Vec<String> = vec![
+        "commission".into(),
+        "--capture".into(),
+        p(data().join("node_a")),
+    ];
+    for (flag, file) in [
+        ("--luminaires", "luminaires.json"),
+        ("--sensors", "sensors.json"),
+        ("--desks", "desks.json"),
+    ] {
+        args.push(flag.into());
+        args.push(p(room().join(file)));
+    }
+    args.push("--out".into());
+    args.push(p(img.clone()));
+    if plan {
+        args.push("--room-plan".into());
+        args.push(p(room().join("room.json")));
+    }
+    let (out, _) = luxnode(&args);
+    (img, out)
+}
+
+/// The rows of the CSV table that starts with `header` in `text`.
+fn table(text: &str, header: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .skip_while(|l| !l.starts_with(header))
+        .skip(1)
+        .take_while(|l| {
+            l.split(',')
+                .next()
+                .is_some_and(|f| f.parse::<u32>().is_ok())
+        })
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+/// truth.csv: (scenario, sensor) → (lux, lux_sky).
+fn truth() -> HashMap<(u32, u32), (f64, f64)> {
+    let text = std::fs::read_to_string(room().join("truth.csv")).expect("truth.csv");
+    let mut t = HashMap::new();
+    for l in text.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let n = |i: usize| f[i].parse::<f64>().expect("a number");
+        t.insert(
+            (f[0].parse().expect("id"), f[2].parse().expect("id")),
+            (n(3), n(7)),
+        );
+    }
+    t
+}
+
+/// Per desk sensor: Σ|model − truth| / Σ truth over every state of states.csv (the bench's
+/// error), and the share of (state, desk) values within two stated uncertainties.
+fn model_errors(img: &Path, commission_out: &str) -> (HashMap<u32, f64>, f64) {
+    let (out, _) = luxnode(&[
+        "simulate".into(),
+        "--image".into(),
+        p(img.to_path_buf()),
+        "--states".into(),
+        p(room().join("states.csv")),
+        "--format".into(),
+        "csv".into(),
+    ]);
+    let u: HashMap<u32, f64> = table(commission_out, "sensor,stated_uncertainty_pct")
+        .iter()
+        .map(|r| {
+            (
+                r[0].parse().expect("id"),
+                r[1].parse::<f64>().expect("u") / 100.0,
+            )
+        })
+        .collect();
+    let truth = truth();
+    let (mut num, mut den) = (HashMap::new(), HashMap::new());
+    let (mut within, mut n) = (0usize, 0usize);
+    for l in out.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let (sc, s): (u32, u32) = (f[0].parse().expect("id"), f[1].parse().expect("id"));
+        let est: f64 = f[2].parse().expect("lux");
+        let t = truth[&(sc, s)].0;
+        *num.entry(s).or_insert(0.0) += (est - t).abs();
+        *den.entry(s).or_insert(0.0) += t;
+        n += 1;
+        within += usize::from((est - t).abs() <= 2.0 * u[&s] * est);
+    }
+    let err = num.iter().map(|(s, x)| (*s, x / den[s])).collect();
+    (err, within as f64 / n as f64)
+}
+
+/// The desks the camera sees (not listed "out of view" by `commission`).
+fn in_view(commission_out: &str) -> Vec<u32> {
+    let out: Vec<u32> = commission_out
+        .lines()
+        .filter_map(|l| l.strip_prefix("sensor "))
+        .filter(|l| l.contains("out of view"))
+        .filter_map(|l| l.split(':').next()?.trim().parse().ok())
+        .collect();
+    (1..=10).filter(|s| !out.contains(s)).collect()
+}
+
+fn worst(errs: &HashMap<u32, f64>, desks: &[u32]) -> (u32, f64) {
+    desks
+        .iter()
+        .map(|s| (*s, errs[s]))
+        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a })
+}
+
+/// Without a plan: the in-view desks behind lost monitors are calibrated by the frames and hold
+/// within 6.3 % (they were 7.5-16.4 % off), the out-of-view desks within 4.9 %.
+#[test]
+fn room_02_without_a_plan_holds_at_every_desk() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (img, out) = commission(dir.path(), false);
+    let calibrated: Vec<u32> = table(&out, "sensor,node,camera_scale")
+        .iter()
+        .filter(|r| !r[3].is_empty())
+        .map(|r| r[0].parse().expect("id"))
+        .collect();
+    // measured: desks 2, 5, 8 and 9 calibrated (a luminaire each behind a monitor)
+    for s in [2, 5] {
+        assert!(calibrated.contains(&s), "desk {s} not calibrated: {out}");
+    }
+    let seen = in_view(&out);
+    assert_eq!(seen, [2, 3, 5, 7, 8, 9], "{out}");
+    let (errs, coverage) = model_errors(&img, &out);
+    let (s, w) = worst(&errs, &seen);
+    eprintln!(
+        "room_02, no plan: in view worst desk {s} {:.1} %; coverage {:.0} %",
+        100.0 * w,
+        100.0 * coverage
+    );
+    // measured: worst in view 6.3 % (desk 3), out of view 4.9 % (desk 1); coverage 94 %
+    assert!(w <= 0.126, "desk {s}: {:.1} %", 100.0 * w);
+    let out_of_view: Vec<u32> = (1..=10).filter(|s| !seen.contains(s)).collect();
+    let (s, w) = worst(&errs, &out_of_view);
+    assert!(w <= 0.098, "desk {s}: {:.1} %", 100.0 * w);
+    assert!(coverage >= 0.85, "{coverage}");
+}
+
+/// With the room plan: every desk within 2.1 % in every state, and live light by day (the
+/// overcast sky through the plan's windows, fitted at the frame's time) within 2.5 %.
+#[test]
+fn room_02_with_its_plan_holds_at_every_desk_night_and_day() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (img, out) = commission(dir.path(), true);
+    let (errs, _) = model_errors(&img, &out);
+    let all: Vec<u32> = (1..=10).collect();
+    let (s, w) = worst(&errs, &all);
+    eprintln!("room_02, plan: worst desk {s} {:.1} %", 100.0 * w);
+    // measured: worst 2.1 % (desk 6)
+    assert!(w <= 0.042, "desk {s}: {:.1} %", 100.0 * w);
+    // the bench's frame time: gensky's 12:00 at longitude 0, the site at 8.5° E
+    let (live, _) = luxnode(&[
+        "live".into(),
+        "--image".into(),
+        p(img),
+        "--frame".into(),
+        p(data().join("live/node_a_day.png")),
+        "--depth".into(),
+        p(data().join("live/node_a_depth.png")),
+        "--arc".into(),
+        "254,254,254,254".into(),
+        "--time".into(),
+        "2026-03-21T11:26:00Z".into(),
+    ]);
+    let truth = truth();
+    let mut worst_day = (0, 0.0);
+    for l in live.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let s: u32 = f[0].parse().expect("id");
+        let total: f64 = f[1].parse().expect("lux");
+        let (lux, sky) = truth[&(1, s)];
+        let e = (total / (lux + sky) - 1.0).abs();
+        if e > worst_day.1 {
+            worst_day = (s, e);
+        }
+    }
+    eprintln!(
+        "room_02, plan, live by day: worst desk {} {:.1} %",
+        worst_day.0,
+        100.0 * worst_day.1
+    );
+    // measured: worst 2.5 % (desk 1, out of view)
+    assert!(worst_day.1 <= 0.05, "{worst_day:?}: {live}");
+}
