@@ -875,3 +875,61 @@ fn form_factors_quantised_to_8_bits() {
     // and the outcome a user sees: the sensor within 1 % at ρ = 0.9
     assert!(rel(lux8, lux) < 0.01, "{lux8} vs {lux}");
 }
+
+/// Issue 34: the work a setting asks for is estimated before it is done. A patch size that
+/// would make millions of patches, a ray count of hours, a refinement past the patch limit: each
+/// is refused within a second and names the knob that helps, never an allocation that aborts.
+#[test]
+fn work_beyond_a_node_is_refused_before_it_is_done() {
+    let mut b = MeshBuilder::new();
+    let m = b.material("grey", 0.5).expect("a reflectance");
+    // a 5 x 4 x 3 m room: 94 m² of surfaces
+    b.room(DVec3::new(5.0, 4.0, 3.0), m, &[]);
+    let s = scene(
+        b.build(),
+        vec![luminaire(
+            1,
+            DVec3::new(2.5, 2.0, 2.9),
+            [0.0, 0.0],
+            false,
+            isotropic(1000.0),
+        )],
+        vec![sensor(1, DVec3::new(1.0, 1.0, 0.8))],
+    );
+    let refused = |settings: Settings| -> String {
+        let t = std::time::Instant::now();
+        let e = match engine::compute_model(&s, &settings) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("computed"),
+        };
+        assert!(t.elapsed().as_secs_f64() < 2.0, "{e}");
+        e
+    };
+    let mut fine = Settings::default();
+    fine.patches.patch_size_m = 0.01;
+    // 94 m² / (√3/4 · 1e-4 m²) ≈ 2.2 M patches at least
+    let e = refused(fine);
+    assert!(
+        e.contains("too much work") && e.contains("--patch-size 0.01"),
+        "{e}"
+    );
+    let mut rays = Settings {
+        rays: 1_000_000,
+        ..Settings::default()
+    };
+    rays.patches.patch_size_m = 0.25;
+    let e = refused(rays);
+    assert!(
+        e.contains("rays per patch") && e.contains("--rays at most"),
+        "{e}"
+    );
+    let mut refined = Settings::default();
+    refined.patches.patch_size_m = 0.5;
+    refined.patches.min_patch_m = 0.001;
+    refined.patches.detail_ratio = 1e-4;
+    let e = refused(refined);
+    assert!(
+        e.contains("more than 200000 patches") && e.contains("--min-patch"),
+        "{e}"
+    );
+}

@@ -143,6 +143,9 @@ pub enum EngineError {
     /// A dimming state does not fit the model.
     #[error("dimming state: {0}")]
     State(String),
+    /// The work a setting asks for is beyond what a node can do (estimated before any of it).
+    #[error("too much work: {0}")]
+    TooMuchWork(String),
     /// A luminaire that has flux lights nothing (inside or behind a surface).
     #[error("luminaire {id}: {reason}")]
     Luminaire {
@@ -304,6 +307,48 @@ fn sensor_responses(scene: &Scene, settings: &Settings) -> Vec<AngularResponse> 
 }
 
 /// Stage "patches": the mesh subdivided, finer near the sensors and near the light.
+/// Most patch rays (patches × rays per patch) a model is built with: about a quarter of an hour
+/// at this 2-core machine's million rays a second (docs/performance.md).
+pub const MAX_PATCH_RAYS: f64 = 1e9;
+
+/// Refuses, before any allocation that grows with it, a patch size or ray count whose work no
+/// node can do: the mesh's area at the largest patch edge gives a lower bound of the patches.
+fn check_work(scene: &Scene, settings: &Settings) -> Result<(), EngineError> {
+    let size_m = settings.patches.patch_size_m;
+    let fewest = patches::fewest_patches(&scene.mesh, size_m);
+    let area_m2: f64 = scene
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| scene.mesh.area_m2(t))
+        .sum();
+    // the patch edge that keeps the lower bound within the limit
+    let edge_m = |n: f64| (area_m2 / (3f64.sqrt() / 4.0 * n)).sqrt();
+    if fewest > patches::MAX_PATCHES as f64 {
+        return Err(EngineError::TooMuchWork(format!(
+            "{area_m2:.0} m² of surfaces at --patch-size {size_m} m make at least {fewest:.0} \
+             patches (at most {}): a patch size of at least {:.2} m (a scene in mm read as m?)",
+            patches::MAX_PATCHES,
+            edge_m(patches::MAX_PATCHES as f64)
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses, once the patches are made and before a ray is cast, a ray count no node can cast.
+fn check_rays(patches: usize, settings: &Settings) -> Result<(), EngineError> {
+    let rays = patches as f64 * settings.rays as f64;
+    if rays > MAX_PATCH_RAYS {
+        return Err(EngineError::TooMuchWork(format!(
+            "{patches} patches × {} rays per patch = {rays:.1e} rays (at most {MAX_PATCH_RAYS:.0e}, \
+             a quarter of an hour): --rays at most {:.0}, or a larger --patch-size",
+            settings.rays,
+            MAX_PATCH_RAYS / patches.max(1) as f64
+        )));
+    }
+    Ok(())
+}
+
 fn make_patches(
     scene: &Scene,
     settings: &Settings,
@@ -342,9 +387,20 @@ fn make_patches(
             })
         })
     };
+    check_work(scene, settings)?;
     let patches = timed(stats, "patches", || {
         patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut near_light)
     });
+    check_rays(patches.len(), settings)?;
+    if patches.len() > patches::MAX_PATCHES {
+        return Err(EngineError::TooMuchWork(format!(
+            "the refinement toward the sensors and luminaires makes more than {} patches; raise \
+             --min-patch (now {} m) or --patch-size (now {} m)",
+            patches::MAX_PATCHES,
+            settings.patches.min_patch_m,
+            settings.patches.patch_size_m
+        )));
+    }
     if patches.is_empty() {
         return Err(EngineError::Empty("no patches".into()));
     }

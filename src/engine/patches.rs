@@ -45,6 +45,21 @@ impl Default for PatchSettings {
     }
 }
 
+/// Most patches a model is built with: a 4 MiB flash image holds some 20 000, and commissioning
+/// 200 000 takes hours on a node. [`subdivide`] stops past it (the engine then refuses).
+pub const MAX_PATCHES: usize = 200_000;
+
+/// At least this many patches come from `mesh` at a largest patch edge of `size_m` (a triangle
+/// whose longest edge is at most `L` has at most `√3/4 L²` of area), before any refinement.
+pub fn fewest_patches(mesh: &Mesh, size_m: f64) -> f64 {
+    let most_area = 3f64.sqrt() / 4.0 * size_m * size_m;
+    mesh.triangles
+        .iter()
+        .filter(|t| !mesh.is_degenerate(t))
+        .map(|t| (mesh.area_m2(t) / most_area).ceil().max(1.0))
+        .sum()
+}
+
 /// The patches of a scene.
 #[derive(Debug, Clone, Default)]
 pub struct Patches {
@@ -182,6 +197,9 @@ pub fn subdivide(
             let split = split && len > 1e-9 * (1.0 + tri[0].abs().max_element());
             if !split {
                 out.push(tri, rho, t.group, ti as u32);
+                if out.len() > MAX_PATCHES {
+                    return out;
+                }
                 continue;
             }
             let (a, b, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
