@@ -156,9 +156,9 @@ impl Occupancy {
             c.returns += 1;
             if cell.square != NO_SQUARE {
                 let reach = m.plan.reach(f64::from(cell.spacing_mm) * 1e-3);
-                let seen = &mut self.seen;
+                let (seen, head) = (&mut self.seen, &m.head_seen);
                 m.plan
-                    .around(cell.square as usize, reach, |q| seen[q] = true);
+                    .around(cell.square as usize, reach, |q| seen[q] = head[q]);
             }
             let bg = f64::from(cell.background_mm);
             let nearer_mm = bg - f64::from(d);

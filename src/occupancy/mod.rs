@@ -10,7 +10,8 @@
 //! desk its *workstation zone*: the squares of a plan grid (5 cm) within
 //! [`OccupancySettings::zone_margin_m`] (0.75 m) of the desk top, each square given to the
 //! nearest desk; and which of those squares the camera sees (a commissioned depth point falls
-//! in them).
+//! in them, and a ray crosses the lowest head height over them before it meets the room: a
+//! zone whose floor is in view but whose people's heads would leave the frame is not seen).
 //!
 //! Per frame ([`Occupancy::update`]):
 //!
@@ -266,6 +267,8 @@ pub struct OccupancyMap {
     zone_squares: Vec<u32>,
     /// Squares per zone the commissioned depth sees.
     zone_seen_squares: Vec<u32>,
+    /// Per square, whether a head over it would be in the field.
+    head_seen: Vec<bool>,
 }
 
 impl OccupancyMap {
@@ -340,20 +343,47 @@ impl OccupancyMap {
             zone,
             zone_squares,
             zone_seen_squares: Vec::new(),
+            head_seen: Vec::new(),
         };
+        map.head_seen = map.head_squares();
         let all_seen = map.seen_squares(|_| true);
         map.zone_seen_squares = map.zone_counts(&all_seen);
         Ok(map)
     }
 
-    /// Per square, whether a cell that `returns` covers it with its commissioned point.
+    /// Per square, whether some cell's ray crosses the lowest head height over it before it
+    /// meets the room: a person there would be in the field.
+    fn head_squares(&self) -> Vec<bool> {
+        let mut seen = vec![false; self.zone.len()];
+        let head_z_m = self.floor_z_m + self.settings.person_top_m[0];
+        for c in &self.cells {
+            let r = c.ray_per_m.map(f64::from);
+            let bg_m = f64::from(c.background_mm) * 1e-3;
+            if r[2] >= -1e-9 {
+                continue;
+            }
+            let t = (head_z_m - self.camera_m[2]) / r[2];
+            if !(t > 0.0 && t < bg_m) {
+                continue;
+            }
+            let (x, y) = (self.camera_m[0] + t * r[0], self.camera_m[1] + t * r[1]);
+            if let Some(q) = self.plan.square(x, y) {
+                let reach = self.plan.reach(f64::from(c.spacing_mm) * 1e-3 * t / bg_m);
+                self.plan.around(q, reach, |n| seen[n] = true);
+            }
+        }
+        seen
+    }
+
+    /// Per square, whether a cell that `returns` covers it with its commissioned point, and
+    /// a person's head over it would be in the field.
     fn seen_squares(&self, returns: impl Fn(&Cell) -> bool) -> Vec<bool> {
         let mut seen = vec![false; self.zone.len()];
         for c in self.cells.iter().filter(|c| c.square != NO_SQUARE) {
             if returns(c) {
                 let reach = self.plan.reach(f64::from(c.spacing_mm) * 1e-3);
                 self.plan
-                    .around(c.square as usize, reach, |q| seen[q] = true);
+                    .around(c.square as usize, reach, |q| seen[q] = self.head_seen[q]);
             }
         }
         seen
@@ -383,6 +413,15 @@ impl OccupancyMap {
         &self.desks
     }
 
+    /// The desk whose top holds the point (x, y, z) (within 2 cm of its rectangle, 10 cm of
+    /// its height): a desk sensor's desk. A point on no desk top (a floor sensor) has none.
+    pub fn desk_under(&self, point_m: [f64; 3]) -> Option<usize> {
+        self.desks.iter().position(|d| {
+            d.distance2_m2(point_m[0], point_m[1]) <= 0.02 * 0.02
+                && (point_m[2] - d.z_m).abs() <= 0.1
+        })
+    }
+
     /// Watched cells.
     pub fn cells(&self) -> usize {
         self.cells.len()
@@ -396,7 +435,7 @@ impl OccupancyMap {
     /// Bytes the map holds (cells, plan squares, desks).
     pub fn memory_bytes(&self) -> usize {
         self.cells.len() * core::mem::size_of::<Cell>()
-            + self.zone.len()
+            + self.zone.len() * 2
             + self.desks.len() * (core::mem::size_of::<DeskTop>() + 8)
             + core::mem::size_of::<Self>()
     }

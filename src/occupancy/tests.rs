@@ -6,7 +6,7 @@ use super::*;
 const W: u32 = 160;
 const H: u32 = 120;
 const F_PX: f64 = 80.0;
-const CAMERA_M: [f64; 3] = [3.0, 2.0, 3.0];
+const CAMERA_M: [f64; 3] = [3.0, 2.0, 3.5];
 const STRIDE: u32 = 2;
 
 /// A box standing on the floor (or on something): plan extent and top, m.
@@ -77,7 +77,7 @@ fn render(cols: &[Column]) -> Vec<u16> {
         for u in (0..W).step_by(STRIDE as usize) {
             let r = ray(u, v);
             let mut z = 0.0;
-            while z < 4.0 {
+            while z < 5.0 {
                 let p = [
                     CAMERA_M[0] + z * r[0],
                     CAMERA_M[1] + z * r[1],
@@ -95,7 +95,8 @@ fn render(cols: &[Column]) -> Vec<u16> {
 }
 
 /// The share of desk `k`'s zone (squares of 5 cm, nearest desk within 0.75 m) whose top
-/// surface the camera sees: marched from the camera to the point, nothing in between.
+/// surface the camera sees (marched from the camera to the point, nothing in between) and
+/// over which a seated head (1.15 m) would be in the frame.
 fn seen_truth(k: usize) -> f64 {
     let (d, cols) = (desks(), room());
     let (mut n, mut seen) = (0, 0);
@@ -109,11 +110,14 @@ fn seen_truth(k: usize) -> f64 {
             }
             n += 1;
             let p = [x, y, height_at(&cols, x, y)];
-            // the pixel of p, within the frame
-            let z = CAMERA_M[2] - p[2];
-            let u = (p[0] - CAMERA_M[0]) / z * F_PX + f64::from(W - 1) / 2.0;
-            let v = -(p[1] - CAMERA_M[1]) / z * F_PX + f64::from(H - 1) / 2.0;
-            if !(u >= -0.5 && v >= -0.5 && u < f64::from(W) - 0.5 && v < f64::from(H) - 0.5) {
+            // the pixels of p and of a head over it (1.15 m), within the frame
+            let in_frame = |h: f64| {
+                let z = CAMERA_M[2] - h;
+                let u = (p[0] - CAMERA_M[0]) / z * F_PX + f64::from(W - 1) / 2.0;
+                let v = -(p[1] - CAMERA_M[1]) / z * F_PX + f64::from(H - 1) / 2.0;
+                u >= -0.5 && v >= -0.5 && u < f64::from(W) - 0.5 && v < f64::from(H) - 0.5
+            };
+            if !(in_frame(p[2]) && in_frame(1.15)) {
                 continue;
             }
             let clear = (1..200).all(|s| {
@@ -301,7 +305,7 @@ fn a_desk_half_hidden_is_never_called_vacant() {
     for v in 0..H {
         for u in 0..W {
             let r = ray(u, v);
-            let x = CAMERA_M[0] + 3.0 * r[0];
+            let x = CAMERA_M[0] + 3.5 * r[0];
             if x < 2.4 {
                 f[(v * W + u) as usize] = 0;
             }
