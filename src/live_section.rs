@@ -849,12 +849,18 @@ pub fn occupancy_map(
         .map(|i| (live.pixel(i) as u32, live.depth_mm(i)))
         .collect();
     let cells = occupancy_cells(&camera, &pixels);
-    let floor_z_m = geometry
-        .patch_corners_m
-        .iter()
-        .flat_map(|c| [c[2], c[5], c[8]])
-        .map(f64::from)
-        .fold(f64::INFINITY, f64::min);
+    // the room: the patches' plan extent, the floor their lowest corner
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for c in &geometry.patch_corners_m {
+        for p in c.chunks_exact(3) {
+            for a in 0..3 {
+                lo[a] = lo[a].min(f64::from(p[a]));
+                hi[a] = hi[a].max(f64::from(p[a]));
+            }
+        }
+    }
+    let room_m = lo[0].is_finite().then_some([lo[0], hi[0], lo[1], hi[1]]);
+    let floor_z_m = lo[2];
     let desks: Vec<DeskTop> = geometry
         .desks
         .iter()
@@ -874,6 +880,7 @@ pub fn occupancy_map(
         } else {
             0.0
         },
+        room_m,
         &desks,
         &cells,
         settings,

@@ -9,6 +9,8 @@ use super::{
 
 /// No foreground in a square.
 const EMPTY: u16 = 0;
+/// A part's head is another's when the blob rises this much above its top next to it, mm.
+const OWN_HEAD_MM: u16 = 30;
 /// A blob joins squares up to this many squares apart (a gap of one square between the
 /// points of neighbouring pixels far from the camera does not split a person).
 const REACH: i64 = 2;
@@ -107,7 +109,8 @@ impl Occupancy {
             return self.unknown(status::MOVED);
         }
         let (occupied, people) = self.people();
-        let seen = self.map.zone_counts(&self.seen);
+        self.map.plan.close(&self.seen, &mut self.taken);
+        let seen = self.map.zone_counts(&self.taken);
         let desks = self
             .map
             .desks
@@ -155,7 +158,7 @@ impl Occupancy {
             }
             c.returns += 1;
             if cell.square != NO_SQUARE {
-                let reach = m.plan.reach(f64::from(cell.spacing_mm) * 1e-3);
+                let reach = m.plan.reach_within(f64::from(cell.spacing_mm) * 1e-3);
                 let (seen, head) = (&mut self.seen, &m.head_seen);
                 m.plan
                     .around(cell.square as usize, reach, |q| seen[q] = head[q]);
@@ -247,6 +250,48 @@ impl Occupancy {
         }
     }
 
+    /// Whether the part's cap (its squares at least `cap_mm` high) is a head of its own: no
+    /// square of the blob across the zone's border next to it rises above the part's top
+    /// (`top_mm`) by more than a few centimetres (else the head is the neighbour's, and this
+    /// part holds only its edge).
+    fn own_head(&self, part: &[u32], cap_mm: u16, top_mm: u16) -> bool {
+        let plan = &self.map.plan;
+        let zone = &self.map.zone;
+        let above = top_mm.saturating_add(OWN_HEAD_MM);
+        part.iter()
+            .filter(|&&q| self.top_mm[q as usize] >= cap_mm)
+            .all(|&q| {
+                let z = zone[q as usize];
+                let mut own = true;
+                plan.around(q as usize, REACH as usize, |n| {
+                    own &= zone[n] == z || self.top_mm[n] <= above;
+                });
+                own
+            })
+    }
+
+    /// The squares of `part` at least `min_mm` high: their count, the larger side of their
+    /// bounding box (m) and the share of the box they fill.
+    fn band(&self, part: &[u32], min_mm: u16) -> (usize, f64, f64) {
+        let nx = self.map.plan.nx;
+        let (mut n, mut lo, mut hi) = (0usize, [usize::MAX; 2], [0usize; 2]);
+        for &q in part.iter().filter(|&&q| self.top_mm[q as usize] >= min_mm) {
+            let (i, j) = (q as usize % nx, q as usize / nx);
+            n += 1;
+            lo = [lo[0].min(i), lo[1].min(j)];
+            hi = [hi[0].max(i), hi[1].max(j)];
+        }
+        if n == 0 {
+            return (0, 0.0, 0.0);
+        }
+        let (w, h) = (hi[0] + 1 - lo[0], hi[1] + 1 - lo[1]);
+        (
+            n,
+            w.max(h) as f64 * self.map.plan.side_m,
+            n as f64 / (w * h) as f64,
+        )
+    }
+
     /// The person test (step 4) of the blob's squares `range`.
     fn is_person(&self, range: core::ops::Range<usize>) -> bool {
         let s = &self.map.settings;
@@ -267,22 +312,16 @@ impl Occupancy {
         if !(s.person_top_m[0]..=s.person_top_m[1]).contains(&top_m) {
             return false;
         }
-        let band_mm = ((top_m - s.head_band_m) * 1e3).max(0.0) as u16;
-        let nx = self.map.plan.nx;
-        let (mut n, mut lo, mut hi) = (0usize, [usize::MAX; 2], [0usize; 2]);
-        for &q in part.iter().filter(|&&q| self.top_mm[q as usize] >= band_mm) {
-            let (i, j) = (q as usize % nx, q as usize / nx);
-            n += 1;
-            lo = [lo[0].min(i), lo[1].min(j)];
-            hi = [hi[0].max(i), hi[1].max(j)];
-        }
+        let below_top = |m: f64| ((top_m - m) * 1e3).max(0.0) as u16;
+        let (n, extent_m, solidity) = self.band(part, below_top(s.head_band_m));
         let side = self.map.plan.side_m;
         let area_m2 = n as f64 * side * side;
-        let (w, h) = (hi[0] + 1 - lo[0], hi[1] + 1 - lo[1]);
-        let extent_m = w.max(h) as f64 * side;
-        let solidity = n as f64 / (w * h) as f64;
+        let cap_mm = below_top(s.head_cap_m);
+        let (_, cap_m, _) = self.band(part, cap_mm);
         area_m2 >= s.person_min_area_m2
             && extent_m >= s.person_min_extent_m
             && solidity >= s.person_min_solidity
+            && cap_m <= s.person_max_cap_m
+            && self.own_head(part, cap_mm, tops[3])
     }
 }

@@ -32,7 +32,9 @@
 //!    1.1 m), and its *head band* (the squares within [`OccupancySettings::head_band_m`] of
 //!    the top: head and shoulders) is big ([`OccupancySettings::person_min_area_m2`]), wide
 //!    ([`OccupancySettings::person_min_extent_m`]) and solid
-//!    ([`OccupancySettings::person_min_solidity`]: a plant's sparse leaves are not);
+//!    ([`OccupancySettings::person_min_solidity`]), and its *cap* (the squares within
+//!    [`OccupancySettings::head_cap_m`] of the top) is one head, not leaves scattered over a
+//!    plant's crown (at most [`OccupancySettings::person_max_cap_m`] across);
 //! 5. a desk is `1` when a person part lies in its zone; `0` when none does and the frame sees
 //!    at least [`OccupancySettings::vacant_min_seen`] of its zone (the squares whose
 //!    commissioned points return now); otherwise unknown.
@@ -62,6 +64,8 @@ pub const SATURATED_MM: u16 = u16::MAX;
 pub const MAX_DESKS: usize = 254;
 /// Most plan squares (a 25 m × 25 m room at 5 cm).
 pub const MAX_SQUARES: usize = 250_000;
+/// The widest gap between seen squares that counts as seen, squares either side.
+const CLOSE_SQUARES: usize = 2;
 /// Most squares either side a point covers.
 const MAX_REACH: usize = 3;
 /// Row neighbours farther apart than this, pixels, are not neighbours.
@@ -136,6 +140,10 @@ pub struct OccupancySettings {
     pub person_min_extent_m: f64,
     /// Least share of the head band's bounding box it fills.
     pub person_min_solidity: f64,
+    /// The head cap: squares within this of the top, m ...
+    pub head_cap_m: f64,
+    /// ... span at most this (a head, not leaves scattered over a crown), m.
+    pub person_max_cap_m: f64,
     /// `0` only where the frame sees at least this share of the zone.
     pub vacant_min_seen: f64,
     /// A frame is bad when fewer than this share of the cells return.
@@ -158,6 +166,8 @@ impl Default for OccupancySettings {
             person_min_area_m2: 0.06,
             person_min_extent_m: 0.25,
             person_min_solidity: 0.4,
+            head_cap_m: 0.12,
+            person_max_cap_m: 0.47,
             vacant_min_seen: 0.6,
             min_return_fraction: 0.3,
             moved_fraction: 0.2,
@@ -179,6 +189,8 @@ impl OccupancySettings {
             && within(self.person_min_area_m2, 0.0, 2.0)
             && within(self.person_min_extent_m, 0.0, 2.0)
             && within(self.person_min_solidity, 0.0, 1.0)
+            && within(self.head_cap_m, 0.01, 0.5)
+            && within(self.person_max_cap_m, 0.05, 2.0)
             && within(self.vacant_min_seen, 0.3, 1.0)
             && within(self.min_return_fraction, 0.0, 1.0)
             && within(self.moved_fraction, 0.0, 1.0);
@@ -199,8 +211,8 @@ struct Cell {
     background_mm: u16,
     /// The plan square of its commissioned point ([`NO_SQUARE`]: off the grid).
     square: u32,
-    /// Plan distance between its commissioned point and its row neighbour's, mm: the
-    /// pixel's footprint, which a point covers in the plan (scaled by depth).
+    /// The pixel's footprint in the plan at its commissioned point, mm (its neighbours'
+    /// distances; [`spacings_mm`]), which a point covers (scaled by depth).
     spacing_mm: u16,
     ray_per_m: [f32; 3],
 }
@@ -227,6 +239,30 @@ impl Plan {
     /// How many squares either side a point with a footprint of `spacing_m` covers.
     fn reach(&self, spacing_m: f64) -> usize {
         ((spacing_m / (2.0 * self.side_m) + 0.5).floor() as usize).min(MAX_REACH)
+    }
+
+    /// How many squares either side a point surely covers (the coverage of the floor: never
+    /// more than the footprint, so that the floor hidden behind an edge stays unseen).
+    fn reach_within(&self, spacing_m: f64) -> usize {
+        ((spacing_m / (2.0 * self.side_m)).floor() as usize).min(MAX_REACH)
+    }
+
+    /// `closed` = `seen` with every square that has seen ones on both sides within
+    /// [`CLOSE_SQUARES`] (along x, y or a diagonal) seen too: the gaps between the footprints
+    /// of neighbouring pixels, not the edge of a hidden area.
+    fn close(&self, seen: &[bool], closed: &mut [bool]) {
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let at =
+            |i: i64, j: i64| i >= 0 && j >= 0 && i < nx && j < ny && seen[(j * nx + i) as usize];
+        for (q, c) in closed.iter_mut().enumerate() {
+            let (i, j) = (q as i64 % nx, q as i64 / nx);
+            let across = |di: i64, dj: i64| {
+                let k = CLOSE_SQUARES as i64;
+                (1..=k).any(|a| at(i - a * di, j - a * dj))
+                    && (1..=k).any(|a| at(i + a * di, j + a * dj))
+            };
+            *c = seen[q] || across(1, 0) || across(0, 1) || across(1, 1) || across(1, -1);
+        }
     }
 
     /// `f` of every square within `reach` squares of square `s` (on the grid).
@@ -273,13 +309,16 @@ pub struct OccupancyMap {
 
 impl OccupancyMap {
     /// The map of a `width` × `height` depth camera at `camera_m` over a floor at
-    /// `floor_z_m`, watching `cells`, for `desks`. The plan grid covers the commissioned
-    /// points and the zones.
+    /// `floor_z_m`, watching `cells`, for `desks`. The plan grid covers the room's plan,
+    /// `room_m` (x0, x1, y0, y1; `None`: the commissioned points' extent, right when the
+    /// camera sees the walls); a zone ends at the room's walls.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         width: u32,
         height: u32,
         camera_m: [f64; 3],
         floor_z_m: f64,
+        room_m: Option<[f64; 4]>,
         desks: &[DeskTop],
         cells: &[CellInput],
         settings: OccupancySettings,
@@ -313,7 +352,7 @@ impl OccupancyMap {
             })
             .map(|(k, c)| (k, world(camera_m, c.ray_per_m, c.background_mm)))
             .collect();
-        let plan = plan_over(&points, desks, &settings)?;
+        let plan = plan_over(&points, room_m, &settings)?;
         let spacing = spacings_mm(&points, cells, width);
         let mut out_cells = Vec::with_capacity(points.len());
         for ((k, p), spacing_mm) in points.iter().zip(spacing) {
@@ -347,7 +386,9 @@ impl OccupancyMap {
         };
         map.head_seen = map.head_squares();
         let all_seen = map.seen_squares(|_| true);
-        map.zone_seen_squares = map.zone_counts(&all_seen);
+        let mut closed = vec![false; all_seen.len()];
+        map.plan.close(&all_seen, &mut closed);
+        map.zone_seen_squares = map.zone_counts(&closed);
         Ok(map)
     }
 
@@ -381,7 +422,7 @@ impl OccupancyMap {
         let mut seen = vec![false; self.zone.len()];
         for c in self.cells.iter().filter(|c| c.square != NO_SQUARE) {
             if returns(c) {
-                let reach = self.plan.reach(f64::from(c.spacing_mm) * 1e-3);
+                let reach = self.plan.reach_within(f64::from(c.spacing_mm) * 1e-3);
                 self.plan
                     .around(c.square as usize, reach, |q| seen[q] = self.head_seen[q]);
             }
@@ -460,28 +501,22 @@ fn world(camera_m: [f64; 3], ray_per_m: [f64; 3], mm: u16) -> [f64; 3] {
     ]
 }
 
-/// Per point, its plan distance to its nearest neighbour in the same pixel row among the
-/// watched cells, mm (the median of them for a point without one).
+/// Per point, its footprint in the plan, mm: the larger of its plan distances to its nearest
+/// neighbour in the same pixel row and in the same pixel column among the watched cells (the
+/// median of the known ones for a point without neighbours).
 fn spacings_mm(points: &[(usize, [f64; 3])], cells: &[CellInput], width: u32) -> Vec<u16> {
-    let mut order: Vec<usize> = (0..points.len()).collect();
-    order.sort_unstable_by_key(|&i| cells[points[i].0].pixel);
-    let mut out = vec![u16::MAX; points.len()];
-    for w in order.windows(2) {
-        let (a, b) = (&points[w[0]], &points[w[1]]);
-        let (pa, pb) = (cells[a.0].pixel, cells[b.0].pixel);
-        if pa / width != pb / width || pb - pa > MAX_NEIGHBOUR_PX {
-            continue;
-        }
-        let d_m = (a.1[0] - b.1[0]).hypot(a.1[1] - b.1[1]);
-        let mm = (d_m * 1e3).round().clamp(0.0, f64::from(u16::MAX - 1)) as u16;
-        for k in [w[0], w[1]] {
-            out[k] = if out[k] == u16::MAX {
-                mm
-            } else {
-                out[k].min(mm)
-            };
-        }
-    }
+    let row = |p: u32| (p / width, p % width);
+    let column = |p: u32| (p % width, p / width);
+    let along_rows = nearest_mm(points, cells, row);
+    let along_columns = nearest_mm(points, cells, column);
+    let mut out: Vec<u16> = along_rows
+        .iter()
+        .zip(&along_columns)
+        .map(|(&a, &b)| match (a, b) {
+            (u16::MAX, x) | (x, u16::MAX) => x,
+            (a, b) => a.max(b),
+        })
+        .collect();
     let mut known: Vec<u16> = out.iter().copied().filter(|&x| x != u16::MAX).collect();
     let median = if known.is_empty() {
         0
@@ -495,30 +530,58 @@ fn spacings_mm(points: &[(usize, [f64; 3])], cells: &[CellInput], width: u32) ->
     out
 }
 
-/// The plan grid over the commissioned points and the desks' zones.
+/// Per point, the plan distance to its nearest neighbour along one pixel line, mm
+/// (`u16::MAX`: none); `key` gives (line, position along it) of a pixel.
+fn nearest_mm(
+    points: &[(usize, [f64; 3])],
+    cells: &[CellInput],
+    key: impl Fn(u32) -> (u32, u32),
+) -> Vec<u16> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_unstable_by_key(|&i| key(cells[points[i].0].pixel));
+    let mut out = vec![u16::MAX; points.len()];
+    for w in order.windows(2) {
+        let (a, b) = (&points[w[0]], &points[w[1]]);
+        let (ka, kb) = (key(cells[a.0].pixel), key(cells[b.0].pixel));
+        if ka.0 != kb.0 || kb.1 - ka.1 > MAX_NEIGHBOUR_PX {
+            continue;
+        }
+        let d_m = (a.1[0] - b.1[0]).hypot(a.1[1] - b.1[1]);
+        let mm = (d_m * 1e3).round().clamp(0.0, f64::from(u16::MAX - 1)) as u16;
+        for k in [w[0], w[1]] {
+            out[k] = out[k].min(mm);
+        }
+    }
+    out
+}
+
+/// The plan grid over the room (or the commissioned points).
 fn plan_over(
     points: &[(usize, [f64; 3])],
-    desks: &[DeskTop],
+    room_m: Option<[f64; 4]>,
     s: &OccupancySettings,
 ) -> Result<Plan, OccupancyError> {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    let mut grow = |x: f64, y: f64| {
-        lo = [lo[0].min(x), lo[1].min(y)];
-        hi = [hi[0].max(x), hi[1].max(y)];
-    };
-    for (_, p) in points {
-        grow(p[0], p[1]);
-    }
-    for d in desks {
-        grow(d.x_m[0] - s.zone_margin_m, d.y_m[0] - s.zone_margin_m);
-        grow(d.x_m[1] + s.zone_margin_m, d.y_m[1] + s.zone_margin_m);
+    match room_m {
+        Some(r) => {
+            if !(r.iter().all(|x| x.is_finite()) && r[0] < r[1] && r[2] < r[3]) {
+                return Err(OccupancyError::Input(format!("the room's plan {r:?}")));
+            }
+            (lo, hi) = ([r[0], r[2]], [r[1], r[3]]);
+        }
+        None => {
+            for (_, p) in points {
+                lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+                hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+            }
+        }
     }
     if !(lo[0].is_finite() && hi[0].is_finite()) {
         return Err(OccupancyError::Input(
-            "no commissioned depth and no desk: nothing to watch".into(),
+            "no commissioned depth and no room: nothing to watch".into(),
         ));
     }
-    let n = |a: f64, b: f64| ((b - a) / s.plan_square_m).floor() + 1.0;
+    let n = |a: f64, b: f64| ((b - a) / s.plan_square_m).ceil().max(1.0);
     let (nx, ny) = (n(lo[0], hi[0]), n(lo[1], hi[1]));
     if nx * ny > MAX_SQUARES as f64 {
         return Err(OccupancyError::Input(format!(

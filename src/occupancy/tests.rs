@@ -8,6 +8,8 @@ const H: u32 = 120;
 const F_PX: f64 = 80.0;
 const CAMERA_M: [f64; 3] = [3.0, 2.0, 3.5];
 const STRIDE: u32 = 2;
+/// The room's plan: x0, x1, y0, y1 (the floor of [`seen_truth`]'s grid).
+const ROOM_M: [f64; 4] = [-2.0, 26.0, -2.0, 6.0];
 
 /// A box standing on the floor (or on something): plan extent and top, m.
 #[derive(Clone, Copy)]
@@ -147,6 +149,7 @@ fn occupancy() -> Occupancy {
         H,
         CAMERA_M,
         0.0,
+        Some(ROOM_M),
         &desks(),
         &cells,
         OccupancySettings::default(),
@@ -326,12 +329,14 @@ fn bad_settings_and_inputs_are_refused() {
         vacant_min_seen: 0.2,
         ..OccupancySettings::default()
     };
-    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, &desks(), &[], s).is_err());
+    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, None, &desks(), &[], s).is_err());
     let s = OccupancySettings::default();
-    assert!(OccupancyMap::new(0, H, CAMERA_M, 0.0, &desks(), &[], s).is_err());
-    assert!(OccupancyMap::new(W, H, [f64::NAN; 3], 0.0, &desks(), &[], s).is_err());
+    assert!(OccupancyMap::new(0, H, CAMERA_M, 0.0, None, &desks(), &[], s).is_err());
+    assert!(OccupancyMap::new(W, H, [f64::NAN; 3], 0.0, None, &desks(), &[], s).is_err());
     let mut d = desks();
     d[0].x_m = [3.0, 1.0];
-    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, &d, &[], s).is_err());
-    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, &[], &[], s).is_err());
+    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, None, &d, &[], s).is_err());
+    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, None, &[], &[], s).is_err());
+    let flat = Some([1.0, 1.0, 0.0, 2.0]);
+    assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, flat, &desks(), &[], s).is_err());
 }
