@@ -36,6 +36,7 @@ struct Counts {
     returns: usize,
     saturated: usize,
     farther: usize,
+    agree: usize,
 }
 
 impl Occupancy {
@@ -105,7 +106,10 @@ impl Occupancy {
             };
             return self.unknown(bit);
         }
-        if counts.farther as f64 > s.moved_fraction * counts.returns as f64 {
+        let returns = counts.returns as f64;
+        if counts.farther as f64 > s.moved_fraction * returns
+            || (counts.agree as f64) < s.min_agree_fraction * returns
+        {
             return self.unknown(status::MOVED);
         }
         let (occupied, people) = self.people();
@@ -168,6 +172,8 @@ impl Occupancy {
             let threshold_mm = min_mm.max(s.foreground_fraction * bg);
             if nearer_mm < -threshold_mm {
                 c.farther += 1;
+            } else if nearer_mm <= threshold_mm {
+                c.agree += 1;
             }
             if nearer_mm <= threshold_mm {
                 continue;

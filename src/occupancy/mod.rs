@@ -17,7 +17,8 @@
 //!
 //! 1. the frame is checked: its size, the share of pixels with a return (not 0, not
 //!    saturated), and the share of pixels *farther* than the commissioned room (a person can
-//!    only come nearer; many farther pixels is a camera that moved). A bad frame gives unknown
+//!    only come nearer; many farther pixels is a camera that moved), and the share that agree
+//!    with it (people and things cover less than half a room). A bad frame gives unknown
 //!    for every desk and a status bit ([`status`]), never "vacant";
 //! 2. *foreground*: a cell nearer than its commissioned depth by more than
 //!    max([`OccupancySettings::min_foreground_m`], [`OccupancySettings::foreground_fraction`]
@@ -149,8 +150,11 @@ pub struct OccupancySettings {
     /// A frame is bad when fewer than this share of the cells return.
     pub min_return_fraction: f64,
     /// The camera moved when more than this share of the returning cells lie farther than
-    /// the room.
+    /// the room ...
     pub moved_fraction: f64,
+    /// ... or fewer than this share agree with it (people and things cover less of a room;
+    /// a frame of noise or of another room agrees nowhere).
+    pub min_agree_fraction: f64,
 }
 
 impl Default for OccupancySettings {
@@ -171,6 +175,7 @@ impl Default for OccupancySettings {
             vacant_min_seen: 0.6,
             min_return_fraction: 0.3,
             moved_fraction: 0.2,
+            min_agree_fraction: 0.5,
         }
     }
 }
@@ -193,7 +198,8 @@ impl OccupancySettings {
             && within(self.person_max_cap_m, 0.05, 2.0)
             && within(self.vacant_min_seen, 0.3, 1.0)
             && within(self.min_return_fraction, 0.0, 1.0)
-            && within(self.moved_fraction, 0.0, 1.0);
+            && within(self.moved_fraction, 0.0, 1.0)
+            && within(self.min_agree_fraction, 0.0, 1.0);
         if ok {
             Ok(())
         } else {

@@ -340,3 +340,52 @@ fn bad_settings_and_inputs_are_refused() {
     let flat = Some([1.0, 1.0, 0.0, 2.0]);
     assert!(OccupancyMap::new(W, H, CAMERA_M, 0.0, flat, &desks(), &[], s).is_err());
 }
+
+#[test]
+fn a_walker_beside_the_zone_does_not_occupy_the_desk() {
+    let mut o = occupancy();
+    // standing 0.9 m beyond desk 0's far edge (outside its 0.75 m zone, the nearest desk's
+    // zone nonetheless): head over the aisle, a shoulder reaching into the zone
+    let mut cols = room();
+    let (x, y) = (1.8, 2.9);
+    cols.push(Column {
+        x_m: [x - 0.24, x + 0.24],
+        y_m: [y - 0.2, y + 0.2],
+        top_m: 1.45,
+    });
+    cols.push(Column {
+        x_m: [x - 0.09, x + 0.09],
+        y_m: [y - 0.05, y + 0.15],
+        top_m: 1.75,
+    });
+    let r = o.update(W, H, Some(&render(&cols)));
+    assert_eq!(r.status, 0);
+    assert_eq!(r.people, 1, "{r:?}");
+    assert_eq!(
+        states(&r),
+        [Occupied::No, Occupied::No, Occupied::Unknown],
+        "{r:?}"
+    );
+}
+
+#[test]
+fn garbage_depth_is_never_vacant() {
+    let mut o = occupancy();
+    // deterministic noise over the whole range, and over the room's own depths' range
+    let mut x = 0x2545_f491_4f6c_dd1d_u64;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    for span in [u64::from(u16::MAX), 4000] {
+        let f: Vec<u16> = (0..W * H).map(|_| (next() % span) as u16).collect();
+        let r = o.update(W, H, Some(&f));
+        assert_ne!(r.status, 0, "{r:?}");
+        assert!(
+            r.desks.iter().all(|d| d.state == Occupied::Unknown),
+            "{r:?}"
+        );
+    }
+}
