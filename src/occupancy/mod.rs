@@ -41,11 +41,14 @@
 //!    commissioned points return now); otherwise unknown.
 //!
 //! A single frame cannot tell a still, tall, solid thing put down after commissioning from a
-//! person; motion and the hold time are the daemon's.
+//! person; motion is the daemon's. [`Hold`] keeps a desk occupied for the hold time after its
+//! person was last seen, and the last answer through bad frames for as long.
 
 mod frame;
+pub mod hold;
 
 pub use frame::Occupancy;
+pub use hold::{DEFAULT_HOLD_S, HeldDesk, Hold};
 
 /// Status bits of an occupancy update ([`OccupancyReport::status`]).
 pub mod status {
