@@ -85,3 +85,23 @@ fn the_cost_and_memory_are_the_documented_ones() {
         assert!(r.update_us <= 5000.0, "{r:?}");
     }
 }
+
+#[test]
+fn the_board_file_sets_the_hold() {
+    use luxnode::board::Board;
+    let path = common::manifest().join("boards/sim/board.toml");
+    let sim = std::fs::read_to_string(&path).unwrap();
+    let parse = |extra: &str| Board::parse(&format!("{sim}\n{extra}"), &path);
+    // absent: DALI-2 part 303's 15 minutes
+    assert_eq!(parse("").unwrap().occupancy_hold_s, 900.0);
+    assert_eq!(
+        parse("[occupancy]\nhold_s = 120.0\n")
+            .unwrap()
+            .occupancy_hold_s,
+        120.0
+    );
+    for bad in ["hold_s = -1.0", "hold_s = 1e9", "hold = 60.0"] {
+        let e = parse(&format!("[occupancy]\n{bad}\n"));
+        assert!(e.is_err(), "{bad} was accepted");
+    }
+}
