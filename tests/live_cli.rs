@@ -161,6 +161,8 @@ fn json_output_and_bad_input() {
             .iter()
             .all(|d| d["lux_total"].as_f64().unwrap().is_finite())
     );
+    // without depth nothing is known of occupancy
+    assert!(desks.iter().all(|d| d["occupied"].is_null()), "{out}");
     // without depth the desks say so
     assert!(
         desks
