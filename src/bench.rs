@@ -6,6 +6,7 @@ pub mod control;
 pub mod control_day;
 pub mod dense;
 pub mod live;
+pub mod occupancy;
 pub mod patches;
 pub mod radiance;
 pub mod scaling;

@@ -35,7 +35,7 @@
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); who may write and how each client reads (access), the settings clients wrote (std) |
 //! | 5 | `node`, `bacnet` | std (`bacnet`: no_std core) | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness); BACnet: BVLC/NPDU/APDU wire format and tagged encodings (no_std), the node's objects over the register snapshot, COV subscriptions, the PICS |
 //! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the BACnet/IP services and UDP server, the DALI gateway link and the lighting loop; the frame and datagram fuzzers (feature `sim`) |
-//! | 7 | `photometry`, `lsc`, `live` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone |
+//! | 7 | `photometry`, `lsc`, `live`, `occupancy` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone; occupancy at run time: who is at which desk, from a depth frame against the commissioned depth |
 //! | 8 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 9 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
 //! | 10 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
@@ -130,6 +130,8 @@ pub mod live_section;
 pub mod lsc;
 #[cfg(feature = "std")]
 pub mod node;
+#[cfg(feature = "std")]
+pub mod occupancy;
 #[cfg(feature = "std")]
 pub mod photometry;
 #[cfg(feature = "std")]

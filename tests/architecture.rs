@@ -308,6 +308,7 @@ const RUN_TIME_PATH: &[&str] = &[
     "node",
     "fieldbus",
     "live",
+    "occupancy",
     "daemon/live.rs",
 ];
 

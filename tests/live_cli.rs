@@ -94,7 +94,9 @@ fn the_all_on_frame_gives_the_desks_against_radiance() {
     let mut lines = out.lines();
     assert_eq!(
         lines.next(),
-        Some("sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx")
+        Some(
+            "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied"
+        )
     );
     let truth = truth_all_on();
     let rows: Vec<Vec<String>> = lines
@@ -159,6 +161,8 @@ fn json_output_and_bad_input() {
             .iter()
             .all(|d| d["lux_total"].as_f64().unwrap().is_finite())
     );
+    // without depth nothing is known of occupancy
+    assert!(desks.iter().all(|d| d["occupied"].is_null()), "{out}");
     // without depth the desks say so
     assert!(
         desks
@@ -305,4 +309,173 @@ fn a_luxmeter_reading_at_commissioning_takes_bias_out_of_live_light() {
         "{mean} against {plain}"
     );
     assert!(worst < 0.045, "{worst}");
+}
+
+/// office_a's desks: (id, x0, x1, y0, y1, top z), m.
+fn desks() -> Vec<(u32, [f64; 5])> {
+    let text = std::fs::read_to_string(office_a().join("desks.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["desks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            let f = |k: &str| d[k].as_f64().unwrap();
+            (
+                d["id"].as_u64().unwrap() as u32,
+                [f("x0"), f("x1"), f("y0"), f("y1"), f("z")],
+            )
+        })
+        .collect()
+}
+
+/// Plan distance from (x, y) to a desk's top, m.
+fn desk_distance_m(d: &[f64; 5], x: f64, y: f64) -> f64 {
+    let dx = (d[0] - x).max(x - d[1]).max(0.0);
+    let dy = (d[2] - y).max(y - d[3]).max(0.0);
+    dx.hypot(dy)
+}
+
+/// office_a's sensors: (id, position), m.
+fn sensors() -> Vec<(u32, [f64; 3])> {
+    let text = std::fs::read_to_string(office_a().join("sensors.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            let p = &s["position"];
+            (
+                s["id"].as_u64().unwrap() as u32,
+                [0, 1, 2].map(|i| p[i].as_f64().unwrap()),
+            )
+        })
+        .collect()
+}
+
+/// The capture's empty-room depth with a seated person cast into it: a head (disc of 0.1 m
+/// radius, top 1.3 m) over shoulders (0.44 m × 0.24 m, top 1.05 m) centred at `at`, each a
+/// flat top seen along the pixel's ray where it is nearer than the room.
+fn with_person(empty: &luxnode::camera::capture::Frame, at: [f64; 2]) -> Vec<u16> {
+    let cam =
+        luxnode::scene::load_camera_file(&office_a().join("capture").join("camera.json")).unwrap();
+    let axis = cam.world_from_camera.z_axis;
+    let mut out = empty.data.clone();
+    for v in 0..empty.height {
+        for u in 0..empty.width {
+            let Some(d) = cam.ray_world(f64::from(u), f64::from(v)) else {
+                continue;
+            };
+            let depth_at = |h: f64| (h - cam.position_m.z) / d.z * d.dot(axis);
+            let plan = |h: f64| {
+                let t = (h - cam.position_m.z) / d.z;
+                (
+                    cam.position_m.x + t * d.x - at[0],
+                    cam.position_m.y + t * d.y - at[1],
+                )
+            };
+            let (hx, hy) = plan(1.3);
+            let (sx, sy) = plan(1.05);
+            let z = if hx.hypot(hy) <= 0.1 {
+                depth_at(1.3)
+            } else if sx.abs() <= 0.22 && sy.abs() <= 0.12 {
+                depth_at(1.05)
+            } else {
+                continue;
+            };
+            let k = (v * empty.width + u) as usize;
+            let mm = (z * 1e3).round() as u16;
+            if out[k] == 0 || mm < out[k] {
+                out[k] = mm;
+            }
+        }
+    }
+    out
+}
+
+fn write_depth(path: &Path, w: u32, h: u32, data: Vec<u16>) {
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(w, h, data)
+        .unwrap()
+        .save(path)
+        .unwrap();
+}
+
+/// The `occupied` column per sensor id of `luxnode live` on a depth frame.
+fn occupied_column(depth: Option<&Path>) -> Vec<(u32, String)> {
+    let f = frame("luminance_all.png");
+    let d = depth.map(|p| p.display().to_string());
+    let mut args = vec!["--frame", &f, "--arc", ALL_ON];
+    if let Some(d) = &d {
+        args.extend(["--depth", d.as_str()]);
+    }
+    let (ok, out, err) = live(&args);
+    assert!(ok, "{err}");
+    out.lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            assert_eq!(c.len(), 8, "{l}");
+            (c[0].parse().unwrap(), c[7].to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn the_occupied_column_follows_a_person_at_a_desk() {
+    let (desks, sensors) = (desks(), sensors());
+    // the desk a sensor lies on (its top), by the files
+    let on_desk = |p: [f64; 3]| {
+        desks
+            .iter()
+            .find(|(_, d)| desk_distance_m(d, p[0], p[1]) < 0.02 && (p[2] - d[4]).abs() < 0.1)
+            .map(|(id, _)| *id)
+    };
+    // without a depth frame: nothing known
+    assert!(occupied_column(None).iter().all(|(_, o)| o.is_empty()));
+    let dir = tempfile::tempdir().unwrap();
+    let empty = luxnode::camera::capture::read_frame16(Path::new(&frame("depth_000.png"))).unwrap();
+    let (w, h) = (empty.width, empty.height);
+    // the empty room: nobody anywhere; a desk sensor of a desk whose zone the camera sees
+    // answers 0 (desks 2 and 3 lie wholly inside the field; 1 and 4 half outside, and over
+    // the far half of desk 5's zone a head would leave the frame)
+    let vacant = occupied_column(Some(Path::new(&frame("depth_000.png"))));
+    for (id, o) in &vacant {
+        let desk = on_desk(sensors[(*id - 1) as usize].1);
+        assert_ne!(o, "1", "sensor {id}: {vacant:?}");
+        if matches!(desk, Some(2 | 3)) {
+            assert_eq!(o, "0", "sensor {id} on desk {desk:?}: {vacant:?}");
+        }
+        if desk.is_none() {
+            assert_eq!(o, "", "sensor {id} is on no desk: {vacant:?}");
+        }
+    }
+    // a person 0.4 m beyond a desk's edge, away from the others: that desk is occupied
+    for at in [[2.2, 3.8], [3.8, 3.8], [3.0, 4.6]] {
+        let nearest = desks
+            .iter()
+            .min_by(|a, b| {
+                desk_distance_m(&a.1, at[0], at[1]).total_cmp(&desk_distance_m(&b.1, at[0], at[1]))
+            })
+            .unwrap()
+            .0;
+        let path = dir.path().join("person.png");
+        write_depth(&path, w, h, with_person(&empty, at));
+        let got = occupied_column(Some(&path));
+        for (id, o) in &got {
+            let desk = on_desk(sensors[(*id - 1) as usize].1);
+            if desk == Some(nearest) {
+                assert_eq!(o, "1", "person at {at:?}, sensor {id}: {got:?}");
+            } else {
+                assert_ne!(o, "1", "person at {at:?}, sensor {id}: {got:?}");
+            }
+        }
+    }
+    // garbage depth: unknown everywhere, never vacant
+    let path = dir.path().join("zeros.png");
+    write_depth(&path, w, h, vec![0; (w * h) as usize]);
+    let got = occupied_column(Some(&path));
+    assert!(got.iter().all(|(_, o)| o.is_empty()), "{got:?}");
+    write_depth(&path, w, h, vec![u16::MAX; (w * h) as usize]);
+    let got = occupied_column(Some(&path));
+    assert!(got.iter().all(|(_, o)| o.is_empty()), "{got:?}");
 }

@@ -51,6 +51,9 @@ pub struct Board {
     pub control: crate::node::ControlOptions,
     /// Live light (`[live]`): the cameras at run time.
     pub live: LiveBoard,
+    /// Occupancy's hold (`[occupancy] hold_s`, default 900 s: DALI-2 part 303), s: a desk
+    /// stays occupied this long after its person was last seen (`crate::occupancy::Hold`).
+    pub occupancy_hold_s: f64,
     /// The status LED (`[led]`), if any.
     pub led: Option<crate::board::camera::LedBoard>,
     /// Luxmeter readings with every luminaire at full (`[commissioning] luxmeter_rho =
@@ -111,6 +114,19 @@ struct LiveToml {
     enabled: Option<bool>,
     #[serde(default)]
     period_s: Option<f64>,
+}
+
+/// `[occupancy]`: people at desks from the depth camera (`crate::occupancy`).
+///
+/// ```toml
+/// [occupancy]
+/// hold_s = 900.0   # a desk stays occupied this long after its person was last seen, 0..=86400 s
+/// ```
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct OccupancyToml {
+    #[serde(default)]
+    hold_s: Option<f64>,
 }
 
 /// `[commissioning]`: what the engineer measured on site.
@@ -345,6 +361,8 @@ struct BoardToml {
     #[serde(default)]
     live: LiveToml,
     #[serde(default)]
+    occupancy: OccupancyToml,
+    #[serde(default)]
     led: Option<crate::board::camera::LedBoard>,
     #[serde(default)]
     commissioning: CommissioningToml,
@@ -464,6 +482,12 @@ impl Board {
         if let Some(l) = &t.led {
             l.validate().map_err(|e| bad(e.0))?;
         }
+        let occupancy_hold_s = t
+            .occupancy
+            .hold_s
+            .unwrap_or(crate::occupancy::DEFAULT_HOLD_S);
+        crate::occupancy::Hold::new(0, occupancy_hold_s)
+            .map_err(|e| bad(format!("occupancy.hold_s: {e}")))?;
         let luxmeter_rho = t
             .commissioning
             .luxmeter_rho
@@ -506,6 +530,7 @@ impl Board {
             luxmeter_rho,
             control,
             live,
+            occupancy_hold_s,
             preset,
             maintenance_factor,
             name: t.name,

@@ -218,6 +218,17 @@ pub enum Command {
         #[arg(long, default_value_t = 120)]
         frames: usize,
     },
+    /// Occupancy (issue 29) against the bench's rendered rooms (bench/occupancy/generate.py):
+    /// accuracy per (frame, visible desk), false presence per distractor, missed seated people,
+    /// µs per update, memory. Prints a markdown table (docs/occupancy.md).
+    Occupancy {
+        /// The generated bench: one directory per room and pose.
+        #[arg(long)]
+        dir: PathBuf,
+        /// Every stride-th pixel is watched.
+        #[arg(long, default_value_t = 2)]
+        stride: u32,
+    },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
@@ -243,6 +254,7 @@ pub fn run(command: Command) -> Result<()> {
             runs,
         } => dense(&scene, capture.as_deref(), runs)?,
         Command::Live { board, frames } => live(&board, frames)?,
+        Command::Occupancy { dir, stride } => occupancy(&dir, stride)?,
         Command::Engine {
             scene,
             runs,
@@ -1120,5 +1132,49 @@ fn live(board: &Path, frames: usize) -> Result<()> {
     if let Some(p) = luxnode::host::peak_memory_mib() {
         println!("process peak resident memory (commissioning included): {p:.0} MiB");
     }
+    Ok(())
+}
+
+/// `luxnode bench occupancy`: the table of docs/occupancy.md.
+fn occupancy(dir: &Path, stride: u32) -> Result<()> {
+    let sets = bench::occupancy::run(dir, stride)?;
+    println!(
+        "| set | frames | visible desk-frames | accuracy | wrong answers | 0 where < 30 % seen | \
+         seated missed | false presence (distractors) | µs per update | memory, bytes | cells |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|");
+    for r in &sets {
+        let fp: Vec<String> = r
+            .false_presence
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        println!(
+            "| {} | {} | {} | {:.1} % | {} | {} | {} | {} | {:.0} | {} | {} |",
+            r.name,
+            r.frames,
+            r.visible,
+            100.0 * r.accuracy(),
+            r.wrong,
+            r.vacant_unseen,
+            r.missed_seated,
+            fp.join(", "),
+            r.update_us,
+            r.memory_bytes,
+            r.cells
+        );
+    }
+    let sum = |f: fn(&bench::occupancy::SetResult) -> usize| sets.iter().map(f).sum::<usize>();
+    let (visible, correct) = (sum(|r| r.visible), sum(|r| r.correct));
+    println!(
+        "| all | {} | {visible} | {:.1} % | {} | {} | {} | {} | {:.0} | | |",
+        sum(|r| r.frames),
+        100.0 * correct as f64 / visible.max(1) as f64,
+        sum(|r| r.wrong),
+        sum(|r| r.vacant_unseen),
+        sum(|r| r.missed_seated),
+        sum(|r| r.false_presence.iter().map(|e| e.1).sum()),
+        sets.iter().map(|r| r.update_us).fold(0.0, f64::max),
+    );
     Ok(())
 }

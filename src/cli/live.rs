@@ -2,8 +2,10 @@
 //! scripts and checks: the image's live-light section, a luminance frame in the capture set's
 //! 16-bit encoding (the camera and its gain are those stored in the image), the luminaires'
 //! DALI arc levels while it was taken, and optionally a depth frame (mm along the optical axis)
-//! for the covering check. Prints per desk sensor the total, artificial and daylight lux, where
-//! the value comes from (measured on the desk top, or inferred) and the flags.
+//! for the covering check and occupancy. Prints per desk sensor the total, artificial and
+//! daylight lux, where the value comes from (measured on the desk top, or inferred), the flags
+//! and whether its desk is occupied (`1`, `0`, empty for unknown or without a depth frame;
+//! docs/occupancy.md).
 
 use std::path::PathBuf;
 
@@ -11,6 +13,8 @@ use anyhow::{Context, Result, bail};
 use luxnode::camera::capture::read_frame16;
 use luxnode::dali::{ArcLevel, DimmingCurve};
 use luxnode::live::{Live, LiveFrame, LiveModel, LiveSettings, Source, flags};
+use luxnode::live_section::occupancy_map;
+use luxnode::occupancy::{Occupancy, OccupancySettings, Occupied};
 use luxnode::store::Image;
 use luxnode::store::file::read_image_file;
 
@@ -141,6 +145,14 @@ pub fn run(a: &Args) -> Result<()> {
             live.sky_type()
         );
     }
+    let occupied = occupancy(&image, w, h, depth.as_ref().map(|d| &d.data[..]));
+    let occupied_csv = |k: usize| {
+        occupied
+            .get(k)
+            .copied()
+            .flatten()
+            .map_or("", |o| o.as_csv())
+    };
     let source = |s: Source| match s {
         Source::Model => "model",
         Source::Measured => "measured",
@@ -148,24 +160,29 @@ pub fn run(a: &Args) -> Result<()> {
     };
     match a.format {
         OutputFormat::Csv => {
-            println!("sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx");
-            for d in &desks {
+            println!(
+                "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied"
+            );
+            for (k, d) in desks.iter().enumerate() {
                 println!(
-                    "{},{:.2},{:.2},{:.2},{},{},{:.2}",
+                    "{},{:.2},{:.2},{:.2},{},{},{:.2},{}",
                     d.id,
                     d.total_lx,
                     d.artificial_lx,
                     d.daylight_lx,
                     source(d.source),
                     flags::describe(d.flags),
-                    d.uncertainty_lx
+                    d.uncertainty_lx,
+                    occupied_csv(k)
                 );
             }
         }
         OutputFormat::Json => {
             let v: Vec<serde_json::Value> = desks
                 .iter()
-                .map(|d| {
+                .enumerate()
+                .map(|(k, d)| {
+                    let occ = occupied_csv(k);
                     serde_json::json!({
                         "sensor_id": d.id,
                         "lux_total": d.total_lx,
@@ -174,6 +191,7 @@ pub fn run(a: &Args) -> Result<()> {
                         "uncertainty_lx": d.uncertainty_lx,
                         "source": source(d.source),
                         "flags": flags::describe(d.flags),
+                        "occupied": occ.parse::<u8>().ok(),
                     })
                 })
                 .collect();
@@ -181,6 +199,34 @@ pub fn run(a: &Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Per sensor (the image's order), the occupancy of its desk from the depth frame (issue 29):
+/// `None` without a depth frame, for a sensor on no desk, or an image without desks.
+fn occupancy(image: &Image<'_>, w: u32, h: u32, depth_mm: Option<&[u16]>) -> Vec<Option<Occupied>> {
+    let none = vec![None; image.sensors()];
+    let Some(depth_mm) = depth_mm else {
+        return none;
+    };
+    let (map, sensor_desk) = match occupancy_map(image, OccupancySettings::default()) {
+        Ok(m) => m,
+        Err(e) => {
+            tracing::warn!("live: no occupancy: {e}");
+            return none;
+        }
+    };
+    let mut occupancy = Occupancy::new(map);
+    let report = occupancy.update(w, h, Some(depth_mm));
+    if report.status != 0 {
+        tracing::warn!(
+            "live: occupancy unknown: the depth frame is unusable (status {:#x})",
+            report.status
+        );
+    }
+    sensor_desk
+        .iter()
+        .map(|k| k.and_then(|k| report.desks.get(k)).map(|d| d.state))
+        .collect()
 }
 
 /// Most a frame's time may lie ahead of this machine's clock (clock skew), s.

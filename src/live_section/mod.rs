@@ -831,3 +831,88 @@ pub fn with_capture_section(
         }
     }
 }
+
+/// The occupancy cells of `pixels` (`v · width + u`, commissioned depth mm) of `camera`: each
+/// pixel's ray in the world per metre of depth along the optical axis (pixels outside a
+/// fisheye's field are left out).
+pub fn occupancy_cells(camera: &Camera, pixels: &[(u32, u16)]) -> Vec<crate::occupancy::CellInput> {
+    let w = camera.width.max(1);
+    let axis = camera.world_from_camera.z_axis;
+    pixels
+        .iter()
+        .filter_map(|&(pixel, background_mm)| {
+            let d = camera.ray_world(f64::from(pixel % w), f64::from(pixel / w))?;
+            let along = d.dot(axis);
+            (along > 1e-6).then(|| crate::occupancy::CellInput {
+                pixel,
+                background_mm,
+                ray_per_m: (d / along).to_array(),
+            })
+        })
+        .collect()
+}
+
+/// Occupancy over an image: the live section's samples as the cells (their commissioned depth,
+/// their rays from the stored camera), the desks and the floor (the lowest patch corner) from
+/// the geometry section. With it, per sensor (the image's order) the desk whose top holds it
+/// (none for a sensor on the floor or another surface).
+pub fn occupancy_map(
+    image: &crate::store::Image<'_>,
+    settings: crate::occupancy::OccupancySettings,
+) -> Result<(crate::occupancy::OccupancyMap, Vec<Option<usize>>), LiveError> {
+    use crate::occupancy::{DeskTop, OccupancyMap};
+    let live = image.live.as_ref().ok_or(LiveError::NoSection)?;
+    let geometry = image
+        .geometry_bytes()
+        .ok_or_else(|| LiveError::Input("the image has no geometry section (no desks)".into()))
+        .and_then(|b| {
+            crate::store::geometry::GeometrySection::decode(b)
+                .map_err(|e| LiveError::Input(format!("the image's geometry section: {e}")))
+        })?;
+    let camera = camera_of(&live.camera)?;
+    let pixels: Vec<(u32, u16)> = (0..live.samples())
+        .map(|i| (live.pixel(i) as u32, live.depth_mm(i)))
+        .collect();
+    let cells = occupancy_cells(&camera, &pixels);
+    // the room: the patches' plan extent, the floor their lowest corner
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for c in &geometry.patch_corners_m {
+        for p in c.chunks_exact(3) {
+            for a in 0..3 {
+                lo[a] = lo[a].min(f64::from(p[a]));
+                hi[a] = hi[a].max(f64::from(p[a]));
+            }
+        }
+    }
+    let room_m = lo[0].is_finite().then_some([lo[0], hi[0], lo[1], hi[1]]);
+    let floor_z_m = lo[2];
+    let desks: Vec<DeskTop> = geometry
+        .desks
+        .iter()
+        .map(|d| DeskTop {
+            id: d.id,
+            x_m: [d.extent_m[0], d.extent_m[1]],
+            y_m: [d.extent_m[2], d.extent_m[3]],
+            z_m: d.z_m,
+        })
+        .collect();
+    let map = OccupancyMap::new(
+        camera.width,
+        camera.height,
+        camera.position_m.to_array(),
+        if floor_z_m.is_finite() {
+            floor_z_m
+        } else {
+            0.0
+        },
+        room_m,
+        &desks,
+        &cells,
+        settings,
+    )
+    .map_err(|e| LiveError::Input(e.to_string()))?;
+    let sensor_desk = (0..image.sensors())
+        .map(|s| map.desk_under(geometry.sensors.get(s)?.position_m))
+        .collect();
+    Ok((map, sensor_desk))
+}
