@@ -41,7 +41,7 @@
 //! | 10 | `engine` | std | form factors: patches, Isocell rays, BVH, direct light, sensors, superposition |
 //! | 11 | `commission` | std | mesh: capture set to a scene (points, planes, mesh, closure, reflectances), then its model |
 //! | 12 | `image_build`, `image_geometry`, `preset` | std | a model into the store's format, checked against the `FORMFACTORS` region; the image's geometry section to and from the engine's types (the room a report works on); the speed/accuracy presets |
-//! | 13 | `render`, `live_section`, `daylight_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model; the daylight coefficients through the room plan's windows the camera does not see |
+//! | 13 | `render`, `live_section`, `daylight_section` | feature `report`; std | pictures: the top-view illuminance map, the camera-view report, plots; the live-light section of the image, built at commissioning from the capture or a CAD model, and the model checked against the one-luminaire frames at the desks the cameras see (a lost shade calibrated); the daylight coefficients through the room plan's windows the camera does not see |
 //! | 14 | `sim` | feature `sim` | the simulated world: simulated cameras, the demo office, the simulated controller |
 //! | 15 | `serve` | std | serving an image over Modbus TCP and RTU and BACnet/IP, following a DALI gateway |
 //! | 16 | `board` | std | board files (`boards/<name>/board.toml`): hardware as data; opening a board's cameras |
