@@ -35,9 +35,7 @@ a few frames: the fixture in tests/data/occupancy). Only the standard library an
 import argparse
 import json
 import math
-import struct
 import sys
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -50,16 +48,9 @@ FISHEYE_MAX_THETA = math.radians(85.0)
 # ------------------------------------------------------------------ PNG (16-bit grey)
 
 
-def write_png16(path: Path, a: np.ndarray) -> None:
-    h, w = a.shape
-    raw = b"".join(b"\x00" + a[v].astype(">u2").tobytes() for v in range(h))
-
-    def chunk(t: bytes, d: bytes) -> bytes:
-        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
-
-    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0))
-    png += chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
-    path.write_bytes(png)
+# the radiance benches' 16-bit PNG writer (numpy and the standard library only)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "radiance"))
+from daylight import write_png16  # noqa: E402
 
 
 # ------------------------------------------------------------------ solids and the ray caster

@@ -40,16 +40,11 @@ pub(crate) fn camera_rows(
     capture: &Capture,
     o: &SectionOptions,
 ) -> Result<Vec<(usize, Vec<f64>)>, LiveError> {
-    let camera = c
-        .scene
-        .camera
-        .as_ref()
-        .ok_or_else(|| LiveError::Input("the commissioned scene has no camera".into()))?;
-    let gain = c.report.reflectance.gain_cd_m2_per_unit;
+    let (camera, gain) = super::camera_and_gain(c)?;
     let model = &c.model;
-    if !(gain.is_finite() && gain > 0.0) || capture.luminance.len() != model.luminaires() {
+    if capture.luminance.len() != model.luminaires() {
         return Err(LiveError::Input(
-            "no camera gain, or frames that do not match the luminaires".into(),
+            "the capture's frames do not match the luminaires".into(),
         ));
     }
     let caster = RayCaster::new(&model.patches);

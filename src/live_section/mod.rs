@@ -560,13 +560,8 @@ fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
     mask.iter().any(|&m| m).then_some(mask)
 }
 
-/// The section from a commissioning: the capture's one-luminaire frames less its all-off frame.
-pub fn from_capture(
-    c: &Commissioned,
-    capture: &Capture,
-    o: &SectionOptions,
-) -> Result<LiveSectionData, LiveError> {
-    o.validate()?;
+/// A commissioned node's camera and its luminance gain (cd/m² per unit).
+fn camera_and_gain(c: &Commissioned) -> Result<(&Camera, f64), LiveError> {
     let camera = c
         .scene
         .camera
@@ -578,6 +573,17 @@ pub fn from_capture(
             "camera gain {gain} cd/m² per unit: reflectances were not estimated"
         )));
     }
+    Ok((camera, gain))
+}
+
+/// The section from a commissioning: the capture's one-luminaire frames less its all-off frame.
+pub fn from_capture(
+    c: &Commissioned,
+    capture: &Capture,
+    o: &SectionOptions,
+) -> Result<LiveSectionData, LiveError> {
+    o.validate()?;
+    let (camera, gain) = camera_and_gain(c)?;
     if capture.luminance.len() != c.model.luminaires() {
         return Err(LiveError::Input(
             "the capture's frames do not match the luminaires".into(),
