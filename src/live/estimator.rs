@@ -321,9 +321,6 @@ pub struct LiveModel {
     model_rel: Vec<f64>,
     /// Per sensor, the model's disagreement with the camera at all on (0 out of view).
     disagreement: Vec<f64>,
-    /// Per sensor, the camera's scale against the model ([`super::desk_scale::camera_scale`];
-    /// 1 out of view or where it gives none): the measurement at the desk is divided by it.
-    camera_scale: Vec<f64>,
     windows: Vec<Window>,
     // emitters: boundary basis (seen exitance fixed), at seen patches and sensors
     k: usize,
@@ -453,7 +450,6 @@ impl LiveModel {
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
             disagreement: Vec::new(),
-            camera_scale: Vec::new(),
             windows,
             k: k_em,
             emitter_src,
@@ -465,7 +461,6 @@ impl LiveModel {
         };
         model.sky = SkyCoefficients::from_image(image, &model.seen);
         model.edges = model.luminance_edges();
-        model.camera_scale = (0..s).map(|k| model.camera_scale_at_boot(k)).collect();
         model.disagreement = (0..s).map(|k| model.disagreement_at_boot(k)).collect();
         model.boundary_basis().map_err(LiveError::Solve)?;
         // the night test's basis too, at boot: built at the first night frame it took that
@@ -480,36 +475,14 @@ impl LiveModel {
         self.disagreement.get(s).copied().unwrap_or(0.0)
     }
 
-    /// [`Self::disagreement`], computed once at boot from the stored rows: the model's
-    /// response against the camera's at its scale.
+    /// [`Self::disagreement`], computed once at boot from the stored rows.
     fn disagreement_at_boot(&self, s: usize) -> f64 {
         let l = self.luminaires;
         if !self.in_view(s) {
             return 0.0;
         }
         let row = |v: &[f64]| v.get(s * l..(s + 1) * l).map_or(0.0, |r| r.iter().sum());
-        let camera = row(&self.calibrated) / self.scale(s);
-        model_camera_disagreement(row(&self.response), camera).unwrap_or(0.0)
-    }
-
-    /// In-view sensor `s`'s camera scale against the model (1 where there is none).
-    pub fn scale(&self, s: usize) -> f64 {
-        self.camera_scale.get(s).copied().unwrap_or(1.0)
-    }
-
-    /// [`Self::scale`], computed once at boot from the stored rows.
-    fn camera_scale_at_boot(&self, s: usize) -> f64 {
-        let l = self.luminaires;
-        if !self.in_view(s) {
-            return 1.0;
-        }
-        match (
-            self.response.get(s * l..(s + 1) * l),
-            self.calibrated.get(s * l..(s + 1) * l),
-        ) {
-            (Some(m), Some(c)) => super::desk_scale::measurement_scale(m, c),
-            _ => 1.0,
-        }
+        model_camera_disagreement(row(&self.response), row(&self.calibrated)).unwrap_or(0.0)
     }
 
     /// Sensor `s`'s stated relative uncertainty of its modelled light (commissioning's, from
@@ -949,20 +922,16 @@ impl Live {
     /// sees the desk, the radiosity response elsewhere.
     fn artificial(&self, s: usize, levels: &[f64]) -> f64 {
         let l = self.model.luminaires;
-        let (row, scale) = if self.model.in_view(s) {
-            (
-                &self.model.calibrated[s * l..(s + 1) * l],
-                self.model.scale(s),
-            )
+        let row = if self.model.in_view(s) {
+            &self.model.calibrated[s * l..(s + 1) * l]
         } else {
-            (&self.model.response[s * l..(s + 1) * l], 1.0)
+            &self.model.response[s * l..(s + 1) * l]
         };
         row.iter()
             .zip(levels)
             .zip(&self.ageing)
             .map(|((r, x), a)| r * x * a)
-            .sum::<f64>()
-            / scale
+            .sum()
     }
 
     fn ageing_flag(&self, s: usize) -> bool {
@@ -1346,12 +1315,9 @@ impl Live {
             return Action::Set(art, day, unc, Source::Inferred, f);
         }
         // the weighted median residual of the window; spread for the uncertainty
-        // at the camera's scale at the desk (a reflectance under the window the model's direct
-        // light shows wrong: crate::live::desk_scale)
-        let k = self.model.scale(s);
         let mut v2 = w.values.clone();
-        let dm = weighted_median(&mut v2).unwrap_or(0.0) / k;
-        let mut dev: Vec<f64> = w.values.iter().map(|(x, _)| (x / k - dm).abs()).collect();
+        let dm = weighted_median(&mut v2).unwrap_or(0.0);
+        let mut dev: Vec<f64> = w.values.iter().map(|(x, _)| (x - dm).abs()).collect();
         let mad = median(&mut dev).unwrap_or(0.0) * 1.4826;
         let n_eff = w.values.len() as f64;
         let total = art + dm;

@@ -179,8 +179,11 @@ fn record(c: &Commissioned, s: usize, node: usize, cal: &Calibrated) -> DeskCali
     }
 }
 
-/// Logs the desks whose response was calibrated (info) and those whose camera scale says the
-/// window measured a wrong reflectance (warning).
+/// A camera scale this far from 1 at a desk is worth a warning.
+pub const SCALE_NOTICE: f64 = 0.1;
+
+/// Logs the desks whose response was calibrated (info) and those where model and camera
+/// disagree alike at every luminaire (warning).
 pub fn log(done: &[DeskCalibration]) {
     for d in done {
         if !d.replaced_luminaire_ids.is_empty() {
@@ -194,15 +197,14 @@ pub fn log(done: &[DeskCalibration]) {
                 d.model_all_on_lx
             );
         }
-        if d.scale.ln().abs() > desk_scale::SCALE_NOISE.ln_1p() {
+        if d.scale.ln().abs() > SCALE_NOTICE.ln_1p() {
             tracing::warn!(
                 "sensor {}: node {}'s camera measures {:+.0} % at every luminaire against the \
-                 model: a wrong reflectance under its window; its measurement there is scaled \
-                 by 1/{:.2}",
+                 model: a wrong reflectance under its window, or light the model misses at \
+                 every luminaire alike; the stated uncertainty holds the disagreement",
                 d.sensor_id,
                 d.node,
-                100.0 * (d.scale - 1.0),
-                d.scale
+                100.0 * (d.scale - 1.0)
             );
         }
     }

@@ -504,9 +504,7 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
                 .find(|u| u.sensor_id == id)
                 .map_or(f64::NAN, |u| u.rel);
             let row = camera_lx.get(s).map_or(&[][..], |r| &r[..]);
-            // the camera at its scale at the desk (crate::live::desk_scale)
-            let k = crate::live::desk_scale::measurement_scale(&model.response_lx[s], row);
-            let cam: f64 = row.iter().sum::<f64>() / k;
+            let cam: f64 = row.iter().sum();
             // the model as it was before the cameras calibrated it: how far it was off says how
             // hard the desk is for both
             let mdl: f64 = c
