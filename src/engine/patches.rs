@@ -247,6 +247,30 @@ mod tests {
         }
     }
 
+    // issue 34: the work estimate's lower bound holds for any triangle and patch size (the
+    // engine refuses a setting on it before subdividing)
+    proptest::proptest! {
+        #[test]
+        fn no_subdivision_makes_fewer_patches_than_the_estimate(
+            corners in proptest::collection::vec(-10.0f64..10.0, 9),
+            size_m in 0.05f64..4.0,
+        ) {
+            let p = |k: usize| DVec3::new(corners[3 * k], corners[3 * k + 1], corners[3 * k + 2]);
+            let mut m = square(1.0, 0.5);
+            m.positions_m = vec![p(0), p(1), p(2)];
+            m.triangles.truncate(1);
+            let settings = PatchSettings {
+                patch_size_m: size_m,
+                detail_ratio: 0.0,
+                min_patch_m: size_m,
+                light_ratio: 0.0,
+            };
+            let made = subdivide(&m, &settings, &[], &mut |_| false).len();
+            let fewest = fewest_patches(&m, size_m);
+            proptest::prop_assert!(made as f64 >= fewest, "{made} patches, estimate {fewest}");
+        }
+    }
+
     #[test]
     fn uniform_subdivision_keeps_area_and_orientation() {
         let m = square(4.0, 0.5);
