@@ -306,7 +306,6 @@ fn sensor_responses(scene: &Scene, settings: &Settings) -> Vec<AngularResponse> 
         .collect()
 }
 
-/// Stage "patches": the mesh subdivided, finer near the sensors and near the light.
 /// Most patch rays (patches × rays per patch) a model is built with: about a quarter of an hour
 /// at this 2-core machine's million rays a second (docs/performance.md).
 pub const MAX_PATCH_RAYS: f64 = 1e9;
@@ -349,6 +348,7 @@ fn check_rays(patches: usize, settings: &Settings) -> Result<(), EngineError> {
     Ok(())
 }
 
+/// Stage "patches": the mesh subdivided, finer near the sensors and near the light.
 fn make_patches(
     scene: &Scene,
     settings: &Settings,
@@ -391,7 +391,6 @@ fn make_patches(
     let patches = timed(stats, "patches", || {
         patches::subdivide(&scene.mesh, &settings.patches, &interest, &mut near_light)
     });
-    check_rays(patches.len(), settings)?;
     if patches.len() > patches::MAX_PATCHES {
         return Err(EngineError::TooMuchWork(format!(
             "the refinement toward the sensors and luminaires makes more than {} patches; raise \
@@ -401,6 +400,7 @@ fn make_patches(
             settings.patches.patch_size_m
         )));
     }
+    check_rays(patches.len(), settings)?;
     if patches.is_empty() {
         return Err(EngineError::Empty("no patches".into()));
     }

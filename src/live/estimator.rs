@@ -1328,14 +1328,7 @@ impl Live {
         let rel = st
             .measured_rel_uncertainty
             .max(DISAGREEMENT_TO_SIGMA * self.model.disagreement(s))
-            .max(
-                self.model
-                    .model_rel
-                    .get(s)
-                    .copied()
-                    .filter(|u| u.is_finite())
-                    .unwrap_or(0.0),
-            );
+            .max(self.model.model_rel_uncertainty(s, 0.0));
         let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2) + (rel * total).powi(2)).sqrt();
         Action::Set(total - day, day, unc, Source::Measured, extra)
     }
