@@ -83,6 +83,7 @@ pub fn modbus_rtu(data: &[u8]) {
         luminaire_ids: vec![1, 2],
         sensor_flags: vec![0, 1],
         model_rel_uncertainty: vec![0.05, f64::NAN],
+        uncertainty_parts_lx: Vec::new(),
         generation: 1,
         luminaire_flux_lm: vec![3000.0, 3000.0],
     };

@@ -555,6 +555,9 @@ pub struct LiveSectionData {
     /// Stated relative standard uncertainty of each sensor's modelled light (not finite: not
     /// stated).
     pub model_rel_uncertainty: Vec<f64>,
+    /// The parts of each sensor's modelled-light uncertainty per luminaire at 100 %, lx:
+    /// `[sensor][luminaire]` ([`crate::runtime::UNCERTAINTY_PARTS`] each); empty: not stated.
+    pub model_uncertainty_parts_lx: Vec<Vec<[f64; crate::runtime::UNCERTAINTY_PARTS]>>,
     /// Candidate emitter group per patch ([`crate::store::live::NO_EMITTER`]: none).
     pub patch_emitter: Vec<u8>,
     /// Number of emitter groups.
@@ -574,6 +577,7 @@ impl LiveSectionData {
             + 4 * (self.windows.len() + 1)
             + 8 * self.sensor_response_lx.len() * l
             + 2 * self.model_rel_uncertainty.len()
+            + 4 * crate::runtime::UNCERTAINTY_PARTS * self.model_uncertainty_parts_lx.len() * l
             + self.patch_emitter.len()
     }
 }
@@ -649,8 +653,40 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
         sensor_model_uncertainty: Bytes(&uncertainty),
         patch_emitter: Bytes(&d.patch_emitter),
         n_emitters: d.n_emitters,
+        sensor_uncertainty_parts_lx: Bytes(&[]),
     };
-    postcard::to_stdvec(&live).map_err(|e| BuildError::Serialise(e.to_string()))
+    let parts = uncertainty_parts_bytes(d, l)?;
+    let mut body = postcard::to_stdvec(&live).map_err(|e| BuildError::Serialise(e.to_string()))?;
+    let tail =
+        postcard::to_stdvec(&Bytes(&parts)).map_err(|e| BuildError::Serialise(e.to_string()))?;
+    body.extend_from_slice(&tail);
+    Ok(body)
+}
+
+/// The live section's uncertainty parts, f32 LE `[sensor][luminaire][part]` (empty when not
+/// stated), checked against the section's sensors and `l` luminaires.
+fn uncertainty_parts_bytes(d: &LiveSectionData, l: usize) -> Result<Vec<u8>, BuildError> {
+    let parts = &d.model_uncertainty_parts_lx;
+    if parts.is_empty() {
+        return Ok(Vec::new());
+    }
+    if parts.len() != d.windows.len() || parts.iter().any(|r| r.len() != l) {
+        return Err(BuildError::Limits(format!(
+            "live section: uncertainty parts for {} sensors and {:?} luminaires, the section has \
+             {} sensors and {l} luminaires",
+            parts.len(),
+            parts.first().map(Vec::len),
+            d.windows.len()
+        )));
+    }
+    let max = crate::store::MAX_LUX;
+    let flat = parts.iter().flatten().flatten();
+    if let Some(v) = flat.clone().find(|v| !(v.is_finite() && v.abs() <= max)) {
+        return Err(BuildError::Limits(format!(
+            "live section: an uncertainty part of {v} lx"
+        )));
+    }
+    Ok(flat.flat_map(|v| (*v as f32).to_le_bytes()).collect())
 }
 
 /// The image with its live section replaced by `live` (added when it has none; removed with

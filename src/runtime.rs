@@ -40,6 +40,62 @@ pub enum RuntimeError {
     NonFinite,
 }
 
+/// Parts of a desk's modelled-light uncertainty per luminaire at 100 %: six independent
+/// reflectance classes (`crate::commission::uncertainty::Inferred`), then what an unseen object
+/// could shade of that luminaire's direct light.
+pub const UNCERTAINTY_PARTS: usize = 7;
+
+/// The standard uncertainty of a desk's modelled light in a dimming state, lx, from its parts
+/// per luminaire at 100 % (`part(l, k)`, `k` < [`UNCERTAINTY_PARTS`]) and the levels (in
+/// [0, 1]): `√(Σ_c (Σ_l x_l Δ_lc)² + (max_l x_l o_l)²)`. Each reflectance class is shared by
+/// every luminaire (their changes add before squaring; the light is linear in the emission), the
+/// classes are independent of each other, and an unseen object shades one luminaire.
+pub fn state_uncertainty_lx(part: impl Fn(usize, usize) -> f64, levels: &[f64]) -> f64 {
+    uncertainty_at(&part, |l| levels[l], levels.len())
+}
+
+fn uncertainty_at(part: &impl Fn(usize, usize) -> f64, x: impl Fn(usize) -> f64, n: usize) -> f64 {
+    let mut var = 0.0;
+    for c in 0..UNCERTAINTY_PARTS - 1 {
+        let d: f64 = (0..n).map(|l| x(l) * part(l, c)).sum();
+        var += d * d;
+    }
+    let occluder = (0..n)
+        .map(|l| x(l) * part(l, UNCERTAINTY_PARTS - 1))
+        .fold(0.0, f64::max);
+    libm::sqrt(var + occluder * occluder)
+}
+
+/// A desk's stated relative uncertainty of its modelled light in a dimming state (`levels`),
+/// from the one stated with every luminaire on (`stated_all_on`, NaN: not stated), its
+/// uncertainty parts per luminaire ([`state_uncertainty_lx`]'s `part`) and its response per
+/// luminaire at 100 % (`response(l)`, lx). With one or two luminaires on, a desk's light is
+/// more interreflected than with all (farther luminaires reach it through the ceiling and the
+/// walls), so the reflectances weigh more: `u(x) / E(x)`. Where the all-on statement was
+/// widened beyond its parts (the model disagreed with the camera at the desk, or the camera
+/// calibrated it), it stays the floor. A state without light keeps the all-on statement.
+pub fn state_rel_uncertainty(
+    stated_all_on: f64,
+    part: impl Fn(usize, usize) -> f64,
+    response: impl Fn(usize) -> f64,
+    levels: &[f64],
+) -> f64 {
+    let n = levels.len();
+    let lit: f64 = (0..n).map(|l| levels[l] * response(l)).sum();
+    let all: f64 = (0..n).map(&response).sum();
+    if !(stated_all_on.is_finite() && lit > 0.0 && all > 0.0) {
+        return stated_all_on;
+    }
+    let at = uncertainty_at(&part, |l| levels[l], n) / lit;
+    let parts_all_on = uncertainty_at(&part, |_| 1.0, n) / all;
+    // the all-on statement above its parts (beyond the f32 parts' rounding) was widened
+    if stated_all_on > 1.01 * parts_all_on + 1e-4 {
+        at.max(stated_all_on)
+    } else {
+        at
+    }
+}
+
 /// The run-time core over one image.
 #[derive(Debug, Clone, Copy)]
 pub struct Runtime<'i, 'a> {
@@ -232,4 +288,74 @@ pub fn eval_report(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two luminaires: the near one gives 1000 lx, the far one 100 lx (through the ceiling);
+    /// the ceiling's reflectance moves each by 10 lx, an unseen object could shade 40 lx of
+    /// the near one and 5 lx of the far one.
+    fn part(l: usize, k: usize) -> f64 {
+        match (l, k) {
+            (_, 1) => 10.0,
+            (0, 6) => 40.0,
+            (1, 6) => 5.0,
+            _ => 0.0,
+        }
+    }
+
+    fn response(l: usize) -> f64 {
+        [1000.0, 100.0][l]
+    }
+
+    #[test]
+    fn the_uncertainty_of_a_state_in_closed_form() {
+        // all on: √(20² + 40²) = 44.72 lx; near only: √(10² + 40²); far only: √(10² + 5²)
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(close(
+            state_uncertainty_lx(part, &[1.0, 1.0]),
+            20f64.hypot(40.0)
+        ));
+        assert!(close(
+            state_uncertainty_lx(part, &[1.0, 0.0]),
+            10f64.hypot(40.0)
+        ));
+        assert!(close(
+            state_uncertainty_lx(part, &[0.0, 1.0]),
+            10f64.hypot(5.0)
+        ));
+        // half the far one: the class adds linearly, the occluder takes the largest
+        assert!(close(
+            state_uncertainty_lx(part, &[0.0, 0.5]),
+            5f64.hypot(2.5)
+        ));
+        assert!(close(state_uncertainty_lx(part, &[0.0, 0.0]), 0.0));
+    }
+
+    #[test]
+    fn a_state_lit_through_the_ceiling_states_more_and_a_widened_statement_stays_the_floor() {
+        let all_on = 20f64.hypot(40.0) / 1100.0;
+        // stated as the parts give it: each state its own
+        let near = state_rel_uncertainty(all_on, part, response, &[1.0, 0.0]);
+        let far = state_rel_uncertainty(all_on, part, response, &[0.0, 1.0]);
+        let all = state_rel_uncertainty(all_on, part, response, &[1.0, 1.0]);
+        assert!((all - all_on).abs() < 1e-12);
+        assert!((near - 10f64.hypot(40.0) / 1000.0).abs() < 1e-12);
+        assert!((far - 10f64.hypot(5.0) / 100.0).abs() < 1e-12);
+        assert!(far > 2.5 * all);
+        // widened at commissioning to 10 % (the camera disagreed): never below it
+        assert_eq!(
+            state_rel_uncertainty(0.10, part, response, &[1.0, 0.0]),
+            0.10
+        );
+        assert!((state_rel_uncertainty(0.10, part, response, &[0.0, 1.0]) - far).abs() < 1e-12);
+        // not stated, or no light: the all-on statement as it is
+        assert!(state_rel_uncertainty(f64::NAN, part, response, &[0.0, 1.0]).is_nan());
+        assert_eq!(
+            state_rel_uncertainty(0.04, part, response, &[0.0, 0.0]),
+            0.04
+        );
+    }
 }

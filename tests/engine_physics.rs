@@ -520,6 +520,39 @@ fn reflectance_sensitivity_matches_a_second_engine_run() {
             predicted[k]
         );
     }
+    // per luminaire (what a stated uncertainty per dimming state rests on): each against the
+    // second run's change of that luminaire's response, and their sum is the all-on change
+    let per_lum = m0
+        .reflectance_sensitivities_per_luminaire_lx(std::slice::from_ref(&rho))
+        .unwrap()
+        .remove(0);
+    assert_eq!(per_lum.len(), m0.luminaires());
+    for k in 0..m0.sensors() {
+        let sum: f64 = per_lum.iter().map(|d| d[k]).sum();
+        assert!(
+            (sum - predicted[k]).abs() <= 1e-3 * predicted[k].abs() + 1e-3,
+            "sensor {}: the luminaires' changes sum to {sum}, all on {}",
+            m0.sensor_ids[k],
+            predicted[k]
+        );
+        // a luminaire's share: within 3 % of its change and 1 % of the desk's (the prediction
+        // gathers the first bounce from the patches, the second run computes it anew: a few
+        // tenths of a lux on a luminaire's few lux)
+        let total = e1[k] - e0[k];
+        for (l, d) in per_lum.iter().enumerate() {
+            let actual = m1.response_lx[k][l] - m0.response_lx[k][l];
+            assert!(
+                (d[k] - actual).abs() <= 0.03 * actual.abs() + 0.01 * total.abs(),
+                "sensor {} luminaire {l}: {} vs {actual}",
+                m0.sensor_ids[k],
+                d[k]
+            );
+        }
+    }
+    assert!(
+        m0.reflectance_sensitivities_per_luminaire_lx(&[&rho[1..]])
+            .is_err()
+    );
     // bad input: wrong length, a reflectance of 1
     assert!(m0.reflectance_sensitivity_lx(&all_on, &rho[1..]).is_err());
     let mut bad = rho.clone();

@@ -120,6 +120,53 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
         LiveModel::new(&o),
         Err(luxnode::live::LiveError::NoSection)
     ));
+    // the section states each desk's model uncertainty per luminaire (per dimming state)
+    assert!(live.has_uncertainty_parts());
+    let all_on = vec![1.0; image.luminaires()];
+    for k in 0..image.sensors() {
+        let stated = image.model_rel_uncertainty(k).unwrap();
+        let at = image.model_rel_uncertainty_at(k, &all_on).unwrap();
+        assert!(
+            (at - stated).abs() <= 0.01 * stated + 2e-4,
+            "{at} vs {stated}"
+        );
+    }
+    // a version-2 section (before the parts: the same body without its last byte string, here
+    // empty) still parses, and states the all-on uncertainty for every state
+    let mut v2 = rig().section.clone();
+    v2.model_uncertainty_parts_lx.clear();
+    let mut body = luxnode::image_build::encode_live(&v2).unwrap();
+    assert_eq!(body.pop(), Some(0), "an empty byte string is one zero byte");
+    // a version-3 section without its parts' byte string is not a section
+    assert!(
+        luxnode::image_build::with_section(
+            &old,
+            luxnode::store::LIVE_MAGIC,
+            luxnode::store::live::LIVE_VERSION,
+            Some(&body),
+        )
+        .is_err()
+    );
+    // the body's first field is its version (postcard: one byte for a small u16)
+    assert_eq!(body[0], 3);
+    body[0] = 2;
+    let two = luxnode::image_build::with_section(
+        &old,
+        luxnode::store::LIVE_MAGIC,
+        luxnode::store::live::LIVE_VERSION_WITHOUT_PARTS,
+        Some(&body),
+    )
+    .unwrap();
+    let i2 = Image::parse(&two).unwrap();
+    let l2 = i2.live.as_ref().expect("a version-2 live section is read");
+    assert!(!l2.has_uncertainty_parts());
+    let one = (0..image.luminaires())
+        .map(|j| f64::from(u8::from(j == 0)))
+        .collect::<Vec<_>>();
+    assert_eq!(
+        i2.model_rel_uncertainty_at(0, &one),
+        i2.model_rel_uncertainty(0)
+    );
     // a flipped bit in the section fails the payload CRC like any other byte
     let mut bad = bytes.clone();
     let k = bad.len() - 100;

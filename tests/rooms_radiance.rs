@@ -99,9 +99,21 @@ fn truth() -> HashMap<(u32, u32), (f64, f64)> {
     t
 }
 
+/// How the stated uncertainties held over every (state, desk) value.
+#[derive(Debug)]
+struct Coverage {
+    /// Share within two of the image's statements in their dimming state (simulate's
+    /// `uncertainty_lx`).
+    per_state: f64,
+    /// Share within two of commission's all-on relative statement at every state's value.
+    all_on: f64,
+    /// The median of the per-state statements, relative.
+    median_rel: f64,
+}
+
 /// Per desk sensor: Σ|model − truth| / Σ truth over every state of states.csv (the bench's
-/// error), and the share of (state, desk) values within two stated uncertainties.
-fn model_errors(img: &Path, commission_out: &str) -> (HashMap<u32, f64>, f64) {
+/// error), and how the stated uncertainties held.
+fn model_errors(img: &Path, commission_out: &str) -> (HashMap<u32, f64>, Coverage) {
     let (out, _) = luxnode(&[
         "simulate".into(),
         "--image".into(),
@@ -122,19 +134,33 @@ fn model_errors(img: &Path, commission_out: &str) -> (HashMap<u32, f64>, f64) {
         .collect();
     let truth = truth();
     let (mut num, mut den) = (HashMap::new(), HashMap::new());
-    let (mut within, mut n) = (0usize, 0usize);
+    assert_eq!(
+        out.lines().next(),
+        Some("scenario_id,sensor_id,lux,uncertainty_lx")
+    );
+    let (mut within, mut within_all_on, mut n) = (0usize, 0usize, 0usize);
+    let mut rel = Vec::new();
     for l in out.lines().skip(1) {
         let f: Vec<&str> = l.split(',').collect();
         let (sc, s): (u32, u32) = (f[0].parse().expect("id"), f[1].parse().expect("id"));
         let est: f64 = f[2].parse().expect("lux");
+        let u_lx: f64 = f[3].parse().expect("a stated uncertainty");
         let t = truth[&(sc, s)].0;
         *num.entry(s).or_insert(0.0) += (est - t).abs();
         *den.entry(s).or_insert(0.0) += t;
         n += 1;
-        within += usize::from((est - t).abs() <= 2.0 * u[&s] * est);
+        within += usize::from((est - t).abs() <= 2.0 * u_lx);
+        within_all_on += usize::from((est - t).abs() <= 2.0 * u[&s] * est);
+        rel.push(u_lx / est);
     }
+    rel.sort_by(f64::total_cmp);
     let err = num.iter().map(|(s, x)| (*s, x / den[s])).collect();
-    (err, within as f64 / n as f64)
+    let c = Coverage {
+        per_state: within as f64 / n as f64,
+        all_on: within_all_on as f64 / n as f64,
+        median_rel: rel[rel.len() / 2],
+    };
+    (err, c)
 }
 
 /// The desks the camera sees (not listed "out of view" by `commission`).
@@ -175,16 +201,18 @@ fn room_02_without_a_plan_holds_at_every_desk() {
     let (errs, coverage) = model_errors(&img, &out);
     let (s, w) = worst(&errs, &seen);
     eprintln!(
-        "room_02, no plan: in view worst desk {s} {:.1} %; coverage {:.0} %",
+        "room_02, no plan: in view worst desk {s} {:.1} %; {coverage:?}",
         100.0 * w,
-        100.0 * coverage
     );
-    // measured: worst in view 6.3 % (desk 3), out of view 4.9 % (desk 1); coverage 94 %
+    // measured: worst in view 6.3 % (desk 3), out of view 4.9 % (desk 1)
     assert!(w <= 0.126, "desk {s}: {:.1} %", 100.0 * w);
     let out_of_view: Vec<u32> = (1..=10).filter(|s| !seen.contains(s)).collect();
     let (s, w) = worst(&errs, &out_of_view);
     assert!(w <= 0.098, "desk {s}: {:.1} %", 100.0 * w);
-    assert!(coverage >= 0.85, "{coverage}");
+    // the statement per dimming state holds (measured: every value; the all-on statement 94 %)
+    // at issue 28's 90 %, and is not inflated to do so (median 7.2 %)
+    assert!(coverage.per_state >= 0.90, "{coverage:?}");
+    assert!(coverage.median_rel <= 0.10, "{coverage:?}");
 }
 
 /// With the room plan: every desk within 2.1 % in every state, and live light by day (the

@@ -968,8 +968,11 @@ def night_model(a, d: Path, com: dict, truth: dict) -> dict:
     for r in csv.DictReader(p.stdout.splitlines()):
         sid, s = int(r["scenario_id"]), int(r["sensor_id"])
         est = float(r["lux"])
-        out.setdefault(s, []).append((est, truth[(sid, s)][0], com["unc"].get(s, float("nan"))
-                                      * est))
+        # the image's own statement per dimming state when simulate prints it (stop 39 on),
+        # else commission's all-on relative uncertainty at this state's value
+        u = r.get("uncertainty_lx")
+        u = float(u) if u not in (None, "") else com["unc"].get(s, float("nan")) * est
+        out.setdefault(s, []).append((est, truth[(sid, s)][0], u))
     return out
 
 

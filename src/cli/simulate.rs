@@ -123,7 +123,7 @@ pub fn run(a: &Args) -> Result<()> {
             .map(|(id, f2)| serde_json::json!({"sensor_id": id, "f2": f2}))
             .collect::<Vec<_>>(),
     });
-    print_computed(a.format, &scene.name, &scenarios, &computed, extra)?;
+    print_computed(a.format, &scene.name, &scenarios, &computed, None, extra)?;
     #[cfg(feature = "report")]
     if let Some(path) = &a.map {
         draw_map(a, path, &scene, &model, &scenarios)?;
@@ -208,23 +208,43 @@ fn print_computed(
     name: &str,
     scenarios: &[Scenario],
     computed: &[Computed],
+    uncertainty_lx: Option<&[f64]>,
     extra: serde_json::Value,
 ) -> Result<()> {
+    // per value, its stated standard uncertainty (an image's; NaN: not stated)
+    let u = |i: usize| uncertainty_lx.and_then(|u| u.get(i)).copied();
     match format {
         OutputFormat::Csv => {
-            println!("scenario_id,sensor_id,lux");
-            for c in computed {
-                println!("{},{},{:.3}", c.scenario, c.sensor, c.lux);
+            let column = if uncertainty_lx.is_some() {
+                ",uncertainty_lx"
+            } else {
+                ""
+            };
+            println!("scenario_id,sensor_id,lux{column}");
+            for (i, c) in computed.iter().enumerate() {
+                let u = match u(i) {
+                    Some(v) if v.is_finite() => format!(",{v:.3}"),
+                    Some(_) => ",".into(),
+                    None => String::new(),
+                };
+                println!("{},{},{:.3}{u}", c.scenario, c.sensor, c.lux);
             }
         }
         OutputFormat::Json => {
+            let sensor = |(i, c): (usize, &Computed)| {
+                let mut v = serde_json::json!({"sensor_id": c.sensor, "lux": c.lux});
+                if let Some(u) = u(i) {
+                    v["uncertainty_lx"] = serde_json::json!(u.is_finite().then_some(u));
+                }
+                v
+            };
             let mut v = serde_json::json!({
                 "scene": name,
                 "scenarios": scenarios.iter().map(|sc| serde_json::json!({
                     "scenario_id": sc.id,
                     "luminaires_on": sc.on,
-                    "sensors": computed.iter().filter(|c| c.scenario == sc.id)
-                        .map(|c| serde_json::json!({"sensor_id": c.sensor, "lux": c.lux}))
+                    "sensors": computed.iter().enumerate().filter(|(_, c)| c.scenario == sc.id)
+                        .map(sensor)
                         .collect::<Vec<_>>(),
                 })).collect::<Vec<_>>(),
             });
@@ -254,6 +274,24 @@ fn from_image(a: &Args, path: &Path) -> Result<()> {
         let mut out = vec![0.0; image.sensors()];
         runtime.sensor_lux(levels, &mut out).map(|()| out)
     })?;
+    // each value's stated uncertainty in its dimming state (the image's live section states it)
+    let uncertainty: Option<Vec<f64>> = image.live.is_some().then(|| {
+        scenarios
+            .iter()
+            .flat_map(|sc| {
+                let levels = sc.levels(&ids);
+                (0..image.sensors())
+                    .map(|k| {
+                        image
+                            .model_rel_uncertainty_at(k, &levels)
+                            .unwrap_or(f64::NAN)
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .zip(&computed)
+            .map(|(rel, c)| rel * c.lux)
+            .collect()
+    });
     eprintln!(
         "image {}: {}, generation {}, {} patches, {} luminaires, {} sensors",
         path.display(),
@@ -272,6 +310,7 @@ fn from_image(a: &Args, path: &Path) -> Result<()> {
         image.payload.scene_name,
         &scenarios,
         &computed,
+        uncertainty.as_deref(),
         extra,
     )?;
     report_truth(a.truth.clone(), &computed)

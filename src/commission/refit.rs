@@ -313,6 +313,7 @@ mod tests {
             by_class_lx: [dw, dc, 0.0, 0.0, 0.0, 0.0],
             unseen_occluder_lx: 0.0,
             rel: 0.0,
+            by_luminaire: Vec::new(),
         }
     }
 

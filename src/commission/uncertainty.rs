@@ -175,6 +175,19 @@ pub struct SensorUncertainty {
     pub unseen_occluder_lx: f64,
     /// The relative standard uncertainty, `√(Σ Δ² + occluder²) / E`.
     pub rel: f64,
+    /// Per luminaire at 100 %: its part of [`Self::by_class_lx`] (they sum to it: the light is
+    /// linear in the emission), then what an unseen object could shade of its direct light
+    /// (the largest over the lit luminaires is [`Self::unseen_occluder_lx`]'s counterpart in a
+    /// dimming state). What [`state_uncertainty_lx`] states per dimming state.
+    pub by_luminaire: Vec<[f64; 7]>,
+}
+
+/// The standard uncertainty of a desk's modelled light in a dimming state (`levels`, one per
+/// luminaire in [0, 1]), lx, from its per-luminaire parts (`[class Δ × 6, occluder]`, each at
+/// 100 %): [`crate::runtime::state_uncertainty_lx`].
+pub fn state_uncertainty_lx(by_luminaire: &[[f64; 7]], levels: &[f64]) -> f64 {
+    let n = by_luminaire.len().min(levels.len());
+    crate::runtime::state_uncertainty_lx(|l, k| by_luminaire[l][k], &levels[..n])
 }
 
 /// At a desk no camera sees, an unseen object (a monitor, a cabinet, a partition) may stand
@@ -187,34 +200,34 @@ pub const UNSEEN_OCCLUDER_SHARE: f64 = 0.5;
 /// monitor 0.45 m from the sensor hides 45°); the luminaires above it cannot.
 pub const UNSEEN_OCCLUDER_ELEVATION_RAD: f64 = core::f64::consts::FRAC_PI_4;
 
-/// Per sensor, what an unseen object could shade, lx ([`UNSEEN_OCCLUDER_SHARE`] of the largest
-/// direct light of a luminaire below [`UNSEEN_OCCLUDER_ELEVATION_RAD`]); 0 where `out_of_view`
-/// is false (a sensor some camera sees, or not on a desk, where monitors stand).
+/// Per sensor and luminaire, what an unseen object could shade of its direct light at 100 %,
+/// lx ([`UNSEEN_OCCLUDER_SHARE`] of it for a luminaire below [`UNSEEN_OCCLUDER_ELEVATION_RAD`],
+/// 0 above); all 0 where `out_of_view` is false (a sensor some camera sees, or not on a desk,
+/// where monitors stand). A desk's occluder uncertainty is the largest over its luminaires.
 pub fn unseen_occluder_lx(
     model: &Model,
     sensors: &[crate::scene::Sensor],
     luminaires: &[crate::scene::Luminaire],
     out_of_view: &[bool],
-) -> Vec<f64> {
+) -> Vec<Vec<f64>> {
     sensors
         .iter()
         .enumerate()
         .map(|(s, sensor)| {
-            if !out_of_view.get(s).copied().unwrap_or(false) {
-                return 0.0;
-            }
+            let seen = !out_of_view.get(s).copied().unwrap_or(false);
             let row = model.direct_sensor_lx.get(s);
             luminaires
                 .iter()
                 .enumerate()
-                .filter(|(_, l)| {
+                .map(|(j, l)| {
                     let d = l.position_m - sensor.position_m;
-                    let horizontal = d.truncate().length();
-                    d.z.atan2(horizontal) < UNSEEN_OCCLUDER_ELEVATION_RAD
+                    let low = d.z.atan2(d.truncate().length()) < UNSEEN_OCCLUDER_ELEVATION_RAD;
+                    if seen || !low {
+                        return 0.0;
+                    }
+                    row.and_then(|r| r.get(j)).copied().unwrap_or(0.0) * UNSEEN_OCCLUDER_SHARE
                 })
-                .map(|(j, _)| row.and_then(|r| r.get(j)).copied().unwrap_or(0.0))
-                .fold(0.0, f64::max)
-                * UNSEEN_OCCLUDER_SHARE
+                .collect()
         })
         .collect()
 }
@@ -260,10 +273,11 @@ pub fn per_sensor(
     model: &Model,
     reco: &RecoMesh,
     o: &UncertaintyOptions,
-    occluder_lx: &[f64],
+    occluder_lx: &[Vec<f64>],
 ) -> Result<Vec<SensorUncertainty>, EngineError> {
     o.check().map_err(EngineError::Settings)?;
-    let levels = vec![1.0; model.luminaires()];
+    let lums = model.luminaires();
+    let levels = vec![1.0; lums];
     let lux = model.sensor_lux(&levels)?;
     let class: Vec<Option<Inferred>> = model
         .patches
@@ -294,21 +308,38 @@ pub fn per_sensor(
         perturbed.push((ci, rho));
     }
     let rhos: Vec<&[f64]> = perturbed.iter().map(|(_, r)| r.as_slice()).collect();
-    let deltas = model.reflectance_sensitivities_lx(&levels, &rhos)?;
-    let mut by_class = vec![[0.0; 6]; model.sensors()];
-    for ((ci, _), d) in perturbed.iter().zip(deltas) {
-        for (s, v) in d.into_iter().enumerate() {
-            by_class[s][*ci] = v;
+    let deltas = model.reflectance_sensitivities_per_luminaire_lx(&rhos)?;
+    // [sensor][luminaire]: six classes, then the occluder
+    let mut by_luminaire = vec![vec![[0.0; 7]; lums]; model.sensors()];
+    for ((ci, _), per_lum) in perturbed.iter().zip(deltas) {
+        for (l, d) in per_lum.into_iter().enumerate() {
+            for (s, v) in d.into_iter().enumerate() {
+                by_luminaire[s][l][*ci] = v;
+            }
+        }
+    }
+    for (s, rows) in by_luminaire.iter_mut().enumerate() {
+        for (l, row) in rows.iter_mut().enumerate() {
+            row[6] = occluder_lx
+                .get(s)
+                .and_then(|o| o.get(l))
+                .copied()
+                .unwrap_or(0.0);
         }
     }
     Ok(model
         .sensor_ids
         .iter()
         .zip(lux)
-        .zip(by_class)
-        .enumerate()
-        .map(|(s, ((&sensor_id, all_on_lx), by_class_lx))| {
-            let unseen_occluder_lx = occluder_lx.get(s).copied().unwrap_or(0.0);
+        .zip(by_luminaire)
+        .map(|((&sensor_id, all_on_lx), by_luminaire)| {
+            let mut by_class_lx = [0.0; 6];
+            for row in &by_luminaire {
+                for (c, d) in by_class_lx.iter_mut().zip(row) {
+                    *c += d;
+                }
+            }
+            let unseen_occluder_lx = by_luminaire.iter().map(|r| r[6]).fold(0.0, f64::max);
             let var: f64 = by_class_lx.iter().map(|d| d * d).sum::<f64>()
                 + unseen_occluder_lx * unseen_occluder_lx;
             let rel = if all_on_lx > 0.0 {
@@ -322,6 +353,7 @@ pub fn per_sensor(
                 by_class_lx,
                 unseen_occluder_lx,
                 rel,
+                by_luminaire,
             }
         })
         .collect())

@@ -149,6 +149,7 @@ mod tests {
             luminaire_ids: vec![1],
             sensor_flags: vec![0],
             model_rel_uncertainty: vec![f64::NAN],
+            uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_flux_lm: vec![1000.0],
         };

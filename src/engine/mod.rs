@@ -1153,24 +1153,8 @@ impl Model {
         rhos: &[R],
     ) -> Result<Vec<Vec<f64>>, EngineError> {
         self.check_levels(levels)?;
+        self.check_rhos(rhos)?;
         let n = self.patches.len();
-        for rho in rhos {
-            let rho = rho.as_ref();
-            if rho.len() != n {
-                return Err(EngineError::State(format!(
-                    "{} reflectances for {n} patches",
-                    rho.len()
-                )));
-            }
-            if let Some(r) = rho
-                .iter()
-                .find(|r| !(r.is_finite() && (0.0..1.0).contains(*r)))
-            {
-                return Err(EngineError::State(format!(
-                    "reflectance {r} is outside [0, 1)"
-                )));
-            }
-        }
         let mut e = vec![0.0; n];
         for (l, x) in levels.iter().enumerate() {
             for (ei, d) in e.iter_mut().zip(&self.direct_patch_lx[l]) {
@@ -1203,6 +1187,67 @@ impl Model {
                 )
             })
             .collect()
+    }
+
+    /// [`Model::reflectance_sensitivities_lx`] per luminaire at 100 %: for each set of
+    /// reflectances, `[luminaire][sensor]` changes, lx. By linearity in the emission a dimming
+    /// state's change is `Σ_l x_l Δ_l` (what a stated uncertainty per state needs,
+    /// [`crate::commission::uncertainty`]). One multisolve per set (every luminaire in the same
+    /// sweeps); the model's own solutions are its basis.
+    pub fn reflectance_sensitivities_per_luminaire_lx<R: AsRef<[f64]>>(
+        &self,
+        rhos: &[R],
+    ) -> Result<Vec<Vec<Vec<f64>>>, EngineError> {
+        self.check_rhos(rhos)?;
+        rhos.iter()
+            .map(|rho| {
+                let solved = multisolve::solve_all(
+                    &self.ff.f,
+                    rho.as_ref(),
+                    &self.direct_patch_lx,
+                    self.settings.solve,
+                )
+                .map_err(|source| EngineError::Solve {
+                    what: "reflectance sensitivity per luminaire".into(),
+                    source,
+                })?;
+                solved
+                    .into_iter()
+                    .zip(&self.basis_b)
+                    .map(|((b1, _), b0)| {
+                        let db: Vec<f64> = b1.iter().zip(b0).map(|(a, b)| a - b).collect();
+                        finite(
+                            (0..self.sensors())
+                                .map(|s| gather_dot(&self.gather, s, &db))
+                                .collect(),
+                        )
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Each set of reflectances has the patch count and lies in [0, 1).
+    fn check_rhos<R: AsRef<[f64]>>(&self, rhos: &[R]) -> Result<(), EngineError> {
+        let n = self.patches.len();
+        for rho in rhos {
+            let rho = rho.as_ref();
+            if rho.len() != n {
+                return Err(EngineError::State(format!(
+                    "{} reflectances for {n} patches",
+                    rho.len()
+                )));
+            }
+            if let Some(r) = rho
+                .iter()
+                .find(|r| !(r.is_finite() && (0.0..1.0).contains(*r)))
+            {
+                return Err(EngineError::State(format!(
+                    "reflectance {r} is outside [0, 1)"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Incident illuminance on each patch (lx) for a dimming state: `E_dir + F B`.

@@ -133,6 +133,7 @@ mod tests {
             luminaire_ids: vec![1, 2, 3],
             sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
             model_rel_uncertainty: vec![0.03, f64::NAN],
+            uncertainty_parts_lx: Vec::new(),
             generation: 5,
             luminaire_flux_lm: vec![1200.0; 3],
         }

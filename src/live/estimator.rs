@@ -319,6 +319,9 @@ pub struct LiveModel {
     response: Vec<f64>,
     calibrated: Vec<f64>,
     model_rel: Vec<f64>,
+    // per sensor and luminaire, the model uncertainty's parts ([`crate::runtime::UNCERTAINTY_PARTS`]
+    // each; empty: the all-on statement holds for every state)
+    model_parts: Vec<f64>,
     /// Per sensor, the model's disagreement with the camera at all on (0 out of view).
     disagreement: Vec<f64>,
     windows: Vec<Window>,
@@ -449,6 +452,14 @@ impl LiveModel {
             model_rel: (0..s)
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
+            model_parts: if live.has_uncertainty_parts() {
+                let p = crate::runtime::UNCERTAINTY_PARTS;
+                (0..s * l * p)
+                    .map(|i| live.uncertainty_part_lx(i / (l * p), i / p % l, i % p, l))
+                    .collect()
+            } else {
+                Vec::new()
+            },
             disagreement: Vec::new(),
             windows,
             k: k_em,
@@ -493,6 +504,27 @@ impl LiveModel {
             .copied()
             .filter(|u| u.is_finite())
             .unwrap_or(default)
+    }
+
+    /// [`Self::model_rel_uncertainty`] in the dimming state `levels`
+    /// ([`crate::runtime::state_rel_uncertainty`]: with fewer luminaires on, a desk's light is
+    /// more interreflected, its reflectances weigh more).
+    fn model_rel_uncertainty_at(&self, s: usize, levels: &[f64], default: f64) -> f64 {
+        let stated = self.model_rel_uncertainty(s, default);
+        let (l, p) = (self.luminaires, crate::runtime::UNCERTAINTY_PARTS);
+        let parts = &self.model_parts;
+        if parts.len() != self.ids.len() * l * p
+            || levels.len() != l
+            || !self.model_rel[s].is_finite()
+        {
+            return stated;
+        }
+        crate::runtime::state_rel_uncertainty(
+            stated,
+            |j, c| parts[(s * l + j) * p + c],
+            |j| self.response[s * l + j],
+            levels,
+        )
     }
 
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is
@@ -1281,9 +1313,9 @@ impl Live {
             extra |= flags::AGEING;
         }
         let art = self.artificial(s, ctx.levels);
-        let model_rel = self
-            .model
-            .model_rel_uncertainty(s, st.model_rel_uncertainty);
+        let model_rel =
+            self.model
+                .model_rel_uncertainty_at(s, ctx.levels, st.model_rel_uncertainty);
         let day = inferred_lx.max(0.0);
         if self.model.windows[s].sample.is_empty() {
             // out of view: the model's light and the inferred daylight

@@ -654,9 +654,30 @@ pub fn from_capture(
         windows: lay.windows,
         sensor_response_lx: response,
         model_rel_uncertainty,
+        model_uncertainty_parts_lx: uncertainty_parts(c),
         patch_emitter: lay.patch_emitter,
         n_emitters: lay.n_emitters,
     })
+}
+
+/// Each sensor's uncertainty parts per luminaire at 100 % (what commissioning inferred,
+/// `crate::commission::uncertainty`), in the model's sensor order; empty when a sensor has none
+/// (then no dimming state is stated per luminaire).
+fn uncertainty_parts(c: &Commissioned) -> Vec<Vec<[f64; crate::runtime::UNCERTAINTY_PARTS]>> {
+    let model = &c.model;
+    let rows: Option<Vec<_>> = model
+        .sensor_ids
+        .iter()
+        .map(|id| {
+            c.report
+                .uncertainty
+                .iter()
+                .find(|u| u.sensor_id == *id)
+                .filter(|u| u.by_luminaire.len() == model.luminaires())
+                .map(|u| u.by_luminaire.clone())
+        })
+        .collect();
+    rows.unwrap_or_default()
 }
 
 /// Interreflected illuminance per luminaire at 100 % on each patch, lx (`[luminaire][patch]`).
@@ -769,6 +790,7 @@ pub fn from_model(
             depth_mm,
             artificial_lx: artificial,
             model_rel_uncertainty: vec![f64::NAN; model.sensors()],
+            model_uncertainty_parts_lx: Vec::new(),
             windows: lay.windows,
             sensor_response_lx: response,
             patch_emitter: lay.patch_emitter,
@@ -794,11 +816,27 @@ pub fn attach(
     }
     let mut opts = o.clone();
     opts.budget_bytes = opts.budget_bytes.min(room - 1024);
-    let data = section(&opts)?;
-    let bytes = crate::image_build::with_live(image, Some(&data))
-        .map_err(|e| LiveError::Input(format!("live section: {e}")))?;
-    Ok((bytes.len() <= region_bytes).then_some(bytes))
+    // the budget is met by the section's estimated size: when the encoded image still overflows
+    // the region, the budget shrinks by the overflow (and a margin) and the section is laid out
+    // again, a few times at most
+    for _ in 0..ATTACH_TRIES {
+        let data = section(&opts)?;
+        let bytes = crate::image_build::with_live(image, Some(&data))
+            .map_err(|e| LiveError::Input(format!("live section: {e}")))?;
+        if bytes.len() <= region_bytes {
+            return Ok(Some(bytes));
+        }
+        let over = bytes.len() - region_bytes;
+        match opts.budget_bytes.checked_sub(over + 2048) {
+            Some(b) if b >= 8 * 1024 => opts.budget_bytes = b,
+            _ => return Ok(None),
+        }
+    }
+    Ok(None)
 }
+
+/// Layouts of the live section [`attach`] tries against the flash region.
+const ATTACH_TRIES: usize = 3;
 
 /// The image with the live-light section of a commissioning from `capture` added, within the
 /// formfactors flash region; the image as it is when the section cannot be built or does not fit

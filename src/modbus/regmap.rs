@@ -1252,7 +1252,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "%",
         "0.1",
         "R",
-        "desk k at 800 + k: one relative standard uncertainty of the desk's modelled light, from what commissioning inferred (walls, ceiling, floor and desk tops the cameras did not see; docs/commissioning.md); 65535 not stated (a CAD model)"
+        "desk k at 800 + k: one relative standard uncertainty of the desk's modelled light in the current dimming state, from what commissioning inferred (walls, ceiling, floor and desk tops the cameras did not see; docs/commissioning.md); 65535 not stated (a CAD model)"
     ),
     row!(
         Input,

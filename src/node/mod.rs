@@ -45,6 +45,10 @@ pub struct NodeModel {
     pub sensor_flags: Vec<u8>,
     /// Per sensor, the stated relative uncertainty of its modelled light (NaN: not stated).
     pub model_rel_uncertainty: Vec<f64>,
+    /// Per sensor and luminaire, the parts of the modelled light's uncertainty at 100 %, lx
+    /// (`[sensor][luminaire][part]`, [`crate::runtime::UNCERTAINTY_PARTS`] parts; empty: the
+    /// all-on statement holds for every state).
+    pub uncertainty_parts_lx: Vec<f64>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
     /// Rated flux per luminaire, lm (the power model's default).
@@ -102,11 +106,41 @@ impl NodeModel {
             model_rel_uncertainty: (0..s)
                 .map(|k| image.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
+            uncertainty_parts_lx: match image.live.as_ref() {
+                Some(live) if live.has_uncertainty_parts() => {
+                    let p = crate::runtime::UNCERTAINTY_PARTS;
+                    (0..s * l * p)
+                        .map(|i| live.uncertainty_part_lx(i / (l * p), i / p % l, i % p, l))
+                        .collect()
+                }
+                _ => Vec::new(),
+            },
             generation,
             luminaire_flux_lm: (0..l)
                 .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
                 .collect(),
         }
+    }
+
+    /// Sensor `k`'s stated relative uncertainty of its modelled light at `levels`
+    /// ([`crate::runtime::state_rel_uncertainty`]; NaN: not stated).
+    pub fn rel_uncertainty_at(&self, k: usize, levels: &[f64]) -> f64 {
+        let stated = self
+            .model_rel_uncertainty
+            .get(k)
+            .copied()
+            .unwrap_or(f64::NAN);
+        let (l, p) = (levels.len(), crate::runtime::UNCERTAINTY_PARTS);
+        let parts = &self.uncertainty_parts_lx;
+        if parts.len() != self.sensor_ids.len() * l * p || l != self.luminaire_ids.len() {
+            return stated;
+        }
+        crate::runtime::state_rel_uncertainty(
+            stated,
+            |j, c| parts[(k * l + j) * p + c],
+            |j| self.response_lx.get(k * l + j).copied().unwrap_or(0.0),
+            levels,
+        )
     }
 
     fn quality(&self, k: usize) -> Quality {
@@ -664,8 +698,9 @@ impl Node {
             .map(|(p, &x)| p.power_w(x))
             .sum();
         if ok {
-            for (d, v) in self.map.desks.iter_mut().zip(out) {
+            for (k, (d, v)) in self.map.desks.iter_mut().zip(out).enumerate() {
                 d.lux = v;
+                d.model_rel_uncertainty = self.model.rel_uncertainty_at(k, &self.levels);
             }
             self.computed = Instant::now();
             self.map.heartbeat = self.map.heartbeat.wrapping_add(1);
@@ -920,6 +955,7 @@ mod tests {
             luminaire_ids: vec![1, 2],
             sensor_flags: vec![0, 0],
             model_rel_uncertainty: vec![f64::NAN; 2],
+            uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_flux_lm: vec![1000.0; 2],
         }

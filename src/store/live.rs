@@ -34,7 +34,10 @@
 //! 100 % (`sensor_response_lx`: the artificial irradiance at the sensor's point from the window's
 //! samples; 0 for a sensor the camera does not see), and the stated relative uncertainty of its
 //! modelled light from what commissioning inferred (`sensor_model_uncertainty`, 0.01 %;
-//! `crate::commission::uncertainty`; [`NOT_STATED`] for a CAD model). Per patch: the group it belongs to as a
+//! `crate::commission::uncertainty`; [`NOT_STATED`] for a CAD model) with, from version 3, its
+//! parts per luminaire at 100 % (`sensor_uncertainty_parts_lx`, f32, six reflectance classes and an
+//! unseen occluder: 28 bytes per sensor and luminaire), from which any dimming state's uncertainty
+//! follows (`crate::runtime::state_rel_uncertainty`). Per patch: the group it belongs to as a
 //! candidate *unknown emitter* (daylight through a window, any unmodelled light: walls, floor
 //! and other surfaces the camera does not see, grouped by plane and position), or
 //! [`NO_EMITTER`].
@@ -47,6 +50,8 @@ use serde::{Deserialize, Serialize};
 use super::values::{Bytes, Precision, Values};
 use super::{ImageError, check, check_values};
 
+/// The largest magnitude of a stored uncertainty part, lx (the image's [`super::MAX_LUX`]).
+const MAX_LUX_F32: f32 = super::MAX_LUX as f32;
 /// A sensor's stated uncertainty that is not stated.
 pub const NOT_STATED: u16 = u16::MAX;
 /// The largest stated uncertainty, 0.01 % units (100 %).
@@ -57,7 +62,10 @@ pub const LIVE_MAGIC: [u8; 4] = *b"LXLV";
 /// The largest camera side a live section may give, pixels (the frames the node allocates).
 pub const MAX_SIDE_PX: u16 = 4096;
 /// Version of the live section's layout.
-pub const LIVE_VERSION: u16 = 2;
+pub const LIVE_VERSION: u16 = 3;
+/// The oldest live section this build reads: version 2, without the uncertainty's parts per
+/// luminaire (its sensors' model uncertainty is then stated at every luminaire on).
+pub const LIVE_VERSION_WITHOUT_PARTS: u16 = 2;
 /// `patch_emitter` value of a patch that is not a candidate emitter.
 pub const NO_EMITTER: u8 = 0xFF;
 /// Most candidate emitter groups.
@@ -99,7 +107,8 @@ pub struct CameraRecord {
 }
 
 /// The live section (version [`LIVE_VERSION`]; version 1 lacked
-/// `sensor_model_uncertainty` and is skipped).
+/// `sensor_model_uncertainty` and is skipped; version 2 lacks `sensor_uncertainty_parts_lx` and
+/// is read without it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LiveV1<'a> {
     /// [`LIVE_VERSION`].
@@ -148,24 +157,47 @@ pub struct LiveV1<'a> {
     pub patch_emitter: Bytes<'a>,
     /// Number of emitter groups.
     pub n_emitters: u16,
+    /// The parts of each sensor's modelled-light uncertainty per luminaire at 100 %, lx, f32 LE
+    /// `[sensor][luminaire][part]` with [`crate::runtime::UNCERTAINTY_PARTS`] parts (six
+    /// reflectance classes, then an unseen occluder): the uncertainty of any dimming state
+    /// ([`crate::runtime::state_uncertainty_lx`]). Empty: not stated (a CAD model, or a
+    /// version-2 section). Version 3 appends it to the body as one more postcard byte string
+    /// after the fields above (so a version-2 body is a version-3 body without it).
+    #[serde(skip)]
+    pub sensor_uncertainty_parts_lx: Bytes<'a>,
 }
 
 impl<'a> LiveV1<'a> {
     /// Decodes and checks a live section body against an image of `patches` patches,
     /// `luminaires` luminaires and `sensors` sensors.
     pub fn parse(
+        version: u16,
         body: &'a [u8],
         patches: usize,
         luminaires: usize,
         sensors: usize,
     ) -> Result<Self, ImageError> {
-        let live: LiveV1<'a> = postcard::from_bytes(body).map_err(|_| ImageError::Decode)?;
+        let (mut live, rest): (LiveV1<'a>, _) =
+            postcard::take_from_bytes(body).map_err(|_| ImageError::Decode)?;
+        let rest = if version >= LIVE_VERSION {
+            let (parts, rest): (Bytes<'a>, _) =
+                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+            live.sensor_uncertainty_parts_lx = parts;
+            rest
+        } else {
+            rest
+        };
+        check(rest.is_empty(), "bytes after the live section")?;
+        check(live.version == version, "live section version")?;
         live.validate(patches, luminaires, sensors)?;
         Ok(live)
     }
 
     fn validate(&self, patches: usize, l: usize, s: usize) -> Result<(), ImageError> {
-        check(self.version == LIVE_VERSION, "live section version")?;
+        check(
+            (LIVE_VERSION_WITHOUT_PARTS..=LIVE_VERSION).contains(&self.version),
+            "live section version",
+        )?;
         let c = &self.camera;
         let finite = [c.fx, c.fy, c.cx, c.cy, c.cd_m2_per_unit]
             .iter()
@@ -250,6 +282,18 @@ impl<'a> LiveV1<'a> {
                 "live sensor uncertainty",
             )?;
         }
+        let parts = self.sensor_uncertainty_parts_lx.count(4);
+        check(
+            parts == Some(0) || parts == Some(s * l * crate::runtime::UNCERTAINTY_PARTS),
+            "live sensor uncertainty parts",
+        )?;
+        for k in 0..parts.unwrap_or(0) {
+            let x = self.sensor_uncertainty_parts_lx.f32_at(k);
+            check(
+                x.is_finite() && x.abs() <= MAX_LUX_F32,
+                "live sensor uncertainty parts",
+            )?;
+        }
         check(
             self.patch_emitter.count(1) == Some(patches),
             "live patch emitters",
@@ -321,6 +365,24 @@ impl<'a> LiveV1<'a> {
     pub fn model_rel_uncertainty(&self, s: usize) -> Option<f64> {
         let u = self.sensor_model_uncertainty.u16_at(s);
         (u != NOT_STATED).then(|| f64::from(u) * 1e-4)
+    }
+
+    /// The section states each sensor's modelled-light uncertainty per luminaire (its parts;
+    /// checked at parse to be `[sensor][luminaire][part]` when present).
+    pub fn has_uncertainty_parts(&self) -> bool {
+        !self.sensor_uncertainty_parts_lx.0.is_empty()
+    }
+
+    /// Part `k` (< [`crate::runtime::UNCERTAINTY_PARTS`]) of sensor `s`'s modelled-light
+    /// uncertainty from luminaire `l` at 100 %, lx, for `luminaires` luminaires (0 without
+    /// parts).
+    pub fn uncertainty_part_lx(&self, s: usize, l: usize, k: usize, luminaires: usize) -> f64 {
+        let p = crate::runtime::UNCERTAINTY_PARTS;
+        let i = (s * luminaires + l) * p + k;
+        if !self.has_uncertainty_parts() || 4 * i + 4 > self.sensor_uncertainty_parts_lx.0.len() {
+            return 0.0;
+        }
+        f64::from(self.sensor_uncertainty_parts_lx.f32_at(i))
     }
 
     /// Candidate emitter group of patch `p`.

@@ -219,6 +219,7 @@ pub const SECTION_FRAME_LEN: usize = 10;
 struct Found<'a> {
     geometry: Option<&'a [u8]>,
     live: Option<&'a [u8]>,
+    live_version: u16,
     daylight: Option<&'a [u8]>,
 }
 
@@ -242,7 +243,12 @@ fn unframe(mut rest: &[u8]) -> Result<Found<'_>, ImageError> {
         rest = &rest[SECTION_FRAME_LEN + len..];
         let slot = match magic {
             SECTION_MAGIC if version == SECTION_VERSION => &mut found.geometry,
-            live::LIVE_MAGIC if version == live::LIVE_VERSION => &mut found.live,
+            live::LIVE_MAGIC
+                if (live::LIVE_VERSION_WITHOUT_PARTS..=live::LIVE_VERSION).contains(&version) =>
+            {
+                found.live_version = version;
+                &mut found.live
+            }
             daylight::DAYLIGHT_MAGIC if version == daylight::DAYLIGHT_VERSION => {
                 &mut found.daylight
             }
@@ -394,6 +400,7 @@ impl<'a> Image<'a> {
         image.validate()?;
         if let Some(body) = found.live {
             image.live = Some(LiveV1::parse(
+                found.live_version,
                 body,
                 image.patches(),
                 image.luminaires(),
@@ -517,6 +524,25 @@ impl<'a> Image<'a> {
     /// inferred (the live section's; `None` without one, or not stated: a CAD model).
     pub fn model_rel_uncertainty(&self, k: usize) -> Option<f64> {
         self.live.as_ref().and_then(|l| l.model_rel_uncertainty(k))
+    }
+
+    /// Sensor `k`'s stated relative uncertainty of its modelled light in a dimming state
+    /// (`levels`, one per luminaire in [0, 1]; [`crate::runtime::state_rel_uncertainty`]): the
+    /// all-on statement when the image has no parts per luminaire; `None`: not stated.
+    pub fn model_rel_uncertainty_at(&self, k: usize, levels: &[f64]) -> Option<f64> {
+        let live = self.live.as_ref()?;
+        let stated = live.model_rel_uncertainty(k)?;
+        let l = self.luminaires();
+        if levels.len() != l || !live.has_uncertainty_parts() || k >= self.sensors() {
+            return Some(stated);
+        }
+        let part = |j: usize, c: usize| live.uncertainty_part_lx(k, j, c, l);
+        Some(crate::runtime::state_rel_uncertainty(
+            stated,
+            part,
+            |j| self.response_lx(k, j),
+            levels,
+        ))
     }
 
     /// Response of sensor `s` to luminaire `l` at 100 %, lx.

@@ -65,6 +65,7 @@ pub fn sample_node() -> Node {
         luminaire_ids: vec![1, 2, 3],
         sensor_flags: vec![0; 4],
         model_rel_uncertainty: vec![0.03, f64::NAN, 0.1, 0.1],
+        uncertainty_parts_lx: Vec::new(),
         generation: 3,
         luminaire_flux_lm: vec![1000.0; 3],
     };
