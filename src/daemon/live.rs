@@ -11,6 +11,7 @@
 
 use std::time::{Duration, Instant};
 
+use super::occupancy::OccupancyTracker;
 use crate::camera::{DepthCamera, LightControl, LuminanceCamera};
 use crate::live::{DeskLive, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict};
 use crate::modbus::regmap::{LiveDesk, LiveSource, live_status};
@@ -130,6 +131,8 @@ pub struct LiveTask {
     pub settings: LiveSettings,
     /// The cameras.
     pub capture: FrameSource,
+    /// Occupancy's hold, s (board `[occupancy] hold_s`).
+    pub occupancy_hold_s: f64,
 }
 
 /// Live light over a booted image: the estimator, or why not (logged by the caller).
@@ -284,8 +287,14 @@ pub fn step(
     status
 }
 
-/// The task: a frame every period until aborted.
-pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
+/// The task: a frame every period until aborted; each depth frame also goes through
+/// occupancy when the node has it ([`OccupancyTracker`]).
+pub async fn live_loop(
+    mut task: LiveTask,
+    mut live: Live,
+    mut occupancy: Option<OccupancyTracker>,
+    node: SharedNode,
+) {
     let health = lock(&node).health().clone();
     let beat = health.register("live light", task.period * 3 + Duration::from_secs(60));
     let mut tick = tokio::time::interval(task.period);
@@ -313,14 +322,18 @@ pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
         let done = tokio::task::spawn_blocking(move || {
             let mut n = lock(&node2);
             let now_s = t0.elapsed().as_secs_f64();
+            if let Some(o) = occupancy.as_mut() {
+                o.step(frame.as_ref(), taken_s, &mut n, now_s);
+            }
             step(&mut live, &mut state, frame, taken_s, &mut n, now_s);
-            (live, state)
+            (live, state, occupancy)
         })
         .await;
         match done {
-            Ok((l, st)) => {
+            Ok((l, st, o)) => {
                 live = l;
                 state = st;
+                occupancy = o;
                 beat.beat();
             }
             Err(e) => {
