@@ -320,11 +320,16 @@ pub async fn live_loop(
         // the estimator runs on a blocking thread too (tens of ms)
         let node2 = node.clone();
         let done = tokio::task::spawn_blocking(move || {
+            // occupancy's work before the node's lock, its result published under it
+            let occupied = occupancy.as_mut().map(|o| {
+                let u = o.update(frame.as_ref(), taken_s, t0.elapsed().as_secs_f64());
+                (&*o, u)
+            });
             let mut n = lock(&node2);
-            let now_s = t0.elapsed().as_secs_f64();
-            if let Some(o) = occupancy.as_mut() {
-                o.step(frame.as_ref(), taken_s, &mut n, now_s);
+            if let Some((o, u)) = occupied {
+                o.publish(&u, &mut n);
             }
+            let now_s = t0.elapsed().as_secs_f64();
             step(&mut live, &mut state, frame, taken_s, &mut n, now_s);
             (live, state, occupancy)
         })

@@ -21,6 +21,18 @@ use crate::occupancy::{
     HeldDesk, Hold, Occupancy, OccupancyError, OccupancyMap, OccupancyReport, Occupied, status,
 };
 
+/// What one period publishes: per desk sensor its registers, the people count (`None`: not
+/// known) and the status bits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OccupancyUpdate {
+    /// Per desk sensor, the node's desk order.
+    pub desks: Vec<OccupancyDesk>,
+    /// People the last good depth frame saw, while it is fresh.
+    pub people: Option<u16>,
+    /// [`crate::modbus::regmap::occupancy_status`] bits.
+    pub status: u16,
+}
+
 /// Occupancy and its hold over a node's desks.
 #[derive(Debug, Clone)]
 pub struct OccupancyTracker {
@@ -92,6 +104,19 @@ impl OccupancyTracker {
         node: &mut Node,
         now_s: f64,
     ) -> u16 {
+        let u = self.update(frame, taken_s, now_s);
+        self.publish(&u, node);
+        u.status
+    }
+
+    /// [`Self::step`] without the node: the frame through occupancy and the hold (the work;
+    /// the live task does it before it takes the node's lock).
+    pub fn update(
+        &mut self,
+        frame: Result<&CapturedFrame, &String>,
+        taken_s: f64,
+        now_s: f64,
+    ) -> OccupancyUpdate {
         let fresh = |t: f64| t.is_finite() && now_s - t <= self.stale_after_s;
         let (report, at_s) = match frame {
             Ok(f) if fresh(taken_s) => (
@@ -114,13 +139,21 @@ impl OccupancyTracker {
                 None
             }
         };
-        let desks: Vec<OccupancyDesk> = self
+        let desks = self
             .sensor_desk
             .iter()
             .map(|d| desk_register(d.and_then(|k| held.get(k)), d.is_some()))
             .collect();
-        node.set_occupancy(&desks, people, out, self.hold_s);
-        out
+        OccupancyUpdate {
+            desks,
+            people,
+            status: out,
+        }
+    }
+
+    /// An update into the node (a few microseconds under its lock).
+    pub fn publish(&self, u: &OccupancyUpdate, node: &mut Node) {
+        node.set_occupancy(&u.desks, u.people, u.status, self.hold_s);
     }
 
     /// Bytes held: the map and the per-frame buffers.
