@@ -310,6 +310,7 @@ const RUN_TIME_PATH: &[&str] = &[
     "live",
     "occupancy",
     "daemon/live.rs",
+    "daemon/occupancy.rs",
 ];
 
 /// The commissioning side's modules.

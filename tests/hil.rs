@@ -525,6 +525,20 @@ fn the_bms_reads_measured_desk_lux_from_the_sim_boards_cameras() {
                 daylight[k]
             );
         }
+        // occupancy on the same depth frames (issue 29): nobody in the room, the six desks
+        // seen vacant, the floor sensor (on no desk) unknown, never vacant
+        use luxnode::modbus::regmap::{occupancy_flags, occupancy_status};
+        let status = input(&mut c, addr::OCCUPANCY_STATUS, 3).await;
+        assert_eq!(
+            status[0] & (occupancy_status::ON | occupancy_status::STALE),
+            occupancy_status::ON,
+            "{status:?}"
+        );
+        assert_eq!(status[1..], [0, 900], "people, hold: {status:?}");
+        let occupied = input(&mut c, addr::DESK_OCCUPIED, 7).await;
+        assert_eq!(occupied, [0, 0, 0, 0, 0, 0, 0xFFFF]);
+        let flags = input(&mut c, addr::DESK_OCCUPANCY_FLAGS, 7).await;
+        assert_eq!(flags[6], occupancy_flags::NO_DESK, "{flags:?}");
     });
 }
 

@@ -14,6 +14,12 @@ pub mod object_type {
 
 /// Property identifiers.
 pub mod property {
+    /// Active_Text.
+    pub const ACTIVE_TEXT: u32 = 4;
+    /// Inactive_Text.
+    pub const INACTIVE_TEXT: u32 = 46;
+    /// Polarity.
+    pub const POLARITY: u32 = 84;
     /// All (ReadPropertyMultiple).
     pub const ALL: u32 = 8;
     /// APDU_Timeout.
@@ -222,6 +228,8 @@ pub mod units {
 pub mod reliability {
     /// no-fault-detected.
     pub const NO_FAULT_DETECTED: u32 = 0;
+    /// no-sensor.
+    pub const NO_SENSOR: u32 = 1;
     /// unreliable-other.
     pub const UNRELIABLE_OTHER: u32 = 7;
     /// communication-failure.

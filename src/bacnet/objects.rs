@@ -13,17 +13,21 @@
 //! | Analog Input | 300 + k | desk stated standard uncertainty, lx |
 //! | Analog Value | j | luminaire level, % |
 //! | Analog Value | 1000 + k | desk target, lx |
+//! | Binary Input | k | desk occupied (active) or vacant (inactive), when the node has occupancy |
 //!
 //! A value the node does not have (NaN in the map) is published as NaN with Reliability
 //! `unreliable-other` and the fault flag; a value that is stale (the dimming state is not known
 //! to be current) keeps its last number with Reliability `communication-failure` and the fault
-//! flag. Nothing unknown is ever published as good.
+//! flag. An unknown occupancy is inactive with a Reliability other than no-fault-detected
+//! (`communication-failure` when the depth is stale, `unreliable-other` after a bad depth frame,
+//! `no-sensor` where the node does not see the desk's zone) and the fault flag. Nothing unknown
+//! is ever published as good.
 
 use std::collections::HashMap;
 
 use super::consts::{object_type as ot, property as p, reliability, units};
 use super::wire::ObjectId;
-use crate::modbus::regmap::{Quality, RegisterMap, addr, live_flags};
+use crate::modbus::regmap::{Occupancy, Quality, RegisterMap, addr, live_flags, occupancy_status};
 
 /// What kind of object, and the desk or luminaire index it serves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -42,6 +46,8 @@ pub enum Kind {
     LuminaireLevel,
     /// Desk target (Analog Value 1000 + k).
     DeskTarget,
+    /// Desk occupancy (Binary Input k), when the node has occupancy.
+    DeskOccupancy,
 }
 
 /// One row of the object table.
@@ -128,7 +134,38 @@ pub const TABLE: &[ObjectClass] = &[
         meaning: "desk k's lighting-control target, 0..=10000 lx, whole lux (Modbus holding 2100 + k; persisted)",
         writable: true,
     },
+    ObjectClass {
+        kind: Kind::DeskOccupancy,
+        object_type: ot::BINARY_INPUT,
+        base: 0,
+        units: None,
+        name: "desk {id} occupancy",
+        meaning: "desk k occupied (active, \"Occupied\") or vacant (inactive, \"Vacant\") after the hold time; unknown: inactive with the fault flag (Modbus input 4600 + k); only when the node has occupancy (a depth camera and an image with desks)",
+        writable: false,
+    },
 ];
+
+/// The Binary Input properties (ReadPropertyMultiple ALL order).
+pub const BINARY_PROPERTIES: &[u32] = &[
+    p::OBJECT_IDENTIFIER,
+    p::OBJECT_NAME,
+    p::OBJECT_TYPE,
+    p::PRESENT_VALUE,
+    p::DESCRIPTION,
+    p::STATUS_FLAGS,
+    p::EVENT_STATE,
+    p::RELIABILITY,
+    p::OUT_OF_SERVICE,
+    p::POLARITY,
+    p::INACTIVE_TEXT,
+    p::ACTIVE_TEXT,
+    p::PROPERTY_LIST,
+];
+
+/// Active_Text of the occupancy Binary Inputs.
+pub const ACTIVE_TEXT: &str = "Occupied";
+/// Inactive_Text of the occupancy Binary Inputs.
+pub const INACTIVE_TEXT: &str = "Vacant";
 
 /// The Analog Input and Analog Value properties (ReadPropertyMultiple ALL order).
 pub const ANALOG_PROPERTIES: &[u32] = &[
@@ -179,6 +216,8 @@ pub const OPTIONAL_PROPERTIES: &[u32] = &[
     p::RELIABILITY,
     p::COV_INCREMENT,
     p::LOCATION,
+    p::ACTIVE_TEXT,
+    p::INACTIVE_TEXT,
 ];
 
 /// A property's name, for the PICS.
@@ -214,6 +253,9 @@ pub fn property_name(id: u32) -> &'static str {
         p::NUMBER_OF_APDU_RETRIES => "Number_Of_APDU_Retries",
         p::DEVICE_ADDRESS_BINDING => "Device_Address_Binding",
         p::DATABASE_REVISION => "Database_Revision",
+        p::POLARITY => "Polarity",
+        p::ACTIVE_TEXT => "Active_Text",
+        p::INACTIVE_TEXT => "Inactive_Text",
         _ => "?",
     }
 }
@@ -303,24 +345,29 @@ impl View<'_> {
             let ok = id.instance == self.device.instance || id.instance == ObjectId::MAX_INSTANCE;
             return ok.then_some((&TABLE[0], 0));
         }
-        let d = self.map.desks.len();
-        let l = self.levels.len();
         TABLE[1..].iter().find_map(|c| {
-            let n = if c.kind == Kind::LuminaireLevel { l } else { d };
+            let n = self.count(c.kind);
             let k = id.instance.checked_sub(c.base)? as usize;
             (c.object_type == id.object_type && k < n).then_some((c, k))
         })
+    }
+
+    /// How many objects of a kind the node has: per luminaire, or per desk (the occupancy
+    /// Binary Inputs only while the node has occupancy).
+    pub fn count(&self, kind: Kind) -> usize {
+        match kind {
+            Kind::Device => 1,
+            Kind::LuminaireLevel => self.levels.len(),
+            Kind::DeskOccupancy if self.map.occupancy.status & occupancy_status::ON == 0 => 0,
+            _ => self.map.desks.len(),
+        }
     }
 
     /// Every object, Device first.
     pub fn object_list(&self) -> Vec<ObjectId> {
         let mut v = vec![self.device.id()];
         for c in &TABLE[1..] {
-            let n = if c.kind == Kind::LuminaireLevel {
-                self.levels.len()
-            } else {
-                self.map.desks.len()
-            };
+            let n = self.count(c.kind);
             v.extend((0..n as u32).map(|k| ObjectId::new(c.object_type, c.base + k)));
         }
         v
@@ -388,6 +435,7 @@ impl View<'_> {
                     reliability: reliability::NO_FAULT_DETECTED,
                 };
             }
+            Kind::DeskOccupancy => return self.occupancy(k),
         };
         let stale = desk.is_some_and(|d| d.quality == Quality::Stale)
             || live.is_some_and(|l| l.flags & live_flags::STALE != 0);
@@ -403,6 +451,30 @@ impl View<'_> {
         Reading { value, reliability }
     }
 
+    /// An occupancy Binary Input's reading: 1 active (occupied), 0 inactive (vacant, or
+    /// unknown with a fault Reliability: stale depth, a bad depth frame, the zone not seen).
+    fn occupancy(&self, k: usize) -> Reading {
+        let occ = &self.map.occupancy;
+        let state =
+            u16::try_from(k).map_or(Occupancy::Unknown, |k| self.map.occupancy_desk(k).state);
+        let frame_fault = occupancy_status::BAD_FRAME
+            | occupancy_status::NO_RETURN
+            | occupancy_status::SATURATED
+            | occupancy_status::MOVED;
+        let (value, reliability) = match state {
+            Occupancy::Occupied => (1.0, reliability::NO_FAULT_DETECTED),
+            Occupancy::Vacant => (0.0, reliability::NO_FAULT_DETECTED),
+            Occupancy::Unknown if occ.status & occupancy_status::STALE != 0 => {
+                (0.0, reliability::COMMUNICATION_FAILURE)
+            }
+            Occupancy::Unknown if occ.status & frame_fault != 0 => {
+                (0.0, reliability::UNRELIABLE_OTHER)
+            }
+            Occupancy::Unknown => (0.0, reliability::NO_SENSOR),
+        };
+        Reading { value, reliability }
+    }
+
     /// COV_Increment: what a client wrote, else 1 % of the desk's target for lux objects and
     /// 1 % for levels.
     pub fn cov_increment(&self, id: ObjectId, kind: Kind, k: usize) -> f64 {
@@ -411,6 +483,8 @@ impl View<'_> {
         }
         match kind {
             Kind::LuminaireLevel | Kind::DeskTarget => 1.0,
+            // any change of a binary value
+            Kind::DeskOccupancy => 0.5,
             _ => {
                 0.01 * self
                     .map

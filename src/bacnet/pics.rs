@@ -6,13 +6,15 @@ use std::fmt::Write as _;
 
 use super::consts::{MAX_APDU, PROTOCOL_REVISION, property as p};
 use super::objects::{
-    ANALOG_PROPERTIES, DEVICE_PROPERTIES, OPTIONAL_PROPERTIES, TABLE, VENDOR_NAME, property_name,
+    ACTIVE_TEXT, ANALOG_PROPERTIES, BINARY_PROPERTIES, DEVICE_PROPERTIES, INACTIVE_TEXT,
+    OPTIONAL_PROPERTIES, TABLE, VENDOR_NAME, property_name,
 };
 
 fn type_name(t: u16) -> &'static str {
     match t {
         0 => "Analog Input",
         2 => "Analog Value",
+        3 => "Binary Input",
         8 => "Device",
         _ => "?",
     }
@@ -32,6 +34,8 @@ fn datatype(id: u32) -> &'static str {
             "BIT STRING"
         }
         p::OUT_OF_SERVICE => "BOOLEAN",
+        p::POLARITY => "Enumerated",
+        p::ACTIVE_TEXT | p::INACTIVE_TEXT => "CharacterString",
         p::OBJECT_LIST => "BACnetARRAY of BACnetObjectIdentifier",
         p::PROPERTY_LIST => "BACnetARRAY of BACnetPropertyIdentifier",
         p::DEVICE_ADDRESS_BINDING => "List of BACnetAddressBinding (always empty)",
@@ -40,6 +44,15 @@ fn datatype(id: u32) -> &'static str {
 }
 
 fn property_table(s: &mut String, props: &[u32], writable: &dyn Fn(u32) -> &'static str) {
+    property_table_typed(s, props, writable, &datatype);
+}
+
+fn property_table_typed(
+    s: &mut String,
+    props: &[u32],
+    writable: &dyn Fn(u32) -> &'static str,
+    datatype: &dyn Fn(u32) -> &'static str,
+) {
     let _ = writeln!(s, "| property | id | datatype | required | writable |");
     let _ = writeln!(s, "|---|---:|---|---|---|");
     for &x in props {
@@ -94,7 +107,6 @@ const BIBBS: &[(&str, &str, &str)] = &[
 
 const NOT_SUPPORTED: &[&str] = &[
     "segmentation (either way): a request in segments, or an answer longer than the requester accepts or than 1476 octets, is aborted with segmentation-not-supported; read a long Object_List by index",
-    "the occupancy Binary Input of issue 30: the node has no occupancy sensing yet",
     "Priority_Array and Relinquish_Default: no object is commandable",
     "alarms and events, trends, schedules, time synchronization, ReinitializeDevice, Who-Has, ReadRange, WritePropertyMultiple, file services (rejected: unrecognized-service, or not answered when unconfirmed)",
     "COV subscriptions to the Device object (error: optional-functionality-not-supported)",
@@ -186,6 +198,18 @@ pub fn markdown() -> String {
          always false. COV_Increment defaults to 1 % of the desk's target for lux objects and to 1\n\
          for the Analog Values; a written one holds until the node restarts.\n"
     );
+    let _ = writeln!(
+        s,
+        "Occupancy (Binary Input k, docs/occupancy.md): Present_Value active (\"{ACTIVE_TEXT}\") while a\n\
+         person is at desk k or was seen there within the hold time, inactive (\"{INACTIVE_TEXT}\")\n\
+         after the hold where the node sees the desk's zone. An unknown occupancy is never a plain\n\
+         inactive: it is inactive with the fault flag and Reliability communication-failure (12)\n\
+         when no usable depth frame came for longer than live light's stale limit, unreliable-other\n\
+         (7) after a bad depth frame (missing, wrong size, no returns, saturated, the camera moved),\n\
+         no-sensor (1) where the node does not see the desk's zone (or the sensor is on no desk).\n\
+         The Binary Inputs exist only on a node with occupancy (a depth camera and an image with\n\
+         desks); COV notifications on any change of Present_Value or Status_Flags.\n"
+    );
     let _ = writeln!(s, "### Device\n");
     property_table(&mut s, DEVICE_PROPERTIES, &|_| "no");
     let _ = writeln!(s, "\n### Analog Input, Analog Value\n");
@@ -193,6 +217,11 @@ pub fn markdown() -> String {
         p::PRESENT_VALUE => "Analog Value only",
         p::COV_INCREMENT => "yes",
         _ => "no",
+    });
+    let _ = writeln!(s, "\n### Binary Input\n");
+    property_table_typed(&mut s, BINARY_PROPERTIES, &|_| "no", &|x| match x {
+        p::PRESENT_VALUE => "BACnetBinaryPV",
+        _ => datatype(x),
     });
     let _ = writeln!(
         s,

@@ -4,7 +4,10 @@ use super::consts::{
     MAX_APDU, NO_SEGMENTATION, PROTOCOL_REVISION, error_class, error_code, object_type as ot,
     property as p, services_supported as ss,
 };
-use super::objects::{ANALOG_PROPERTIES, DEVICE_PROPERTIES, Kind, ObjectClass, VENDOR_NAME, View};
+use super::objects::{
+    ACTIVE_TEXT, ANALOG_PROPERTIES, BINARY_PROPERTIES, DEVICE_PROPERTIES, INACTIVE_TEXT, Kind,
+    ObjectClass, VENDOR_NAME, View,
+};
 use super::wire::{ObjectId, WireError, Writer};
 
 /// Why a property cannot be read (an Error in the reply), or the reply is full.
@@ -32,10 +35,10 @@ impl PropertyError {
 
 /// The properties of an object class, ALL order.
 pub fn properties(class: &ObjectClass) -> &'static [u32] {
-    if class.kind == Kind::Device {
-        DEVICE_PROPERTIES
-    } else {
-        ANALOG_PROPERTIES
+    match class.kind {
+        Kind::Device => DEVICE_PROPERTIES,
+        Kind::DeskOccupancy => BINARY_PROPERTIES,
+        _ => ANALOG_PROPERTIES,
     }
 }
 
@@ -139,6 +142,7 @@ pub fn encode(
         p::OBJECT_TYPE => w.enumerated(u32::from(class.object_type))?,
         p::DESCRIPTION => w.char_string(&view.description(class, k))?,
         _ if class.kind == Kind::Device => device_property(view, prop, w)?,
+        _ if class.kind == Kind::DeskOccupancy => binary_property(view, k, prop, w)?,
         _ => analog_property(view, own, (class, k), prop, w)?,
     }
     Ok(())
@@ -164,6 +168,28 @@ fn analog_property(
     }
 }
 
+/// A property of an occupancy Binary Input: Present_Value inactive (0) or active (1),
+/// Polarity normal.
+fn binary_property(
+    view: &View<'_>,
+    k: usize,
+    prop: u32,
+    w: &mut Writer<'_>,
+) -> Result<(), WireError> {
+    let reading = view.reading(Kind::DeskOccupancy, k);
+    match prop {
+        p::PRESENT_VALUE => w.enumerated(u32::from(reading.value > 0.5)),
+        p::STATUS_FLAGS => w.bit_string(&reading.status_flags()),
+        p::EVENT_STATE => w.enumerated(0),
+        p::RELIABILITY => w.enumerated(reading.reliability),
+        p::OUT_OF_SERVICE => w.boolean(false),
+        p::POLARITY => w.enumerated(0),
+        p::INACTIVE_TEXT => w.char_string(INACTIVE_TEXT),
+        p::ACTIVE_TEXT => w.char_string(ACTIVE_TEXT),
+        _ => Err(WireError::UnexpectedTag),
+    }
+}
+
 fn device_property(view: &View<'_>, prop: u32, w: &mut Writer<'_>) -> Result<(), WireError> {
     let d = view.device;
     match prop {
@@ -182,7 +208,12 @@ fn device_property(view: &View<'_>, prop: u32, w: &mut Writer<'_>) -> Result<(),
         p::PROTOCOL_SERVICES_SUPPORTED => w.bit_string(&services_supported()),
         p::PROTOCOL_OBJECT_TYPES_SUPPORTED => {
             let mut bits = [false; OBJECT_TYPES_LEN];
-            for t in [ot::ANALOG_INPUT, ot::ANALOG_VALUE, ot::DEVICE] {
+            for t in [
+                ot::ANALOG_INPUT,
+                ot::ANALOG_VALUE,
+                ot::BINARY_INPUT,
+                ot::DEVICE,
+            ] {
                 bits[usize::from(t)] = true;
             }
             w.bit_string(&bits)

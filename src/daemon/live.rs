@@ -11,6 +11,7 @@
 
 use std::time::{Duration, Instant};
 
+use super::occupancy::OccupancyTracker;
 use crate::camera::{DepthCamera, LightControl, LuminanceCamera};
 use crate::live::{DeskLive, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict};
 use crate::modbus::regmap::{LiveDesk, LiveSource, live_status};
@@ -130,6 +131,8 @@ pub struct LiveTask {
     pub settings: LiveSettings,
     /// The cameras.
     pub capture: FrameSource,
+    /// Occupancy's hold, s (board `[occupancy] hold_s`).
+    pub occupancy_hold_s: f64,
 }
 
 /// Live light over a booted image: the estimator, or why not (logged by the caller).
@@ -284,8 +287,14 @@ pub fn step(
     status
 }
 
-/// The task: a frame every period until aborted.
-pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
+/// The task: a frame every period until aborted; each depth frame also goes through
+/// occupancy when the node has it ([`OccupancyTracker`]).
+pub async fn live_loop(
+    mut task: LiveTask,
+    mut live: Live,
+    mut occupancy: Option<OccupancyTracker>,
+    node: SharedNode,
+) {
     let health = lock(&node).health().clone();
     let beat = health.register("live light", task.period * 3 + Duration::from_secs(60));
     let mut tick = tokio::time::interval(task.period);
@@ -311,16 +320,25 @@ pub async fn live_loop(mut task: LiveTask, mut live: Live, node: SharedNode) {
         // the estimator runs on a blocking thread too (tens of ms)
         let node2 = node.clone();
         let done = tokio::task::spawn_blocking(move || {
+            // occupancy's work before the node's lock, its result published under it
+            let occupied = occupancy.as_mut().map(|o| {
+                let u = o.update(frame.as_ref(), taken_s, t0.elapsed().as_secs_f64());
+                (&*o, u)
+            });
             let mut n = lock(&node2);
+            if let Some((o, u)) = occupied {
+                o.publish(&u, &mut n);
+            }
             let now_s = t0.elapsed().as_secs_f64();
             step(&mut live, &mut state, frame, taken_s, &mut n, now_s);
-            (live, state)
+            (live, state, occupancy)
         })
         .await;
         match done {
-            Ok((l, st)) => {
+            Ok((l, st, o)) => {
                 live = l;
                 state = st;
+                occupancy = o;
                 beat.beat();
             }
             Err(e) => {

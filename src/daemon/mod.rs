@@ -21,6 +21,7 @@
 
 pub mod assemble;
 pub mod live;
+pub mod occupancy;
 pub mod source;
 pub mod systemd;
 
@@ -544,7 +545,10 @@ where
     let live_task = config
         .live
         .and_then(|task| match live::estimator(&image, &task.settings) {
-            Ok(l) => Some((task, l)),
+            Ok(l) => {
+                let o = occupancy_tracker(&image, &task);
+                Some((task, l, o))
+            }
             Err(e) => {
                 tracing::warn!("live: {e}; serving the model only");
                 None
@@ -579,8 +583,12 @@ where
             })
         });
         let probe_task = probe.map(|p| tokio::spawn(sensor_probe_loop(p, node.clone())));
-        let live_handle =
-            live_task.map(|(task, l)| tokio::spawn(live::live_loop(task, l, node.clone())));
+        let live_handle = live_task.map(|(task, l, o)| {
+            if let Some(o) = &o {
+                o.publish_start(&mut lock(&node));
+            }
+            tokio::spawn(live::live_loop(task, l, o, node.clone()))
+        });
         let watchdog = tokio::spawn(systemd::watchdog_loop(health.clone(), node.clone()));
         let watcher = tokio::spawn(watch.run());
         systemd::notify("READY=1");
@@ -608,6 +616,39 @@ where
         r
     })?;
     Ok(Exit::Stopped)
+}
+
+/// Occupancy over a booted image for the live task (its depth frames, its stale limit, the
+/// board's hold), or `None` (logged) when the image has no desks or no live section.
+fn occupancy_tracker(
+    image: &crate::store::Image<'_>,
+    task: &live::LiveTask,
+) -> Option<occupancy::OccupancyTracker> {
+    let built = crate::live_section::occupancy_map(image, Default::default())
+        .map_err(|e| e.to_string())
+        .and_then(|(map, sensor_desk)| {
+            occupancy::OccupancyTracker::new(
+                map,
+                sensor_desk,
+                task.occupancy_hold_s,
+                task.settings.stale_after_s,
+            )
+            .map_err(|e| e.to_string())
+        });
+    match built {
+        Ok(t) => {
+            tracing::info!(
+                "occupancy: on, hold {} s, {:.2} MB",
+                task.occupancy_hold_s,
+                t.memory_bytes() as f64 / 1e6
+            );
+            Some(t)
+        }
+        Err(e) => {
+            tracing::warn!("occupancy: off: {e}");
+            None
+        }
+    }
 }
 
 /// Runs the sensor probe every period; its outcome sets the "sensors healthy" bit.

@@ -21,7 +21,7 @@ use super::pdu::{
 
 /// Version of this map (input register 0). Bumped when registers are added; existing ones never
 /// move.
-pub const MAP_VERSION: u16 = 5;
+pub const MAP_VERSION: u16 = 6;
 /// Desks the map has room for.
 pub const MAX_DESKS: usize = 100;
 /// Luminaires the map has room for.
@@ -124,6 +124,90 @@ pub mod addr {
     pub const LIVE_FRAME_AGE: u16 = 4200;
     /// Luminaire j's ageing factor, 0.001 (1000 = as commissioned): 4300 + j.
     pub const AGEING: u16 = 4300;
+    /// Occupancy status bits ([`super::occupancy_status`]).
+    pub const OCCUPANCY_STATUS: u16 = 72;
+    /// People the last good depth frame saw (65535: not known).
+    pub const PEOPLE: u16 = 73;
+    /// Occupancy's hold time in effect, s (board `[occupancy] hold_s`).
+    pub const OCCUPANCY_HOLD: u16 = 74;
+    /// Desk k's occupancy ([`super::Occupancy`]): 4600 + k.
+    pub const DESK_OCCUPIED: u16 = 4600;
+    /// Desk k's occupancy flags ([`super::occupancy_flags`]): 4700 + k.
+    pub const DESK_OCCUPANCY_FLAGS: u16 = 4700;
+}
+
+/// Occupancy status bits (input register 72).
+pub mod occupancy_status {
+    /// Occupancy runs (the image has desks and a live section, the board a depth camera).
+    pub const ON: u16 = 1 << 0;
+    /// No usable depth frame for longer than live light's stale limit: every desk's frame
+    /// answer is unknown (the last good state is held for the hold time, then unknown).
+    pub const STALE: u16 = 1 << 1;
+    /// The last depth frame was missing or of the wrong size.
+    pub const BAD_FRAME: u16 = 1 << 2;
+    /// Too few pixels of the last depth frame returned (all zeros, covered lens).
+    pub const NO_RETURN: u16 = 1 << 3;
+    /// Too many pixels of the last depth frame were saturated.
+    pub const SATURATED: u16 = 1 << 4;
+    /// The last depth frame did not register against the commissioned room (the camera moved).
+    pub const MOVED: u16 = 1 << 5;
+}
+
+/// Occupancy flags per desk (input 4700 + k).
+pub mod occupancy_flags {
+    /// The state is the hold's (the person was seen within the hold time, or the last answer
+    /// is kept through bad frames), not the last frame's answer.
+    pub const HELD: u16 = 1 << 0;
+    /// The desk sensor is on no desk top: it has no workstation zone (always unknown).
+    pub const NO_DESK: u16 = 1 << 1;
+}
+
+/// A desk's occupancy (input 4600 + k).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u16)]
+pub enum Occupancy {
+    /// Nobody at the desk after the hold, and the node sees enough of its zone to say so.
+    Vacant = 0,
+    /// A person at the desk (or seen there within the hold time).
+    Occupied = 1,
+    /// Not known: occupancy off, the desk not seen, or no usable depth frame for longer than
+    /// the hold. Never published as vacant.
+    #[default]
+    Unknown = NOT_AVAILABLE_U16,
+}
+
+/// One desk's occupancy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct OccupancyDesk {
+    /// Its state, the hold applied.
+    pub state: Occupancy,
+    /// [`occupancy_flags`].
+    pub flags: u16,
+}
+
+/// The occupancy registers (`crate::occupancy` through the daemon's hold): per desk its state
+/// and flags, the people count and the status. Only aggregates: no depth frame leaves the node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OccupancyRegisters {
+    /// Per desk (empty: occupancy off; the blocks then read unknown).
+    pub desks: heapless::Vec<OccupancyDesk, MAX_DESKS>,
+    /// People the last good depth frame saw (`None`: not known).
+    pub people: Option<u16>,
+    /// [`occupancy_status`] bits.
+    pub status: u16,
+    /// The hold in effect, s (not finite: occupancy off).
+    pub hold_s: f64,
+}
+
+impl Default for OccupancyRegisters {
+    fn default() -> Self {
+        Self {
+            desks: heapless::Vec::new(),
+            people: None,
+            status: 0,
+            hold_s: f64::NAN,
+        }
+    }
 }
 
 /// Live-light status bits (input register 70).
@@ -494,6 +578,8 @@ pub struct RegisterMap {
     pub control: ControlRegisters,
     /// Live light.
     pub live: LiveRegisters,
+    /// Occupancy.
+    pub occupancy: OccupancyRegisters,
 }
 
 /// What a request changed.
@@ -600,6 +686,16 @@ impl RegisterMap {
             self.live.status
         } else if a == addr::LIVE_LAST_FRAME_AGE {
             seconds_u16(self.live.last_frame_age_s)
+        } else if a == addr::OCCUPANCY_STATUS {
+            self.occupancy.status
+        } else if a == addr::PEOPLE {
+            self.occupancy.people.unwrap_or(NOT_AVAILABLE_U16)
+        } else if a == addr::OCCUPANCY_HOLD {
+            seconds_u16(self.occupancy.hold_s)
+        } else if in_block(addr::DESK_OCCUPIED, d) {
+            self.occupancy_desk(a - addr::DESK_OCCUPIED).state as u16
+        } else if in_block(addr::DESK_OCCUPANCY_FLAGS, d) {
+            self.occupancy_desk(a - addr::DESK_OCCUPANCY_FLAGS).flags
         } else if (addr::LIVE_TOTAL_FLOAT..addr::AGEING + l).contains(&a) {
             return self.read_live(a, d, l);
         } else if in_block(addr::DESK_MODEL_UNCERTAINTY, d) {
@@ -656,6 +752,15 @@ impl RegisterMap {
             return None;
         };
         Some(v)
+    }
+
+    /// Desk k's occupancy (unknown when occupancy is off).
+    pub fn occupancy_desk(&self, k: u16) -> OccupancyDesk {
+        self.occupancy
+            .desks
+            .get(usize::from(k))
+            .copied()
+            .unwrap_or_default()
     }
 
     /// The live blocks (3000..): `None` outside them.
@@ -1397,6 +1502,61 @@ pub const TABLE: &[RegisterDoc] = &[
         "R",
         "luminaire j at 4300 + j: measured light over the commissioned model's (1000 = as commissioned), from night frames; it scales the luminaire in the control plant"
     ),
+    row!(
+        Input,
+        addr::OCCUPANCY_STATUS,
+        "1",
+        "occupancy status",
+        "bits",
+        "",
+        "",
+        "R",
+        "occupancy (docs/occupancy.md): bit 0 on (the image has desks and a live section, the board a depth camera), 1 depth stale (no usable depth frame for longer than live light's stale limit: the last good states are held for the hold time, then unknown), the last depth frame's faults: 2 missing or wrong size, 3 too few returns, 4 saturated, 5 the camera moved (does not register against the commissioned room)"
+    ),
+    row!(
+        Input,
+        addr::PEOPLE,
+        "1",
+        "people",
+        "u16",
+        "",
+        "1",
+        "R",
+        "people the last good depth frame saw (at desks and elsewhere); 65535 not known (occupancy off, or depth stale)"
+    ),
+    row!(
+        Input,
+        addr::OCCUPANCY_HOLD,
+        "1",
+        "occupancy hold",
+        "u16",
+        "s",
+        "1",
+        "R",
+        "the hold time in effect (board `[occupancy] hold_s`, default 900 s); 65535 occupancy off"
+    ),
+    row!(
+        Input,
+        addr::DESK_OCCUPIED,
+        "D",
+        "desk occupied",
+        "enum",
+        "",
+        "",
+        "R",
+        "desk k at 4600 + k: 1 occupied (a person seen at the desk within the hold time), 0 vacant (nobody for the hold time, and the node sees at least 60 % of the desk's workstation zone), 65535 unknown (occupancy off, the zone not seen, no usable depth frame for longer than the hold, or a sensor on no desk); never 0 from a bad frame"
+    ),
+    row!(
+        Input,
+        addr::DESK_OCCUPANCY_FLAGS,
+        "D",
+        "desk occupancy flags",
+        "bits",
+        "",
+        "",
+        "R",
+        "desk k at 4700 + k: bit 0 held (the hold's state, not the last frame's answer), 1 no desk (the sensor is on no desk top)"
+    ),
 ];
 
 #[cfg(feature = "std")]
@@ -1485,7 +1645,7 @@ mod tests {
     #[test]
     fn fixed_core_and_float_word_orders() {
         let mut m = map();
-        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 5, 0, 3, 0, 2, 0, 1]);
+        assert_eq!(read(&mut m, 4, 0, 4), vec![4, 8, 0, 6, 0, 3, 0, 2, 0, 1]);
         // stated model uncertainty, 0.1 %: 4.56 % -> 46, saturating, not stated
         assert_eq!(
             read(&mut m, 4, addr::DESK_MODEL_UNCERTAINTY, 3),
@@ -1651,5 +1811,49 @@ mod tests {
         m.control.met[0] = 1;
         assert_eq!(read(&mut m, 4, addr::DESK_MET, 1), vec![4, 2, 0, 1]);
         assert_eq!(read(&mut m, 4, addr::DESK_MET + 3, 1), vec![0x84, 2]);
+    }
+
+    #[test]
+    fn occupancy_registers_read_unknown_until_published() {
+        let mut m = map();
+        // occupancy off: every desk unknown, the count unknown, the status 0
+        assert_eq!(
+            read(&mut m, 4, addr::DESK_OCCUPIED, 3),
+            vec![4, 6, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]
+        );
+        assert_eq!(
+            read(&mut m, 4, addr::OCCUPANCY_STATUS, 3),
+            vec![4, 6, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF]
+        );
+        // published: desk 0 occupied (held), desk 1 vacant, desk 2 unknown; 2 people
+        for (state, flags) in [
+            (Occupancy::Occupied, occupancy_flags::HELD),
+            (Occupancy::Vacant, 0),
+            (Occupancy::Unknown, occupancy_flags::NO_DESK),
+        ] {
+            let _ = m.occupancy.desks.push(OccupancyDesk { state, flags });
+        }
+        m.occupancy.people = Some(2);
+        m.occupancy.status = occupancy_status::ON | occupancy_status::MOVED;
+        m.occupancy.hold_s = 900.0;
+        assert_eq!(
+            read(&mut m, 4, addr::DESK_OCCUPIED, 3),
+            vec![4, 6, 0, 1, 0, 0, 0xFF, 0xFF]
+        );
+        assert_eq!(
+            read(&mut m, 3, addr::DESK_OCCUPANCY_FLAGS, 3),
+            vec![3, 6, 0, 1, 0, 0, 0, 2]
+        );
+        assert_eq!(
+            read(&mut m, 4, addr::OCCUPANCY_STATUS, 3),
+            vec![4, 6, 0, 0x21, 0, 2, 0x03, 0x84]
+        );
+        // past the blocks (D = 3)
+        assert_eq!(read(&mut m, 4, addr::DESK_OCCUPIED + 3, 1), vec![0x84, 2]);
+        assert_eq!(
+            read(&mut m, 4, addr::DESK_OCCUPANCY_FLAGS + 3, 1),
+            vec![0x84, 2]
+        );
+        assert_eq!(read(&mut m, 4, addr::OCCUPANCY_HOLD + 1, 1), vec![0x84, 2]);
     }
 }

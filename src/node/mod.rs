@@ -2,10 +2,11 @@
 //!
 //! [`Node`] owns the model copied out of the image (the response matrix, sensors ×
 //! luminaires, a few kB), the current dimming levels, the lighting-control state (mode, desk
-//! targets, power model), lamp ageing, the latest daylight estimate, the live values, the
-//! faults and the [`health`] of its servers. Every change of the dimming state (a write of
-//! the arc levels, or a poll of the DALI gateway) recomputes the desk values at once by
-//! superposition, so a read always returns values consistent with the levels next to them.
+//! targets, power model), lamp ageing, the latest daylight estimate, the live values and
+//! occupancy, the faults and the [`health`] of its servers. Every change of the dimming state
+//! (a write of the arc levels, or a poll of the DALI gateway) recomputes the desk values at
+//! once by superposition, so a read always returns values consistent with the levels next to
+//! them.
 //!
 //! The state is published in the register layer's snapshot ([`RegisterMap`]); the node knows
 //! no protocol. The protocol adapters (`crate::fieldbus`: Modbus TCP, TLS and RTU, the DALI
@@ -566,6 +567,29 @@ impl Node {
         live.status = status;
         live.last_frame_age_s = last_frame_age_s;
         self.set_ageing(ageing);
+    }
+
+    /// Publishes occupancy (`crate::occupancy` through the daemon's hold): per desk its state
+    /// and flags (desk order; a slice of another length is refused and every desk reads
+    /// unknown), the people count (`None`: not known), the status bits
+    /// ([`crate::modbus::regmap::occupancy_status`]) and the hold in effect, s.
+    pub fn set_occupancy(
+        &mut self,
+        desks: &[crate::modbus::regmap::OccupancyDesk],
+        people: Option<u16>,
+        status: u16,
+        hold_s: f64,
+    ) {
+        let occ = &mut self.map.occupancy;
+        occ.desks.clear();
+        if desks.len() == self.map.desks.len() {
+            for d in desks {
+                let _ = occ.desks.push(*d);
+            }
+        }
+        occ.people = people;
+        occ.status = status;
+        occ.hold_s = hold_s;
     }
 
     /// Publishes a daylight estimate per desk, lx (desk order); one of the wrong length or with a

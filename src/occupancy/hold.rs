@@ -1,7 +1,8 @@
 //! The hold time over single-frame answers (issue 29; DALI-2 part 303's hold, 15 min by
 //! default): a desk stays occupied for the hold after its person was last seen, and a bad frame
 //! or an unseen desk keeps the last answer for the hold, then becomes unknown. Pure logic over
-//! [`OccupancyReport`]s; the daemon feeds it (not wired yet).
+//! [`OccupancyReport`]s; the daemon feeds it every depth frame at the frame's time
+//! (`crate::daemon::occupancy`).
 
 use super::{OccupancyError, OccupancyReport, Occupied};
 

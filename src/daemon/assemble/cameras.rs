@@ -116,6 +116,7 @@ pub fn live_task(board: &Board) -> Option<LiveTask> {
         period: board.live.period,
         settings: crate::live::LiveSettings::default(),
         capture,
+        occupancy_hold_s: board.occupancy_hold_s,
     })
 }
 

@@ -80,6 +80,26 @@ pub fn sample_node() -> Node {
     Node::new(model, options).unwrap_or_else(|e| panic!("sample node: {e}"))
 }
 
+/// `node` with occupancy published (its Binary Inputs exist): desk 0 occupied, desk 1 vacant,
+/// the others unknown after a bad depth frame.
+pub fn with_occupancy(mut node: Node) -> Node {
+    use crate::modbus::regmap::{Occupancy, OccupancyDesk, occupancy_status};
+    let mut desks = vec![OccupancyDesk::default(); node.map().desks.len()];
+    for (d, state) in desks
+        .iter_mut()
+        .zip([Occupancy::Occupied, Occupancy::Vacant])
+    {
+        d.state = state;
+    }
+    node.set_occupancy(
+        &desks,
+        Some(1),
+        occupancy_status::ON | occupancy_status::MOVED,
+        900.0,
+    );
+    node
+}
+
 /// A server for device 1234 with DeviceCommunicationControl allowed (password "pw").
 pub fn sample_server() -> Server {
     Server::new(ServerConfig {
@@ -111,6 +131,7 @@ pub fn request(service: u8, body: impl FnOnce(&mut Writer<'_>)) -> Vec<u8> {
 pub fn seeds() -> Vec<Vec<u8>> {
     let ai = ObjectId::new(0, 1);
     let av = ObjectId::new(2, 0);
+    let bi = ObjectId::new(3, 2);
     let dev = ObjectId::new(8, 1234);
     let rp = |o: ObjectId, prop: u32| {
         request(confirmed::READ_PROPERTY, |w| {
@@ -143,8 +164,9 @@ pub fn seeds() -> Vec<Vec<u8>> {
             let _ = w.context_enumerated(1, property::OBJECT_LIST);
             let _ = w.context_unsigned(2, 3);
         }),
+        rp(bi, property::PRESENT_VALUE),
         request(confirmed::READ_PROPERTY_MULTIPLE, |w| {
-            for o in [dev, ai, av] {
+            for o in [dev, ai, av, bi] {
                 let _ = w.context_object_id(0, o);
                 let _ = w.opening(1);
                 let _ = w.context_enumerated(0, property::ALL);
@@ -163,6 +185,12 @@ pub fn seeds() -> Vec<Vec<u8>> {
             let _ = w.context_unsigned(0, 17);
             let _ = w.context_object_id(1, ai);
             let _ = w.context_bool(2, false);
+            let _ = w.context_unsigned(3, 60);
+        }),
+        request(confirmed::SUBSCRIBE_COV, |w| {
+            let _ = w.context_unsigned(0, 18);
+            let _ = w.context_object_id(1, bi);
+            let _ = w.context_bool(2, true);
             let _ = w.context_unsigned(3, 60);
         }),
         request(confirmed::DEVICE_COMMUNICATION_CONTROL, |w| {
@@ -266,7 +294,7 @@ pub struct Fuzzer {
 impl Default for Fuzzer {
     fn default() -> Self {
         Self {
-            node: sample_node(),
+            node: with_occupancy(sample_node()),
             server: sample_server(),
             now: Instant::now(),
             report: FuzzReport::default(),

@@ -784,7 +784,11 @@ impl Server {
                 w.opening(4)?;
                 w.context_enumerated(0, p::PRESENT_VALUE)?;
                 w.opening(2)?;
-                w.real(told.value as f32)?;
+                if s.object.object_type == ot::BINARY_INPUT {
+                    w.enumerated(u32::from(told.value > 0.5))?;
+                } else {
+                    w.real(told.value as f32)?;
+                }
                 w.closing(2)?;
                 w.context_enumerated(0, p::STATUS_FLAGS)?;
                 w.opening(2)?;
@@ -877,7 +881,7 @@ fn number(value: &[u8]) -> Option<f64> {
 pub fn is_served_type(id: ObjectId) -> bool {
     matches!(
         id.object_type,
-        ot::DEVICE | ot::ANALOG_INPUT | ot::ANALOG_VALUE
+        ot::DEVICE | ot::ANALOG_INPUT | ot::ANALOG_VALUE | ot::BINARY_INPUT
     )
 }
 

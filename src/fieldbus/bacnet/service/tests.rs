@@ -424,3 +424,85 @@ fn confirmed_notifications_are_sent_again_until_acknowledged() {
         "acknowledged"
     );
 }
+
+#[test]
+fn occupancy_binary_inputs_are_read_notified_and_never_written() {
+    use crate::modbus::regmap::{Occupancy, OccupancyDesk, occupancy_status};
+    let (mut node, mut s) = (sample_node(), sample_server());
+    let (bi0, bi1) = (
+        ObjectId::new(ot::BINARY_INPUT, 0),
+        ObjectId::new(ot::BINARY_INPUT, 1),
+    );
+    // no occupancy on this node: no Binary Input
+    let a = ask(&mut s, &mut node, peer(), &rp(bi0, p::PRESENT_VALUE, None));
+    assert_eq!(error_of(&a[0]), Some((ec::OBJECT, code::UNKNOWN_OBJECT)));
+    let publish = |node: &mut Node, first: Occupancy, status: u16| {
+        let mut desks = [OccupancyDesk::default(); 4];
+        desks[0].state = first;
+        node.set_occupancy(&desks, Some(1), status, 900.0);
+    };
+    publish(&mut node, Occupancy::Occupied, occupancy_status::ON);
+    // one per desk: Object_List 1 + 4 × 4 + 3 + 4 + 4
+    let dev = ObjectId::new(ot::DEVICE, 1234);
+    let a = ask(&mut s, &mut node, peer(), &rp(dev, p::OBJECT_LIST, Some(0)));
+    assert!(a[0].ends_with(&[0x3E, 0x21, 28, 0x3F]), "{:02x?}", a[0]);
+    // Present_Value active (enumerated 1); desk 1 unknown: inactive, no-sensor, fault
+    let a = ask(&mut s, &mut node, peer(), &rp(bi0, p::PRESENT_VALUE, None));
+    assert!(a[0].ends_with(&[0x3E, 0x91, 0x01, 0x3F]), "{:02x?}", a[0]);
+    let a = ask(&mut s, &mut node, peer(), &rp(bi1, p::PRESENT_VALUE, None));
+    assert!(a[0].ends_with(&[0x3E, 0x91, 0x00, 0x3F]), "{:02x?}", a[0]);
+    let a = ask(&mut s, &mut node, peer(), &rp(bi1, p::RELIABILITY, None));
+    assert!(a[0].ends_with(&[0x3E, 0x91, 0x01, 0x3F]), "{:02x?}", a[0]);
+    let a = ask(&mut s, &mut node, peer(), &rp(bi1, p::STATUS_FLAGS, None));
+    assert!(
+        a[0].ends_with(&[0x3E, 0x82, 0x04, 0x40, 0x3F]),
+        "{:02x?}",
+        a[0]
+    );
+    let a = ask(&mut s, &mut node, peer(), &rp(bi0, p::COV_INCREMENT, None));
+    assert_eq!(
+        error_of(&a[0]),
+        Some((ec::PROPERTY, code::UNKNOWN_PROPERTY))
+    );
+    // never written, even from the allowlist
+    let write = request(confirmed::WRITE_PROPERTY, |w| {
+        let _ = w.context_object_id(0, bi0);
+        let _ = w.context_enumerated(1, p::PRESENT_VALUE);
+        let _ = w.opening(3);
+        let _ = w.enumerated(0);
+        let _ = w.closing(3);
+    });
+    let a = ask(&mut s, &mut node, peer(), &write);
+    assert_eq!(
+        error_of(&a[0]),
+        Some((ec::PROPERTY, code::WRITE_ACCESS_DENIED))
+    );
+    // COV: the initial notification, then each change of the value or of the fault flag,
+    // the value as an enumerated BACnetBinaryPV
+    let sub = request(confirmed::SUBSCRIBE_COV, |w| {
+        let _ = w.context_unsigned(0, 6);
+        let _ = w.context_object_id(1, bi0);
+        let _ = w.context_bool(2, false);
+        let _ = w.context_unsigned(3, 60);
+    });
+    let pv = |v: u8| [0x09, 0x55, 0x2E, 0x91, v, 0x2F];
+    let has = |a: &[u8], x: &[u8]| a.windows(x.len()).any(|w| w == x);
+    let a = ask(&mut s, &mut node, peer(), &sub);
+    assert!(has(&a[1], &pv(1)), "initial {:02x?}", a[1]);
+    assert!(s.poll_cov(&node, Instant::now()).is_empty());
+    publish(&mut node, Occupancy::Vacant, occupancy_status::ON);
+    let n = apdus(&s.poll_cov(&node, Instant::now()));
+    assert_eq!(n.len(), 1);
+    assert!(has(&n[0], &pv(0)), "{:02x?}", n[0]);
+    // unknown (stale depth): the same inactive, now with the fault flag: notified
+    publish(
+        &mut node,
+        Occupancy::Unknown,
+        occupancy_status::ON | occupancy_status::STALE,
+    );
+    let n = apdus(&s.poll_cov(&node, Instant::now()));
+    assert_eq!(n.len(), 1);
+    assert!(has(&n[0], &[0x2E, 0x82, 0x04, 0x40, 0x2F]), "{:02x?}", n[0]);
+    let a = ask(&mut s, &mut node, peer(), &rp(bi0, p::RELIABILITY, None));
+    assert!(a[0].ends_with(&[0x3E, 0x91, 12, 0x3F]), "{:02x?}", a[0]);
+}
