@@ -40,10 +40,7 @@ pub enum RuntimeError {
     NonFinite,
 }
 
-/// Parts of a desk's modelled-light uncertainty per luminaire at 100 %: six independent
-/// reflectance classes (`crate::commission::uncertainty::Inferred`), then what an unseen object
-/// could shade of that luminaire's direct light.
-pub const UNCERTAINTY_PARTS: usize = 7;
+pub use crate::store::live::UNCERTAINTY_PARTS;
 
 /// The standard uncertainty of a desk's modelled light in a dimming state, lx, from its parts
 /// per luminaire at 100 % (`part(l, k)`, `k` < [`UNCERTAINTY_PARTS`]) and the levels (in
@@ -94,6 +91,25 @@ pub fn state_rel_uncertainty(
     } else {
         at
     }
+}
+
+/// Sensor `k`'s stated relative uncertainty of its modelled light in a dimming state
+/// (`levels`, one per luminaire in [0, 1]; [`state_rel_uncertainty`] over the image's live
+/// section): the all-on statement when the image has no parts per luminaire; `None`: not stated.
+pub fn model_rel_uncertainty_at(image: &Image<'_>, k: usize, levels: &[f64]) -> Option<f64> {
+    let live = image.live.as_ref()?;
+    let stated = live.model_rel_uncertainty(k)?;
+    let l = image.luminaires();
+    if levels.len() != l || !live.has_uncertainty_parts() || k >= image.sensors() {
+        return Some(stated);
+    }
+    let part = |j: usize, c: usize| live.uncertainty_part_lx(k, j, c, l);
+    Some(state_rel_uncertainty(
+        stated,
+        part,
+        |j| image.response_lx(k, j),
+        levels,
+    ))
 }
 
 /// The run-time core over one image.

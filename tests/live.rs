@@ -125,7 +125,7 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     let all_on = vec![1.0; image.luminaires()];
     for k in 0..image.sensors() {
         let stated = image.model_rel_uncertainty(k).unwrap();
-        let at = image.model_rel_uncertainty_at(k, &all_on).unwrap();
+        let at = luxnode::runtime::model_rel_uncertainty_at(&image, k, &all_on).unwrap();
         assert!(
             (at - stated).abs() <= 0.01 * stated + 2e-4,
             "{at} vs {stated}"
@@ -164,7 +164,7 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
         .map(|j| f64::from(u8::from(j == 0)))
         .collect::<Vec<_>>();
     assert_eq!(
-        i2.model_rel_uncertainty_at(0, &one),
+        luxnode::runtime::model_rel_uncertainty_at(&i2, 0, &one),
         i2.model_rel_uncertainty(0)
     );
     // a flipped bit in the section fails the payload CRC like any other byte

@@ -244,6 +244,7 @@ mod daemon {
             luminaire_ids: vec![1],
             sensor_flags: vec![0; 4],
             model_rel_uncertainty: vec![f64::NAN; 4],
+            uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_flux_lm: vec![3000.0],
         };

@@ -282,8 +282,7 @@ fn from_image(a: &Args, path: &Path) -> Result<()> {
                 let levels = sc.levels(&ids);
                 (0..image.sensors())
                     .map(|k| {
-                        image
-                            .model_rel_uncertainty_at(k, &levels)
+                        luxnode::runtime::model_rel_uncertainty_at(&image, k, &levels)
                             .unwrap_or(f64::NAN)
                     })
                     .collect::<Vec<_>>()

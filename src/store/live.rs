@@ -37,7 +37,7 @@
 //! `crate::commission::uncertainty`; [`NOT_STATED`] for a CAD model) with, from version 3, its
 //! parts per luminaire at 100 % (`sensor_uncertainty_parts_lx`, f32, six reflectance classes and an
 //! unseen occluder: 28 bytes per sensor and luminaire), from which any dimming state's uncertainty
-//! follows (`crate::runtime::state_rel_uncertainty`). Per patch: the group it belongs to as a
+//! follows (the run-time kernel's `state_rel_uncertainty`). Per patch: the group it belongs to as a
 //! candidate *unknown emitter* (daylight through a window, any unmodelled light: walls, floor
 //! and other surfaces the camera does not see, grouped by plane and position), or
 //! [`NO_EMITTER`].
@@ -52,6 +52,11 @@ use super::{ImageError, check, check_values};
 
 /// The largest magnitude of a stored uncertainty part, lx (the image's [`super::MAX_LUX`]).
 const MAX_LUX_F32: f32 = super::MAX_LUX as f32;
+/// Parts of a desk's modelled-light uncertainty per luminaire at 100 % in
+/// `sensor_uncertainty_parts_lx`: six independent reflectance classes
+/// (`crate::commission::uncertainty::Inferred`), then what an unseen object could shade of that
+/// luminaire's direct light.
+pub const UNCERTAINTY_PARTS: usize = 7;
 /// A sensor's stated uncertainty that is not stated.
 pub const NOT_STATED: u16 = u16::MAX;
 /// The largest stated uncertainty, 0.01 % units (100 %).
@@ -158,9 +163,9 @@ pub struct LiveV1<'a> {
     /// Number of emitter groups.
     pub n_emitters: u16,
     /// The parts of each sensor's modelled-light uncertainty per luminaire at 100 %, lx, f32 LE
-    /// `[sensor][luminaire][part]` with [`crate::runtime::UNCERTAINTY_PARTS`] parts (six
+    /// `[sensor][luminaire][part]` with [`UNCERTAINTY_PARTS`] parts (six
     /// reflectance classes, then an unseen occluder): the uncertainty of any dimming state
-    /// ([`crate::runtime::state_uncertainty_lx`]). Empty: not stated (a CAD model, or a
+    /// (the run-time kernel's `state_uncertainty_lx`). Empty: not stated (a CAD model, or a
     /// version-2 section). Version 3 appends it to the body as one more postcard byte string
     /// after the fields above (so a version-2 body is a version-3 body without it).
     #[serde(skip)]
@@ -284,7 +289,7 @@ impl<'a> LiveV1<'a> {
         }
         let parts = self.sensor_uncertainty_parts_lx.count(4);
         check(
-            parts == Some(0) || parts == Some(s * l * crate::runtime::UNCERTAINTY_PARTS),
+            parts == Some(0) || parts == Some(s * l * UNCERTAINTY_PARTS),
             "live sensor uncertainty parts",
         )?;
         for k in 0..parts.unwrap_or(0) {
@@ -373,11 +378,11 @@ impl<'a> LiveV1<'a> {
         !self.sensor_uncertainty_parts_lx.0.is_empty()
     }
 
-    /// Part `k` (< [`crate::runtime::UNCERTAINTY_PARTS`]) of sensor `s`'s modelled-light
+    /// Part `k` (< [`UNCERTAINTY_PARTS`]) of sensor `s`'s modelled-light
     /// uncertainty from luminaire `l` at 100 %, lx, for `luminaires` luminaires (0 without
     /// parts).
     pub fn uncertainty_part_lx(&self, s: usize, l: usize, k: usize, luminaires: usize) -> f64 {
-        let p = crate::runtime::UNCERTAINTY_PARTS;
+        let p = UNCERTAINTY_PARTS;
         let i = (s * luminaires + l) * p + k;
         if !self.has_uncertainty_parts() || 4 * i + 4 > self.sensor_uncertainty_parts_lx.0.len() {
             return 0.0;

@@ -526,25 +526,6 @@ impl<'a> Image<'a> {
         self.live.as_ref().and_then(|l| l.model_rel_uncertainty(k))
     }
 
-    /// Sensor `k`'s stated relative uncertainty of its modelled light in a dimming state
-    /// (`levels`, one per luminaire in [0, 1]; [`crate::runtime::state_rel_uncertainty`]): the
-    /// all-on statement when the image has no parts per luminaire; `None`: not stated.
-    pub fn model_rel_uncertainty_at(&self, k: usize, levels: &[f64]) -> Option<f64> {
-        let live = self.live.as_ref()?;
-        let stated = live.model_rel_uncertainty(k)?;
-        let l = self.luminaires();
-        if levels.len() != l || !live.has_uncertainty_parts() || k >= self.sensors() {
-            return Some(stated);
-        }
-        let part = |j: usize, c: usize| live.uncertainty_part_lx(k, j, c, l);
-        Some(crate::runtime::state_rel_uncertainty(
-            stated,
-            part,
-            |j| self.response_lx(k, j),
-            levels,
-        ))
-    }
-
     /// Response of sensor `s` to luminaire `l` at 100 %, lx.
     pub fn response_lx(&self, s: usize, l: usize) -> f64 {
         self.payload.response_lx.f64_at(s * self.luminaires() + l)
