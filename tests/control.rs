@@ -1054,6 +1054,13 @@ fn the_published_control_figures_hold() {
     let power: Vec<LuminairePower> = (0..img.luminaires())
         .map(|j| LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j)))
         .collect();
+    let people = luxnode::bench::control_day::read_people(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("bench/control/office_a_occupancy.csv"),
+        0.25,
+        luxnode::control::VacantLight::Surrounding,
+    )
+    .unwrap();
     for sky in ["clear", "overcast"] {
         let series = luxnode::bench::control_day::read_series(
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!(
@@ -1068,14 +1075,19 @@ fn the_published_control_figures_hold() {
             &vec![500.0; ids.len()],
             &series,
             (8.0, 18.0),
+            Some(&people),
         )
         .unwrap();
         let marker = format!("<!-- control-day {sky} -->");
         let saved = |kwh: f64| 100.0 * (1.0 - kwh / t.all_on_kwh);
+        let following = t.following_kwh.unwrap();
+        // following people: below least power without occupancy (issue 29's target)
+        assert!(following < t.optimised_kwh, "{sky}: {following} kWh");
         for (name, kwh) in [
             ("all on", t.all_on_kwh),
             ("one photocell", t.photocell_kwh),
             ("least power", t.optimised_kwh),
+            ("least power following people", following),
         ] {
             let row = doc_row(&doc, &marker, name);
             check_figure(&format!("{sky} {name} kWh"), kwh, &row[1]);

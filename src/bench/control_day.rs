@@ -2,6 +2,10 @@
 //! against the conventional one-photocell controller (every luminaire dimmed together until the
 //! darkest desk meets its target), over the occupied hours of a daylight series.
 //!
+//! With an occupancy schedule ([`People`]), a fourth controller: least power following people
+//! (each desk's demand by its presence after the hold, `control::presence_demand_lx`), on
+//! quarter-hour steps within the daylight's.
+//!
 //! The daylight series is a CSV `time_h,sensor_id,lux` (the daylight alone on each desk at
 //! each time, e.g. from Radiance with the luminaires off); each time step lasts until the next
 //! one (the last one as long as the one before it).
@@ -9,7 +13,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::control::{Demand, LuminairePower, Plant, photocell, plan};
+use crate::control::{
+    Demand, LuminairePower, Plant, Presence, VacantLight, photocell, plan, presence_demand_lx,
+};
 use crate::dali::DimmingCurve;
 use crate::store::Image;
 
@@ -96,6 +102,95 @@ pub fn read_series(path: &Path, sensor_ids: &[u32]) -> Result<Vec<Step>, DayErro
         .collect())
 }
 
+/// Who sits where over the day, and how the controller takes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct People {
+    /// Per desk sensor id, the intervals someone is at it, `[from, to)` hours (none: empty all
+    /// day). A sensor not listed is not a desk: its presence is unknown (its target holds).
+    pub desks: Vec<(u32, Vec<(f64, f64)>)>,
+    /// A desk stays occupied this long after its person left, h (`[occupancy] hold_s`).
+    pub hold_h: f64,
+    /// What a vacant desk is lit to.
+    pub vacant: VacantLight,
+}
+
+/// Steps of the occupancy controller, h.
+const PEOPLE_STEP_H: f64 = 0.25;
+
+impl People {
+    /// Presence at sensor `id` at hour `t_h`, the hold applied.
+    pub fn presence(&self, id: u32, t_h: f64) -> Presence {
+        let Some((_, spans)) = self.desks.iter().find(|(d, _)| *d == id) else {
+            return Presence::Unknown;
+        };
+        let held = spans
+            .iter()
+            .any(|&(a, b)| a <= t_h && t_h < b + self.hold_h);
+        if held {
+            Presence::Occupied
+        } else {
+            Presence::Vacant
+        }
+    }
+}
+
+/// Reads an occupancy schedule: CSV `sensor_id,from_h,to_h`, one row per interval someone is at
+/// the desk; a row with both times empty names a desk nobody uses that day.
+pub fn read_people(path: &Path, hold_h: f64, vacant: VacantLight) -> Result<People, DayError> {
+    let bad = |reason: String| DayError::Series {
+        path: path.to_owned(),
+        reason,
+    };
+    if !(hold_h.is_finite() && (0.0..=24.0).contains(&hold_h)) {
+        return Err(bad(format!("hold {hold_h} h: within 0..=24 h")));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let mut lines = text.lines().enumerate();
+    if lines.next().map(|l| l.1.trim()) != Some("sensor_id,from_h,to_h") {
+        return Err(bad("header must be sensor_id,from_h,to_h".into()));
+    }
+    let mut desks: Vec<(u32, Vec<(f64, f64)>)> = Vec::new();
+    for (n, line) in lines.filter(|(_, l)| !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let line_no = n + 1;
+        let [id, from, to] = f[..] else {
+            return Err(bad(format!("line {line_no}: three fields")));
+        };
+        let id: u32 = id
+            .parse()
+            .map_err(|_| bad(format!("line {line_no}: sensor_id")))?;
+        let i = match desks.iter().position(|(d, _)| *d == id) {
+            Some(i) => i,
+            None => {
+                desks.push((id, Vec::new()));
+                desks.len() - 1
+            }
+        };
+        if from.is_empty() && to.is_empty() {
+            continue;
+        }
+        let (a, b) = match (from.parse::<f64>(), to.parse::<f64>()) {
+            (Ok(a), Ok(b)) if a.is_finite() && b.is_finite() && 0.0 <= a && a < b && b <= 24.0 => {
+                (a, b)
+            }
+            _ => {
+                return Err(bad(format!(
+                    "line {line_no}: 0 <= from_h < to_h <= 24 (or both empty)"
+                )));
+            }
+        };
+        desks[i].1.push((a, b));
+    }
+    if desks.is_empty() {
+        return Err(bad("no desk in the schedule".into()));
+    }
+    Ok(People {
+        desks,
+        hold_h,
+        vacant,
+    })
+}
+
 /// One step of the day for each controller.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DayRow {
@@ -113,6 +208,8 @@ pub struct DayRow {
     pub lp_w: f64,
     /// Desks short under the photocell / the optimiser.
     pub short: (usize, usize),
+    /// Least power following people, mean over the step, W (`None`: no schedule).
+    pub following_w: Option<f64>,
 }
 
 /// Energy totals, kWh.
@@ -124,6 +221,8 @@ pub struct DayTotals {
     pub photocell_kwh: f64,
     /// Least power.
     pub optimised_kwh: f64,
+    /// Least power following people (`None`: no schedule).
+    pub following_kwh: Option<f64>,
     /// Occupied hours covered.
     pub hours: f64,
 }
@@ -135,6 +234,7 @@ pub fn run(
     target_lx: &[f64],
     series: &[Step],
     occupied_h: (f64, f64),
+    people: Option<&People>,
 ) -> Result<(Vec<DayRow>, DayTotals), DayError> {
     let (kd, l) = (image.sensors(), image.luminaires());
     let response: Vec<f64> = (0..kd)
@@ -157,8 +257,10 @@ pub fn run(
         all_on_kwh: 0.0,
         photocell_kwh: 0.0,
         optimised_kwh: 0.0,
+        following_kwh: people.map(|_| 0.0),
         hours: 0.0,
     };
+    let ids: Vec<u32> = (0..kd).map(|k| image.sensor_id(k)).collect();
     for (i, s) in steps.iter().enumerate() {
         let dt_h = match (
             steps.get(i + 1),
@@ -176,6 +278,16 @@ pub fn run(
         };
         let pc = photocell(&plant, &demand)?.report;
         let opt = plan(&plant, &demand)?.report;
+        let following_w = match people {
+            Some(p) => {
+                let wh = following_wh(&plant, p, &ids, target_lx, s, dt_h)?;
+                if let Some(k) = totals.following_kwh.as_mut() {
+                    *k += wh / 1000.0;
+                }
+                Some(wh / dt_h.max(1e-9))
+            }
+            None => None,
+        };
         totals.all_on_kwh += pc.all_on_w * dt_h / 1000.0;
         totals.photocell_kwh += pc.power_w * dt_h / 1000.0;
         totals.optimised_kwh += opt.power_w * dt_h / 1000.0;
@@ -188,7 +300,44 @@ pub fn run(
             optimised_w: opt.power_w,
             lp_w: opt.lp_power_w,
             short: (pc.short, opt.short),
+            following_w,
         });
     }
     Ok((rows, totals))
+}
+
+/// Energy of the least-power controller following people over one daylight step, Wh: the
+/// step cut into quarter hours, each planned for the desks' presence at its start.
+fn following_wh(
+    plant: &Plant<'_>,
+    people: &People,
+    ids: &[u32],
+    target_lx: &[f64],
+    step: &Step,
+    dt_h: f64,
+) -> Result<f64, DayError> {
+    let mut wh = 0.0;
+    let mut t = 0.0;
+    while t < dt_h - 1e-9 {
+        let h = PEOPLE_STEP_H.min(dt_h - t);
+        let demand: Vec<f64> = ids
+            .iter()
+            .zip(target_lx)
+            .map(|(&id, &target)| {
+                presence_demand_lx(target, people.presence(id, step.time_h + t), people.vacant)
+            })
+            .collect();
+        let report = plan(
+            plant,
+            &Demand {
+                target_lx: &demand,
+                daylight_lx: &step.daylight_lx,
+                uniformity: None,
+            },
+        )?
+        .report;
+        wh += report.power_w * h;
+        t += h;
+    }
+    Ok(wh)
 }

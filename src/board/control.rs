@@ -18,6 +18,8 @@
 //! uniformity = 0.6             # optional: every desk at least 0.6 of the mean
 //! tick_s = 1
 //! daylight_max_age_s = 60
+//! vacant = "surrounding"       # a desk nobody is at (occupancy, after its hold): "surrounding"
+//!                              # (EN 12464-1's immediate surrounding level, 500 → 300 lx) | "off"
 //! ```
 //!
 //! What a BMS writes over Modbus (mode, targets) wins over the board and is persisted.
@@ -50,6 +52,7 @@ pub struct ControlToml {
     uniformity: Option<f64>,
     tick_s: Option<f64>,
     daylight_max_age_s: Option<f64>,
+    vacant: Option<String>,
 }
 
 fn within(name: &str, v: f64, lo: f64, hi: f64) -> Result<f64, SectionError> {
@@ -158,6 +161,16 @@ pub(crate) fn control(t: Option<ControlToml>) -> Result<ControlOptions, SectionE
             86_400.0,
         )?,
         tick_s: within("tick_s", t.tick_s.unwrap_or(d.tick_s), 0.05, 3600.0)?,
+        vacant: match t.vacant.as_deref() {
+            None => d.vacant,
+            Some("surrounding") => crate::control::VacantLight::Surrounding,
+            Some("off") => crate::control::VacantLight::Off,
+            Some(other) => {
+                return Err(SectionError(format!(
+                    "control.vacant \"{other}\": \"surrounding\" or \"off\""
+                )));
+            }
+        },
     })
 }
 
@@ -195,6 +208,11 @@ mod tests {
         );
         let d = parse("").unwrap();
         assert_eq!((d.mode, d.target_lx, d.min_arc), (Mode::Off, 500.0, 85));
+        assert_eq!(d.vacant, crate::control::VacantLight::Surrounding);
+        assert_eq!(
+            parse("vacant = \"off\"").unwrap().vacant,
+            crate::control::VacantLight::Off
+        );
         for (bad, says) in [
             ("mode = \"auto\"", "control.mode"),
             ("target_lx = -1", "target_lx"),
@@ -208,6 +226,7 @@ mod tests {
             ("tick_s = 0", "tick_s"),
             ("rated_power_w = 0", "rated_power_w"),
             ("colour = 1", "unknown field"),
+            ("vacant = \"dim\"", "control.vacant"),
         ] {
             let e = parse(bad).unwrap_err().to_string();
             assert!(e.contains(says), "{bad}: {e}");

@@ -192,6 +192,17 @@ pub enum Command {
         /// Write the power over the day as a PNG.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Who sits where: CSV sensor_id,from_h,to_h (a fourth controller, least power
+        /// following people; bench/control/office_a_occupancy.csv).
+        #[arg(long)]
+        occupancy: Option<PathBuf>,
+        /// Occupancy's hold, s (a desk stays occupied this long after its person left).
+        #[arg(long, default_value_t = 900.0)]
+        hold_s: f64,
+        /// What a vacant desk is lit to: surrounding (EN 12464-1's immediate surrounding
+        /// level) or off.
+        #[arg(long, default_value = "surrounding")]
+        vacant: String,
     },
     /// Dense illuminance against Radiance: the desk grids of truth_dense.csv (mean error, U0 per
     /// desk) and the camera-view lux image against the rendered truth (π L / ρ on desk pixels),
@@ -318,7 +329,23 @@ pub fn run(command: Command) -> Result<()> {
             from_h,
             to_h,
             plot,
-        } => control_day(&image, &daylight, target, (from_h, to_h), plot.as_deref())?,
+            occupancy,
+            hold_s,
+            vacant,
+        } => {
+            let people = match occupancy {
+                Some(path) => Some(read_people_arg(&path, hold_s, &vacant)?),
+                None => None,
+            };
+            control_day(
+                &image,
+                &daylight,
+                target,
+                (from_h, to_h),
+                plot.as_deref(),
+                people.as_ref(),
+            )?
+        }
         Command::Table1 { scene } => table1(&scene)?,
         Command::Ablation { scene } => ablation(&scene)?,
     }
@@ -772,12 +799,35 @@ fn fuzz(frames: u64, seed: u64) -> Result<()> {
 }
 
 /// `luxnode bench control-day`.
+/// `--occupancy`, `--hold-s`, `--vacant` into a schedule, each range-checked.
+fn read_people_arg(
+    path: &Path,
+    hold_s: f64,
+    vacant: &str,
+) -> Result<luxnode::bench::control_day::People> {
+    use luxnode::control::VacantLight;
+    let vacant = match vacant {
+        "surrounding" => VacantLight::Surrounding,
+        "off" => VacantLight::Off,
+        other => bail!("--vacant {other}: surrounding or off"),
+    };
+    if !(hold_s.is_finite() && (0.0..=86_400.0).contains(&hold_s)) {
+        bail!("--hold-s {hold_s}: within 0..=86400 s");
+    }
+    Ok(luxnode::bench::control_day::read_people(
+        path,
+        hold_s / 3600.0,
+        vacant,
+    )?)
+}
+
 fn control_day(
     image: &Path,
     daylight: &Path,
     target: f64,
     occupied_h: (f64, f64),
     plot: Option<&Path>,
+    people: Option<&luxnode::bench::control_day::People>,
 ) -> Result<()> {
     use luxnode::bench::control_day::{read_series, run};
     if !(target.is_finite() && (0.0..=1e5).contains(&target)) {
@@ -797,7 +847,7 @@ fn control_day(
         })
         .collect();
     let targets = vec![target; ids.len()];
-    let (rows, t) = run(&img, &power, &targets, &series, occupied_h)?;
+    let (rows, t) = run(&img, &power, &targets, &series, occupied_h, people)?;
     println!(
         "# energy over a day: {} ({} desks, {} luminaires), target {target} lx, occupied {:.1}-{:.1} h, daylight {}",
         img.payload.scene_name,
@@ -842,6 +892,17 @@ fn control_day(
         t.optimised_kwh,
         saved(t.optimised_kwh)
     );
+    if let Some(kwh) = t.following_kwh {
+        println!(
+            "| least power following people | {kwh:.3} | {:.1} % |",
+            saved(kwh)
+        );
+        println!(
+            "\nfollowing people saves {:.3} kWh ({:.1} %) against least power without occupancy",
+            t.optimised_kwh - kwh,
+            100.0 * (1.0 - kwh / t.optimised_kwh.max(1e-12))
+        );
+    }
     if let Some(path) = plot {
         use luxnode::render::plot::{Plot, Series};
         let series = [
@@ -859,8 +920,15 @@ fn control_day(
                 "least power",
                 rows.iter().map(|r| (r.time_h, r.optimised_w)).collect(),
             ),
+            (
+                "least power following people (mean per step)",
+                rows.iter()
+                    .filter_map(|r| Some((r.time_h, r.following_w?)))
+                    .collect(),
+            ),
         ]
         .into_iter()
+        .filter(|(_, points): &(&str, Vec<(f64, f64)>)| !points.is_empty())
         .map(|(name, points)| Series {
             name: name.into(),
             points,

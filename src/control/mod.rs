@@ -44,6 +44,42 @@ use crate::dali::{ArcLevel, DimmingCurve};
 
 /// Maintained illuminance on an office desk (EN 12464-1, writing, typing, reading), lx.
 pub const DEFAULT_TARGET_LX: f64 = 500.0;
+
+/// Whether someone is at a desk, as the control loop takes it (occupancy after its hold).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Presence {
+    /// A person at the desk, or seen there within the hold.
+    Occupied,
+    /// Nobody there for longer than the hold, and the desk's zone seen.
+    Vacant,
+    /// Not known (occupancy off, the desk not seen, no usable depth, not a desk).
+    Unknown,
+}
+
+/// What a vacant desk is lit to (board `[control] vacant`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum VacantLight {
+    /// The immediate surrounding area's level for the desk's target (EN 12464-1:2011
+    /// Table 1: 500 → 300 lx): a desk nobody is at is still someone's surroundings.
+    #[default]
+    Surrounding,
+    /// Nothing: the desk's light may go (its neighbours' targets still hold).
+    Off,
+}
+
+/// A desk's demand on the control loop by its presence (issue 29 item 3): occupied → its
+/// target; vacant → [`VacantLight`] (never above the target); unknown → its target (fail
+/// bright: a desk the node cannot see may have someone at it).
+#[cfg(feature = "std")]
+pub fn presence_demand_lx(target_lx: f64, presence: Presence, vacant: VacantLight) -> f64 {
+    match (presence, vacant) {
+        (Presence::Occupied | Presence::Unknown, _) => target_lx,
+        (Presence::Vacant, VacantLight::Surrounding) => {
+            crate::en12464::immediate_surrounding_lx(target_lx).min(target_lx)
+        }
+        (Presence::Vacant, VacantLight::Off) => 0.0,
+    }
+}
 /// Luminous efficacy assumed when a board gives no rated power: a luminaire's rated power is
 /// its flux over this, lm/W (a current LED office luminaire).
 pub const DEFAULT_EFFICACY_LM_PER_W: f64 = 120.0;

@@ -73,7 +73,7 @@ impl Lighting {
                 n.control_mode(),
                 n.control_response_lx(),
                 n.power().to_vec(),
-                n.targets_lx(),
+                n.demand_lx(),
                 n.fresh_daylight().map(<[f64]>::to_vec),
                 n.model().sensor_ids.len(),
                 n.model().luminaire_ids.len(),

@@ -198,6 +198,8 @@ pub struct ControlOptions {
     pub daylight_max_age_s: f64,
     /// Seconds between control ticks.
     pub tick_s: f64,
+    /// What a vacant desk (after occupancy's hold) is lit to.
+    pub vacant: crate::control::VacantLight,
 }
 
 impl Default for ControlOptions {
@@ -212,6 +214,7 @@ impl Default for ControlOptions {
             loop_settings: RegulatorSettings::default(),
             daylight_max_age_s: 60.0,
             tick_s: 1.0,
+            vacant: crate::control::VacantLight::default(),
         }
     }
 }
@@ -512,6 +515,27 @@ impl Node {
             .targets_lx
             .iter()
             .map(|&t| f64::from(t))
+            .collect()
+    }
+
+    /// Each desk's demand on the control loop, lx: its target, lowered where occupancy says
+    /// nobody is there after the hold ([`crate::control::presence_demand_lx`]); without
+    /// occupancy, or where it is unknown, the target (fail bright).
+    pub fn demand_lx(&self) -> Vec<f64> {
+        use crate::control::{Presence, presence_demand_lx};
+        use crate::modbus::regmap::Occupancy;
+        let occ = &self.map.occupancy.desks;
+        self.targets_lx()
+            .into_iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let presence = match occ.get(k).map(|d| d.state) {
+                    Some(Occupancy::Occupied) => Presence::Occupied,
+                    Some(Occupancy::Vacant) => Presence::Vacant,
+                    Some(Occupancy::Unknown) | None => Presence::Unknown,
+                };
+                presence_demand_lx(t, presence, self.control.vacant)
+            })
             .collect()
     }
 
@@ -983,6 +1007,48 @@ mod tests {
             generation: 1,
             luminaire_flux_lm: vec![1000.0; 2],
         }
+    }
+
+    #[test]
+    fn the_demand_follows_people_and_fails_bright() {
+        use crate::control::VacantLight;
+        use crate::modbus::regmap::{Occupancy, OccupancyDesk};
+        let desk = |state| OccupancyDesk { state, flags: 0 };
+        for (vacant, vacant_lx) in [(VacantLight::Surrounding, 300.0), (VacantLight::Off, 0.0)] {
+            let options = NodeOptions {
+                control: ControlOptions {
+                    vacant,
+                    ..ControlOptions::default()
+                },
+                ..NodeOptions::default()
+            };
+            let mut node = Node::new(model(), options).expect("node");
+            // no occupancy: every desk its target
+            assert_eq!(node.demand_lx(), [500.0, 500.0]);
+            node.set_occupancy(
+                &[desk(Occupancy::Occupied), desk(Occupancy::Vacant)],
+                Some(1),
+                0,
+                900.0,
+            );
+            assert_eq!(node.demand_lx(), [500.0, vacant_lx]);
+            // unknown (a bad frame, a desk not seen) is never taken as vacant
+            node.set_occupancy(
+                &[desk(Occupancy::Unknown), desk(Occupancy::Unknown)],
+                None,
+                0,
+                900.0,
+            );
+            assert_eq!(node.demand_lx(), [500.0, 500.0]);
+            // the registers keep what clients wrote
+            assert_eq!(node.targets_lx(), [500.0, 500.0]);
+        }
+        // a 300 lx target's surroundings: 200 lx; a 150 lx target's: its own
+        use crate::control::{Presence, presence_demand_lx};
+        let s = VacantLight::Surrounding;
+        assert_eq!(presence_demand_lx(300.0, Presence::Vacant, s), 200.0);
+        assert_eq!(presence_demand_lx(150.0, Presence::Vacant, s), 150.0);
+        assert_eq!(presence_demand_lx(750.0, Presence::Vacant, s), 500.0);
     }
 
     #[test]
