@@ -93,6 +93,28 @@ pub fn state_rel_uncertainty(
     }
 }
 
+/// [`state_rel_uncertainty`] over one desk's flat rows: `parts` its uncertainty parts
+/// (`[luminaire][part]`, [`UNCERTAINTY_PARTS`] each) and `response` its response per luminaire,
+/// lx, both for `levels.len()` luminaires; rows of another length (no parts stored) give the
+/// all-on statement.
+pub fn state_rel_uncertainty_of_rows(
+    stated_all_on: f64,
+    parts: &[f64],
+    response: &[f64],
+    levels: &[f64],
+) -> f64 {
+    let l = levels.len();
+    if l == 0 || parts.len() != l * UNCERTAINTY_PARTS || response.len() != l {
+        return stated_all_on;
+    }
+    state_rel_uncertainty(
+        stated_all_on,
+        |j, c| parts[j * UNCERTAINTY_PARTS + c],
+        |j| response[j],
+        levels,
+    )
+}
+
 /// Sensor `k`'s stated relative uncertainty of its modelled light in a dimming state
 /// (`levels`, one per luminaire in [0, 1]; [`state_rel_uncertainty`] over the image's live
 /// section): the all-on statement when the image has no parts per luminaire; `None`: not stated.

@@ -163,13 +163,11 @@ pub(crate) fn control(t: Option<ControlToml>) -> Result<ControlOptions, SectionE
         tick_s: within("tick_s", t.tick_s.unwrap_or(d.tick_s), 0.05, 3600.0)?,
         vacant: match t.vacant.as_deref() {
             None => d.vacant,
-            Some("surrounding") => crate::control::VacantLight::Surrounding,
-            Some("off") => crate::control::VacantLight::Off,
-            Some(other) => {
-                return Err(SectionError(format!(
-                    "control.vacant \"{other}\": \"surrounding\" or \"off\""
-                )));
-            }
+            Some(name) => crate::control::VacantLight::from_name(name).ok_or_else(|| {
+                SectionError(format!(
+                    "control.vacant \"{name}\": \"surrounding\" or \"off\""
+                ))
+            })?,
         },
     })
 }

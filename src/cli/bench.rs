@@ -806,10 +806,8 @@ fn read_people_arg(
     vacant: &str,
 ) -> Result<luxnode::bench::control_day::People> {
     use luxnode::control::VacantLight;
-    let vacant = match vacant {
-        "surrounding" => VacantLight::Surrounding,
-        "off" => VacantLight::Off,
-        other => bail!("--vacant {other}: surrounding or off"),
+    let Some(vacant) = VacantLight::from_name(vacant) else {
+        bail!("--vacant {vacant}: surrounding or off");
     };
     if !(hold_s.is_finite() && (0.0..=86_400.0).contains(&hold_s)) {
         bail!("--hold-s {hold_s}: within 0..=86400 s");

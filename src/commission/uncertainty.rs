@@ -178,16 +178,8 @@ pub struct SensorUncertainty {
     /// Per luminaire at 100 %: its part of [`Self::by_class_lx`] (they sum to it: the light is
     /// linear in the emission), then what an unseen object could shade of its direct light
     /// (the largest over the lit luminaires is [`Self::unseen_occluder_lx`]'s counterpart in a
-    /// dimming state). What [`state_uncertainty_lx`] states per dimming state.
+    /// dimming state). What `crate::runtime::state_rel_uncertainty` states per dimming state.
     pub by_luminaire: Vec<[f64; 7]>,
-}
-
-/// The standard uncertainty of a desk's modelled light in a dimming state (`levels`, one per
-/// luminaire in [0, 1]), lx, from its per-luminaire parts (`[class Δ × 6, occluder]`, each at
-/// 100 %): [`crate::runtime::state_uncertainty_lx`].
-pub fn state_uncertainty_lx(by_luminaire: &[[f64; 7]], levels: &[f64]) -> f64 {
-    let n = by_luminaire.len().min(levels.len());
-    crate::runtime::state_uncertainty_lx(|l, k| by_luminaire[l][k], &levels[..n])
 }
 
 /// At a desk no camera sees, an unseen object (a monitor, a cabinet, a partition) may stand

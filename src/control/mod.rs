@@ -67,6 +67,17 @@ pub enum VacantLight {
     Off,
 }
 
+impl VacantLight {
+    /// From its name in board files and on the command line: `surrounding` or `off`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "surrounding" => Some(Self::Surrounding),
+            "off" => Some(Self::Off),
+            _ => None,
+        }
+    }
+}
+
 /// A desk's demand on the control loop by its presence (issue 29 item 3): occupied → its
 /// target; vacant → [`VacantLight`] (never above the target); unknown → its target (fail
 /// bright: a desk the node cannot see may have someone at it).

@@ -452,14 +452,7 @@ impl LiveModel {
             model_rel: (0..s)
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
-            model_parts: if live.has_uncertainty_parts() {
-                let p = crate::runtime::UNCERTAINTY_PARTS;
-                (0..s * l * p)
-                    .map(|i| live.uncertainty_part_lx(i / (l * p), i / p % l, i % p, l))
-                    .collect()
-            } else {
-                Vec::new()
-            },
+            model_parts: live.uncertainty_parts_vec(),
             disagreement: Vec::new(),
             windows,
             k: k_em,
@@ -512,19 +505,16 @@ impl LiveModel {
     fn model_rel_uncertainty_at(&self, s: usize, levels: &[f64], default: f64) -> f64 {
         let stated = self.model_rel_uncertainty(s, default);
         let (l, p) = (self.luminaires, crate::runtime::UNCERTAINTY_PARTS);
-        let parts = &self.model_parts;
-        if parts.len() != self.ids.len() * l * p
-            || levels.len() != l
-            || !self.model_rel[s].is_finite()
-        {
+        // a default (not stated) stays as it is
+        if levels.len() != l || !self.model_rel.get(s).is_some_and(|u| u.is_finite()) {
             return stated;
         }
-        crate::runtime::state_rel_uncertainty(
-            stated,
-            |j, c| parts[(s * l + j) * p + c],
-            |j| self.response[s * l + j],
-            levels,
-        )
+        let parts = self
+            .model_parts
+            .get(s * l * p..(s + 1) * l * p)
+            .unwrap_or(&[]);
+        let response = self.response.get(s * l..(s + 1) * l).unwrap_or(&[]);
+        crate::runtime::state_rel_uncertainty_of_rows(stated, parts, response, levels)
     }
 
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is

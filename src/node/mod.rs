@@ -107,15 +107,10 @@ impl NodeModel {
             model_rel_uncertainty: (0..s)
                 .map(|k| image.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
-            uncertainty_parts_lx: match image.live.as_ref() {
-                Some(live) if live.has_uncertainty_parts() => {
-                    let p = crate::runtime::UNCERTAINTY_PARTS;
-                    (0..s * l * p)
-                        .map(|i| live.uncertainty_part_lx(i / (l * p), i / p % l, i % p, l))
-                        .collect()
-                }
-                _ => Vec::new(),
-            },
+            uncertainty_parts_lx: image
+                .live
+                .as_ref()
+                .map_or_else(Vec::new, |live| live.uncertainty_parts_vec()),
             generation,
             luminaire_flux_lm: (0..l)
                 .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
@@ -132,14 +127,13 @@ impl NodeModel {
             .copied()
             .unwrap_or(f64::NAN);
         let (l, p) = (levels.len(), crate::runtime::UNCERTAINTY_PARTS);
-        let parts = &self.uncertainty_parts_lx;
-        if parts.len() != self.sensor_ids.len() * l * p || l != self.luminaire_ids.len() {
+        if l != self.luminaire_ids.len() {
             return stated;
         }
-        crate::runtime::state_rel_uncertainty(
+        crate::runtime::state_rel_uncertainty_of_rows(
             stated,
-            |j, c| parts[(k * l + j) * p + c],
-            |j| self.response_lx.get(k * l + j).copied().unwrap_or(0.0),
+            row(&self.uncertainty_parts_lx, k, l * p),
+            row(&self.response_lx, k, l),
             levels,
         )
     }
@@ -154,6 +148,11 @@ impl NodeModel {
             Quality::Ok
         }
     }
+}
+
+/// Row `k` of a row-major matrix `width` wide (empty when it has no such row).
+fn row(v: &[f64], k: usize, width: usize) -> &[f64] {
+    v.get(k * width..(k + 1) * width).unwrap_or(&[])
 }
 
 /// Serving options.

@@ -390,6 +390,16 @@ impl<'a> LiveV1<'a> {
         f64::from(self.sensor_uncertainty_parts_lx.f32_at(i))
     }
 
+    /// Every sensor's uncertainty parts, copied out flat (`[sensor][luminaire][part]`, the
+    /// layout checked at parse); empty without parts.
+    #[cfg(feature = "std")]
+    pub fn uncertainty_parts_vec(&self) -> std::vec::Vec<f64> {
+        let n = self.sensor_uncertainty_parts_lx.count(4).unwrap_or(0);
+        (0..n)
+            .map(|i| f64::from(self.sensor_uncertainty_parts_lx.f32_at(i)))
+            .collect()
+    }
+
     /// Candidate emitter group of patch `p`.
     pub fn emitter(&self, p: usize) -> Option<usize> {
         let g = self.patch_emitter.0[p];
