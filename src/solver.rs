@@ -295,6 +295,10 @@ pub struct RhsState {
     stalled: u32,
     max_change: f64,
     max_b: f64,
+    /// The largest exitance present when the solve began (held rows and the start value): the
+    /// floor of the relative tests, so a warm start that decays toward a far smaller (or zero)
+    /// answer stops once what is left is below the tolerance of that scale.
+    scale: f64,
     /// `Some` once this right-hand side has stopped: its own report.
     pub done: Option<SolveReport>,
 }
@@ -306,6 +310,7 @@ impl Default for RhsState {
             stalled: 0,
             max_change: 0.0,
             max_b: 0.0,
+            scale: 0.0,
             done: None,
         }
     }
@@ -367,6 +372,16 @@ pub fn residual<S: RadiositySystem>(sys: &S, e_direct_lx: &[f64], b: &[f64]) -> 
 
 /// The relative residual of right-hand side `q` of `k` over the solved rows.
 fn residual_of<S: RadiositySystem>(p: &Problem<'_, S>, b: &[f64], k: usize, q: usize) -> f64 {
+    residual_over(p, b, (k, q), 0.0)
+}
+
+/// [`residual_of`] relative to at least `floor`.
+fn residual_over<S: RadiositySystem>(
+    p: &Problem<'_, S>,
+    b: &[f64],
+    (k, q): (usize, usize),
+    floor: f64,
+) -> f64 {
     let (sys, rows, source) = (p.sys, p.rows, &p.source);
     let mut num: f64 = 0.0;
     let mut den: f64 = 0.0;
@@ -385,6 +400,7 @@ fn residual_of<S: RadiositySystem>(p: &Problem<'_, S>, b: &[f64], k: usize, q: u
         num = num.max(res.abs());
         den = den.max(b[at].abs());
     }
+    let den = den.max(floor);
     if den > 0.0 { num / den } else { num }
 }
 
@@ -471,6 +487,9 @@ fn start<S: RadiositySystem>(
             check_values(b)?;
         }
     }
+    for (q, s) in state.iter_mut().enumerate() {
+        s.scale = b.iter().skip(q).step_by(k).fold(0.0, |m, x| m.max(x.abs()));
+    }
     Ok(())
 }
 
@@ -545,13 +564,14 @@ fn stop_test<S: RadiositySystem>(
     if !(s.max_change.is_finite() && s.max_b.is_finite()) {
         return Err(SolveError::Diverged);
     }
-    let rel_change = if s.max_b > 0.0 {
-        s.max_change / s.max_b
+    let scale = s.max_b.max(s.scale);
+    let rel_change = if scale > 0.0 {
+        s.max_change / scale
     } else {
         0.0
     };
     if rel_change <= options.tolerance {
-        let r = residual_of(p, b, k, q);
+        let r = residual_over(p, b, (k, q), s.scale);
         if r <= options.tolerance {
             s.done = Some(SolveReport {
                 iterations: it,
@@ -561,8 +581,10 @@ fn stop_test<S: RadiositySystem>(
         }
     }
     // A contraction shrinks the change every sweep (slowly when ρ is near 1); a change that
-    // stops falling means rounding noise above the tolerance, or no contraction at all.
-    if rel_change < s.previous * (1.0 - 1e-9) {
+    // stops falling means rounding noise above the tolerance, or no contraction at all. The
+    // change itself, not relative to the exitance: a warm start decaying toward a smaller
+    // answer shrinks both at the same rate.
+    if s.max_change < s.previous * (1.0 - 1e-9) {
         s.stalled = 0;
     } else {
         s.stalled += 1;
@@ -573,7 +595,7 @@ fn stop_test<S: RadiositySystem>(
             });
         }
     }
-    s.previous = rel_change;
+    s.previous = s.max_change;
     Ok(())
 }
 
@@ -672,6 +694,53 @@ mod tests {
             rho: &rho,
         };
         assert!(gauss_seidel(&sys, &[1.0, 1.0], &mut b, SolveOptions::default()).is_err());
+    }
+
+    /// A warm start far above the answer (live light's boundary solve when the daylight
+    /// drops from hundreds of lux to nothing between frames) decays to it and stops: the change
+    /// relative to the shrinking exitance is constant, so the relative stall test alone refused
+    /// it (found by the frame checks' property test, issue 34).
+    #[test]
+    fn a_warm_start_decays_to_a_far_smaller_answer() {
+        let (rp, col, val, rho) = two_squares(0.9);
+        let sys = CsrSystem {
+            f: CsrView {
+                row_ptr: &rp,
+                col: &col,
+                val: &val,
+            },
+            rho: &rho,
+        };
+        let o = SolveOptions::default();
+        let mut b = [500.0, 500.0];
+        let r = gauss_seidel(&sys, &[0.0, 0.0], &mut b, o).expect("the zero answer");
+        assert!(
+            b.iter().all(|x| x.abs() <= o.tolerance * 500.0),
+            "{b:?} {r:?}"
+        );
+        // one row held at 1e-3 lm/m², the other started at 500: B2 = ρ F B1 (closed form)
+        let (mut acc, mut state) = ([0.0], [RhsState::default()]);
+        let work = Workspace {
+            acc: &mut acc,
+            state: &mut state,
+        };
+        let mut b = [1e-3, 500.0];
+        let zeros = [0.0, 0.0];
+        solve(
+            &sys,
+            Rows::Listed(&[1]),
+            Source::Exitance(&zeros),
+            &mut b,
+            work,
+            o,
+        )
+        .expect("the held row's answer");
+        let exact = 0.9 * 0.199825 * 1e-3;
+        assert!(
+            (b[1] - exact).abs() <= o.tolerance * 500.0,
+            "{b:?} vs {exact}"
+        );
+        assert_eq!(b[0], 1e-3);
     }
 
     #[test]

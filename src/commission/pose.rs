@@ -74,6 +74,27 @@ pub enum PoseError {
         /// The nearest luminaire's horizontal distance from it, m.
         nearest_m: f64,
     },
+    /// Where one luminaire's light dominates in the frames, the declared luminaires seen from
+    /// camera.json's pose mostly put another one.
+    #[error(
+        "{node}camera.json position ({:.2}, {:.2}, {:.2}) m: the one-luminaire frames' light \
+         does not fall where luminaires.json and camera.json put it: at {counted} seen points \
+         where one luminaire clearly gives the most light, the declared luminaires agree on \
+         which at only {:.0} % (at least {:.0} % expected; a genuine pose gives over 90 %): \
+         camera.json's position or rotation typed wrong, or luminaires.json's positions?",
+        position_m[0], position_m[1], position_m[2], 100.0 * agreement,
+        100.0 * MIN_DOMINANT_AGREEMENT
+    )]
+    Misplaced {
+        /// The capture set.
+        node: Node,
+        /// camera.json's position, m.
+        position_m: [f64; 3],
+        /// The share of points where the same luminaire dominates.
+        agreement: f64,
+        /// Points counted.
+        counted: usize,
+    },
     /// Most luminaires' light is not under them: the camera's rotation is wrong.
     #[error(
         "{node}the camera's yaw/rotation in camera.json looks wrong{}: {disagree} of the \
@@ -127,6 +148,16 @@ pub const DISAGREE_M: f64 = 1.0;
 /// Intensity look-ups of one node's yaw check at most (samples × luminaires × 8 rotations and
 /// mirrors): the samples are thinned to keep it, whatever the number of luminaires.
 const MAX_LOOKUPS: usize = 4_000_000;
+/// A luminaire clearly gives the most light at a point when its share exceeds the next one's
+/// by this.
+const DOMINANT_MARGIN: f64 = 0.05;
+/// The dominance check refuses a pose below this agreement. Measured on office_a
+/// (docs/field.md): the genuine captures 0.97; camera.json's position 1.5 m off 0.41-0.71, 3 m
+/// off 0.29-0.49, 5 m off 0.12-0.28, 8-12 m off (where no luminaire's nadir is in view, so the
+/// yaw check has no vote) 0-0.11; its yaw 30° off 0.62, 45° off 0.16.
+pub const MIN_DOMINANT_AGREEMENT: f64 = 0.5;
+/// ... and warns below this.
+pub const WARN_DOMINANT_AGREEMENT: f64 = 0.8;
 /// Pixels on horizontal surfaces needed for the yaw check.
 const MIN_SAMPLES: usize = 100;
 
@@ -140,6 +171,9 @@ pub struct NodePose {
     /// Per luminaire in view: (id, distance of its measured light centroid from the declared
     /// one, m).
     pub offsets_m: Vec<(u32, f64)>,
+    /// Of the seen horizontal samples where one luminaire clearly gives the most light, both
+    /// measured and predicted, the share where it is the same luminaire (None: too few).
+    pub dominant_agreement: Option<f64>,
 }
 
 /// A rotation (and mirror) about the camera's vertical: what camera.json may have wrong.
@@ -178,6 +212,8 @@ pub(super) fn check(
         if samples.points_m.len() >= MIN_SAMPLES {
             pose.offsets_m =
                 check_yaw(&node, capture, i.luminaires, &samples, report).map_err(Box::new)?;
+            pose.dominant_agreement =
+                check_dominant(&node, capture, i.luminaires, &samples, report).map_err(Box::new)?;
         }
         report.pose.push(pose);
     }
@@ -359,6 +395,62 @@ fn offsets_m(luminaires: &[Luminaire], samples: &Samples, camera_m: DVec3, m: DM
             }
         })
         .collect()
+}
+
+/// The dominance check: where one luminaire clearly gives the most light in the frames, the
+/// declared luminaires' direct light must say the same one at most seen points. Returns the
+/// agreement (None: too few points to tell).
+fn check_dominant(
+    node: &Node,
+    capture: &Capture,
+    luminaires: &[Luminaire],
+    samples: &Samples,
+    report: &mut Report,
+) -> Result<Option<f64>, PoseError> {
+    let (agree, counted) = dominant_agreement(luminaires, samples);
+    if counted < MIN_SAMPLES {
+        return Ok(None);
+    }
+    if agree < MIN_DOMINANT_AGREEMENT {
+        return Err(PoseError::Misplaced {
+            node: node.clone(),
+            position_m: capture.camera.position_m.to_array(),
+            agreement: agree,
+            counted,
+        });
+    }
+    if agree < WARN_DOMINANT_AGREEMENT {
+        report.warnings.push(format!(
+            "{node}the declared luminaires give the most light where the frames show it at only              {:.0} % of {counted} seen points (a genuine pose: above {:.0} %): check camera.json's              position and rotation and luminaires.json's positions",
+            100.0 * agree,
+            100.0 * WARN_DOMINANT_AGREEMENT
+        ));
+    }
+    Ok(Some(agree))
+}
+
+/// Of the samples where one luminaire clearly gives the most light (by a share margin of
+/// [`DOMINANT_MARGIN`] over the next), both in the frames and by the declared luminaires'
+/// direct light, the fraction where it is the same one, and how many were counted.
+fn dominant_agreement(luminaires: &[Luminaire], samples: &Samples) -> (f64, usize) {
+    let winner = |s: &[f64]| -> Option<usize> {
+        let mut order: Vec<usize> = (0..s.len()).collect();
+        order.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+        match order.as_slice() {
+            [a] => Some(*a),
+            [a, b, ..] if s[*a] - s[*b] >= DOMINANT_MARGIN => Some(*a),
+            _ => None,
+        }
+    };
+    let (mut same, mut counted) = (0usize, 0usize);
+    for (p, s) in samples.points_m.iter().zip(&samples.shares) {
+        let e = predicted_shares(luminaires, *p);
+        if let (Some(a), Some(b)) = (winner(s), winner(&e)) {
+            counted += 1;
+            same += usize::from(a == b);
+        }
+    }
+    (same as f64 / counted.max(1) as f64, counted)
 }
 
 /// The hypothesis' move of world points about the camera: a mirror of the image's x axis (in
