@@ -315,6 +315,27 @@ fn inputs(a: &Args) -> Result<Inputs> {
     ))
 }
 
+/// One node's pose check: the seen floor, the luminaires above it, where their light falls.
+fn print_pose(n: usize, p: &commission::pose::NodePose) {
+    let opt = |x: Option<f64>, scale: f64| x.map_or("n/a".into(), |v| format!("{:.2}", v * scale));
+    let worst_m = p
+        .offsets_m
+        .iter()
+        .map(|o| o.1)
+        .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
+    println!(
+        "pose, node {}: seen floor at z = {} m, luminaires {} m above it; {} luminaires in view, \
+         their light at most {} m from where declared; the same luminaire dominates at {} % of \
+         the seen points",
+        n + 1,
+        opt(p.floor_z_m, 1.0),
+        opt(p.luminaires_above_floor_m, 1.0),
+        p.offsets_m.len(),
+        opt(worst_m, 1.0),
+        opt(p.dominant_agreement, 100.0)
+    );
+}
+
 /// What commissioning found: depth, planes, mesh, room box, reflectances, the luxmeter fit.
 fn print_report(c: &commission::Commissioned) -> Result<()> {
     let r = &c.report;
@@ -325,6 +346,9 @@ fn print_report(c: &commission::Commissioned) -> Result<()> {
         "depth: {} frames, {} of {} pixels kept ({} dropouts, {} flying pixels or outliers)",
         r.depth.frames, r.depth.valid, r.depth.pixels, r.depth.dropouts, r.depth.flying_or_outliers
     );
+    for (n, p) in r.pose.iter().enumerate() {
+        print_pose(n, p);
+    }
     println!("planes: {}", r.planes.len());
     for (k, p) in r.planes.iter().enumerate() {
         println!(
