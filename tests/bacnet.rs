@@ -158,6 +158,49 @@ fn who_is_finds_the_device_in_and_only_in_its_range() {
 }
 
 #[test]
+fn who_has_by_identifier_and_by_name_is_answered_with_the_right_i_have() {
+    let node = serve(&["--arc", "254"]);
+    // desk 1's id from Modbus (input 501): its total's Analog Input is named after it
+    let desk_id = rt().block_on(async {
+        let mut c = tokio_modbus::client::tcp::connect_slave(node.proc.addr, Slave(1))
+            .await
+            .expect("connect");
+        c.read_input_registers(501, 1).await.unwrap().unwrap()[0]
+    });
+    let name = format!("desk {desk_id} illuminance");
+    let only = |q: &[&str]| {
+        let mut args = vec!["whohas", "--low", "4321", "--high", "4321"];
+        args.extend_from_slice(q);
+        let r = client(&node, "127.0.0.1", &args);
+        let list = r["i_have"].as_array().cloned().unwrap_or_default();
+        assert_eq!(list.len(), 1, "{q:?}: {r}");
+        list[0].clone()
+    };
+    let by_id = only(&["--id", "analog-input,1"]);
+    assert_eq!(by_id["device"], serde_json::json!(["device", DEVICE]));
+    assert_eq!(by_id["object"], serde_json::json!(["analog-input", 1]));
+    assert_eq!(by_id["name"], name.as_str());
+    let by_name = only(&["--name", &name]);
+    assert_eq!(by_name, by_id, "by name: the same object");
+    // the Device itself, by identifier then by the name it gave
+    let dev = only(&["--id", &format!("device,{DEVICE}")]);
+    assert_eq!(dev["object"], serde_json::json!(["device", DEVICE]));
+    let dev_name = dev["name"].as_str().unwrap_or_default().to_owned();
+    assert_eq!(only(&["--name", &dev_name])["object"], dev["object"]);
+    // no answer: outside the device range, a name or an object the node does not have
+    for q in [
+        vec!["--id", "analog-input,1", "--low", "1", "--high", "4320"],
+        vec!["--name", "desk 424242 illuminance"],
+        vec!["--id", "analog-input,9999"],
+    ] {
+        let mut args = vec!["whohas"];
+        args.extend_from_slice(&q);
+        let r = client(&node, "127.0.0.1", &args);
+        assert_eq!(r["i_have"].as_array().map(Vec::len), Some(0), "{q:?}: {r}");
+    }
+}
+
+#[test]
 fn every_desk_reads_what_modbus_and_the_runtime_give() {
     let node = serve(&["--arc", "254"]);
     let read = client(&node, "127.0.0.1", &["read"]);

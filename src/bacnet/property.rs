@@ -63,7 +63,9 @@ pub fn services_supported() -> [bool; ss::LEN] {
         ss::WRITE_PROPERTY,
         ss::DEVICE_COMMUNICATION_CONTROL,
         ss::I_AM,
+        ss::I_HAVE,
         ss::UNCONFIRMED_COV_NOTIFICATION,
+        ss::WHO_HAS,
         ss::WHO_IS,
     ] {
         bits[b] = true;

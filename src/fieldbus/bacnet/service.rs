@@ -5,6 +5,8 @@
 //!
 //! * Who-Is (local or global broadcast, or unicast; with or without a range) → I-Am, sent
 //!   unicast to the requester (through its router when it came through one);
+//! * Who-Has (by identifier or name, with or without a range) → I-Have, the same way
+//!   ([`who_has`]);
 //! * ReadProperty, ReadPropertyMultiple (ALL, REQUIRED, OPTIONAL), WriteProperty,
 //!   SubscribeCOV, DeviceCommunicationControl: confirmed, answered with SimpleACK, ComplexACK,
 //!   Error, Reject or Abort;
@@ -313,7 +315,7 @@ impl Server {
         };
         match apdu {
             Apdu::UnconfirmedRequest { service, data } => self
-                .unconfirmed(&peer, service, data, now)
+                .unconfirmed(node, &peer, service, data, now)
                 .into_iter()
                 .collect(),
             Apdu::ConfirmedRequest { .. } => self.confirmed(node, &peer, apdu, now),
@@ -331,16 +333,25 @@ impl Server {
         }
     }
 
+    /// Who-Is and Who-Has: nothing while communication is disabled; no I-Have while
+    /// initiation is (the standard excepts only I-Am).
     fn unconfirmed(
         &mut self,
+        node: &Node,
         peer: &Peer,
         service: u8,
         data: &[u8],
         now: Instant,
     ) -> Option<Outgoing> {
-        if service != unconfirmed::WHO_IS || matches!(self.dcc_now(now), Dcc::Disabled(_)) {
-            return None;
+        match (self.dcc_now(now), service) {
+            (Dcc::Disabled(_), _) => None,
+            (_, unconfirmed::WHO_IS) => self.who_is(peer, data),
+            (Dcc::Enabled, unconfirmed::WHO_HAS) => self.who_has(node, peer, data),
+            _ => None,
         }
+    }
+
+    fn who_is(&self, peer: &Peer, data: &[u8]) -> Option<Outgoing> {
         let mut r = Reader::new(data);
         if !r.is_empty() {
             let low = r.context_unsigned(0).ok()?;
@@ -884,6 +895,8 @@ pub fn is_served_type(id: ObjectId) -> bool {
         ot::DEVICE | ot::ANALOG_INPUT | ot::ANALOG_VALUE | ot::BINARY_INPUT
     )
 }
+
+mod who_has;
 
 #[cfg(all(test, feature = "sim"))]
 mod tests;
