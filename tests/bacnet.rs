@@ -613,3 +613,85 @@ fn foreign_device_registration_is_retried_with_backoff_and_local_service_goes_on
         let _ = task.await;
     });
 }
+
+/// Input register 3 (status bits) of the node.
+fn modbus_status(node: &Node) -> u16 {
+    rt().block_on(async {
+        let mut c = tokio_modbus::client::tcp::connect_slave(node.proc.addr, Slave(1))
+            .await
+            .expect("connect");
+        c.read_input_registers(3, 1).await.unwrap().unwrap()[0]
+    })
+}
+
+/// Waits up to `limit` for the status bit `bit` to be `on`; the status last read.
+fn await_status_bit(node: &Node, bit: u16, on: bool, limit: Duration) -> u16 {
+    let t0 = Instant::now();
+    loop {
+        let s = modbus_status(node);
+        if (s & bit != 0) == on || t0.elapsed() > limit {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_bbmd_that_does_not_answer_raises_status_bit_9_and_the_device_reliability() {
+    use luxnode::modbus::regmap::status::BBMD_FAILING;
+    assert_eq!(BBMD_FAILING, 1 << 9, "docs/modbus.md: status bit 9");
+    let bbmd = UdpSocket::bind("127.0.0.1:0").unwrap();
+    bbmd.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let board = dir.path().join("board.toml");
+    std::fs::write(
+        &board,
+        format!(
+            "name = \"bbmd-test\"\n[scene]\nsource = \"demo-office\"\n[bacnet]\n\
+             bind = \"127.0.0.1:0\"\ndevice_id = 4321\nbbmd = \"{}\"\nbbmd_ttl_s = 60\n",
+            bbmd.local_addr().unwrap()
+        ),
+    )
+    .unwrap();
+    let node = serve(&["--arc", "254", "--board", &board.display().to_string()]);
+    let mut buf = [0u8; 64];
+    let (n, _) = bbmd.recv_from(&mut buf).expect("a registration");
+    assert_eq!(&buf[..n], &[0x81, 0x05, 0, 6, 0, 60]);
+    // the BBMD stays silent: no answer in 2 s, the bit is set
+    let s = await_status_bit(&node, BBMD_FAILING, true, Duration::from_secs(6));
+    assert_ne!(s & BBMD_FAILING, 0, "status {s:#06x}");
+    let reliability = |node: &Node| {
+        let r = client(
+            node,
+            "127.0.0.1",
+            &["rp", &format!("device,{DEVICE}"), "reliability"],
+        );
+        assert_eq!(r["ok"], true, "{r}");
+        r["value"].clone()
+    };
+    assert_eq!(reliability(&node), 12, "communication-failure");
+    // local service goes on: the local client finds the device and reads a desk
+    let r = client(&node, "127.0.0.1", &["whois"]);
+    assert_eq!(r["i_am"].as_array().map(Vec::len), Some(1), "{r}");
+    let r = client(
+        &node,
+        "127.0.0.1",
+        &["rp", "analog-input,0", "present-value"],
+    );
+    assert_eq!(
+        r["value"].as_f64(),
+        Some(modbus_floats(&node, 100, 2)[0]),
+        "{r}"
+    );
+    // the BBMD answers the next registration: the bit clears, the Device is reliable again
+    let from = loop {
+        let (n, from) = bbmd.recv_from(&mut buf).expect("a retry");
+        if buf[..n] == [0x81, 0x05, 0, 6, 0, 60] {
+            break from;
+        }
+    };
+    bbmd.send_to(&[0x81, 0x00, 0, 6, 0, 0], from).unwrap();
+    let s = await_status_bit(&node, BBMD_FAILING, false, Duration::from_secs(3));
+    assert_eq!(s & BBMD_FAILING, 0, "status {s:#06x}");
+    assert_eq!(reliability(&node), 0, "no-fault-detected");
+}

@@ -189,6 +189,7 @@ pub const DEVICE_PROPERTIES: &[u32] = &[
     p::OBJECT_NAME,
     p::OBJECT_TYPE,
     p::SYSTEM_STATUS,
+    p::RELIABILITY,
     p::VENDOR_NAME,
     p::VENDOR_IDENTIFIER,
     p::MODEL_NAME,
@@ -333,6 +334,9 @@ pub struct View<'a> {
     pub daylight: Option<&'a [f64]>,
     /// The device.
     pub device: &'a DeviceInfo,
+    /// The Device's Reliability: communication-failure while foreign-device registration with
+    /// the board's BBMD fails, else no-fault-detected.
+    pub device_reliability: u32,
     /// COV_Increment written by clients, by object.
     pub cov_increments: &'a HashMap<ObjectId, f64>,
 }

@@ -114,7 +114,7 @@ const NOT_SUPPORTED: &[&str] = &[
     "Priority_Array and Relinquish_Default: no object is commandable",
     "alarms and events, trends, schedules, time synchronization, ReinitializeDevice, ReadRange, WritePropertyMultiple, file services (rejected: unrecognized-service, or not answered when unconfirmed)",
     "COV subscriptions to the Device object (error: optional-functionality-not-supported)",
-    "BBMD functions: the node is not a BBMD (BVLC-Result NAK); it can register as a foreign device (`[bacnet] bbmd`, renewed at half the time-to-live, retried 1 s doubling to 60 s)",
+    "BBMD functions: the node is not a BBMD (BVLC-Result NAK); it can register as a foreign device (`[bacnet] bbmd`, renewed at half the time-to-live, retried 1 s doubling to 60 s; while the BBMD does not answer or refuses, the Device's Reliability is communication-failure (12) and Modbus status bit 9 is set, and local service goes on; tested)",
     "routing, BACnet/IPv6, MS/TP, BACnet/SC",
     "a Vendor_Identifier: none is assigned to luxnode; 65535 is reported until the board sets `vendor_id`",
 ];

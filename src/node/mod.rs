@@ -783,6 +783,7 @@ impl Node {
         if self.policy.writable() {
             s |= status::WRITES_ENABLED;
         }
+        s |= self.health.raised() & status::BBMD_FAILING;
         // the dimming state is unknown while the gateway is lost, and after a start until
         // every luminaire's level was set (by the gateway or a write)
         let stale = !self.gateway_up || !self.dimming_known();
