@@ -261,7 +261,7 @@ pub fn property_name(id: u32) -> &'static str {
     }
 }
 
-/// The Device object's identification (the board and the build).
+/// The Device object's identification (the board and the build), and its Reliability.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DeviceInfo {
     /// Device instance (0..=4_194_302).
@@ -276,6 +276,9 @@ pub struct DeviceInfo {
     pub location: String,
     /// Description (the register-map version is appended).
     pub description: String,
+    /// Reliability: no-fault-detected, or communication-failure while the board's BBMD does
+    /// not accept the foreign-device registration (the server sets it).
+    pub reliability: u32,
 }
 
 /// The vendor name the node reports.
@@ -293,6 +296,7 @@ impl DeviceInfo {
             model: model.to_owned(),
             location: String::new(),
             description: "luxnode ceiling lighting node".to_owned(),
+            reliability: reliability::NO_FAULT_DETECTED,
         }
     }
 
@@ -334,9 +338,6 @@ pub struct View<'a> {
     pub daylight: Option<&'a [f64]>,
     /// The device.
     pub device: &'a DeviceInfo,
-    /// The Device's Reliability: communication-failure while foreign-device registration with
-    /// the board's BBMD fails, else no-fault-detected.
-    pub device_reliability: u32,
     /// COV_Increment written by clients, by object.
     pub cov_increments: &'a HashMap<ObjectId, f64>,
 }

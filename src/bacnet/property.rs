@@ -196,7 +196,7 @@ fn device_property(view: &View<'_>, prop: u32, w: &mut Writer<'_>) -> Result<(),
     let d = view.device;
     match prop {
         p::SYSTEM_STATUS => w.enumerated(0),
-        p::RELIABILITY => w.enumerated(view.device_reliability),
+        p::RELIABILITY => w.enumerated(d.reliability),
         p::VENDOR_NAME => w.char_string(VENDOR_NAME),
         p::VENDOR_IDENTIFIER => w.unsigned(u64::from(d.vendor_id)),
         p::MODEL_NAME => w.char_string(&d.model),

@@ -157,22 +157,14 @@ pub struct Server {
     /// The last BVLC-Result received: its sender and code (the BBMD's answer to a
     /// registration).
     pub last_bvlc_result: Option<(SocketAddr, u16)>,
-    /// The Device's Reliability ([`Server::set_registration_failing`]).
-    device_reliability: u32,
 }
 
-fn view<'a>(
-    node: &'a Node,
-    config: &'a ServerConfig,
-    inc: &'a HashMap<ObjectId, f64>,
-    device_reliability: u32,
-) -> View<'a> {
+fn view<'a>(node: &'a Node, config: &'a ServerConfig, inc: &'a HashMap<ObjectId, f64>) -> View<'a> {
     View {
         map: node.map(),
         levels: node.levels(),
         daylight: node.fresh_daylight(),
         device: &config.device,
-        device_reliability,
         cov_increments: inc,
     }
 }
@@ -242,14 +234,13 @@ impl Server {
             pending: Vec::new(),
             counters: Counters::default(),
             last_bvlc_result: None,
-            device_reliability: reliability::NO_FAULT_DETECTED,
         }
     }
 
     /// Foreign-device registration with the board's BBMD is failing (no answer, or a NAK):
     /// the Device's Reliability is communication-failure until it succeeds again.
     pub fn set_registration_failing(&mut self, failing: bool) {
-        self.device_reliability = if failing {
+        self.config.device.reliability = if failing {
             reliability::COMMUNICATION_FAILURE
         } else {
             reliability::NO_FAULT_DETECTED
@@ -517,12 +508,7 @@ impl Server {
         if !r.is_empty() {
             return Err(Failure::Reject(reject::TOO_MANY_ARGUMENTS));
         }
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let object = v
             .resolve(id)
             .ok_or(error(ec::OBJECT, code::UNKNOWN_OBJECT))?;
@@ -548,12 +534,7 @@ impl Server {
     fn read_property_multiple(&self, node: &Node, r: &mut Reader<'_>) -> Result<Reply, Failure> {
         // parse the whole request first: a malformed one is rejected, not half answered
         let specs = parse_rpm(r)?;
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let mut buf = vec![0u8; MAX_APDU];
         let mut scratch = vec![0u8; MAX_APDU];
         let mut w = Writer::new(&mut buf);
@@ -610,12 +591,7 @@ impl Server {
         if priority.is_some_and(|x| !(1..=16).contains(&x)) {
             return Err(Failure::Reject(reject::PARAMETER_OUT_OF_RANGE));
         }
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let (class, k) = v
             .resolve(id)
             .ok_or(error(ec::OBJECT, code::UNKNOWN_OBJECT))?;
@@ -698,12 +674,7 @@ impl Server {
             None
         };
         let lifetime = r.optional_context_unsigned(3)?;
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let (class, _) = v
             .resolve(id)
             .ok_or(error(ec::OBJECT, code::UNKNOWN_OBJECT))?;
@@ -804,12 +775,7 @@ impl Server {
         if self.cov.is_empty() {
             return out;
         }
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let due = self.cov.due(now, |id| {
             let (class, k) = v.resolve(id)?;
             let reading = v.reading(class.kind, k);

@@ -35,12 +35,7 @@ impl Server {
     /// The object wanted, and its Object_Name, if the node has it (the Device's wildcard
     /// instance names no object here).
     fn find(&self, node: &Node, wanted: Wanted<'_>) -> Option<(ObjectId, String)> {
-        let v = view(
-            node,
-            &self.config,
-            &self.cov_increments,
-            self.device_reliability,
-        );
+        let v = view(node, &self.config, &self.cov_increments);
         let named = |id: ObjectId| v.resolve(id).map(|(class, k)| (id, v.name(class, k)));
         match wanted {
             Wanted::Id(id) if id.object_type == ot::DEVICE && id != self.config.device.id() => None,
