@@ -695,3 +695,32 @@ fn a_bbmd_that_does_not_answer_raises_status_bit_9_and_the_device_reliability() 
     assert_eq!(s & BBMD_FAILING, 0, "status {s:#06x}");
     assert_eq!(reliability(&node), 0, "no-fault-detected");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2_000))]
+    /// Who-Has and I-Have: what the codec emits parses back to the same request; arbitrary
+    /// service data is an error or a request, never a panic.
+    #[test]
+    fn who_has_and_i_have_round_trip_and_never_panic(
+        limits in proptest::option::of((0u32..=0x3F_FFFF, 0u32..=0x3F_FFFF)),
+        raw_id in proptest::num::u32::ANY,
+        name in "[ -~äöü€]{0,60}",
+        by_name in proptest::bool::ANY,
+        junk in proptest::collection::vec(proptest::num::u8::ANY, 0..80),
+    ) {
+        use luxnode::bacnet::who_has::{IHave, Wanted, WhoHas};
+        let id = ObjectId::from_u32(raw_id);
+        let object = if by_name { Wanted::Name(&name) } else { Wanted::Id(id) };
+        let q = WhoHas { limits, object };
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        q.emit(&mut w).expect("fits");
+        proptest::prop_assert_eq!(WhoHas::parse(w.written()), Ok(q));
+        let a = IHave { device: ObjectId::new(8, DEVICE), object: id, name: &name };
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        a.emit(&mut w).expect("fits");
+        proptest::prop_assert_eq!(IHave::parse(w.written()), Ok(a));
+        let _ = (WhoHas::parse(&junk), IHave::parse(&junk));
+    }
+}
