@@ -100,7 +100,7 @@ const BIBBS: &[(&str, &str, &str)] = &[
     (
         "DM-DOB-B",
         "yes",
-        "Who-Has by object identifier or by Object_Name (UTF-8, exact), with or without a device instance range (local, global or directed), answered with I-Have when the node has the object, unicast to the requester like I-Am (the standard allows a broadcast; bacpypes3, the test peer, answers the same way); an object the node does not have, or a Who-Has that does not parse: no answer; no I-Have while DeviceCommunicationControl disables initiation",
+        "Who-Has by object identifier or by Object_Name (UTF-8, exact), with or without a device instance range (local, global or directed), answered with I-Have when the node has the object, unicast to the requester like I-Am (not broadcast, the standard's usual form: the tests run on loopback, which cannot broadcast, and bacpypes3, the test peer, answers Who-Has unicast itself); an object the node does not have, or a Who-Has that does not parse: no answer; no I-Have while DeviceCommunicationControl disables initiation",
     ),
     (
         "DM-DCC-B",
