@@ -158,6 +158,49 @@ fn who_is_finds_the_device_in_and_only_in_its_range() {
 }
 
 #[test]
+fn who_has_by_identifier_and_by_name_is_answered_with_the_right_i_have() {
+    let node = serve(&["--arc", "254"]);
+    // desk 1's id from Modbus (input 501): its total's Analog Input is named after it
+    let desk_id = rt().block_on(async {
+        let mut c = tokio_modbus::client::tcp::connect_slave(node.proc.addr, Slave(1))
+            .await
+            .expect("connect");
+        c.read_input_registers(501, 1).await.unwrap().unwrap()[0]
+    });
+    let name = format!("desk {desk_id} illuminance");
+    let only = |q: &[&str]| {
+        let mut args = vec!["whohas", "--low", "4321", "--high", "4321"];
+        args.extend_from_slice(q);
+        let r = client(&node, "127.0.0.1", &args);
+        let list = r["i_have"].as_array().cloned().unwrap_or_default();
+        assert_eq!(list.len(), 1, "{q:?}: {r}");
+        list[0].clone()
+    };
+    let by_id = only(&["--id", "analog-input,1"]);
+    assert_eq!(by_id["device"], serde_json::json!(["device", DEVICE]));
+    assert_eq!(by_id["object"], serde_json::json!(["analog-input", 1]));
+    assert_eq!(by_id["name"], name.as_str());
+    let by_name = only(&["--name", &name]);
+    assert_eq!(by_name, by_id, "by name: the same object");
+    // the Device itself, by identifier then by the name it gave
+    let dev = only(&["--id", &format!("device,{DEVICE}")]);
+    assert_eq!(dev["object"], serde_json::json!(["device", DEVICE]));
+    let dev_name = dev["name"].as_str().unwrap_or_default().to_owned();
+    assert_eq!(only(&["--name", &dev_name])["object"], dev["object"]);
+    // no answer: outside the device range, a name or an object the node does not have
+    for q in [
+        vec!["--id", "analog-input,1", "--low", "1", "--high", "4320"],
+        vec!["--name", "desk 424242 illuminance"],
+        vec!["--id", "analog-input,9999"],
+    ] {
+        let mut args = vec!["whohas"];
+        args.extend_from_slice(&q);
+        let r = client(&node, "127.0.0.1", &args);
+        assert_eq!(r["i_have"].as_array().map(Vec::len), Some(0), "{q:?}: {r}");
+    }
+}
+
+#[test]
 fn every_desk_reads_what_modbus_and_the_runtime_give() {
     let node = serve(&["--arc", "254"]);
     let read = client(&node, "127.0.0.1", &["read"]);
@@ -569,4 +612,115 @@ fn foreign_device_registration_is_retried_with_backoff_and_local_service_goes_on
         let _ = stop.send(true);
         let _ = task.await;
     });
+}
+
+/// Input register 3 (status bits) of the node.
+fn modbus_status(node: &Node) -> u16 {
+    rt().block_on(async {
+        let mut c = tokio_modbus::client::tcp::connect_slave(node.proc.addr, Slave(1))
+            .await
+            .expect("connect");
+        c.read_input_registers(3, 1).await.unwrap().unwrap()[0]
+    })
+}
+
+/// Waits up to `limit` for the status bit `bit` to be `on`; the status last read.
+fn await_status_bit(node: &Node, bit: u16, on: bool, limit: Duration) -> u16 {
+    let t0 = Instant::now();
+    loop {
+        let s = modbus_status(node);
+        if (s & bit != 0) == on || t0.elapsed() > limit {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_bbmd_that_does_not_answer_raises_status_bit_9_and_the_device_reliability() {
+    use luxnode::modbus::regmap::status::BBMD_FAILING;
+    assert_eq!(BBMD_FAILING, 1 << 9, "docs/modbus.md: status bit 9");
+    let bbmd = UdpSocket::bind("127.0.0.1:0").unwrap();
+    bbmd.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let board = dir.path().join("board.toml");
+    std::fs::write(
+        &board,
+        format!(
+            "name = \"bbmd-test\"\n[scene]\nsource = \"demo-office\"\n[bacnet]\n\
+             bind = \"127.0.0.1:0\"\ndevice_id = 4321\nbbmd = \"{}\"\nbbmd_ttl_s = 60\n",
+            bbmd.local_addr().unwrap()
+        ),
+    )
+    .unwrap();
+    let node = serve(&["--arc", "254", "--board", &board.display().to_string()]);
+    let mut buf = [0u8; 64];
+    let (n, _) = bbmd.recv_from(&mut buf).expect("a registration");
+    assert_eq!(&buf[..n], &[0x81, 0x05, 0, 6, 0, 60]);
+    // the BBMD stays silent: no answer in 2 s, the bit is set
+    let s = await_status_bit(&node, BBMD_FAILING, true, Duration::from_secs(6));
+    assert_ne!(s & BBMD_FAILING, 0, "status {s:#06x}");
+    let reliability = |node: &Node| {
+        let r = client(
+            node,
+            "127.0.0.1",
+            &["rp", &format!("device,{DEVICE}"), "reliability"],
+        );
+        assert_eq!(r["ok"], true, "{r}");
+        r["value"].clone()
+    };
+    assert_eq!(reliability(&node), 12, "communication-failure");
+    // local service goes on: the local client finds the device and reads a desk
+    let r = client(&node, "127.0.0.1", &["whois"]);
+    assert_eq!(r["i_am"].as_array().map(Vec::len), Some(1), "{r}");
+    let r = client(
+        &node,
+        "127.0.0.1",
+        &["rp", "analog-input,0", "present-value"],
+    );
+    assert_eq!(
+        r["value"].as_f64(),
+        Some(modbus_floats(&node, 100, 2)[0]),
+        "{r}"
+    );
+    // the BBMD answers the next registration: the bit clears, the Device is reliable again
+    let from = loop {
+        let (n, from) = bbmd.recv_from(&mut buf).expect("a retry");
+        if buf[..n] == [0x81, 0x05, 0, 6, 0, 60] {
+            break from;
+        }
+    };
+    bbmd.send_to(&[0x81, 0x00, 0, 6, 0, 0], from).unwrap();
+    let s = await_status_bit(&node, BBMD_FAILING, false, Duration::from_secs(3));
+    assert_eq!(s & BBMD_FAILING, 0, "status {s:#06x}");
+    assert_eq!(reliability(&node), 0, "no-fault-detected");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2_000))]
+    /// Who-Has and I-Have: what the codec emits parses back to the same request; arbitrary
+    /// service data is an error or a request, never a panic.
+    #[test]
+    fn who_has_and_i_have_round_trip_and_never_panic(
+        limits in proptest::option::of((0u32..=0x3F_FFFF, 0u32..=0x3F_FFFF)),
+        raw_id in proptest::num::u32::ANY,
+        name in "[ -~äöü€]{0,60}",
+        by_name in proptest::bool::ANY,
+        junk in proptest::collection::vec(proptest::num::u8::ANY, 0..80),
+    ) {
+        use luxnode::bacnet::who_has::{IHave, Wanted, WhoHas};
+        let id = ObjectId::from_u32(raw_id);
+        let object = if by_name { Wanted::Name(&name) } else { Wanted::Id(id) };
+        let q = WhoHas { limits, object };
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        q.emit(&mut w).expect("fits");
+        proptest::prop_assert_eq!(WhoHas::parse(w.written()), Ok(q));
+        let a = IHave { device: ObjectId::new(8, DEVICE), object: id, name: &name };
+        let mut buf = [0u8; 256];
+        let mut w = Writer::new(&mut buf);
+        a.emit(&mut w).expect("fits");
+        proptest::prop_assert_eq!(IHave::parse(w.written()), Ok(a));
+        let _ = (WhoHas::parse(&junk), IHave::parse(&junk));
+    }
 }

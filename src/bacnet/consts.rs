@@ -110,8 +110,12 @@ pub mod confirmed {
 pub mod unconfirmed {
     /// I-Am.
     pub const I_AM: u8 = 0;
+    /// I-Have.
+    pub const I_HAVE: u8 = 1;
     /// UnconfirmedCOVNotification.
     pub const COV_NOTIFICATION: u8 = 2;
+    /// Who-Has.
+    pub const WHO_HAS: u8 = 7;
     /// Who-Is.
     pub const WHO_IS: u8 = 8;
 }
@@ -132,8 +136,12 @@ pub mod services_supported {
     pub const DEVICE_COMMUNICATION_CONTROL: usize = 17;
     /// i-Am (initiated).
     pub const I_AM: usize = 26;
+    /// i-Have (initiated).
+    pub const I_HAVE: usize = 27;
     /// unconfirmedCOVNotification (initiated).
     pub const UNCONFIRMED_COV_NOTIFICATION: usize = 28;
+    /// who-Has.
+    pub const WHO_HAS: usize = 33;
     /// who-Is.
     pub const WHO_IS: usize = 34;
     /// Bits in the string (protocol revision 14 and later).

@@ -2,6 +2,7 @@
 //!
 //! * [`wire`] (`no_std`): BVLC, NPDU, APDU and the tagged encodings, parse and emit on byte
 //!   slices;
+//! * [`who_has`] (`no_std`): Who-Has and I-Have (DM-DOB-B), parse and emit;
 //! * [`consts`] (`no_std`): the standard's numbers the node uses (object types, properties,
 //!   services, error classes and codes, reject and abort reasons);
 //! * `objects` (std): the node's objects (Device, the desks' Analog Inputs, the luminaires' and
@@ -15,6 +16,7 @@
 //! `crate::fieldbus::bacnet`.
 
 pub mod consts;
+pub mod who_has;
 pub mod wire;
 
 #[cfg(feature = "std")]

@@ -189,6 +189,7 @@ pub const DEVICE_PROPERTIES: &[u32] = &[
     p::OBJECT_NAME,
     p::OBJECT_TYPE,
     p::SYSTEM_STATUS,
+    p::RELIABILITY,
     p::VENDOR_NAME,
     p::VENDOR_IDENTIFIER,
     p::MODEL_NAME,
@@ -260,7 +261,7 @@ pub fn property_name(id: u32) -> &'static str {
     }
 }
 
-/// The Device object's identification (the board and the build).
+/// The Device object's identification (the board and the build), and its Reliability.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DeviceInfo {
     /// Device instance (0..=4_194_302).
@@ -275,6 +276,9 @@ pub struct DeviceInfo {
     pub location: String,
     /// Description (the register-map version is appended).
     pub description: String,
+    /// Reliability: no-fault-detected, or communication-failure while the board's BBMD does
+    /// not accept the foreign-device registration (the server sets it).
+    pub reliability: u32,
 }
 
 /// The vendor name the node reports.
@@ -292,6 +296,7 @@ impl DeviceInfo {
             model: model.to_owned(),
             location: String::new(),
             description: "luxnode ceiling lighting node".to_owned(),
+            reliability: reliability::NO_FAULT_DETECTED,
         }
     }
 

@@ -97,7 +97,11 @@ const BIBBS: &[(&str, &str, &str)] = &[
         "yes, partly",
         "Who-Is (with or without a range; local, global or directed) answered with I-Am, unicast to the requester; an I-Am broadcast at start (to 255.255.255.255 on the node's port; not tested: the tests run on loopback, which cannot broadcast) and, as a foreign device, through the BBMD once registered (tested)",
     ),
-    ("DM-DOB-B", "no", "Who-Has / I-Have are not executed"),
+    (
+        "DM-DOB-B",
+        "yes",
+        "Who-Has by object identifier or by Object_Name (UTF-8, exact), with or without a device instance range (local, global or directed), answered with I-Have when the node has the object, unicast to the requester like I-Am (not broadcast, the standard's usual form: the tests run on loopback, which cannot broadcast, and bacpypes3, the test peer, answers Who-Has unicast itself); an object the node does not have, or a Who-Has that does not parse: no answer; no I-Have while DeviceCommunicationControl disables initiation",
+    ),
     (
         "DM-DCC-B",
         "only when configured",
@@ -108,9 +112,9 @@ const BIBBS: &[(&str, &str, &str)] = &[
 const NOT_SUPPORTED: &[&str] = &[
     "segmentation (either way): a request in segments, or an answer longer than the requester accepts or than 1476 octets, is aborted with segmentation-not-supported; read a long Object_List by index",
     "Priority_Array and Relinquish_Default: no object is commandable",
-    "alarms and events, trends, schedules, time synchronization, ReinitializeDevice, Who-Has, ReadRange, WritePropertyMultiple, file services (rejected: unrecognized-service, or not answered when unconfirmed)",
+    "alarms and events, trends, schedules, time synchronization, ReinitializeDevice, ReadRange, WritePropertyMultiple, file services (rejected: unrecognized-service, or not answered when unconfirmed)",
     "COV subscriptions to the Device object (error: optional-functionality-not-supported)",
-    "BBMD functions: the node is not a BBMD (BVLC-Result NAK); it can register as a foreign device (`[bacnet] bbmd`, renewed at half the time-to-live, retried 1 s doubling to 60 s)",
+    "BBMD functions: the node is not a BBMD (BVLC-Result NAK); it can register as a foreign device (`[bacnet] bbmd`, renewed at half the time-to-live, retried 1 s doubling to 60 s; while the BBMD does not answer or refuses, the Device's Reliability is communication-failure (12) and Modbus status bit 9 is set, and local service goes on; tested)",
     "routing, BACnet/IPv6, MS/TP, BACnet/SC",
     "a Vendor_Identifier: none is assigned to luxnode; 65535 is reported until the board sets `vendor_id`",
 ];
@@ -230,6 +234,8 @@ pub fn markdown() -> String {
     for (name, ex, init) in [
         ("Who-Is", "yes", "no"),
         ("I-Am", "no", "yes (answer to Who-Is; at start)"),
+        ("Who-Has", "yes", "no"),
+        ("I-Have", "no", "yes (answer to Who-Has)"),
         ("ReadProperty", "yes", "no"),
         ("ReadPropertyMultiple", "yes", "no"),
         ("WriteProperty", "yes", "no"),

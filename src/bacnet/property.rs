@@ -63,7 +63,9 @@ pub fn services_supported() -> [bool; ss::LEN] {
         ss::WRITE_PROPERTY,
         ss::DEVICE_COMMUNICATION_CONTROL,
         ss::I_AM,
+        ss::I_HAVE,
         ss::UNCONFIRMED_COV_NOTIFICATION,
+        ss::WHO_HAS,
         ss::WHO_IS,
     ] {
         bits[b] = true;
@@ -194,6 +196,7 @@ fn device_property(view: &View<'_>, prop: u32, w: &mut Writer<'_>) -> Result<(),
     let d = view.device;
     match prop {
         p::SYSTEM_STATUS => w.enumerated(0),
+        p::RELIABILITY => w.enumerated(d.reliability),
         p::VENDOR_NAME => w.char_string(VENDOR_NAME),
         p::VENDOR_IDENTIFIER => w.unsigned(u64::from(d.vendor_id)),
         p::MODEL_NAME => w.char_string(&d.model),

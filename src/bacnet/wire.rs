@@ -1125,6 +1125,13 @@ impl<'a> Writer<'a> {
     pub fn context_object_id(&mut self, n: u8, id: ObjectId) -> Result<(), WireError> {
         self.tagged(n, true, &id.to_u32().to_be_bytes())
     }
+
+    /// Context Character String, UTF-8 (character set 0).
+    pub fn context_char_string(&mut self, n: u8, s: &str) -> Result<(), WireError> {
+        self.tag(n, true, s.len() + 1)?;
+        self.put(&[0])?;
+        self.put(s.as_bytes())
+    }
 }
 
 #[cfg(test)]

@@ -142,6 +142,25 @@ pub enum Command {
         #[arg(long, default_value_t = 0)]
         idle_attack: usize,
     },
+    /// Does BACnet slow Modbus? Modbus pollers' throughput without and with COV subscribers
+    /// (in-process sockets), runs alternating, medians compared (docs/bacnet.md).
+    BacnetCovLoad {
+        /// The image to serve.
+        #[arg(long)]
+        image: PathBuf,
+        /// COV subscribers in the runs with them.
+        #[arg(long, default_value_t = 100)]
+        subscribers: usize,
+        /// Modbus TCP clients polling the desk floats back to back.
+        #[arg(long, default_value_t = 8)]
+        pollers: usize,
+        /// Each run's duration, s.
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+        /// Runs of each kind (without, with), alternating.
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+    },
     /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
     Fuzz {
         /// Frames to send.
@@ -318,6 +337,13 @@ pub fn run(command: Command) -> Result<()> {
         } => {
             modbus_load(&image, clients, seconds, interval_ms, hosts, idle_attack)?;
         }
+        Command::BacnetCovLoad {
+            image,
+            subscribers,
+            pollers,
+            seconds,
+            runs,
+        } => super::bench_bacnet::cov_load(&image, subscribers, pollers, seconds, runs)?,
         Command::Fuzz { frames, seed } => {
             fuzz(frames, seed)?;
         }

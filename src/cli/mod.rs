@@ -4,6 +4,8 @@
 #[cfg(feature = "bench")]
 pub mod bench;
 #[cfg(feature = "bench")]
+pub mod bench_bacnet;
+#[cfg(feature = "bench")]
 pub mod bench_scaling;
 pub mod commission;
 pub mod control;

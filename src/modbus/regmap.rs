@@ -389,6 +389,9 @@ pub mod status {
     pub const COMM_OK: u16 = 1 << 7;
     /// Writes are enabled for some sources (the board's allowlist is not empty).
     pub const WRITES_ENABLED: u16 = 1 << 8;
+    /// The board's BBMD does not accept the node's foreign-device registration (its last
+    /// attempt got no answer or a NAK; retried with backoff; local BACnet service goes on).
+    pub const BBMD_FAILING: u16 = 1 << 9;
     /// A peripheral of the node (ambient light sensor, calibration EEPROM, status LED) is
     /// absent, stuck or gives bad readings (the log says which and why).
     pub const PERIPHERAL_FAULT: u16 = 1 << 12;
@@ -1060,7 +1063,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources, 12 peripheral fault (ambient light sensor, calibration EEPROM or status LED absent, stuck or bad), 13 ambient light disagrees with the model"
+        "bit 0 commissioned, 1 store healthy, 2 sensors healthy, 3 gateway configured, 4 gateway link up, 5 values stale (dimming state unknown: gateway lost, or not yet set since start), 6 compute error, 7 communication ok (every configured server up), 8 writes enabled for some sources, 9 BACnet BBMD not answering (the board's foreign-device registration got no answer or a NAK; retried with backoff; local BACnet service goes on), 12 peripheral fault (ambient light sensor, calibration EEPROM or status LED absent, stuck or bad), 13 ambient light disagrees with the model"
     ),
     row!(
         Input,

@@ -35,6 +35,12 @@ pub mod state {
 pub trait CommCounters: Any + Send + Sync + std::fmt::Debug {
     /// Writes this part's counters into the registers' view.
     fn report(&self, into: &mut CommHealth);
+
+    /// The status bits this part raises now (`crate::modbus::regmap::status`; none by
+    /// default).
+    fn status(&self) -> u16 {
+        0
+    }
 }
 
 /// One kind of counters kept: the same object as a reporter and as itself.
@@ -167,6 +173,13 @@ impl Health {
         [&self.tcp_state, &self.rtu_state, &self.tls_state]
             .iter()
             .all(|s| s.load(Ordering::Relaxed) != state::DOWN)
+    }
+
+    /// The status bits the servers' and links' counters raise now.
+    pub fn raised(&self) -> u16 {
+        super::lock(&self.counters)
+            .iter()
+            .fold(0, |s, k| s | k.reporter.status())
     }
 
     /// The registers' view.

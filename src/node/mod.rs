@@ -783,6 +783,8 @@ impl Node {
         if self.policy.writable() {
             s |= status::WRITES_ENABLED;
         }
+        // what the servers and links raise (a BBMD that does not accept the registration)
+        s |= self.health.raised();
         // the dimming state is unknown while the gateway is lost, and after a start until
         // every luminaire's level was set (by the gateway or a write)
         let stale = !self.gateway_up || !self.dimming_known();

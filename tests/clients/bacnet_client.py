@@ -4,7 +4,10 @@
 Each command prints one JSON object on stdout:
 
     bacnet_client.py --local 127.0.0.1:47900 --target 127.0.0.1:47808 whois [--low N --high N]
+    ... whohas (--id OBJ | --name NAME) [--low N --high N]
+                               Who-Has; every I-Have heard in 2 s (device, object, name)
     ... read                   every object of the device: RPM ALL per object, RP Present_Value
+    ... rp OBJ PROP            ReadProperty of one property (e.g. device,4321 reliability)
     ... write OBJ PROP VALUE   WriteProperty (e.g. analog-value,1000 present-value 420)
     ... cov OBJ (--write OBJ2 VALUE | --write-modbus HOST:PORT REGISTER VALUE)
             [--confirmed] [--subscribers N]
@@ -75,6 +78,27 @@ async def cmd_whois(app, target, a):
     }
 
 
+async def cmd_whohas(app, target, a):
+    i_haves = await app.who_has(
+        a.low,
+        a.high,
+        ObjectIdentifier(a.id) if a.id else None,
+        a.name,
+        Address(target),
+        timeout=2,
+    )
+    return {
+        "i_have": [
+            {
+                "device": plain(i.deviceIdentifier),
+                "object": plain(i.objectIdentifier),
+                "name": str(i.objectName),
+            }
+            for i in i_haves
+        ]
+    }
+
+
 async def cmd_read(app, target, a):
     addr = Address(target)
     device = ObjectIdentifier(f"device,{a.device}")
@@ -94,6 +118,14 @@ async def cmd_read(app, target, a):
         props["rp-present-value"] = plain(float(rp))
         out["objects"][f"{obj[0]},{obj[1]}"] = props
     return out
+
+
+async def cmd_rp(app, target, a):
+    try:
+        v = await app.read_property(Address(target), ObjectIdentifier(a.object), a.prop)
+    except ErrorRejectAbortNack as e:
+        return {"ok": False, "error": error_text(e)}
+    return {"ok": True, "value": plain(v)}
 
 
 async def cmd_write(app, target, a):
@@ -212,7 +244,15 @@ async def main() -> int:
     w = sub.add_parser("whois")
     w.add_argument("--low", type=int)
     w.add_argument("--high", type=int)
+    wh = sub.add_parser("whohas")
+    wh.add_argument("--id")
+    wh.add_argument("--name")
+    wh.add_argument("--low", type=int)
+    wh.add_argument("--high", type=int)
     sub.add_parser("read")
+    rp = sub.add_parser("rp")
+    rp.add_argument("object")
+    rp.add_argument("prop")
     wr = sub.add_parser("write")
     wr.add_argument("object")
     wr.add_argument("prop")
@@ -236,7 +276,7 @@ async def main() -> int:
         return 0
     app = await make_app(a.local)
     try:
-        f = {"whois": cmd_whois, "read": cmd_read, "write": cmd_write, "cov": cmd_cov, "hold": cmd_hold}[a.cmd]
+        f = {"whois": cmd_whois, "whohas": cmd_whohas, "rp": cmd_rp, "read": cmd_read, "write": cmd_write, "cov": cmd_cov, "hold": cmd_hold}[a.cmd]
         out = await f(app, a.target, a)
     finally:
         app.close()

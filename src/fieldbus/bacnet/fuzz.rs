@@ -17,8 +17,9 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use super::service::{Outgoing, Server, ServerConfig};
-use crate::bacnet::consts::{confirmed, property};
+use crate::bacnet::consts::{confirmed, property, unconfirmed};
 use crate::bacnet::objects::DeviceInfo;
+use crate::bacnet::who_has::{Wanted, WhoHas};
 use crate::bacnet::wire::{Apdu, Bvlc, Npdu, ObjectId, Writer};
 use crate::modbus::access::AccessPolicy;
 use crate::node::{Node, NodeModel, NodeOptions};
@@ -127,6 +128,15 @@ pub fn request(service: u8, body: impl FnOnce(&mut Writer<'_>)) -> Vec<u8> {
     frame(false, &a)
 }
 
+/// A broadcast Who-Has datagram.
+pub fn who_has(limits: Option<(u32, u32)>, object: Wanted<'_>) -> Vec<u8> {
+    let mut buf = [0u8; 128];
+    let mut w = Writer::new(&mut buf);
+    let _ = w.put(&[0x10, unconfirmed::WHO_HAS]);
+    let _ = WhoHas { limits, object }.emit(&mut w);
+    frame(true, w.written())
+}
+
 /// Valid datagrams of every service, and some refused ones.
 pub fn seeds() -> Vec<Vec<u8>> {
     let ai = ObjectId::new(0, 1);
@@ -206,6 +216,9 @@ pub fn seeds() -> Vec<Vec<u8>> {
         false,
         &[0x08, 0x05, 0x02, 0x00, 0x01, 0x0C, 0x0C, 0, 0, 0, 1],
     ));
+    // Who-Has by name, and by identifier within a device range
+    v.push(who_has(None, Wanted::Name("desk 9 illuminance")));
+    v.push(who_has(Some((1000, 2000)), Wanted::Id(bi)));
     v
 }
 

@@ -4,7 +4,9 @@
 //! [`crate::bacnet::cov::POLL`], and, when the board names a BBMD, foreign-device registration
 //! (renewed at half its time-to-live; retried with a doubling backoff of 1 s to 60 s when the
 //! BBMD does not answer or refuses; the state in [`BacnetCounters::fd_registered`] and the
-//! log). Local service never waits for the BBMD.
+//! log; while the BBMD does not accept the registration, Modbus status bit 9
+//! ([`crate::modbus::regmap::status::BBMD_FAILING`]) and the Device's Reliability
+//! communication-failure). Local service never waits for the BBMD.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -16,7 +18,7 @@ use tokio::sync::watch;
 
 use crate::bacnet::cov::POLL;
 use crate::bacnet::wire::bvlc;
-use crate::modbus::regmap::CommHealth;
+use crate::modbus::regmap::{CommHealth, status};
 use crate::node::health::{Beat, CommCounters};
 use crate::node::{SharedNode, lock};
 use service::{Outgoing, Server, ServerConfig};
@@ -60,11 +62,22 @@ pub struct BacnetCounters {
     pub fd_registered: AtomicBool,
     /// Registration attempts not answered or refused.
     pub fd_failures: AtomicU64,
+    /// The last registration attempt was not answered or refused (status bit
+    /// [`status::BBMD_FAILING`], the Device's Reliability).
+    pub fd_failing: AtomicBool,
 }
 
 impl CommCounters for BacnetCounters {
     // the Modbus communication registers have no BACnet entries (yet)
     fn report(&self, _into: &mut CommHealth) {}
+
+    fn status(&self) -> u16 {
+        if self.fd_failing.load(Ordering::Relaxed) {
+            status::BBMD_FAILING
+        } else {
+            0
+        }
+    }
 }
 
 /// Foreign-device registration state.
@@ -114,6 +127,7 @@ impl Registration {
     fn failed(&mut self, now: Instant, counters: &BacnetCounters, why: &str) {
         counters.fd_registered.store(false, Ordering::Relaxed);
         counters.fd_failures.fetch_add(1, Ordering::Relaxed);
+        counters.fd_failing.store(true, Ordering::Relaxed);
         tracing::warn!(
             "bacnet: foreign-device registration with {} failed ({why}); retrying in {:?}",
             self.config.address,
@@ -127,6 +141,7 @@ impl Registration {
     /// Takes the BBMD's answer; true when the node has just become registered.
     fn result(&mut self, now: Instant, code: u16, counters: &BacnetCounters) -> bool {
         if code == bvlc::RESULT_OK {
+            counters.fd_failing.store(false, Ordering::Relaxed);
             let new = !counters.fd_registered.swap(true, Ordering::Relaxed);
             if new {
                 tracing::info!(
@@ -165,6 +180,9 @@ pub async fn serve(
 ) -> std::io::Result<()> {
     let mut server = Server::new(options.server.clone());
     let mut registration = options.bbmd.clone().map(Registration::new);
+    // a new socket registers anew: nothing has failed yet
+    counters.fd_registered.store(false, Ordering::Relaxed);
+    counters.fd_failing.store(false, Ordering::Relaxed);
     let mut tick = tokio::time::interval(POLL);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut buf = vec![0u8; 2048];
@@ -191,6 +209,7 @@ pub async fn serve(
                 };
                 counters.received.fetch_add(1, Ordering::Relaxed);
                 let now = Instant::now();
+                server.set_registration_failing(counters.fd_failing.load(Ordering::Relaxed));
                 let out = {
                     let mut n_ = lock(&node);
                     server.handle(&mut n_, from, &buf[..n], now)

@@ -5,6 +5,8 @@
 //!
 //! * Who-Is (local or global broadcast, or unicast; with or without a range) → I-Am, sent
 //!   unicast to the requester (through its router when it came through one);
+//! * Who-Has (by identifier or name, with or without a range) → I-Have, the same way
+//!   ([`who_has`]);
 //! * ReadProperty, ReadPropertyMultiple (ALL, REQUIRED, OPTIONAL), WriteProperty,
 //!   SubscribeCOV, DeviceCommunicationControl: confirmed, answered with SimpleACK, ComplexACK,
 //!   Error, Reject or Abort;
@@ -21,7 +23,7 @@ use std::time::{Duration, Instant};
 
 use crate::bacnet::consts::{
     MAX_APDU, confirmed, error_class as ec, error_code as code, object_type as ot, property as p,
-    reject, unconfirmed,
+    reject, reliability, unconfirmed,
 };
 use crate::bacnet::cov::{CovTable, Full, Peer, Told};
 use crate::bacnet::objects::{DeviceInfo, Kind, OPTIONAL_PROPERTIES, View};
@@ -235,6 +237,16 @@ impl Server {
         }
     }
 
+    /// Foreign-device registration with the board's BBMD is failing (no answer, or a NAK):
+    /// the Device's Reliability is communication-failure until it succeeds again.
+    pub fn set_registration_failing(&mut self, failing: bool) {
+        self.config.device.reliability = if failing {
+            reliability::COMMUNICATION_FAILURE
+        } else {
+            reliability::NO_FAULT_DETECTED
+        };
+    }
+
     /// The settings.
     pub fn config(&self) -> &ServerConfig {
         &self.config
@@ -313,7 +325,7 @@ impl Server {
         };
         match apdu {
             Apdu::UnconfirmedRequest { service, data } => self
-                .unconfirmed(&peer, service, data, now)
+                .unconfirmed(node, &peer, service, data, now)
                 .into_iter()
                 .collect(),
             Apdu::ConfirmedRequest { .. } => self.confirmed(node, &peer, apdu, now),
@@ -331,16 +343,25 @@ impl Server {
         }
     }
 
+    /// Who-Is and Who-Has: nothing while communication is disabled; no I-Have while
+    /// initiation is (the standard excepts only I-Am).
     fn unconfirmed(
         &mut self,
+        node: &Node,
         peer: &Peer,
         service: u8,
         data: &[u8],
         now: Instant,
     ) -> Option<Outgoing> {
-        if service != unconfirmed::WHO_IS || matches!(self.dcc_now(now), Dcc::Disabled(_)) {
-            return None;
+        match (self.dcc_now(now), service) {
+            (Dcc::Disabled(_), _) => None,
+            (_, unconfirmed::WHO_IS) => self.who_is(peer, data),
+            (Dcc::Enabled, unconfirmed::WHO_HAS) => self.who_has(node, peer, data),
+            _ => None,
         }
+    }
+
+    fn who_is(&self, peer: &Peer, data: &[u8]) -> Option<Outgoing> {
         let mut r = Reader::new(data);
         if !r.is_empty() {
             let low = r.context_unsigned(0).ok()?;
@@ -884,6 +905,8 @@ pub fn is_served_type(id: ObjectId) -> bool {
         ot::DEVICE | ot::ANALOG_INPUT | ot::ANALOG_VALUE | ot::BINARY_INPUT
     )
 }
+
+mod who_has;
 
 #[cfg(all(test, feature = "sim"))]
 mod tests;

@@ -506,3 +506,70 @@ fn occupancy_binary_inputs_are_read_notified_and_never_written() {
     let a = ask(&mut s, &mut node, peer(), &rp(bi0, p::RELIABILITY, None));
     assert!(a[0].ends_with(&[0x3E, 0x91, 12, 0x3F]), "{:02x?}", a[0]);
 }
+
+#[test]
+fn who_has_is_answered_with_i_have_only_for_objects_the_node_has() {
+    use crate::bacnet::who_has::{IHave, Wanted};
+    use crate::fieldbus::bacnet::fuzz::{who_has, with_occupancy};
+    let (mut node, mut s) = (with_occupancy(sample_node()), sample_server());
+    let i_have = |a: &[u8]| {
+        assert_eq!(&a[..2], &[0x10, unconfirmed::I_HAVE], "{a:02x?}");
+        let h = IHave::parse(&a[2..]).expect("I-Have parses");
+        (h.device, h.object, h.name.to_owned())
+    };
+    let dev = ObjectId::new(ot::DEVICE, 1234);
+    // by name: desk 9 is desk index 1 (sensor ids 7, 9, 11, 13)
+    let a = ask(
+        &mut s,
+        &mut node,
+        peer(),
+        &who_has(None, Wanted::Name("desk 9 daylight")),
+    );
+    let want = (
+        dev,
+        ObjectId::new(ot::ANALOG_INPUT, 101),
+        "desk 9 daylight".into(),
+    );
+    assert_eq!(i_have(&a[0]), want);
+    // by identifier, inside the range; the Device by its own identifier
+    let bi = ObjectId::new(ot::BINARY_INPUT, 3);
+    let a = ask(
+        &mut s,
+        &mut node,
+        peer(),
+        &who_has(Some((1234, 1234)), Wanted::Id(bi)),
+    );
+    assert_eq!(i_have(&a[0]), (dev, bi, "desk 13 occupancy".into()));
+    let a = ask(&mut s, &mut node, peer(), &who_has(None, Wanted::Id(dev)));
+    assert_eq!(i_have(&a[0]), (dev, dev, "fuzz 1234".into()));
+    // silence: outside the range, an object or name the node does not have, the Device's
+    // wildcard, a name in another case, disabled initiation
+    for q in [
+        who_has(Some((0, 1233)), Wanted::Id(bi)),
+        who_has(None, Wanted::Id(ObjectId::new(ot::ANALOG_INPUT, 4))),
+        who_has(
+            None,
+            Wanted::Id(ObjectId::new(ot::DEVICE, ObjectId::MAX_INSTANCE)),
+        ),
+        who_has(None, Wanted::Name("desk 8 daylight")),
+        who_has(None, Wanted::Name("Desk 9 daylight")),
+    ] {
+        assert!(ask(&mut s, &mut node, peer(), &q).is_empty(), "{q:02x?}");
+    }
+    let dcc = request(confirmed::DEVICE_COMMUNICATION_CONTROL, |w| {
+        let _ = w.context_enumerated(1, 2);
+        let _ = w.context_char_string(2, "pw");
+    });
+    let a = ask(&mut s, &mut node, peer(), &dcc);
+    assert_eq!(a[0], vec![0x20, 1, confirmed::DEVICE_COMMUNICATION_CONTROL]);
+    let q = who_has(None, Wanted::Id(dev));
+    assert!(
+        ask(&mut s, &mut node, peer(), &q).is_empty(),
+        "initiation disabled"
+    );
+    assert_eq!(
+        ask(&mut s, &mut node, peer(), &frame(true, &[0x10, 0x08])).len(),
+        1,
+        "I-Am still"
+    );
+}
