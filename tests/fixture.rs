@@ -289,3 +289,49 @@ fn the_cli_refuses_a_room_in_the_wrong_unit() {
     let text = String::from_utf8_lossy(&out.stderr) + String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("--unit m"), "{text}");
 }
+
+/// Issue 34 item 5, the unit check as a property (fixed seed): the small office read with any
+/// unit length from 0.1 mm to 10 km loads exactly when its lengths then make a room (1..500 m
+/// across, luminaires at most 50 m up: computed here from the scene read in metres, not by the
+/// check), and a refusal always names `--unit`.
+#[test]
+fn the_unit_check_accepts_exactly_the_units_that_make_a_room() {
+    use luxnode::scene::{MAX_LUMINAIRE_HEIGHT_M, MAX_ROOM_EXTENT_M, MIN_ROOM_EXTENT_M};
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+    let metres = Scene::load(&dir(), &LoadOptions::default()).expect("the fixture in metres");
+    let (lo, hi) = metres.mesh.bounds_m();
+    let size = hi - lo;
+    let (horizontal_m, largest_m) = (size.x.max(size.y), size.max_element());
+    let highest_m = metres
+        .luminaires
+        .iter()
+        .map(|l| l.position_m.z - lo.z)
+        .fold(0.0, f64::max);
+    let mut runner = TestRunner::new(Config {
+        cases: 64,
+        rng_seed: RngSeed::Fixed(34),
+        failure_persistence: None,
+        ..Config::default()
+    });
+    runner
+        .run(&(-4.0f64..4.0), |log_unit| {
+            let unit_to_m = 10f64.powf(log_unit);
+            let room = horizontal_m * unit_to_m >= MIN_ROOM_EXTENT_M
+                && largest_m * unit_to_m <= MAX_ROOM_EXTENT_M
+                && highest_m * unit_to_m <= MAX_LUMINAIRE_HEIGHT_M;
+            let o = LoadOptions {
+                unit_to_m,
+                ..LoadOptions::default()
+            };
+            match Scene::load(&dir(), &o) {
+                Ok(_) => proptest::prop_assert!(room, "unit {unit_to_m} m: loaded"),
+                Err(e) => {
+                    let e = e.to_string();
+                    proptest::prop_assert!(!room, "unit {unit_to_m} m: {e}");
+                    proptest::prop_assert!(e.contains("--unit"), "unit {unit_to_m} m: {e}");
+                }
+            }
+            Ok(())
+        })
+        .expect("the unit check");
+}

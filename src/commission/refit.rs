@@ -306,6 +306,55 @@ pub fn fit(
 mod tests {
     use super::*;
 
+    /// A reading value: plausible lux, or each of the mistakes (zero, negative, NaN, infinite,
+    /// a typo far above any indoor illuminance).
+    fn any_lux() -> impl proptest::strategy::Strategy<Value = f64> {
+        use proptest::prelude::*;
+        prop_oneof![
+            4 => 0.1f64..5000.0,
+            1 => Just(0.0),
+            1 => -1e4f64..0.0,
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => 1e5f64..1e31,
+        ]
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config {
+            cases: 512,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(34),
+            failure_persistence: None,
+            ..proptest::test_runner::Config::default()
+        })]
+        /// Issue 34 item 5: readings are refused before any work exactly when one is not a
+        /// finite illuminance in (0, 1e6) lx, names no known sensor, repeats one, or there are
+        /// too many; the refusal names the reading's sensor or the count.
+        #[test]
+        fn readings_are_refused_exactly_when_one_is_a_mistake(
+            raw in proptest::collection::vec((0u32..12, any_lux()), 0..70),
+        ) {
+            let known = [1u32, 2, 3, 5, 8];
+            let readings: Vec<Reading> = raw
+                .iter()
+                .map(|&(sensor_id, lux_lx)| Reading { sensor_id, lux_lx })
+                .collect();
+            let bad = readings.len() > MAX_READINGS
+                || readings.iter().enumerate().any(|(k, r)| {
+                    !(r.lux_lx > 0.0 && r.lux_lx < MAX_READING_LX)
+                        || !known.contains(&r.sensor_id)
+                        || readings[..k].iter().any(|q| q.sensor_id == r.sensor_id)
+                });
+            match check(&readings, &known) {
+                Ok(()) => proptest::prop_assert!(!bad),
+                Err(e) => {
+                    proptest::prop_assert!(bad, "refused {readings:?}: {e}");
+                    proptest::prop_assert!(e.contains("sensor") || e.contains("readings"), "{e}");
+                }
+            }
+        }
+    }
+
     fn u(id: u32, lux: f64, dw: f64, dc: f64) -> SensorUncertainty {
         SensorUncertainty {
             sensor_id: id,

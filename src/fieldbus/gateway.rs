@@ -269,6 +269,31 @@ pub fn decode_level(
     }
 }
 
+/// The levels a poll's level registers give, and how many were out of range. A gateway that
+/// answers with nothing but out-of-range levels tells nothing of the dimming state: a failed
+/// poll (the link goes down, the values stale), not a good one.
+pub fn levels_of(
+    encoding: Encoding,
+    words: &[u16],
+    curve: crate::dali::DimmingCurve,
+) -> Result<(Vec<Option<f64>>, usize), GatewayError> {
+    let mut levels = Vec::with_capacity(words.len());
+    let mut invalid_now = 0;
+    for &w in words {
+        let (x, invalid) = decode_level(encoding, w, curve);
+        invalid_now += usize::from(invalid);
+        levels.push(x);
+    }
+    if !words.is_empty() && invalid_now == words.len() {
+        return Err(GatewayError::Answer(format!(
+            "every one of the {} level registers is out of range ({:?})",
+            words.len(),
+            &words[..words.len().min(8)]
+        )));
+    }
+    Ok((levels, invalid_now))
+}
+
 /// Counters.
 #[derive(Debug, Default)]
 pub struct GatewayCounters {
@@ -402,24 +427,10 @@ async fn poll_once(
     };
     let addrs = config.level_addresses(count)?;
     let words = read_registers(c, config.levels.function, &addrs, timeout).await?;
-    let mut levels = Vec::with_capacity(count);
-    let mut invalid_now = 0;
-    for &w in &words {
-        let (x, invalid) = decode_level(config.levels.encoding, w, curve);
-        if invalid {
-            counters.invalid_values.fetch_add(1, Ordering::Relaxed);
-            invalid_now += 1;
-        }
-        levels.push(x);
-    }
-    if count > 0 && invalid_now == count {
-        // a gateway that answers with nothing but out-of-range levels tells nothing of the
-        // dimming state: a failed poll (the link goes down, the values stale), not a good one
-        return Err(GatewayError::Answer(format!(
-            "every one of the {count} level registers is out of range ({:?})",
-            &words[..words.len().min(8)]
-        )));
-    }
+    let (levels, invalid_now) = levels_of(config.levels.encoding, &words, curve)?;
+    counters
+        .invalid_values
+        .fetch_add(invalid_now as u64, Ordering::Relaxed);
     let lux: Vec<f64> = {
         let mut n = lock(node);
         if n.levels_delivered() == delivered_before {
@@ -651,6 +662,45 @@ pub async fn connect(config: &GatewayConfig) -> Result<Context, GatewayError> {
 mod tests {
     use super::*;
     use crate::dali::DimmingCurve;
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config {
+            cases: 2048,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(34),
+            failure_persistence: None,
+            ..proptest::test_runner::Config::default()
+        })]
+        /// Issue 34 item 5: a poll's level registers, in either encoding and curve, give a
+        /// level in [0, 1] for every in-range word (percent 0..=100; DALI arc 0..=254, 255 the
+        /// MASK "no change" and no level), count every out-of-range word, and fail the poll
+        /// (link down, values stale) exactly when every word is out of range.
+        #[test]
+        fn level_registers_decode_or_fail_the_poll_exactly_when_all_are_out_of_range(
+            words in proptest::collection::vec(
+                proptest::prop_oneof![0u16..=300, proptest::prelude::any::<u16>()], 0..16),
+            dali in proptest::prelude::any::<bool>(),
+            linear in proptest::prelude::any::<bool>(),
+        ) {
+            let encoding = if dali { Encoding::Dali } else { Encoding::Percent };
+            let curve = if linear { DimmingCurve::Linear } else { DimmingCurve::Logarithmic };
+            let out_of_range = |w: u16| if dali { w > 255 } else { w > 100 };
+            let invalid = words.iter().filter(|&&w| out_of_range(w)).count();
+            match levels_of(encoding, &words, curve) {
+                Err(_) => proptest::prop_assert!(!words.is_empty() && invalid == words.len()),
+                Ok((levels, n)) => {
+                    proptest::prop_assert!(words.is_empty() || invalid < words.len());
+                    proptest::prop_assert_eq!(n, invalid);
+                    for (&w, x) in words.iter().zip(&levels) {
+                        let expect_level = !out_of_range(w) && !(dali && w == 255);
+                        proptest::prop_assert_eq!(x.is_some(), expect_level, "{}", w);
+                        if let Some(x) = x {
+                            proptest::prop_assert!((0.0..=1.0).contains(x), "{} -> {}", w, x);
+                        }
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn arc_levels_are_encoded_per_gateway() {

@@ -644,7 +644,9 @@ pub(crate) fn load_camera(path: &Path, unit_to_m: f64) -> Result<Camera, SceneEr
     if j.position.iter().any(|v| v.abs() * unit_to_m > 1e4) {
         return Err(invalid(
             "position",
-            "more than 10 km from the origin: not a camera in a room".into(),
+            "more than 10 km from the origin: not a camera in a room (a length in another \
+             unit: --unit?)"
+                .into(),
         ));
     }
     if let Some(s) = j.luminance_cd_m2_per_unit

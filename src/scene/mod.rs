@@ -27,7 +27,8 @@ use glam::{DMat3, DVec3};
 
 pub use builder::MeshBuilder;
 pub use files::{
-    LoadOptions, PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
+    LoadOptions, MAX_LUMINAIRE_HEIGHT_M, MAX_ROOM_EXTENT_M, MIN_ROOM_EXTENT_M,
+    PhotometryPreference, load_camera_file, load_desks_file, load_luminaires_file,
     load_sensors_file,
 };
 pub use lens::Lens;
