@@ -985,6 +985,127 @@ mod people_day {
         let n = people_at(t_s - BEFORE_S);
         window(t_s).all(|tau| people_at(tau) == n).then_some(n)
     }
+
+    /// What the BMS read at one poll.
+    pub struct Poll {
+        /// Since the BMS connected, s.
+        pub t_s: f64,
+        /// Input 72.
+        pub status: u16,
+        /// Input 73.
+        pub people: u16,
+        /// Inputs 4600 + k, the seven desk sensors.
+        pub occupied: Vec<u16>,
+        /// The node's lux per desk sensor at the levels it commands.
+        pub lux: Vec<f64>,
+    }
+
+    /// Every frame good and fresh once the first has come (within 10 s), the floor sensor
+    /// unknown throughout: the index of the first poll with a frame.
+    pub fn check_frames(polls: &[Poll]) -> usize {
+        use luxnode::modbus::regmap::occupancy_status;
+        let first = polls
+            .iter()
+            .position(|p| p.status & occupancy_status::STALE == 0)
+            .expect("no depth frame");
+        let live = &polls[first..];
+        assert!(
+            polls[first].t_s < 10.0,
+            "first frame at {} s",
+            polls[first].t_s
+        );
+        assert!(
+            live.iter()
+                .all(|p| p.status == occupancy_status::ON && p.occupied[6] == 0xFFFF),
+            "status or the floor sensor: {:?}",
+            live.iter()
+                .map(|p| (p.t_s, p.status, p.occupied[6]))
+                .collect::<Vec<_>>()
+        );
+        first
+    }
+
+    /// Each desk against the script: 1 while its person sits there (and for the hold after),
+    /// 0 once they have left and the hold has passed, never 0 with a person at it; the empty
+    /// desks 0 throughout; every visit seen; the people count whenever it is settled.
+    pub fn check_desks(live: &[Poll]) {
+        let (mut checked_1, mut checked_0) = (0, 0);
+        for p in live {
+            for desk in 1..=6u32 {
+                let got = p.occupied[desk as usize - 1];
+                match desk_truth(desk, p.t_s) {
+                    Some(1) => {
+                        checked_1 += 1;
+                        assert_eq!(got, 1, "desk {desk} at {:.1} s", p.t_s);
+                    }
+                    Some(want) => {
+                        checked_0 += 1;
+                        assert_eq!(got, want, "desk {desk} at {:.1} s", p.t_s);
+                    }
+                    None => assert!(got <= 1, "desk {desk} at {:.1} s: {got}", p.t_s),
+                }
+            }
+            if let Some(n) = people_truth(p.t_s) {
+                assert_eq!(p.people, n, "people at {:.1} s", p.t_s);
+            }
+        }
+        eprintln!("checked: {checked_1} desk-polls occupied, {checked_0} vacant");
+        assert!(
+            checked_1 >= 20 && checked_0 >= 150,
+            "{checked_1} {checked_0}"
+        );
+        // and every visit is seen: its desk reads 1 while they are there (or within the time a
+        // frame takes to come through), then 0 after the hold before the next visit
+        let read = |desk: u32, v: u16, from_s: f64, to_s: f64| {
+            live.iter()
+                .any(|p| p.t_s >= from_s && p.t_s <= to_s && p.occupied[desk as usize - 1] == v)
+        };
+        for (desk, a, b, next) in visits() {
+            assert!(
+                read(desk, 1, a - AFTER_S, b + HOLD_S + BEFORE_S),
+                "desk {desk}: the visit {a}..{b} s never read 1"
+            );
+            assert!(
+                read(desk, 0, b + HOLD_S - AFTER_S, next.min(POLL_S) + BEFORE_S),
+                "desk {desk}: after the visit {a}..{b} s never read 0"
+            );
+        }
+    }
+
+    /// Lighting follows: a desk that has read the same for a second meets its demand, 500 lx
+    /// occupied, 300 lx vacant (the control loop's dead band: 5 %); with everyone gone the
+    /// levels drop and no desk keeps its working level.
+    pub fn check_lighting(polls: &[Poll], first: usize) {
+        let steady = |i: usize, k: usize| {
+            (i >= 4
+                && polls[i - 4..=i]
+                    .iter()
+                    .all(|q| q.occupied[k] == polls[i].occupied[k]))
+            .then_some(polls[i].occupied[k])
+        };
+        let mut all_gone = 0;
+        for i in 0..polls.len() {
+            let p = &polls[i];
+            for k in 0..6 {
+                match steady(i, k) {
+                    Some(1) => assert!(p.lux[k] >= 475.0, "desk {} at {:.1} s", k + 1, p.t_s),
+                    Some(0) => assert!(p.lux[k] >= 285.0, "desk {} at {:.1} s", k + 1, p.t_s),
+                    _ => {}
+                }
+            }
+            if i > first && (0..6).all(|k| steady(i, k) == Some(0)) {
+                all_gone += 1;
+                let most = p.lux[..6].iter().copied().fold(0.0, f64::max);
+                assert!(
+                    most < 400.0,
+                    "at {:.1} s, nobody there: {:.0?}",
+                    p.t_s,
+                    p.lux
+                );
+            }
+        }
+        assert!(all_gone >= 5, "{all_gone} polls with every desk vacant");
+    }
 }
 
 /// A day of people on the sim board (issue 29 item 3's HIL): the board's `[camera.sim]
@@ -997,8 +1118,8 @@ mod people_day {
 /// scripted people come and go, and checks them against the script.
 #[test]
 fn the_bms_reads_a_day_of_people_arriving_sitting_and_leaving() {
-    use luxnode::modbus::regmap::{addr, occupancy_status};
-    use people_day::{HOLD_S, POLL_S, desk_truth, people_truth};
+    use luxnode::modbus::regmap::addr;
+    use people_day::{HOLD_S, POLL_S, Poll};
     let dir = tempfile::tempdir().unwrap();
     let flash = dir.path().join("flash.bin");
     let board = dir.path().join("board.toml");
@@ -1020,13 +1141,6 @@ fn the_bms_reads_a_day_of_people_arriving_sitting_and_leaving() {
     )
     .unwrap();
     let n = node(&board, &flash, &[]);
-    struct Poll {
-        t_s: f64,
-        status: u16,
-        people: u16,
-        occupied: Vec<u16>,
-        lux: Vec<f64>,
-    }
     let polls: Vec<Poll> = rt().block_on(async {
         let mut c = bms(n.addr).await;
         let t0 = Instant::now();
@@ -1050,100 +1164,7 @@ fn the_bms_reads_a_day_of_people_arriving_sitting_and_leaving() {
             p.t_s, p.status, p.people, p.occupied, p.lux
         );
     }
-    // every frame good and fresh once the first has come
-    let first = polls
-        .iter()
-        .position(|p| p.status & occupancy_status::STALE == 0)
-        .expect("no depth frame");
-    let live = &polls[first..];
-    assert!(
-        polls[first].t_s < 10.0,
-        "first frame at {} s",
-        polls[first].t_s
-    );
-    assert!(
-        live.iter()
-            .all(|p| p.status == occupancy_status::ON && p.occupied[6] == 0xFFFF),
-        "status or the floor sensor: {:?}",
-        live.iter()
-            .map(|p| (p.t_s, p.status, p.occupied[6]))
-            .collect::<Vec<_>>()
-    );
-    // each desk against the script: 1 while its person sits there (and for the hold after),
-    // 0 once they have left and the hold has passed, never 0 with a person at it; the empty
-    // desks 0 throughout
-    let (mut checked_1, mut checked_0) = (0, 0);
-    for p in live {
-        for desk in 1..=6u32 {
-            let got = p.occupied[desk as usize - 1];
-            match desk_truth(desk, p.t_s) {
-                Some(1) => {
-                    checked_1 += 1;
-                    assert_eq!(got, 1, "desk {desk} at {:.1} s", p.t_s);
-                }
-                Some(want) => {
-                    checked_0 += 1;
-                    assert_eq!(got, want, "desk {desk} at {:.1} s", p.t_s);
-                }
-                None => assert!(got <= 1, "desk {desk} at {:.1} s: {got}", p.t_s),
-            }
-        }
-        if let Some(n) = people_truth(p.t_s) {
-            assert_eq!(p.people, n, "people at {:.1} s", p.t_s);
-        }
-    }
-    eprintln!("checked: {checked_1} desk-polls occupied, {checked_0} vacant");
-    assert!(
-        checked_1 >= 20 && checked_0 >= 150,
-        "{checked_1} {checked_0}"
-    );
-    // and every visit is seen: its desk reads 1 while they are there (or within the time a
-    // frame takes to come through), then 0 after the hold before the next visit
-    let read = |desk: u32, v: u16, from_s: f64, to_s: f64| {
-        live.iter()
-            .any(|p| p.t_s >= from_s && p.t_s <= to_s && p.occupied[desk as usize - 1] == v)
-    };
-    use people_day::{AFTER_S, BEFORE_S};
-    for (desk, a, b, next) in people_day::visits() {
-        assert!(
-            read(desk, 1, a - AFTER_S, b + HOLD_S + BEFORE_S),
-            "desk {desk}: the visit {a}..{b} s never read 1"
-        );
-        assert!(
-            read(desk, 0, b + HOLD_S - AFTER_S, next.min(POLL_S) + BEFORE_S),
-            "desk {desk}: after the visit {a}..{b} s never read 0"
-        );
-    }
-    // lighting follows: a desk that has read the same for a second meets its demand, 500 lx
-    // occupied, 300 lx vacant (the control loop's dead band: 5 %); with everyone gone the
-    // levels drop and no desk keeps its working level
-    let steady = |i: usize, k: usize| {
-        (i >= 4
-            && polls[i - 4..=i]
-                .iter()
-                .all(|q| q.occupied[k] == polls[i].occupied[k]))
-        .then_some(polls[i].occupied[k])
-    };
-    let mut all_gone = 0;
-    for i in 0..polls.len() {
-        let p = &polls[i];
-        for k in 0..6 {
-            match steady(i, k) {
-                Some(1) => assert!(p.lux[k] >= 475.0, "desk {} at {:.1} s", k + 1, p.t_s),
-                Some(0) => assert!(p.lux[k] >= 285.0, "desk {} at {:.1} s", k + 1, p.t_s),
-                _ => {}
-            }
-        }
-        if i > first && (0..6).all(|k| steady(i, k) == Some(0)) {
-            all_gone += 1;
-            let most = p.lux[..6].iter().copied().fold(0.0, f64::max);
-            assert!(
-                most < 400.0,
-                "at {:.1} s, nobody there: {:.0?}",
-                p.t_s,
-                p.lux
-            );
-        }
-    }
-    assert!(all_gone >= 5, "{all_gone} polls with every desk vacant");
+    let first = people_day::check_frames(&polls);
+    people_day::check_desks(&polls[first..]);
+    people_day::check_lighting(&polls, first);
 }
