@@ -1084,8 +1084,7 @@ mod people_day {
             .then_some(polls[i].occupied[k])
         };
         let mut all_gone = 0;
-        for i in 0..polls.len() {
-            let p = &polls[i];
+        for (i, p) in polls.iter().enumerate() {
             for k in 0..6 {
                 match steady(i, k) {
                     Some(1) => assert!(p.lux[k] >= 475.0, "desk {} at {:.1} s", k + 1, p.t_s),
