@@ -94,6 +94,22 @@ fn the_board_file_sets_the_hold() {
     let parse = |extra: &str| Board::parse(&format!("{sim}\n{extra}"), &path);
     // absent: DALI-2 part 303's 15 minutes
     assert_eq!(parse("").unwrap().occupancy_hold_s, 900.0);
+    // motion over frames: 30 min still is a thing, unless the board says otherwise
+    assert_eq!(parse("").unwrap().occupancy_static_after_s, 1800.0);
+    assert_eq!(
+        parse("[occupancy]\nstatic_after_s = 600.0\n")
+            .unwrap()
+            .occupancy_static_after_s,
+        600.0
+    );
+    for bad in [
+        "static_after_s = 0.0",
+        "static_after_s = 1e6",
+        "static_after_s = nan",
+    ] {
+        let e = parse(&format!("[occupancy]\n{bad}\n"));
+        assert!(e.is_err(), "{bad} was accepted");
+    }
     assert_eq!(
         parse("[occupancy]\nhold_s = 120.0\n")
             .unwrap()

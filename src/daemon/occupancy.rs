@@ -1,6 +1,7 @@
 //! Occupancy in the live task (issue 29): every depth frame the live task takes goes through
 //! [`Occupancy`] against the commissioned room, motion over frames ([`Motion`]: a head that has
-//! not moved for half an hour is a thing, not a person) and the answer through the board's hold
+//! not moved for the board's `[occupancy] static_after_s`, 30 min by default, is a thing, not
+//! a person) and the answer through the board's hold
 //! ([`Hold`], `[occupancy] hold_s`) at the frame's time; the node gets per desk sensor its
 //! desk's state after the hold (occupied, vacant, unknown), the people count and the status
 //! ([`crate::modbus::regmap::occupancy_status`]), which every protocol reads.
