@@ -11,12 +11,11 @@
 //! farther from the anchor than [`MotionSettings::still_plan_m`] in plan or
 //! [`MotionSettings::still_height_m`] in height; the anchor then starts again from that
 //! sighting. A track whose head has not moved for [`MotionSettings::static_after_s`] is a
-//! *static object*: not counted as a person,
-//! and its desk reads **unknown** (not vacant) unless a moving person is there too. Fail
-//! bright: a person who sat perfectly still for that long keeps the light at its target (the
-//! control loop's answer for unknown) and is counted again at their first move; a thing is
-//! never taken for a person for longer than that time; and nothing here ever makes a desk
-//! vacant.
+//! *static object*: not counted as a person, and its desk reads **unknown** (not vacant)
+//! unless a moving person is there too. Fail bright: a person who sat perfectly still for that
+//! long keeps the light at its target (the control loop's answer for unknown) and is counted
+//! again at their first move; a still thing is taken for a person for that time after it last
+//! moved, no longer; and nothing here ever makes a desk vacant.
 //!
 //! A track not matched in a good frame ends (its person left or was missed: a new track starts
 //! when it is seen again, its clock from zero, which again errs to "person"). A bad frame
