@@ -94,6 +94,22 @@ fn the_board_file_sets_the_hold() {
     let parse = |extra: &str| Board::parse(&format!("{sim}\n{extra}"), &path);
     // absent: DALI-2 part 303's 15 minutes
     assert_eq!(parse("").unwrap().occupancy_hold_s, 900.0);
+    // motion over frames: 30 min still is a thing, unless the board says otherwise
+    assert_eq!(parse("").unwrap().occupancy_static_after_s, 1800.0);
+    assert_eq!(
+        parse("[occupancy]\nstatic_after_s = 600.0\n")
+            .unwrap()
+            .occupancy_static_after_s,
+        600.0
+    );
+    for bad in [
+        "static_after_s = 0.0",
+        "static_after_s = 1e6",
+        "static_after_s = nan",
+    ] {
+        let e = parse(&format!("[occupancy]\n{bad}\n"));
+        assert!(e.is_err(), "{bad} was accepted");
+    }
     assert_eq!(
         parse("[occupancy]\nhold_s = 120.0\n")
             .unwrap()
@@ -522,5 +538,193 @@ mod daemon {
             );
         }
         assert!(bi(4).is_null(), "{v}");
+    }
+}
+
+/// The simulated world's people (issue 29's HIL day of people, `src/sim/people.rs`) as the sim
+/// board's depth camera (its fisheye, its ToF noise, flying pixels and dropouts) sees them,
+/// against the empty room's exact depth: the scenario's truth, desk by desk, frame by frame.
+mod sim_people {
+    use luxnode::board::Board;
+    use luxnode::board::camera::CameraBoard;
+    use luxnode::camera::DepthCamera;
+    use luxnode::live_section::occupancy_cells;
+    use luxnode::occupancy::{
+        DeskTop, Motion, MotionSettings, Occupancy, OccupancyMap, OccupancySettings, Occupied,
+    };
+    use luxnode::sim::camera::{SimDepthOptions, SimWorld, WorldExtras, world_settings};
+    use luxnode::sim::scenario::Scenario;
+
+    use super::common;
+
+    /// The sim board's world (the demo office through the board's fisheye) and its depth
+    /// camera's options.
+    fn board_world() -> (SimWorld, SimDepthOptions) {
+        let board = Board::load(&common::manifest().join("boards/sim/board.toml")).unwrap();
+        let CameraBoard::Sim { depth, optics, .. } = board.camera else {
+            panic!("the sim board has simulated cameras")
+        };
+        let mut scene = luxnode::sim::demo::demo_office();
+        let base = scene.camera.clone().unwrap();
+        scene.camera = optics.map(|o| o.apply(&base)).or(Some(base));
+        (SimWorld::new(scene, &world_settings()).unwrap(), depth)
+    }
+
+    /// Occupancy over the empty room's exact depth, every 2nd pixel watched.
+    fn occupancy(world: &SimWorld) -> Occupancy {
+        let cam = world.camera().clone();
+        let empty = world
+            .depth_camera(SimDepthOptions::exact())
+            .unwrap()
+            .exact_depth_m();
+        let pixels: Vec<(u32, u16)> = (0..cam.height)
+            .step_by(2)
+            .flat_map(|v| (0..cam.width).step_by(2).map(move |u| v * cam.width + u))
+            .map(|p| {
+                let z = empty[p as usize];
+                (
+                    p,
+                    if z.is_finite() {
+                        (z * 1e3).round() as u16
+                    } else {
+                        0
+                    },
+                )
+            })
+            .collect();
+        let desks: Vec<DeskTop> = world
+            .scene()
+            .desks
+            .as_ref()
+            .unwrap()
+            .desks
+            .iter()
+            .map(|d| DeskTop {
+                id: d.id,
+                x_m: d.x_m,
+                y_m: d.y_m,
+                z_m: d.z_m,
+            })
+            .collect();
+        let map = OccupancyMap::new(
+            cam.width,
+            cam.height,
+            cam.position_m.to_array(),
+            0.0,
+            Some([0.0, 8.0, 0.0, 6.0]),
+            &desks,
+            &occupancy_cells(&cam, &pixels),
+            OccupancySettings::default(),
+        )
+        .unwrap();
+        Occupancy::new(map)
+    }
+
+    #[test]
+    fn the_sim_boards_depth_camera_sees_the_scenarios_people_as_people() {
+        let (world, options) = board_world();
+        let mut occ = occupancy(&world);
+        let mut camera = world.depth_camera(options).unwrap();
+        // desks 1, 3 and 5 taken, then 1 and 5 left, and someone in the aisle all along
+        let scenario: Scenario = toml::from_str(
+            "[[events]]\nat_s = 0.0\nkind = \"sits\"\ndesk = 1\n\
+             [[events]]\nat_s = 0.0\nkind = \"sits\"\ndesk = 3\n\
+             [[events]]\nat_s = 0.0\nkind = \"sits\"\ndesk = 5\n\
+             [[events]]\nat_s = 0.0\nkind = \"stands\"\nx_m = 2.9\ny_m = 2.9\nduration_s = 100.0\n\
+             [[events]]\nat_s = 10.0\nkind = \"gets_up\"\ndesk = 1\n\
+             [[events]]\nat_s = 10.0\nkind = \"gets_up\"\ndesk = 5\n",
+        )
+        .unwrap();
+        scenario.validate().unwrap();
+        use Occupied::{No, Yes};
+        let cases: [(f64, [Occupied; 6], u16); 2] = [
+            (0.0, [Yes, No, Yes, No, Yes, No], 4),
+            (10.0, [No, No, Yes, No, No, No], 2),
+        ];
+        for (t0_s, want, people) in cases {
+            // frames a second apart: the sway moves the heads, the noise is new
+            for k in 0..4 {
+                let t_s = t0_s + f64::from(k);
+                world.set_extras(scenario.extras_at(t_s, world.scene()));
+                let f = camera.capture_depth().unwrap();
+                let r = occ.update(f.width, f.height, Some(&f.depth_mm));
+                let got: Vec<Occupied> = r.desks.iter().map(|d| d.state).collect();
+                assert_eq!(r.status, 0, "t {t_s} s");
+                assert_eq!(got, want, "t {t_s} s: {:?}", r.desks);
+                assert_eq!(r.people, people, "t {t_s} s");
+            }
+        }
+        // the empty room: nobody
+        world.set_extras(WorldExtras::default());
+        let f = camera.capture_depth().unwrap();
+        let r = occ.update(f.width, f.height, Some(&f.depth_mm));
+        assert!(r.desks.iter().all(|d| d.state == No), "{:?}", r.desks);
+        assert_eq!(r.people, 0);
+    }
+
+    /// Motion over frames (issue 29 item 1) on the sim board's frames, a frame every 30 s of
+    /// virtual time for 45 min: a coat stand shaped like a seated person (the single frame's
+    /// worst case) put at desk 2 and left is a person until the stated time (30 min), then
+    /// not (desk 2 unknown, never vacant; the count drops); the person at desk 4, who sways
+    /// as the sim's people do, stays a person throughout.
+    #[test]
+    fn a_still_coat_stand_stops_counting_after_the_stated_time_a_person_does_not() {
+        let (world, options) = board_world();
+        let mut occ = occupancy(&world);
+        let mut camera = world.depth_camera(options).unwrap();
+        let mut motion = Motion::new(MotionSettings::default()).unwrap();
+        let static_s = MotionSettings::default().static_after_s;
+        assert_eq!(static_s, 1800.0);
+        let scene = world.scene().clone();
+        let desks = &scene.desks.as_ref().unwrap().desks;
+        let cam = world.camera().position_m;
+        let stand = luxnode::sim::people::seated(&desks[1], [cam.x, cam.y], 0.0);
+        let mut stand_seen: Vec<[f64; 3]> = Vec::new();
+        for i in 0..90 {
+            let t_s = 30.0 * f64::from(i);
+            let mut extras = WorldExtras::default();
+            extras.occluders.extend(stand);
+            extras
+                .occluders
+                .extend(luxnode::sim::people::seated(&desks[3], [cam.x, cam.y], t_s));
+            world.set_extras(extras);
+            let f = camera.capture_depth().unwrap();
+            let mut r = occ.update(f.width, f.height, Some(&f.depth_mm));
+            assert_eq!((r.status, r.people), (0, 2), "t {t_s} s");
+            stand_seen.extend(
+                r.persons
+                    .iter()
+                    .filter(|p| p.desk == Some(1))
+                    .map(|p| [p.x_m, p.y_m, p.top_m]),
+            );
+            motion.update(t_s, &mut r);
+            let got: Vec<Occupied> = r.desks.iter().map(|d| d.state).collect();
+            use Occupied::{No, Unknown, Yes};
+            let (stand_state, people) = if t_s < static_s {
+                (Yes, 2)
+            } else {
+                (Unknown, 1)
+            };
+            assert_eq!(got, [No, stand_state, No, Yes, No, No], "t {t_s} s");
+            assert_eq!(r.people, people, "t {t_s} s");
+        }
+        // the margin: the still stand's sightings stay well within the motion tolerance of
+        // their mean
+        let n = stand_seen.len() as f64;
+        let mean: Vec<f64> = (0..3)
+            .map(|a| stand_seen.iter().map(|p| p[a]).sum::<f64>() / n)
+            .collect();
+        let plan_m = stand_seen
+            .iter()
+            .map(|p| (p[0] - mean[0]).hypot(p[1] - mean[1]))
+            .fold(0.0, f64::max);
+        let top_m = stand_seen
+            .iter()
+            .map(|p| (p[2] - mean[2]).abs())
+            .fold(0.0, f64::max);
+        eprintln!("the stand's sightings: within {plan_m:.4} m in plan, {top_m:.4} m in height");
+        let s = MotionSettings::default();
+        assert!(stand_seen.len() == 90 && plan_m < 0.5 * s.still_plan_m);
+        assert!(top_m < 0.5 * s.still_height_m);
     }
 }

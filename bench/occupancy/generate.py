@@ -9,7 +9,7 @@ present at commissioning: the background). Frames: the empty room, each desk occ
 by a seated person (head sphere, neck, torso, thighs, arms), several at once, people standing
 at desks, people leaning over their desks, people standing in the aisles, and each distractor
 alone (a chair moved, a box and a bag on a desk, a bag on the floor, a coat over a chair, a
-plant, an open laptop).
+plant, an open laptop, a chair turned sideways).
 
 Per set (room and pose) it writes:
 
@@ -213,7 +213,7 @@ def rect(c, f, depth, width, z0, z1):
     return box((c[0] - hx, c[1] - hy, z0), (c[0] + hx, c[1] + hy, z1))
 
 
-def desk_solids(d, seat, f, chair_at=None):
+def desk_solids(d, seat, f, chair=None):
     _, x0, x1, y0, y1 = d
     out = [box((x0, y0, 0.72), (x1, y1, 0.75))]
     for x in (x0 + 0.05, x1 - 0.08):
@@ -225,7 +225,8 @@ def desk_solids(d, seat, f, chair_at=None):
     back = along(mid, f, half - 0.12, 0)
     out.append(rect(back, f, 0.05, 0.55, 0.85, 1.2))
     out.append(rect(back, f, 0.2, 0.25, 0.75, 0.85))
-    return out + chair_solids(chair_at or seat, f)
+    spot, facing = chair or (seat, f)
+    return out + chair_solids(spot, facing)
 
 
 def chair_solids(seat, f):
@@ -279,19 +280,21 @@ def plant(c, rng):
 
 
 def distractors(d, seat, f, rng):
-    """(name, solids to add, the desk's chair moved to) for desk d."""
+    """(name, solids to add, the desk's chair moved to and its facing, or None) for desk d."""
     _, x0, x1, y0, y1 = d
     on_desk = along(((x0 + x1) / 2, (y0 + y1) / 2), f, -0.1, 0.4)
     beside = along(seat, f, 0.0, 0.55)
     coat_back = along(seat, f, -0.25, 0)
     return [
-        ("chair_moved", [], along(seat, f, -0.2, 0.6)),
+        ("chair_moved", [], (along(seat, f, -0.2, 0.6), f)),
         ("box_on_desk", [rect(on_desk, f, 0.3, 0.4, 0.75, 1.05)], None),
         ("bag_on_desk", [rect(on_desk, f, 0.15, 0.35, 0.75, 1.05)], None),
         ("bag_on_floor", [rect(beside, f, 0.2, 0.35, 0.0, 0.35)], None),
         ("coat_on_chair", [rect(coat_back, f, 0.14, 0.5, 0.45, 1.0), rect(along(seat, f, -0.18, 0), f, 0.3, 0.5, 0.9, 1.05)], None),
         ("plant", plant(along(seat, f, -0.05, 0.7), rng), None),
         ("laptop_open", [rect(on_desk, f, 0.24, 0.34, 0.75, 0.77), rect(along(on_desk, f, 0.12, 0), f, 0.02, 0.34, 0.77, 1.0)], None),
+        # last, so that the frames before it keep their noise
+        ("chair_turned", [], (along(seat, f, -0.15, 0.1), (-f[1], f[0]))),
     ]
 
 
@@ -344,7 +347,7 @@ def seen_fractions(cam, desks, solids, room):
 
 
 def frames(desks, seats, aisles, rng, small):
-    """(name, kind, extra solids, people plan positions, chairs moved {desk index: spot})."""
+    """(name, kind, extra solids, people plan positions, chairs moved {desk index: (spot, facing)})."""
     out = [("empty", "empty", [], [], {})]
     heads = [1.2, 1.3, 1.4]
     for k, (seat, f) in enumerate(seats):
@@ -405,7 +408,7 @@ def write_set(out: Path, name, room, desks, seats, aisles, cam, small):
     def background(moved):
         s = []
         for k, (d, (seat, f)) in enumerate(zip(desks, seats)):
-            s += desk_solids(d, seat, f, chair_at=moved.get(k))
+            s += desk_solids(d, seat, f, chair=moved.get(k))
         return s
 
     empty = background({})

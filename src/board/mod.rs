@@ -54,6 +54,9 @@ pub struct Board {
     /// Occupancy's hold (`[occupancy] hold_s`, default 900 s: DALI-2 part 303), s: a desk
     /// stays occupied this long after its person was last seen (`crate::occupancy::Hold`).
     pub occupancy_hold_s: f64,
+    /// Motion over frames (`[occupancy] static_after_s`, default 1800 s): a head that has not
+    /// moved for this long is a thing, not a person (`crate::occupancy::Motion`), s.
+    pub occupancy_static_after_s: f64,
     /// The status LED (`[led]`), if any.
     pub led: Option<crate::board::camera::LedBoard>,
     /// Luxmeter readings with every luminaire at full (`[commissioning] luxmeter_rho =
@@ -121,12 +124,15 @@ struct LiveToml {
 /// ```toml
 /// [occupancy]
 /// hold_s = 900.0   # a desk stays occupied this long after its person was last seen, 0..=86400 s
+/// static_after_s = 1800.0   # a head still this long is a thing, not a person, 1..=86400 s
 /// ```
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct OccupancyToml {
     #[serde(default)]
     hold_s: Option<f64>,
+    #[serde(default)]
+    static_after_s: Option<f64>,
 }
 
 /// `[commissioning]`: what the engineer measured on site.
@@ -488,6 +494,17 @@ impl Board {
             .unwrap_or(crate::occupancy::DEFAULT_HOLD_S);
         crate::occupancy::Hold::new(0, occupancy_hold_s)
             .map_err(|e| bad(format!("occupancy.hold_s: {e}")))?;
+        let motion = crate::occupancy::MotionSettings::default();
+        let occupancy_static_after_s = t.occupancy.static_after_s.unwrap_or(motion.static_after_s);
+        crate::occupancy::Motion::new(crate::occupancy::MotionSettings {
+            static_after_s: occupancy_static_after_s,
+            ..motion
+        })
+        .map_err(|_| {
+            bad(format!(
+                "occupancy.static_after_s {occupancy_static_after_s}: 1..=86400 s"
+            ))
+        })?;
         let luxmeter_rho = t
             .commissioning
             .luxmeter_rho
@@ -531,6 +548,7 @@ impl Board {
             control,
             live,
             occupancy_hold_s,
+            occupancy_static_after_s,
             preset,
             maintenance_factor,
             name: t.name,

@@ -133,6 +133,9 @@ pub struct LiveTask {
     pub capture: FrameSource,
     /// Occupancy's hold, s (board `[occupancy] hold_s`).
     pub occupancy_hold_s: f64,
+    /// Occupancy's motion over frames: still this long is a thing, s (board `[occupancy]
+    /// static_after_s`).
+    pub occupancy_static_after_s: f64,
 }
 
 /// Live light over a booted image: the estimator, or why not (logged by the caller).

@@ -633,13 +633,20 @@ fn occupancy_tracker(
                 task.occupancy_hold_s,
                 task.settings.stale_after_s,
             )
+            .and_then(|t| {
+                t.with_motion(crate::occupancy::MotionSettings {
+                    static_after_s: task.occupancy_static_after_s,
+                    ..Default::default()
+                })
+            })
             .map_err(|e| e.to_string())
         });
     match built {
         Ok(t) => {
             tracing::info!(
-                "occupancy: on, hold {} s, {:.2} MB",
+                "occupancy: on, hold {} s, still {} s is a thing, {:.2} MB",
                 task.occupancy_hold_s,
+                task.occupancy_static_after_s,
                 t.memory_bytes() as f64 / 1e6
             );
             Some(t)

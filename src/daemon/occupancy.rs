@@ -1,5 +1,7 @@
 //! Occupancy in the live task (issue 29): every depth frame the live task takes goes through
-//! [`Occupancy`] against the commissioned room, and the answer through the board's hold
+//! [`Occupancy`] against the commissioned room, motion over frames ([`Motion`]: a head that has
+//! not moved for the board's `[occupancy] static_after_s`, 30 min by default, is a thing, not
+//! a person) and the answer through the board's hold
 //! ([`Hold`], `[occupancy] hold_s`) at the frame's time; the node gets per desk sensor its
 //! desk's state after the hold (occupied, vacant, unknown), the people count and the status
 //! ([`crate::modbus::regmap::occupancy_status`]), which every protocol reads.
@@ -18,7 +20,8 @@ use crate::modbus::regmap::occupancy_status as bits;
 use crate::modbus::regmap::{Occupancy as DeskState, OccupancyDesk, occupancy_flags};
 use crate::node::Node;
 use crate::occupancy::{
-    HeldDesk, Hold, Occupancy, OccupancyError, OccupancyMap, OccupancyReport, Occupied, status,
+    HeldDesk, Hold, Motion, MotionSettings, Occupancy, OccupancyError, OccupancyMap,
+    OccupancyReport, Occupied, status,
 };
 
 /// What one period publishes: per desk sensor its registers, the people count (`None`: not
@@ -37,6 +40,7 @@ pub struct OccupancyUpdate {
 #[derive(Debug, Clone)]
 pub struct OccupancyTracker {
     occupancy: Occupancy,
+    motion: Motion,
     hold: Hold,
     hold_s: f64,
     stale_after_s: f64,
@@ -69,12 +73,20 @@ impl OccupancyTracker {
         }
         Ok(Self {
             hold: Hold::new(desks, hold_s)?,
+            motion: Motion::new(MotionSettings::default())?,
             occupancy: Occupancy::new(map),
             hold_s,
             stale_after_s,
             sensor_desk,
             last_good: None,
         })
+    }
+
+    /// The same tracker with motion over frames set by `settings` (the default:
+    /// [`MotionSettings::default`]).
+    pub fn with_motion(mut self, settings: MotionSettings) -> Result<Self, OccupancyError> {
+        self.motion = Motion::new(settings)?;
+        Ok(self)
     }
 
     /// Publishes "on, nothing known yet" (every desk unknown, stale): the state before the
@@ -118,7 +130,7 @@ impl OccupancyTracker {
         now_s: f64,
     ) -> OccupancyUpdate {
         let fresh = |t: f64| t.is_finite() && now_s - t <= self.stale_after_s;
-        let (report, at_s) = match frame {
+        let (mut report, at_s) = match frame {
             Ok(f) if fresh(taken_s) => (
                 self.occupancy
                     .update(f.width, f.height, f.depth_mm.as_deref()),
@@ -127,6 +139,7 @@ impl OccupancyTracker {
             // no frame, or one too old to say anything of now
             _ => (unknown(status::BAD_FRAME), now_s),
         };
+        self.motion.update(at_s, &mut report);
         if report.status == 0 {
             self.last_good = Some((at_s, report.people));
         }
@@ -167,6 +180,7 @@ fn unknown(status: u16) -> OccupancyReport {
     OccupancyReport {
         desks: Vec::new(),
         people: 0,
+        persons: Vec::new(),
         status,
     }
 }

@@ -3,8 +3,8 @@
 //! allocated once, at [`Occupancy::new`]; an update allocates only its report.
 
 use super::{
-    DeskOccupancy, NO_SQUARE, NO_ZONE, OccupancyMap, OccupancyReport, Occupied, SATURATED_MM,
-    fraction, status,
+    DeskOccupancy, NO_SQUARE, NO_ZONE, OccupancyMap, OccupancyReport, Occupied, PersonSeen,
+    SATURATED_MM, fraction, status,
 };
 
 /// No foreground in a square.
@@ -81,6 +81,7 @@ impl Occupancy {
                 })
                 .collect(),
             people: 0,
+            persons: Vec::new(),
             status,
         }
     }
@@ -112,7 +113,13 @@ impl Occupancy {
         {
             return self.unknown(status::MOVED);
         }
-        let (occupied, people) = self.people();
+        let persons = self.people();
+        let mut occupied = vec![false; self.map.desks.len()];
+        for p in &persons {
+            if let Some(k) = p.desk {
+                occupied[k] = true;
+            }
+        }
         self.map.plan.close(&self.seen, &mut self.taken);
         let seen = self.map.zone_counts(&self.taken);
         let desks = self
@@ -138,7 +145,8 @@ impl Occupancy {
             .collect();
         OccupancyReport {
             desks,
-            people,
+            people: u16::try_from(persons.len()).unwrap_or(u16::MAX),
+            persons,
             status: 0,
         }
     }
@@ -195,12 +203,11 @@ impl Occupancy {
         c
     }
 
-    /// Steps 3-5: the blobs, cut by the zones, and the person test. Per desk whether a
-    /// person is in its zone; the people seen.
-    fn people(&mut self) -> (Vec<bool>, u16) {
+    /// Steps 3-5: the blobs, cut by the zones, and the person test: the people seen (each
+    /// with its desk, if its part lies in a zone).
+    fn people(&mut self) -> Vec<PersonSeen> {
         let min_mm = (self.map.settings.min_blob_height_m * 1e3) as u16;
-        let mut occupied = vec![false; self.map.desks.len()];
-        let mut people = 0u16;
+        let mut persons = Vec::new();
         self.taken.fill(false);
         for start in 0..self.top_mm.len() {
             if self.taken[start] || self.top_mm[start] < min_mm.max(1) {
@@ -218,16 +225,16 @@ impl Occupancy {
                         .iter()
                         .take_while(|&&q| zone[q as usize] == z)
                         .count();
-                if self.is_person(begin..end) {
-                    people = people.saturating_add(1);
-                    if z != NO_ZONE {
-                        occupied[usize::from(z)] = true;
-                    }
+                if let Some(head) = self.person(begin..end) {
+                    persons.push(PersonSeen {
+                        desk: (z != NO_ZONE).then_some(usize::from(z)),
+                        ..head
+                    });
                 }
                 begin = end;
             }
         }
-        (occupied, people)
+        persons
     }
 
     /// The blob of `start` (squares at least `min_mm` high) into `self.blob`.
@@ -276,6 +283,16 @@ impl Occupancy {
             })
     }
 
+    /// The plan centre of the squares of `part` at least `min_mm` high, m.
+    fn centre_m(&self, part: &[u32], min_mm: u16) -> (f64, f64) {
+        let (mut n, mut x, mut y) = (0.0, 0.0, 0.0);
+        for &q in part.iter().filter(|&&q| self.top_mm[q as usize] >= min_mm) {
+            let (qx, qy) = self.map.plan.centre_m(q as usize);
+            (n, x, y) = (n + 1.0, x + qx, y + qy);
+        }
+        if n > 0.0 { (x / n, y / n) } else { (0.0, 0.0) }
+    }
+
     /// The squares of `part` at least `min_mm` high: their count, the larger side of their
     /// bounding box (m) and the share of the box they fill.
     fn band(&self, part: &[u32], min_mm: u16) -> (usize, f64, f64) {
@@ -298,12 +315,13 @@ impl Occupancy {
         )
     }
 
-    /// The person test (step 4) of the blob's squares `range`.
-    fn is_person(&self, range: core::ops::Range<usize>) -> bool {
+    /// The person test (step 4) of the blob's squares `range`: the head (its cap's plan
+    /// centre and its top) of a person, or `None` (its desk is the caller's).
+    fn person(&self, range: core::ops::Range<usize>) -> Option<PersonSeen> {
         let s = &self.map.settings;
         let part = &self.blob[range];
         if part.len() < 4 {
-            return false;
+            return None;
         }
         // the top: the 4th highest square
         let mut tops = [0u16; 4];
@@ -316,7 +334,7 @@ impl Occupancy {
         }
         let top_m = f64::from(tops[3]) * 1e-3;
         if !(s.person_top_m[0]..=s.person_top_m[1]).contains(&top_m) {
-            return false;
+            return None;
         }
         let below_top = |m: f64| ((top_m - m) * 1e3).max(0.0) as u16;
         let (n, extent_m, solidity) = self.band(part, below_top(s.head_band_m));
@@ -324,10 +342,19 @@ impl Occupancy {
         let area_m2 = n as f64 * side * side;
         let cap_mm = below_top(s.head_cap_m);
         let (_, cap_m, _) = self.band(part, cap_mm);
-        area_m2 >= s.person_min_area_m2
+        let head = area_m2 >= s.person_min_area_m2
             && extent_m >= s.person_min_extent_m
             && solidity >= s.person_min_solidity
             && cap_m <= s.person_max_cap_m
-            && self.own_head(part, cap_mm, tops[3])
+            && self.own_head(part, cap_mm, tops[3]);
+        head.then(|| {
+            let (x_m, y_m) = self.centre_m(part, cap_mm);
+            PersonSeen {
+                desk: None,
+                x_m,
+                y_m,
+                top_m,
+            }
+        })
     }
 }

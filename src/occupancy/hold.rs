@@ -102,6 +102,7 @@ mod tests {
                 })
                 .collect(),
             people: 0,
+            persons: Vec::new(),
             status,
         }
     }

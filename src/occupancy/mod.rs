@@ -41,14 +41,17 @@
 //!    commissioned points return now); otherwise unknown.
 //!
 //! A single frame cannot tell a still, tall, solid thing put down after commissioning from a
-//! person; motion is the daemon's. [`Hold`] keeps a desk occupied for the hold time after its
-//! person was last seen, and the last answer through bad frames for as long.
+//! person; over frames [`Motion`] can (a head that never moves is a thing), run by the daemon
+//! on every good frame. [`Hold`] keeps a desk occupied for the hold time after its person was
+//! last seen, and the last answer through bad frames for as long.
 
 mod frame;
 pub mod hold;
+pub mod motion;
 
 pub use frame::Occupancy;
 pub use hold::{DEFAULT_HOLD_S, HeldDesk, Hold};
+pub use motion::{Motion, MotionSettings};
 
 /// Status bits of an occupancy update ([`OccupancyReport::status`]).
 pub mod status {
@@ -660,6 +663,19 @@ pub struct DeskOccupancy {
     pub seen_fraction: f64,
 }
 
+/// A person a frame sees: where its head is (what [`Motion`] follows over frames).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PersonSeen {
+    /// The desk in whose zone it is (the map's order; `None`: in no zone).
+    pub desk: Option<usize>,
+    /// Plan centre of its head's cap, m.
+    pub x_m: f64,
+    /// Plan centre of its head's cap, m.
+    pub y_m: f64,
+    /// Its top above the floor, m.
+    pub top_m: f64,
+}
+
 /// An update's result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OccupancyReport {
@@ -667,6 +683,8 @@ pub struct OccupancyReport {
     pub desks: Vec<DeskOccupancy>,
     /// People seen (at desks and elsewhere).
     pub people: u16,
+    /// Each of them (empty for a bad frame).
+    pub persons: Vec<PersonSeen>,
     /// [`status`] bits (0: a good frame).
     pub status: u16,
 }

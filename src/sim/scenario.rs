@@ -15,8 +15,10 @@
 //!
 //! [[events]]                   # at_s: seconds since the scenario started
 //! at_s = 10.0
-//! kind = "person"              # person | person_leaves | age | move_desk | clouds | camera_fails
-//! desk = 3                     # person, person_leaves, move_desk: a desk id of desks.json
+//! kind = "person"              # person | person_leaves | sits | gets_up | stands | age |
+//!                              # move_desk | clouds | camera_fails
+//! desk = 3                     # person, person_leaves, sits, gets_up, move_desk: a desk id
+//! # stands: x_m = 2.9, y_m = 2.9, duration_s = 8.0 (a person standing there, in plan)
 //! # age: luminaire = 2, factor = 0.8
 //! # move_desk: dx_m = 0.8, dy_m = 0.0
 //! # clouds: factor = 0.3, duration_s = 5.0
@@ -25,6 +27,10 @@
 //!
 //! Daylight: `W(h) = W_noon · sin(π (h − sunrise) / (sunset − sunrise))^1.3` between sunrise and
 //! sunset, 0 outside, times the factor of any cloud passing.
+//!
+//! People: `person` is a box leaning over a desk's sensor (live light's occlusion, not a
+//! person's shape); `sits` / `gets_up` and `stands` are people of solids the depth camera sees
+//! as occupancy does (a seated person at the desk, one standing; [`super::people`]).
 
 use std::path::Path;
 
@@ -73,6 +79,25 @@ pub enum EventKind {
     PersonLeaves {
         /// Desk id.
         desk: u32,
+    },
+    /// A person sits down at a desk ([`super::people::seated`]).
+    Sits {
+        /// Desk id.
+        desk: u32,
+    },
+    /// The person seated at a desk gets up and leaves.
+    GetsUp {
+        /// Desk id.
+        desk: u32,
+    },
+    /// A person stands at (x, y) for `duration_s` ([`super::people::standing`]).
+    Stands {
+        /// Plan x, m.
+        x_m: f64,
+        /// Plan y, m.
+        y_m: f64,
+        /// How long, s.
+        duration_s: f64,
     },
     /// A luminaire gives `factor` of its light from now on.
     Age {
@@ -192,6 +217,19 @@ impl Scenario {
                 {
                     return Err(format!("camera_fails duration {duration_s} s ≥ 0"));
                 }
+                EventKind::Stands {
+                    x_m,
+                    y_m,
+                    duration_s,
+                } if !(x_m.is_finite()
+                    && y_m.is_finite()
+                    && x_m.abs() < 1e3
+                    && y_m.abs() < 1e3
+                    && duration_s.is_finite()
+                    && *duration_s > 0.0) =>
+                {
+                    return Err(format!("stands at ({x_m}, {y_m}) m for {duration_s} s > 0"));
+                }
                 EventKind::MoveDesk { dx_m, dy_m, .. }
                     if !(dx_m.is_finite()
                         && dy_m.is_finite()
@@ -248,6 +286,11 @@ impl Scenario {
             ..WorldExtras::default()
         };
         let mut people: Vec<u32> = Vec::new();
+        let mut seated: Vec<u32> = Vec::new();
+        let camera_xy = scene
+            .camera
+            .as_ref()
+            .map_or([0.0; 2], |c| [c.position_m.x, c.position_m.y]);
         for e in events {
             match &e.kind {
                 EventKind::Person { desk } => {
@@ -256,6 +299,21 @@ impl Scenario {
                     }
                 }
                 EventKind::PersonLeaves { desk } => people.retain(|d| d != desk),
+                EventKind::Sits { desk } => {
+                    if !seated.contains(desk) {
+                        seated.push(*desk);
+                    }
+                }
+                EventKind::GetsUp { desk } => seated.retain(|d| d != desk),
+                EventKind::Stands {
+                    x_m,
+                    y_m,
+                    duration_s,
+                } => {
+                    if t_s < e.at_s + duration_s {
+                        x.occluders.extend(super::people::standing(*x_m, *y_m, t_s));
+                    }
+                }
                 EventKind::Age { luminaire, factor } => {
                     if let Some(k) = scene.luminaires.iter().position(|l| l.id == *luminaire) {
                         x.ageing[k] = *factor;
@@ -277,6 +335,11 @@ impl Scenario {
                     }
                 }
                 EventKind::Clouds { .. } => {}
+            }
+        }
+        for desk in seated {
+            if let Some(d) = desk_of(scene, desk) {
+                x.occluders.extend(super::people::seated(d, camera_xy, t_s));
             }
         }
         for desk in people {

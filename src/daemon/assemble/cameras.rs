@@ -117,6 +117,7 @@ pub fn live_task(board: &Board) -> Option<LiveTask> {
         settings: crate::live::LiveSettings::default(),
         capture,
         occupancy_hold_s: board.occupancy_hold_s,
+        occupancy_static_after_s: board.occupancy_static_after_s,
     })
 }
 
