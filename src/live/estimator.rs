@@ -766,6 +766,11 @@ const MIN_MEASURED_OVER_ARTIFICIAL: f64 = 0.5;
 /// levels, by night and day, 0.000; night frames shifted sideways by a desk's period (their
 /// edges repeat, 0.72 agreement) 0.10-0.17.
 const MAX_BELOW_ARTIFICIAL_SHARE: f64 = 0.05;
+/// A frame whose depth is farther than the commissioned room at more than this share of the
+/// samples with depth is from a camera that moved (or another room).
+const MOVED_FARTHER_SHARE: f64 = 0.2;
+/// ... and one whose depth agrees with the room at fewer than this share of them.
+const MIN_DEPTH_AGREEMENT: f64 = 0.5;
 
 /// The relative disagreement `|model − camera| / camera` of a desk's all-on light between the
 /// commissioned model and the camera-calibrated measurement (issue 28 item 5); `None` without a
@@ -1180,6 +1185,7 @@ impl Live {
                         if (f64::from(z) - f64::from(r)).abs() > tol {
                             state |= S_OCCLUDED;
                             c.occluded += 1;
+                            c.farther += usize::from(z > r);
                             self.changed[i] = self.changed[i].saturating_add(1);
                         } else {
                             self.changed[i] = 0;
@@ -1215,6 +1221,9 @@ impl Live {
         }
         if (c.used as f64) < 0.1 * n as f64 {
             return Verdict::Unusable;
+        }
+        if c.camera_moved() {
+            return Verdict::NotThisRoom;
         }
         // against the luminaires alone: the median of measured over artificial light where
         // the luminaires give well above 10 lx (daylight only adds to it)
@@ -1685,6 +1694,8 @@ impl Live {
 struct SampleCounts {
     used: usize,
     occluded: usize,
+    /// Of the occluded, those farther than the room (nobody stands behind a wall).
+    farther: usize,
     with_depth: usize,
     with_ref: usize,
     changed: usize,
@@ -1702,6 +1713,17 @@ struct Geometry {
 }
 
 impl SampleCounts {
+    /// The depth says the camera moved (occupancy's rule, `crate::occupancy`): more than
+    /// [`MOVED_FARTHER_SHARE`] of the samples with depth farther than the room (people only
+    /// come nearer), or fewer than [`MIN_DEPTH_AGREEMENT`] of them where the room was.
+    fn camera_moved(&self) -> bool {
+        let with = self.with_depth as f64;
+        self.with_depth > 0
+            && self.with_depth * 10 >= self.with_ref
+            && (self.farther as f64 > MOVED_FARTHER_SHARE * with
+                || ((self.with_depth - self.occluded) as f64) < MIN_DEPTH_AGREEMENT * with)
+    }
+
     fn geometry(&self, has_depth: bool, st: &LiveSettings) -> Geometry {
         // a depth frame with a return on under a tenth of the samples (a dead or blinded ToF)
         // is judged like no depth frame

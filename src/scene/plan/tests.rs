@@ -163,3 +163,111 @@ fn contents_outside_the_outline_are_named() {
         "{text}"
     );
 }
+
+/// Proper crossing of segments `ab` and `cd` (strict orientation signs: random corners make
+/// touching and collinear cases vanishingly rare).
+fn segments_cross(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
+    let orient = |p: DVec2, q: DVec2, r: DVec2| (q - p).perp_dot(r - p);
+    orient(a, b, c) * orient(a, b, d) < 0.0 && orient(c, d, a) * orient(c, d, b) < 0.0
+}
+
+/// The outline is a room by the plan format's rules, decided here independently of
+/// `check_outline`: walls at least `MIN_WALL_M` long, at most `MAX_PLAN_EXTENT_M` across, no
+/// two non-adjacent walls crossing, at least `MIN_FLOOR_AREA_M2` enclosed.
+fn is_room(p: &[DVec2]) -> bool {
+    let n = p.len();
+    let walls_ok = (0..n).all(|i| (p[(i + 1) % n] - p[i]).length() >= MIN_WALL_M);
+    let lo = p.iter().fold(DVec2::INFINITY, |a, b| a.min(*b));
+    let hi = p.iter().fold(DVec2::NEG_INFINITY, |a, b| a.max(*b));
+    let simple = (0..n).all(|i| {
+        (0..n).all(|j| {
+            let adjacent = i == j || (i + 1) % n == j || (j + 1) % n == i;
+            adjacent || !segments_cross(p[i], p[(i + 1) % n], p[j], p[(j + 1) % n])
+        })
+    });
+    let area: f64 = (0..n).map(|i| p[i].perp_dot(p[(i + 1) % n])).sum::<f64>() * 0.5;
+    walls_ok
+        && (hi - lo).max_element() <= MAX_PLAN_EXTENT_M
+        && simple
+        && area.abs() >= MIN_FLOOR_AREA_M2
+}
+
+fn plan_text(outline: &[DVec2], windows: &str) -> String {
+    let corners: Vec<String> = outline
+        .iter()
+        .map(|c| format!("[{}, {}]", c.x, c.y))
+        .collect();
+    format!(
+        r#"{{"format": "luxnode-room-plan/1", "outline_m": [{}], "floor_z_m": 0.0,
+            "ceiling_z_m": 2.8, "windows": [{windows}]}}"#,
+        corners.join(", ")
+    )
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config {
+        cases: 256,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(34),
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    })]
+    /// Issue 34 item 5: a random outline (3-8 corners, some 0.001 m apart, some a thousand
+    /// times too large) is read exactly when it is a room by the format's rules; read, it is
+    /// counter-clockwise, and a window at the middle of its first wall is placed on that wall,
+    /// while the same window 0.3 m inside the room (where that is 0.25 m from every wall) is
+    /// refused as on no wall.
+    #[test]
+    fn an_outline_is_read_exactly_when_it_is_a_room(
+        corners in proptest::collection::vec((-10.0f64..10.0, -10.0f64..10.0), 3..8),
+        twice in proptest::prelude::any::<bool>(),
+        scale in proptest::prop_oneof![4 => proptest::strategy::Just(1.0), 1 => proptest::strategy::Just(1000.0)],
+    ) {
+        let mut outline: Vec<DVec2> =
+            corners.iter().map(|&(x, y)| DVec2::new(x, y) * scale).collect();
+        if twice {
+            let c = outline[0] + DVec2::splat(0.001);
+            outline.insert(1, c);
+        }
+        let room = is_room(&outline);
+        match load_text(&plan_text(&outline, "")) {
+            Err(e) => proptest::prop_assert!(!room, "refused a room: {e}"),
+            Ok((p, _)) => {
+                proptest::prop_assert!(room, "read an outline that is not a room: {outline:?}");
+                let area: f64 = (0..p.walls()).map(|i| p.wall(i).0.perp_dot(p.wall(i).1)).sum();
+                proptest::prop_assert!(area > 0.0);
+                // a 0.4 m wide window at the middle of wall 0 (as read), on it and 0.3 m in
+                let (a, b) = p.wall(0);
+                let mid = (a + b) * 0.5;
+                let along = (b - a).normalize() * 0.2;
+                let window = |at: DVec2| {
+                    let (c0, c1) = (at - along, at + along);
+                    format!(
+                        r#"{{"id": "w", "corners_m": [[{}, {}, 0.9], [{}, {}, 0.9], [{}, {}, 2.0],
+                            [{}, {}, 2.0]], "transmittance": 0.7}}"#,
+                        c0.x, c0.y, c1.x, c1.y, c1.x, c1.y, c0.x, c0.y
+                    )
+                };
+                let outline_read: Vec<DVec2> = (0..p.walls()).map(|i| p.wall(i).0).collect();
+                if (b - a).length() >= 0.5 {
+                    let on = load_text(&plan_text(&outline_read, &window(mid)));
+                    proptest::prop_assert!(on.is_ok(), "{on:?}");
+                    // 0.3 m in, where that is at least 0.25 m from every wall (not in a thin
+                    // room's far corner): its corners 0.2 m along lie off every wall too
+                    let inside = mid + p.wall_inward(0) * 0.3;
+                    let n = outline_read.len();
+                    let nearest_m = (0..n)
+                        .map(|i| {
+                            let (a, b) = (outline_read[i], outline_read[(i + 1) % n]);
+                            let t = ((inside - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+                            (inside - (a + (b - a) * t)).length()
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    if nearest_m >= 0.25 {
+                        let off = load_text(&plan_text(&outline_read, &window(inside)));
+                        proptest::prop_assert!(off.is_err(), "a window 0.3 m off every wall read");
+                    }
+                }
+            }
+        }
+    }
+}
