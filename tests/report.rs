@@ -177,6 +177,37 @@ fn geometry_section_round_trips_and_old_images_still_parse() {
     assert!(Image::parse(&bad).is_err());
 }
 
+/// office_a's desks' point values in results.json (all on, new): every grid point once, and
+/// covered exactly where a point lies in a monitor foot's footprint (scene.obj: monitor_1..3's
+/// feet, x0, x1, y0, y1 by hand). The 3 × 6 grids of the 0.8 × 1.6 m desks (cells of 0.267 m)
+/// miss all three feet: no point is covered, and the page's Ēm is the points' mean × MF.
+fn task_points_of_office_a(desks: &[serde_json::Value]) {
+    const FEET_M: [[f64; 4]; 3] = [
+        [1.86, 2.04, 2.49, 2.71],
+        [3.99, 4.17, 2.49, 2.71],
+        [2.89, 3.11, 5.59, 5.77],
+    ];
+    for desk in desks {
+        let pts = desk["task"]["points"].as_array().unwrap();
+        let grid = desk["grid"][0].as_array().unwrap();
+        let n = grid[0].as_u64().unwrap() * grid[1].as_u64().unwrap();
+        assert_eq!(pts.len() as u64, n, "{}", desk["id"]);
+        let mut free = Vec::new();
+        for p in pts {
+            let (x, y) = (p["x_m"].as_f64().unwrap(), p["y_m"].as_f64().unwrap());
+            let under = FEET_M
+                .iter()
+                .any(|f| (f[0]..=f[1]).contains(&x) && (f[2]..=f[3]).contains(&y));
+            assert_eq!(p["covered"].as_bool().unwrap(), under, "{p}");
+            assert_eq!(p["z_m"].as_f64().unwrap(), 0.75);
+            free.extend(p["e_lx"].as_f64());
+        }
+        let mean = free.iter().sum::<f64>() / free.len() as f64;
+        let m = desk["task"]["maintained"]["e_mean_lx"].as_f64().unwrap();
+        assert!((0.8 * mean / m - 1.0).abs() < 1e-9, "{mean} {m}");
+    }
+}
+
 fn chromium() -> PathBuf {
     for name in ["chromium", "chromium-browser"] {
         if let Ok(o) = Command::new("sh")
@@ -284,6 +315,7 @@ fn report_opens_in_a_browser_with_every_picture() {
         json["pass"].as_bool().unwrap(),
         "office_a's desks meet EN 12464-1"
     );
+    task_points_of_office_a(desks);
     let lum = &json["luminaires"][0];
     assert_eq!(lum["photometry_file"], "luminaire.ldt");
     assert!(lum["flux_lm"].as_f64().unwrap() > 1000.0);
@@ -303,6 +335,7 @@ fn report_opens_in_a_browser_with_every_picture() {
         &dom[..dom.len().min(600)]
     );
     assert!(dom.contains("all 4 pictures loaded"));
+    assert!(dom.contains("<h2>Point values</h2>"));
     let shot = dir.path().join("shot.png");
     let profile2 = tempfile::tempdir().unwrap();
     let o = Command::new(&chrome)
@@ -451,4 +484,72 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
     assert!(html.contains("<h2>Desk sensors</h2>"));
     assert!(html.contains("<td>S1</td><td>out of view</td>"), "sensor 1");
     assert_eq!(html.matches("± ").count(), 8);
+}
+
+/// docs/report.md, point values: a desk with a box standing on it on 5 mm pads (built in code,
+/// tests/common): the points inside the box's footprint are flagged covered, exactly those, and
+/// have no value; every free point's value is the closed form of a point source of constant
+/// intensity I over a black room, E = I h / d³; Ēm, Emin and U0 are the free points' alone.
+#[test]
+fn task_points_flag_the_points_under_a_box_and_match_the_closed_form() {
+    let scene = common::desk_with_box_scene();
+    let settings = luxnode::engine::Settings {
+        patches: luxnode::engine::PatchSettings {
+            patch_size_m: 0.5,
+            detail_ratio: 0.0,
+            min_patch_m: 0.2,
+            light_ratio: 0.0,
+        },
+        rays: 100,
+        sensor_rays: 300,
+        final_gather_rays: 100,
+        ..Settings::default()
+    };
+    let model = compute_model(&scene, &settings).unwrap();
+    let bytes = image_with_geometry(&scene, &model);
+    let image = Image::parse(&bytes).unwrap();
+    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    let desk = &r.results.desks[0];
+    let pts = &desk.task.points;
+    // the EN 12464-1 grid of a 1.0 × 0.8 m desk: d = 1 m, p = 0.2 m, 5 × 4 points
+    assert_eq!(desk.grid.0, [5, 4]);
+    assert_eq!(pts.len(), 20);
+    let (i_cd, lum_m) = (300.0, [1.4, 1.3, 2.7]);
+    let mut free = Vec::new();
+    for p in pts {
+        let under_box = (1.25..=1.55).contains(&p.x_m) && (1.2..=1.4).contains(&p.y_m);
+        assert_eq!(p.covered, under_box, "{p:?}");
+        assert!((p.z_m - 0.75).abs() < 1e-9);
+        if under_box {
+            assert_eq!(p.e_lx, None);
+            continue;
+        }
+        let h = lum_m[2] - p.z_m;
+        let d = ((p.x_m - lum_m[0]).powi(2) + (p.y_m - lum_m[1]).powi(2) + h * h).sqrt();
+        let closed = i_cd * h / d.powi(3);
+        let e = p.e_lx.expect("a free point has a value");
+        assert!(common::rel(e, closed) < 0.01, "{p:?}: {closed:.1} lx");
+        free.push(closed);
+    }
+    assert_eq!(pts.iter().filter(|p| p.covered).count(), 2);
+    // the statistics are the free points': against the closed form's
+    let n = free.len() as f64;
+    let mean = free.iter().sum::<f64>() / n;
+    let min = free.iter().copied().fold(f64::INFINITY, f64::min);
+    let s = &desk.task.new;
+    assert_eq!(s.points, 18);
+    assert!(common::rel(s.e_mean_lx, mean) < 0.01, "{s:?} vs {mean:.1}");
+    assert!(common::rel(s.e_min_lx, min) < 0.01);
+    assert!((s.u0 - min / mean).abs() < 0.01);
+    // the page: a table for the desk, the two covered points greyed and marked
+    let html = report::html(&r);
+    assert!(html.contains("<h2>Point values</h2>"));
+    assert_eq!(html.matches("<tr class=\"covered\">").count(), 2);
+    assert!(html.contains("<td>1.300</td><td>1.300</td><td>covered</td>"));
+    let json = serde_json::to_value(&r.results).unwrap();
+    let jp = &json["desks"][0]["task"]["points"];
+    assert_eq!(jp.as_array().unwrap().len(), 20);
+    for k in ["x_m", "y_m", "z_m", "e_lx", "covered"] {
+        assert!(jp[0].get(k).is_some(), "results.json point lacks {k}");
+    }
 }

@@ -7,6 +7,7 @@ pub mod camera_view;
 pub mod map;
 pub mod plot;
 pub mod report;
+pub mod task_points;
 pub mod text;
 
 use std::path::Path;

@@ -24,9 +24,9 @@ use serde::Serialize;
 use super::camera_view::{self, ViewDesk, ViewOptions};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
+use super::task_points::{self, TaskPoint, covered};
 use crate::en12464::{self, Check, Rect, Requirement, Statistics};
 use crate::engine::dense::{DenseField, DenseImage, DenseSettings, Readings, SurfacePoint};
-use crate::engine::raycast::Hit;
 use crate::image_geometry::Room;
 use crate::runtime::Runtime;
 use crate::scene::Camera;
@@ -153,6 +153,10 @@ pub struct AreaResult {
     pub new: Statistics,
     /// Maintained (× MF).
     pub maintained: Statistics,
+    /// A task area's grid points (new, every luminaire on; covered points marked, out of the
+    /// statistics); empty (and not in results.json) for the other areas.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub points: Vec<TaskPoint>,
 }
 
 /// One desk in the design state.
@@ -338,6 +342,7 @@ fn area_result(values: &[f64], mf: f64) -> Option<AreaResult> {
     Some(AreaResult {
         new,
         maintained: new.maintained(mf),
+        points: Vec::new(),
     })
 }
 
@@ -385,15 +390,13 @@ fn plane_points(
     out
 }
 
-/// True when a point on a surface lies inside a solid standing on it (looking up it sees the
-/// inside of a surface).
-fn covered(field: &DenseField<'_>, p: DVec3) -> bool {
-    let c = field.caster();
-    matches!(c.closest(c.offset(p, DVec3::Z), DVec3::Z), Hit::Back { .. })
-}
-
 struct DeskGrids {
     id: u32,
+    /// Every task-grid point, m.
+    positions_m: Vec<DVec3>,
+    /// Per point: under an object standing on the desk ([`task_points::covered`]).
+    covered: Vec<bool>,
+    /// The free points' readings.
     task: Readings,
     grid: ([usize; 2], [f64; 2]),
     surrounding: Option<Readings>,
@@ -465,13 +468,19 @@ fn desk_grids(
     let mut out = Vec::new();
     for (d, rect) in room.desks.iter().zip(&plan.desk_rects) {
         let g = en12464::grid(rect)?;
-        // points under an object standing on the desk (a monitor's foot) are inside a solid:
-        // no luxmeter goes there
-        let pts: Vec<DVec3> = g
+        // points under an object standing on the desk (a monitor's foot): no light arrives
+        // there and no luxmeter goes there
+        let positions_m: Vec<DVec3> = g
             .points_m
             .iter()
             .map(|p| DVec3::new(p[0], p[1], d.z_m))
-            .filter(|p| !covered(field, *p + DVec3::Z * 0.001))
+            .collect();
+        let flags: Vec<bool> = positions_m.iter().map(|p| covered(field, *p)).collect();
+        let pts: Vec<DVec3> = positions_m
+            .iter()
+            .zip(&flags)
+            .filter(|(_, c)| !**c)
+            .map(|(p, _)| *p)
             .collect();
         let task = plane_points(field, &pts, &room.basis_b, opts.air_rays);
         let sg = en12464::immediate_surrounding_grid(
@@ -489,6 +498,8 @@ fn desk_grids(
             (!air.is_empty()).then(|| field.air_points(&air, &room.basis_b, opts.air_rays));
         out.push(DeskGrids {
             id: d.id,
+            positions_m,
+            covered: flags,
             task,
             grid: (g.counts, g.cell_m),
             surrounding,
@@ -560,9 +571,12 @@ fn design_desks(
 ) -> Result<Vec<DeskResult>, ReportError> {
     let mut desks = Vec::new();
     for (g, d) in desk_grids.iter().zip(&room.desks) {
-        let Some(task) = area_result(&g.task.lux(design)?, mf) else {
+        let Some(mut task) = area_result(&g.task.lux(design)?, mf) else {
             continue;
         };
+        let all_on = g.task.lux(&vec![1.0; design.len()])?;
+        task.points =
+            task_points::task_points(&g.positions_m, &g.covered, &all_on).unwrap_or_default();
         let surrounding = match &g.surrounding {
             Some(r) => area_result(&r.lux(design)?, mf),
             None => None,
@@ -998,6 +1012,7 @@ pub fn html(r: &Report) -> String {
     html_pictures(&mut h, &r.pictures);
     html_checks(&mut h, x);
     html_desks(&mut h, x);
+    html_points(&mut h, x);
     html_states(&mut h, x);
     html_tables(&mut h, x);
     html_tail(&mut h, x);
@@ -1015,7 +1030,7 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk h3{{font-size:15px}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)
     );
     let _ = write!(
@@ -1134,6 +1149,19 @@ Illuminance in lx; U0 = Emin/Ē.</p>\n<table><tr><th>desk</th><th>grid</th><th>v
             stats_cells(&rm.maintained)
         );
     }
+}
+
+/// The point values: a table per task area (new, every luminaire on).
+fn html_points(h: &mut String, x: &Results) {
+    h.push_str(
+        "<h2>Point values</h2>\n<p>Each desk's task grid, new installation, every luminaire on, \
+illuminance in lx. Points under an object standing on the desk (a monitor's foot) are covered: \
+greyed, without a value, and left out of Ēm, Emin, Emax and U0.</p>\n<div class=\"ptgrid\">\n",
+    );
+    for d in &x.desks {
+        task_points::html_table(h, d.id, &d.task.points);
+    }
+    h.push_str("</div>\n");
 }
 
 /// The states: each desk's, the floor's and each sensor's light.

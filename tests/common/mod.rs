@@ -198,3 +198,45 @@ pub fn small_image(flux_scale: f64) -> Vec<u8> {
     )
     .unwrap()
 }
+
+/// A black room (3 × 3 × 2.8 m, every reflectance 0: only direct light) with one desk (x 1..2,
+/// y 1..1.8, top at 0.75 m; desk id 1) and a box standing on it on 5 mm pads (x 1.25..1.55,
+/// y 1.2..1.4, 0.755..0.80 m), lit by one small luminaire of constant 300 cd straight above the
+/// box at 2.7 m; one sensor on the desk. The box covers the desk's EN 12464-1 grid points
+/// (1.3, 1.3) and (1.5, 1.3) (grid 5 × 4, 0.2 m cells, centres at 1.1..1.9 × 1.1..1.7), every
+/// other point sees the luminaire (the box is 5 cm tall, far below their rays).
+pub fn desk_with_box_scene() -> Scene {
+    let mut b = luxnode::scene::MeshBuilder::new();
+    let black = b.material("black", 0.0).unwrap();
+    b.room(DVec3::new(3.0, 3.0, 2.8), black, &[]);
+    b.solid_box(
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(2.0, 1.8, 0.75),
+        "desk_1",
+        black,
+    );
+    b.solid_box(
+        DVec3::new(1.25, 1.2, 0.755),
+        DVec3::new(1.55, 1.4, 0.80),
+        "box_1",
+        black,
+    );
+    let lum = luminaire(1, DVec3::new(1.4, 1.3, 2.7), [0.02, 0.02], false, |_| 300.0);
+    let mut s = scene(
+        b.build(),
+        vec![lum],
+        vec![sensor(1, DVec3::new(1.8, 1.6, 0.75))],
+    );
+    s.desks = Some(Desks {
+        desks: vec![luxnode::scene::Desk {
+            id: 1,
+            group: "desk_1".into(),
+            x_m: [1.0, 2.0],
+            y_m: [1.0, 1.8],
+            z_m: 0.75,
+        }],
+        grid_step_m: 0.2,
+        grid_points: Vec::new(),
+    });
+    s
+}
