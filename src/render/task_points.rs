@@ -85,19 +85,19 @@ pub fn free_statistics(points: &[TaskPoint]) -> Option<Statistics> {
 /// x, y and E, covered points greyed and marked.
 pub fn html_table(h: &mut String, desk_id: u32, points: &[TaskPoint]) {
     let covered = points.iter().filter(|p| p.covered).count();
-    let _ = write!(
+    let _ = writeln!(
         h,
-        "<div class=\"ptdesk\"><h3>Desk {desk_id}: task area, {} points at z = {:.2} m</h3>\n",
+        "<div class=\"ptdesk\"><h3>Desk {desk_id}: task area, {} points at z = {:.2} m</h3>",
         points.len(),
         points.first().map_or(0.0, |p| p.z_m)
     );
     match free_statistics(points) {
         Some(s) => {
-            let _ = write!(
+            let _ = writeln!(
                 h,
                 "<table class=\"ptstats\"><tr><th>Ēm</th><td>{:.0} lx</td></tr><tr><th>Emin</th><td>{:.0} lx</td></tr>\
 <tr><th>Emax</th><td>{:.0} lx</td></tr><tr><th>U0</th><td>{:.2}</td></tr>\
-<tr><th>covered</th><td>{covered}</td></tr></table>\n",
+<tr><th>covered</th><td>{covered}</td></tr></table>",
                 s.e_mean_lx, s.e_min_lx, s.e_max_lx, s.u0
             );
         }
