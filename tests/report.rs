@@ -296,7 +296,7 @@ fn report_opens_in_a_browser_with_every_picture() {
     }
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 4);
     for text in [
-        "EN 12464-1",
+        "EN 12464-1:2021",
         "Ēm",
         "U0",
         "luminaire.ldt",
