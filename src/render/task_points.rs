@@ -87,7 +87,7 @@ pub fn html_table(h: &mut String, desk_id: u32, points: &[TaskPoint]) {
     let covered = points.iter().filter(|p| p.covered).count();
     let _ = writeln!(
         h,
-        "<div class=\"ptdesk\"><h3>Desk {desk_id}: task area, {} points at z = {:.2} m</h3>",
+        "<div class=\"ptdesk\"><h3>Desk {desk_id} task area ({} points, z {:.2} m)</h3>",
         points.len(),
         points.first().map_or(0.0, |p| p.z_m)
     );
