@@ -661,7 +661,7 @@ fn modbus_load(
     idle_attack: usize,
 ) -> Result<()> {
     use luxnode::fieldbus::tcp::{self, TcpCounters};
-    use luxnode::node::{NodeOptions, lock};
+    use luxnode::node::lock;
     use std::sync::atomic::Ordering;
     use std::sync::{Arc, Mutex};
     use tokio_modbus::client::Reader;
@@ -676,13 +676,7 @@ fn modbus_load(
         bail!("--idle-attack {idle_attack}: at most 10000");
     }
     let run_for = duration_s("--seconds", seconds)?;
-    let node = luxnode::serve::load_node(
-        image,
-        NodeOptions {
-            initial_arc: Some(254),
-            ..NodeOptions::default()
-        },
-    )?;
+    let node = full_on_node(image)?;
     let desks = node.map().desk_count() as u16;
     let node = Arc::new(Mutex::new(node));
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -1269,4 +1263,15 @@ fn occupancy(dir: &Path, stride: u32) -> Result<()> {
         sets.iter().map(|r| r.update_us).fold(0.0, f64::max),
     );
     Ok(())
+}
+
+/// A node serving `image` with every luminaire at full (arc 254): what the load benches poll.
+pub(crate) fn full_on_node(image: &std::path::Path) -> Result<luxnode::node::Node> {
+    Ok(luxnode::serve::load_node(
+        image,
+        luxnode::node::NodeOptions {
+            initial_arc: Some(254),
+            ..luxnode::node::NodeOptions::default()
+        },
+    )?)
 }

@@ -21,7 +21,7 @@ use luxnode::bacnet::wire::ObjectId;
 use luxnode::fieldbus::bacnet::service::ServerConfig;
 use luxnode::fieldbus::bacnet::{BacnetCounters, BacnetOptions};
 use luxnode::fieldbus::tcp::{TcpCounters, TcpOptions};
-use luxnode::node::{NodeOptions, SharedNode, lock};
+use luxnode::node::{SharedNode, lock};
 use tokio::net::UdpSocket;
 
 use super::modbus::duration_s;
@@ -48,13 +48,7 @@ pub fn cov_load(
         bail!("--runs {runs}: 1..=50");
     }
     let run_for = duration_s("--seconds", seconds)?;
-    let node = luxnode::serve::load_node(
-        image,
-        NodeOptions {
-            initial_arc: Some(254),
-            ..NodeOptions::default()
-        },
-    )?;
+    let node = super::bench::full_on_node(image)?;
     let desks = node.map().desk_count();
     let node: SharedNode = Arc::new(Mutex::new(node));
     let rt = tokio::runtime::Builder::new_multi_thread()
