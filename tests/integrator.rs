@@ -194,3 +194,66 @@ fn every_documented_mbpoll_command_runs_against_the_main_jobs_node() {
     }
 }
 
+/// One mbpoll read of input registers (1-based `reference`), its value strings.
+fn mbpoll_read(node: &Proc, reference: u16, count: u16, ty: &str) -> Vec<String> {
+    let port = node.addr.port().to_string();
+    let (r, c) = (reference.to_string(), count.to_string());
+    let out = Command::new("mbpoll")
+        .args(["-m", "tcp", "-p", &port, "-a", "1", "-r", &r, "-c", &c])
+        .args(["-t", ty, "-B", "-1", "127.0.0.1"])
+        .output()
+        .expect("run mbpoll");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "mbpoll -r {r}: {stdout}");
+    stdout
+        .lines()
+        .filter_map(|l| l.split_once("]:"))
+        .map(|(_, v)| v.trim().to_string())
+        .collect()
+}
+
+#[test]
+fn a_node_with_no_known_dimming_state_publishes_unknown_not_dark() {
+    need("mbpoll");
+    // no gateway, no --arc: no luminaire's level is known
+    let node = serve_demo(&[]);
+    let floats = mbpoll_read(&node, 101, 7, "3:float");
+    assert_eq!(floats.len(), 7, "{floats:?}");
+    assert!(
+        floats
+            .iter()
+            .all(|v| v.to_ascii_lowercase().contains("nan")),
+        "float desk lux: {floats:?}"
+    );
+    let ints = mbpoll_read(&node, 301, 7, "3:hex");
+    assert_eq!(ints, vec!["0xFFFF"; 7], "u16 desk lux");
+    // quality 1: stale, the dimming state unknown; status bit 5 says the same
+    let quality = mbpoll_read(&node, 401, 7, "3");
+    assert_eq!(quality, vec!["1"; 7], "quality");
+    let st: u16 = mbpoll_read(&node, 4, 1, "3")[0].parse().expect("status");
+    assert_ne!(st & (1 << 5), 0, "status {st:#06x}");
+    // a write of every level makes it known: numbers, quality no longer stale
+    let port = node.addr.port().to_string();
+    let out = Command::new("mbpoll")
+        .args(["-m", "tcp", "-p", &port, "-a", "1", "-r", "1001", "-t", "4"])
+        .args(["-1", "127.0.0.1", "254", "254", "254", "254", "254", "254"])
+        .output()
+        .expect("run mbpoll");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let floats = mbpoll_read(&node, 101, 7, "3:float");
+    for v in &floats {
+        let x: f64 = v.parse().unwrap_or(f64::NAN);
+        assert!(x > 50.0, "all on: desk lux {floats:?}");
+    }
+    let ints = mbpoll_read(&node, 301, 7, "3");
+    assert!(ints.iter().all(|v| v != "65535"), "{ints:?}");
+    let quality = mbpoll_read(&node, 401, 7, "3");
+    assert!(
+        quality.iter().all(|q| q != "1" && q != "65535"),
+        "{quality:?}"
+    );
+}
