@@ -341,8 +341,7 @@ mod tests {
                 .collect();
             let bad = readings.len() > MAX_READINGS
                 || readings.iter().enumerate().any(|(k, r)| {
-                    !(r.lux_lx > 0.0 && r.lux_lx < MAX_READING_LX)
-                        || !known.contains(&r.sensor_id)
+                    !(r.lux_lx > 0.0 && r.lux_lx < MAX_READING_LX && known.contains(&r.sensor_id))
                         || readings[..k].iter().any(|q| q.sensor_id == r.sensor_id)
                 });
             match check(&readings, &known) {

@@ -691,7 +691,7 @@ mod tests {
                     proptest::prop_assert!(words.is_empty() || invalid < words.len());
                     proptest::prop_assert_eq!(n, invalid);
                     for (&w, x) in words.iter().zip(&levels) {
-                        let expect_level = !out_of_range(w) && !(dali && w == 255);
+                        let expect_level = !(out_of_range(w) || (dali && w == 255));
                         proptest::prop_assert_eq!(x.is_some(), expect_level, "{}", w);
                         if let Some(x) = x {
                             proptest::prop_assert!((0.0..=1.0).contains(x), "{} -> {}", w, x);
