@@ -17,16 +17,20 @@ use common::procs::{LUXNODE, Proc, need, spawn_listening};
 const MAIN_JOB_PORT: &str = "1502";
 
 /// The demo office's image, built by the CLI as the main job's commissioning would for its
-/// geometry (`image build --scene demo-office`), once per test process.
+/// geometry (`image build --scene demo-office`), once into the test target's temporary
+/// directory and shared by the tests (atomic rename, so parallel test processes never see half
+/// a file).
 fn demo_image() -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
-    let path = dir.join(format!("integrator-demo-{}.img", std::process::id()));
-    if path.exists() {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("integrator-demo-office.img");
+    if let Ok(bytes) = std::fs::read(&path)
+        && luxnode::store::Image::parse(&bytes).is_ok()
+    {
         return path;
     }
+    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
     let out = Command::new(LUXNODE)
         .args(["image", "build", "--scene", "demo-office", "--out"])
-        .arg(&path)
+        .arg(&tmp)
         .output()
         .expect("run luxnode image build");
     assert!(
@@ -34,6 +38,7 @@ fn demo_image() -> PathBuf {
         "image build: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+    std::fs::rename(&tmp, &path).expect("rename image");
     path
 }
 
