@@ -140,9 +140,11 @@ fn bms_reads_the_runtime_values_and_they_match_radiance() {
         assert_eq!(q, [1; 8], "quality stale");
         let lum_ids = c.read_input_registers(600, 8).await.unwrap().unwrap();
         let desk_ids = c.read_input_registers(500, 8).await.unwrap().unwrap();
-        // all off at start
+        // no level known at start: no value (NaN, 0xFFFF), never the 0 lx of all off
         let f = c.read_input_registers(100, 16).await.unwrap().unwrap();
-        assert!(floats_abcd(&f).iter().all(|&x| x == 0.0));
+        assert!(floats_abcd(&f).iter().all(|x| x.is_nan()), "{f:?}");
+        let ints = c.read_input_registers(300, 8).await.unwrap().unwrap();
+        assert_eq!(ints, [0xFFFF; 8], "u16 unknown");
         let (mut worst, mut abs_sum, mut truth_sum) = (0.0f64, 0.0, 0.0);
         for sc in &states {
             let arcs = scenario_arcs(&sc.on, &lum_ids);

@@ -442,11 +442,13 @@ impl View<'_> {
             }
             Kind::DeskOccupancy => return self.occupancy(k),
         };
-        let stale = desk.is_some_and(|d| d.quality == Quality::Stale)
-            || live.is_some_and(|l| l.flags & live_flags::STALE != 0);
+        let desk_stale = desk.is_some_and(|d| d.quality == Quality::Stale);
+        let stale = desk_stale || live.is_some_and(|l| l.flags & live_flags::STALE != 0);
         let held =
             live.is_some_and(|l| l.flags & (live_flags::HELD | live_flags::NOT_ESTIMATED) != 0);
-        let reliability = if !value.is_finite() || held {
+        // a stale desk's NaN (the dimming state never known since start) is the link's fault,
+        // as Modbus quality 1 says: communication-failure, like its stale numbers
+        let reliability = if (!value.is_finite() && !desk_stale) || held {
             reliability::UNRELIABLE_OTHER
         } else if stale {
             reliability::COMMUNICATION_FAILURE

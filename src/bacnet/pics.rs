@@ -197,7 +197,8 @@ pub fn markdown() -> String {
         "\nReliability and Status_Flags: a value the node does not have (NaN in the Modbus map)\n\
          is NaN with Reliability unreliable-other (7) and the fault flag; a stale value (the dimming\n\
          state is not known to be current, Modbus quality 1, or live light's stale flag) keeps its\n\
-         last number with Reliability communication-failure (12) and the fault flag; a held or not\n\
+         last number (NaN while the dimming state was never known since the start, as on Modbus: never 0)\n\
+         with Reliability communication-failure (12) and the fault flag; a held or not\n\
          estimated live value is unreliable-other. Event_State is always normal, Out_Of_Service\n\
          always false. COV_Increment defaults to 1 % of the desk's target for lux objects and to 1\n\
          for the Analog Values; a written one holds until the node restarts.\n"

@@ -153,7 +153,11 @@ mod tests {
     #[test]
     fn arc_writes_recompute_by_superposition() {
         let mut node = Node::new(model(), NodeOptions::default()).unwrap();
-        assert_eq!(read_input(&mut node, addr::DESK_U16, 2), vec![0, 0]);
+        assert_eq!(
+            read_input(&mut node, addr::DESK_U16, 2),
+            vec![0xFFFF, 0xFFFF],
+            "unknown at start"
+        );
         // write all three arc levels: 254 (100 %), 0 (off), 1 (0.1 %)
         let mut out = [0u8; MAX_PDU];
         let req = [0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 0, 0, 1];
@@ -283,6 +287,9 @@ mod tests {
         let mut node = Node::new(model(), NodeOptions::default()).unwrap();
         let me = Source::Internal;
         assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        // unknown, not dark: NaN and 0xFFFF
+        assert_eq!(read_input(&mut node, addr::DESK_FLOAT, 2), vec![0x7FC0, 0]);
+        assert_eq!(read_input(&mut node, addr::DESK_U16, 2), vec![0xFFFF; 2]);
         assert_ne!(
             read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
             0
@@ -295,8 +302,14 @@ mod tests {
             &[0x10, 0x03, 0xE8, 0, 3, 6, 0, 254, 0, 10, 0, 255],
         );
         assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![1, 1]);
+        assert_eq!(read_input(&mut node, addr::DESK_U16, 2), vec![0xFFFF; 2]);
         ask(&mut node, &me, 1, &[6, 0x03, 0xEA, 0, 0]);
         assert_eq!(read_input(&mut node, addr::DESK_QUALITY, 2), vec![0, 2]);
+        assert!(
+            read_input(&mut node, addr::DESK_U16, 2)
+                .iter()
+                .all(|&v| v < 0xFFFF)
+        );
         assert_eq!(
             read_input(&mut node, addr::STATUS, 1)[0] & status::VALUES_STALE,
             0

@@ -728,7 +728,8 @@ impl RegisterMap {
             }
         } else if in_block(addr::DESK_QUALITY, d) {
             let desk = &self.desks[usize::from(a - addr::DESK_QUALITY)];
-            if desk.lux.is_finite() {
+            // stale says why a value is missing: the dimming state is not known yet
+            if desk.lux.is_finite() || desk.quality == Quality::Stale {
                 desk.quality as u16
             } else {
                 NOT_AVAILABLE_U16
@@ -1173,7 +1174,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "lx",
         "1",
         "R",
-        "desk k at 100 + 2k and 101 + 2k; NaN (0x7FC00000) when not available"
+        "desk k at 100 + 2k and 101 + 2k; NaN (0x7FC00000) when not available (never 0 for unknown: before the dimming state is first known, quality 1)"
     ),
     row!(
         Input,
@@ -1184,7 +1185,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "lx",
         "1 (rounded, saturating at 65534)",
         "R",
-        "desk k at 300 + k; 65535 when not available"
+        "desk k at 300 + k; 65535 when not available (as the float)"
     ),
     row!(
         Input,
@@ -1195,7 +1196,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "desk k at 400 + k: 0 ok, 1 stale (dimming state unknown), 2 out of the camera's view, 3 estimated; 65535 not available"
+        "desk k at 400 + k: 0 ok, 1 stale (dimming state unknown: never known since start, the lux NaN / 65535; or the gateway lost, the last good lux kept), 2 out of the camera's view, 3 estimated; 65535 not available"
     ),
     row!(
         Input,

@@ -744,9 +744,12 @@ impl Node {
             .zip(&self.levels)
             .map(|(p, &x)| p.power_w(x))
             .sum();
+        // a dimming state never known (a start without levels, before the gateway or a write
+        // set each one) gives no value: NaN (0xFFFF in u16), never the lux of all-off
+        let known = self.dimming_known();
         if ok {
             for (k, (d, v)) in self.map.desks.iter_mut().zip(out).enumerate() {
-                d.lux = v;
+                d.lux = if known { v } else { f64::NAN };
                 d.model_rel_uncertainty = self.model.rel_uncertainty_at(k, &self.levels);
             }
             self.computed = Instant::now();
@@ -867,6 +870,7 @@ impl Node {
         curve: DimmingCurve,
     ) {
         self.health.writes_accepted.fetch_add(1, Ordering::Relaxed);
+        let was_known = self.dimming_known();
         for (k, v) in values.iter().enumerate() {
             let a = usize::from(address) + k;
             if let Some(j) = a.checked_sub(usize::from(addr::ARC_LEVEL))
@@ -882,7 +886,12 @@ impl Node {
         if changed {
             self.save_settings();
         }
-        self.refresh_flags();
+        if !was_known && self.dimming_known() {
+            // the write made the dimming state known: its values replace the NaNs
+            self.compute();
+        } else {
+            self.refresh_flags();
+        }
     }
 
     /// Persists the settings clients wrote (when the node has a settings file).

@@ -1,0 +1,264 @@
+//! The integrator's first hour (issue 31), through the real client programs: every `mbpoll`
+//! command of the docs' code blocks runs as written against a node serving the README's main
+//! job's image (the demo office: 7 desks, 6 luminaires; the sim board's address and allowlist),
+//! and a node that knows no dimming state publishes "unknown" (NaN, 0xFFFF), never 0.
+//!
+//! mbpoll is installed by scripts/test.sh (scripts/install-test-tools.sh); without it these tests
+//! fail with that message, they never pass silently.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+mod common;
+use common::procs::{LUXNODE, Proc, need, spawn_listening};
+
+/// The README's main job serves the demo office (boards/sim/board.toml, `source = "demo-office"`)
+/// on this port; the examples name it, the test's node listens elsewhere.
+const MAIN_JOB_PORT: &str = "1502";
+
+/// The demo office's image, built by the CLI as the main job's commissioning would for its
+/// geometry (`image build --scene demo-office`), once into the test target's temporary
+/// directory and shared by the tests (atomic rename, so parallel test processes never see half
+/// a file).
+fn demo_image() -> PathBuf {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("integrator-demo-office.img");
+    if let Ok(bytes) = std::fs::read(&path)
+        && luxnode::store::Image::parse(&bytes).is_ok()
+    {
+        return path;
+    }
+    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
+    let out = Command::new(LUXNODE)
+        .args(["image", "build", "--scene", "demo-office", "--out"])
+        .arg(&tmp)
+        .output()
+        .expect("run luxnode image build");
+    assert!(
+        out.status.success(),
+        "image build: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::rename(&tmp, &path).expect("rename image");
+    path
+}
+
+/// `luxnode serve` on the demo office's image, writes allowed from loopback (the sim board's
+/// `write_allow`), with `extra` arguments.
+fn serve_demo(extra: &[&str]) -> Proc {
+    let mut args: Vec<String> = vec![
+        "serve".into(),
+        "--image".into(),
+        demo_image().display().to_string(),
+        "--bind".into(),
+        "127.0.0.1:0".into(),
+        "--allow-writes-from".into(),
+        "127.0.0.1".into(),
+    ];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    spawn_listening(LUXNODE, &args)
+}
+
+/// Every `mbpoll` line inside the fenced code blocks of `docs/*.md`: (file, the line without
+/// its trailing comment).
+fn documented_mbpoll_commands() -> Vec<(String, String)> {
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&docs)
+        .expect("docs/")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "md"))
+        .collect();
+    files.sort();
+    let mut found = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read doc");
+        let mut fenced = false;
+        for line in text.lines() {
+            if line.trim_start().starts_with("```") {
+                fenced = !fenced;
+                continue;
+            }
+            let cmd = line.split('#').next().unwrap_or("").trim();
+            if fenced && cmd.starts_with("mbpoll ") {
+                let name = f.file_name().map(|n| n.to_string_lossy().into_owned());
+                found.push((name.unwrap_or_default(), cmd.to_string()));
+            }
+        }
+    }
+    found
+}
+
+/// What an mbpoll command must give: `Read(n)` values (`-c n`, default 1), or `Written(n)`
+/// (the values after the host).
+#[derive(Debug, PartialEq)]
+enum Expect {
+    Read(usize),
+    Written(usize),
+}
+
+/// The expectation of mbpoll's arguments, from its documented syntax: options with a value
+/// (`-m -p -a -r -c -t -l -o -b -d -s -P`) and flags, then the host, then values to write.
+fn expectation(args: &[&str]) -> Expect {
+    let with_value = [
+        "-m", "-p", "-a", "-r", "-c", "-t", "-l", "-o", "-b", "-d", "-s", "-P",
+    ];
+    let mut count = 1;
+    let mut i = 0;
+    while i < args.len() && args[i].starts_with('-') {
+        if with_value.contains(&args[i]) {
+            if args[i] == "-c" {
+                count = args.get(i + 1).and_then(|c| c.parse().ok()).unwrap_or(0);
+            }
+            i += 1;
+        }
+        i += 1;
+    }
+    let writes = args.len().saturating_sub(i + 1);
+    if writes > 0 {
+        Expect::Written(writes)
+    } else {
+        Expect::Read(count)
+    }
+}
+
+/// mbpoll's read values: the lines `[ref]: \tvalue` (decimal, hex or nan).
+fn value_lines(stdout: &str) -> usize {
+    stdout
+        .lines()
+        .filter(|l| l.starts_with('[') && l.contains("]:"))
+        .count()
+}
+
+#[test]
+fn mbpoll_expectations_follow_its_syntax() {
+    let e = |s: &str| expectation(&s.split_whitespace().collect::<Vec<_>>());
+    assert_eq!(
+        e("-m tcp -p 1502 -a 1 -r 1 -c 4 -t 3 -1 127.0.0.1"),
+        Expect::Read(4)
+    );
+    assert_eq!(
+        e("-m tcp -p 1502 -r 73 -t 3:hex -1 127.0.0.1"),
+        Expect::Read(1)
+    );
+    assert_eq!(
+        e("-m tcp -p 1502 -a 1 -r 1001 -t 4 -1 127.0.0.1 254 254 0 0"),
+        Expect::Written(4)
+    );
+    assert_eq!(value_lines("-- Polling\n[101]: \t0\n[103]: \tnan\n\n"), 2);
+}
+
+#[test]
+fn every_documented_mbpoll_command_runs_against_the_main_jobs_node() {
+    need("mbpoll");
+    let commands = documented_mbpoll_commands();
+    // docs/modbus.md's reading examples and its occupancy examples at least
+    assert!(
+        commands.len() >= 6,
+        "expected the docs' mbpoll examples, found {commands:?}"
+    );
+    let node = serve_demo(&[]);
+    let port = node.addr.port().to_string();
+    for (doc, cmd) in &commands {
+        let words: Vec<&str> = cmd.split_whitespace().skip(1).collect();
+        let p = words.iter().position(|w| *w == "-p");
+        assert!(
+            p.and_then(|p| words.get(p + 1)) == Some(&MAIN_JOB_PORT),
+            "{doc}: `{cmd}` is not against the main job's port {MAIN_JOB_PORT}"
+        );
+        let args: Vec<&str> = words
+            .iter()
+            .enumerate()
+            .map(|(i, w)| {
+                if Some(i) == p.map(|p| p + 1) {
+                    &port
+                } else {
+                    *w
+                }
+            })
+            .collect();
+        let out = Command::new("mbpoll")
+            .args(&args)
+            .output()
+            .expect("run mbpoll");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success(),
+            "{doc}: `{cmd}` failed: {stdout}{stderr}"
+        );
+        match expectation(&args) {
+            Expect::Read(n) => assert_eq!(
+                value_lines(&stdout),
+                n,
+                "{doc}: `{cmd}` returned another count of values: {stdout}"
+            ),
+            Expect::Written(n) => assert!(
+                stdout.contains(&format!("Written {n} references")),
+                "{doc}: `{cmd}` did not write {n} values: {stdout}"
+            ),
+        }
+    }
+}
+
+/// One mbpoll read of input registers (1-based `reference`), its value strings.
+fn mbpoll_read(node: &Proc, reference: u16, count: u16, ty: &str) -> Vec<String> {
+    let port = node.addr.port().to_string();
+    let (r, c) = (reference.to_string(), count.to_string());
+    let out = Command::new("mbpoll")
+        .args(["-m", "tcp", "-p", &port, "-a", "1", "-r", &r, "-c", &c])
+        .args(["-t", ty, "-B", "-1", "127.0.0.1"])
+        .output()
+        .expect("run mbpoll");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "mbpoll -r {r}: {stdout}");
+    stdout
+        .lines()
+        .filter_map(|l| l.split_once("]:"))
+        .map(|(_, v)| v.trim().to_string())
+        .collect()
+}
+
+#[test]
+fn a_node_with_no_known_dimming_state_publishes_unknown_not_dark() {
+    need("mbpoll");
+    // no gateway, no --arc: no luminaire's level is known
+    let node = serve_demo(&[]);
+    let floats = mbpoll_read(&node, 101, 7, "3:float");
+    assert_eq!(floats.len(), 7, "{floats:?}");
+    assert!(
+        floats
+            .iter()
+            .all(|v| v.to_ascii_lowercase().contains("nan")),
+        "float desk lux: {floats:?}"
+    );
+    let ints = mbpoll_read(&node, 301, 7, "3:hex");
+    assert_eq!(ints, vec!["0xFFFF"; 7], "u16 desk lux");
+    // quality 1: stale, the dimming state unknown; status bit 5 says the same
+    let quality = mbpoll_read(&node, 401, 7, "3");
+    assert_eq!(quality, vec!["1"; 7], "quality");
+    let st: u16 = mbpoll_read(&node, 4, 1, "3")[0].parse().expect("status");
+    assert_ne!(st & (1 << 5), 0, "status {st:#06x}");
+    // a write of every level makes it known: numbers, quality no longer stale
+    let port = node.addr.port().to_string();
+    let out = Command::new("mbpoll")
+        .args(["-m", "tcp", "-p", &port, "-a", "1", "-r", "1001", "-t", "4"])
+        .args(["-1", "127.0.0.1", "254", "254", "254", "254", "254", "254"])
+        .output()
+        .expect("run mbpoll");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let floats = mbpoll_read(&node, 101, 7, "3:float");
+    for v in &floats {
+        let x: f64 = v.parse().unwrap_or(f64::NAN);
+        assert!(x > 50.0, "all on: desk lux {floats:?}");
+    }
+    let ints = mbpoll_read(&node, 301, 7, "3");
+    assert!(ints.iter().all(|v| v != "65535"), "{ints:?}");
+    let quality = mbpoll_read(&node, 401, 7, "3");
+    assert!(
+        quality.iter().all(|q| q != "1" && q != "65535"),
+        "{quality:?}"
+    );
+}
