@@ -165,14 +165,14 @@ pub fn run(a: &Args) -> Result<()> {
             );
             for (k, d) in desks.iter().enumerate() {
                 println!(
-                    "{},{:.2},{:.2},{:.2},{},{},{:.2},{}",
+                    "{},{},{},{},{},{},{},{}",
                     d.id,
-                    d.total_lx,
-                    d.artificial_lx,
-                    d.daylight_lx,
+                    csv_lx(d.total_lx),
+                    csv_lx(d.artificial_lx),
+                    csv_lx(d.daylight_lx),
                     source(d.source),
                     flags::describe(d.flags),
-                    d.uncertainty_lx,
+                    csv_lx(d.uncertainty_lx),
                     occupied_csv(k)
                 );
             }
@@ -285,4 +285,25 @@ fn time_updates(live: &mut Live, f: &LiveFrame<'_>, levels: &[f64], n: u32) -> R
         if live.sky_type() > 0 { "on" } else { "off" }
     );
     Ok(())
+}
+
+/// A lux value for the CSV: two decimals, or an empty field when the node cannot estimate it
+/// (NaN, flagged `not_estimated`): unknown is never printed as a number (issue 31).
+fn csv_lx(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.2}")
+    } else {
+        String::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn an_unknown_value_is_an_empty_csv_field() {
+        assert_eq!(super::csv_lx(512.345), "512.35");
+        assert_eq!(super::csv_lx(0.0), "0.00");
+        assert_eq!(super::csv_lx(f64::NAN), "");
+        assert_eq!(super::csv_lx(f64::INFINITY), "");
+    }
 }
