@@ -525,3 +525,23 @@ fn commission_takes_one_capture_set_per_node() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("one image per capture set"), "{err}");
 }
+
+/// Issue 31: an error names each cause once (a typed error that carries its source's text was
+/// printed with it again: "No such file or directory (os error 2): No such file or directory
+/// (os error 2)"), on one line after "error: ".
+#[test]
+fn an_error_names_its_cause_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let missing = dir.path().join("missing.img");
+    let o = luxnode(&["image", "info", &missing.to_string_lossy()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("error: "))
+        .expect("an error line");
+    assert!(line.contains("missing.img"), "{line}");
+    let cause = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
+    let os = "(os error 2)";
+    assert_eq!(line.matches(os).count(), 1, "{line} ({cause})");
+}
