@@ -329,8 +329,6 @@ where
     let running = found.image.as_ref().map(|(_, slot, g)| (*slot, *g));
     if !recommission && let Some((bytes, slot, generation)) = found.image {
         tracing::info!(
-            generation,
-            bytes = bytes.len(),
             "boot: loaded image generation {generation} ({} bytes) from slot {slot}",
             bytes.len()
         );
@@ -376,7 +374,6 @@ where
         }
     };
     tracing::info!(
-        bytes = image.len(),
         "commissioned in {:.1} s: image of {} bytes",
         t0.elapsed().as_secs_f64(),
         image.len()
