@@ -26,33 +26,8 @@ fn manifest() -> &'static Path {
 
 /// The demo office's image (fast preset), built once by the CLI for this file's tests.
 fn demo_image() -> Vec<u8> {
-    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("field-demo-fast.img");
-    if let Ok(bytes) = std::fs::read(&path)
-        && Image::parse(&bytes).is_ok()
-    {
-        return bytes;
-    }
-    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let out = Command::new(LUXNODE)
-        .args([
-            "image",
-            "build",
-            "--scene",
-            "demo-office",
-            "--preset",
-            "fast",
-            "--out",
-        ])
-        .arg(&tmp)
-        .output()
-        .expect("luxnode image build");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    std::fs::rename(&tmp, &path).unwrap();
-    std::fs::read(&path).unwrap()
+    let args = ["--scene", "demo-office", "--preset", "fast"].map(std::ffi::OsStr::new);
+    std::fs::read(common::procs::cli_image("field-demo-fast.img", &args)).unwrap()
 }
 
 /// The flash size `luxnode run --flash` uses: two FORMFACTORS regions.

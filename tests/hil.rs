@@ -904,24 +904,15 @@ fn the_bms_reads_the_same_desk_lux_over_bacnet_as_over_modbus() {
     use luxnode::modbus::regmap::addr;
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name);
-    let out = Command::new(LUXNODE)
-        .args([
-            "image",
-            "build",
-            "--scene",
-            "demo-office",
-            "--patch-size",
-            "2",
-        ])
-        .args(["--rays", "100", "--out"])
-        .arg(path("demo.img"))
-        .output()
-        .expect("luxnode image build");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let coarse = [
+        "--scene",
+        "demo-office",
+        "--patch-size",
+        "2",
+        "--rays",
+        "100",
+    ];
+    let image = common::procs::cli_image("hil-demo-coarse.img", &coarse.map(std::ffi::OsStr::new));
     let sim = std::fs::read_to_string(sim_board()).unwrap();
     let bacnet = "[bacnet]\nbind = \"127.0.0.1:0\"\ndevice_id = 4200\n";
     std::fs::write(path("board.toml"), format!("{sim}\n{bacnet}")).unwrap();
@@ -942,7 +933,8 @@ fn the_bms_reads_the_same_desk_lux_over_bacnet_as_over_modbus() {
     ]
     .iter()
     .map(|a| match *a {
-        "board.toml" | "flash.bin" | "demo.img" => path(a).display().to_string(),
+        "demo.img" => image.display().to_string(),
+        "board.toml" | "flash.bin" => path(a).display().to_string(),
         _ => a.to_string(),
     })
     .collect();

@@ -17,29 +17,10 @@ use common::procs::{LUXNODE, Proc, need, spawn_listening};
 const MAIN_JOB_PORT: &str = "1502";
 
 /// The demo office's image, built by the CLI as the main job's commissioning would for its
-/// geometry (`image build --scene demo-office`), once into the test target's temporary
-/// directory and shared by the tests (atomic rename, so parallel test processes never see half
-/// a file).
+/// geometry (`image build --scene demo-office`), once for the file's tests.
 fn demo_image() -> PathBuf {
-    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("integrator-demo-office.img");
-    if let Ok(bytes) = std::fs::read(&path)
-        && luxnode::store::Image::parse(&bytes).is_ok()
-    {
-        return path;
-    }
-    let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let out = Command::new(LUXNODE)
-        .args(["image", "build", "--scene", "demo-office", "--out"])
-        .arg(&tmp)
-        .output()
-        .expect("run luxnode image build");
-    assert!(
-        out.status.success(),
-        "image build: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    std::fs::rename(&tmp, &path).expect("rename image");
-    path
+    let args = ["--scene", "demo-office"].map(std::ffi::OsStr::new);
+    common::procs::cli_image("integrator-demo.img", &args)
 }
 
 /// `luxnode serve` on the demo office's image, writes allowed from loopback (the sim board's

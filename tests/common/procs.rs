@@ -175,27 +175,38 @@ pub fn pty_pair() -> PtyPair {
     }
 }
 
-/// office_a's image, built once by the CLI into the test target's temporary directory as
-/// `<tag>-office_a.img` and shared by the tests of a file (atomic rename, so parallel test
-/// processes never see half a file).
-pub fn cli_office_image(tag: &str) -> std::path::PathBuf {
-    let path =
-        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{tag}-office_a.img"));
+/// An image built once by `luxnode image build ARGS --out ...` into the test target's
+/// temporary directory as `name` and shared by the tests of a file (atomic rename, so parallel
+/// test processes never see half a file; a file that does not parse is built again).
+pub fn cli_image(name: &str, args: &[&std::ffi::OsStr]) -> std::path::PathBuf {
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     if let Ok(bytes) = std::fs::read(&path)
         && luxnode::store::Image::parse(&bytes).is_ok()
     {
         return path;
     }
     let tmp = path.with_extension(format!("{}.tmp", std::process::id()));
-    let st = Command::new(LUXNODE)
-        .args(["image", "build", "--scene"])
-        .arg(super::office_a())
+    let out = Command::new(LUXNODE)
+        .args(["image", "build"])
+        .args(args)
         .arg("--out")
         .arg(&tmp)
-        .stdout(Stdio::null())
-        .status()
+        .output()
         .expect("run luxnode image build");
-    assert!(st.success());
+    assert!(
+        out.status.success(),
+        "image build {name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::rename(&tmp, &path).expect("rename image");
     path
+}
+
+/// office_a's image, built once as `<tag>-office_a.img` ([`cli_image`]).
+pub fn cli_office_image(tag: &str) -> std::path::PathBuf {
+    let scene = super::office_a();
+    cli_image(
+        &format!("{tag}-office_a.img"),
+        &["--scene".as_ref(), scene.as_os_str()],
+    )
 }
