@@ -85,7 +85,7 @@ pub fn modbus_rtu(data: &[u8]) {
         model_rel_uncertainty: vec![0.05, f64::NAN],
         uncertainty_parts_lx: Vec::new(),
         generation: 1,
-        luminaire_flux_lm: vec![3000.0, 3000.0],
+        luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0); 2],
     };
     let Ok(mut node) = Node::new(model, NodeOptions::default()) else {
         panic!("the node refused a valid model");

@@ -1051,9 +1051,12 @@ fn the_published_control_figures_hold() {
     let bytes = std::fs::read(office_a_image()).unwrap();
     let img = luxnode::store::Image::parse(&bytes).unwrap();
     let ids: Vec<u32> = (0..img.sensors()).map(|k| img.sensor_id(k)).collect();
-    let power: Vec<LuminairePower> = (0..img.luminaires())
-        .map(|j| LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j)))
+    // the photometry file's wattage (60 W), as the node and the report take it
+    let power: Vec<LuminairePower> = luxnode::control::rating::rated_powers(&img)
+        .into_iter()
+        .map(LuminairePower::rated)
         .collect();
+    assert!(power.iter().all(|p| (p.full_w - 60.0).abs() < 1e-9));
     let people = luxnode::bench::control_day::read_people(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("bench/control/office_a_occupancy.csv"),

@@ -243,3 +243,61 @@ fn a_node_with_no_known_dimming_state_publishes_unknown_not_dark() {
         "{quality:?}"
     );
 }
+
+/// Issue 31 item 8: a luminaire's rated power is its photometry's wattage (the demo downlight
+/// declares 32 W), the same number in `control`, the report's schedule and the Modbus power
+/// points (before: control and Modbus took flux / 120 lm/W, 33.3 W, beside the report's file
+/// wattage).
+#[test]
+fn the_luminaire_wattage_is_one_number_in_control_report_and_modbus() {
+    need("mbpoll");
+    let image = demo_image();
+    let file_w = luxnode::sim::demo::LUMINAIRE_POWER_W;
+    let n = luxnode::sim::demo::demo_office().luminaires.len() as f64;
+    // control
+    let out = Command::new(LUXNODE)
+        .args(["control", "--image"])
+        .arg(&image)
+        .args(["--format", "json"])
+        .output()
+        .expect("run luxnode control");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("assumed"),
+        "no guess warning when the file has a wattage"
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("control json");
+    assert_eq!(json["all_on_w"].as_f64(), Some(n * file_w), "{json}");
+    // the report's schedule
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("integrator-power-report");
+    let out = Command::new(LUXNODE)
+        .args(["report", "--image"])
+        .arg(&image)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .expect("run luxnode report");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("results.json")).expect("results.json"))
+            .expect("results json");
+    let rows = results["luminaires"].as_array().expect("luminaires");
+    assert_eq!(rows.len() as f64, n);
+    for r in rows {
+        assert_eq!(r["power_w"].as_f64(), Some(file_w), "{r}");
+        assert_eq!(r["power_assumed"].as_bool(), Some(false), "{r}");
+    }
+    // Modbus: input 65-66, power with every luminaire at full
+    let node = serve_demo(&[]);
+    let all_on = mbpoll_read(&node, 66, 1, "3:float");
+    let w: f64 = all_on[0].parse().expect("float");
+    assert!((w - n * file_w).abs() < 1e-3, "{all_on:?}");
+}

@@ -262,7 +262,7 @@ mod daemon {
             model_rel_uncertainty: vec![f64::NAN; 4],
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
-            luminaire_flux_lm: vec![3000.0],
+            luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0)],
         };
         let node = Node::new(model, NodeOptions::default()).unwrap();
         let tracker =

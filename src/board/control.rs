@@ -6,7 +6,7 @@
 //! mode = "constant-light"      # "off" (default) | "constant-light" | "daylight-harvesting"
 //! target_lx = 500              # every desk (EN 12464-1 office work)
 //! desk_targets_lx = { "3" = 750, "5" = 300 }   # by desk (sensor) id
-//! rated_power_w = 60           # every luminaire at full; default: its flux / 120 lm/W
+//! rated_power_w = 60           # every luminaire at full; default: the photometry's wattage (flux / 120 lm/W without)
 //! standby_power_w = 0.3
 //! min_arc = 85                 # DALI physical minimum level
 //! fade_steps_per_s = 20

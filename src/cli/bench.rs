@@ -859,10 +859,9 @@ fn control_day(
     let img = Image::parse(&bytes)?;
     let ids: Vec<u32> = (0..img.sensors()).map(|k| img.sensor_id(k)).collect();
     let series = read_series(daylight, &ids)?;
-    let power: Vec<luxnode::control::LuminairePower> = (0..img.luminaires())
-        .map(|j| {
-            luxnode::control::LuminairePower::for_flux(img.payload.luminaire_flux_lm.f64_at(j))
-        })
+    let power: Vec<luxnode::control::LuminairePower> = luxnode::control::rating::rated_powers(&img)
+        .into_iter()
+        .map(luxnode::control::LuminairePower::rated)
         .collect();
     let targets = vec![target; ids.len()];
     let (rows, t) = run(&img, &power, &targets, &series, occupied_h, people)?;

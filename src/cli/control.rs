@@ -31,7 +31,7 @@ pub struct Args {
     /// Every desk at least this fraction of the mean desk illuminance (0..=1).
     #[arg(long)]
     uniformity: Option<f64>,
-    /// Rated power of every luminaire at full output, W [default: its flux / 120 lm/W].
+    /// Rated power of every luminaire at full output, W [default: the photometry file's wattage; its flux / 120 lm/W when the file has none].
     #[arg(long)]
     rated_power_w: Option<f64>,
     /// Standby power of a luminaire that is off, W.
@@ -89,9 +89,17 @@ pub fn run(a: &Args) -> Result<()> {
         let (id, lux) = id_lux(s, "--daylight")?;
         daylight[index(id, "--daylight")?] = lux;
     }
-    let power: Vec<LuminairePower> = (0..l)
-        .map(|j| {
-            let mut p = LuminairePower::for_flux(image.payload.luminaire_flux_lm.f64_at(j));
+    let ratings = luxnode::control::rating::rated_powers(&image);
+    if a.rated_power_w.is_none() {
+        let ids: Vec<u32> = (0..l).map(|j| image.luminaire_id(j)).collect();
+        if let Some(w) = luxnode::control::rating::assumed_warning(&ids, &ratings) {
+            eprintln!("warning: {w}");
+        }
+    }
+    let power: Vec<LuminairePower> = ratings
+        .iter()
+        .map(|&r| {
+            let mut p = LuminairePower::rated(r);
             if let Some(w) = a.rated_power_w {
                 p.full_w = w;
             }

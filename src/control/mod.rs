@@ -36,6 +36,7 @@
 //! 64 luminaires and 100 desks, about twenty times faster than `microlp` (docs/control.md).
 
 pub mod lp;
+pub mod rating;
 pub mod regulator;
 
 use core::fmt;
@@ -118,9 +119,15 @@ impl LuminairePower {
     /// The defaults for a luminaire of `flux_lm`: [`DEFAULT_EFFICACY_LM_PER_W`],
     /// [`DEFAULT_STANDBY_W`], [`DEFAULT_MIN_ARC`].
     pub fn for_flux(flux_lm: f64) -> Self {
+        Self::rated(rating::RatedPower::assumed(flux_lm))
+    }
+
+    /// A luminaire of a [`rating::RatedPower`], with [`DEFAULT_STANDBY_W`] and
+    /// [`DEFAULT_MIN_ARC`].
+    pub fn rated(r: rating::RatedPower) -> Self {
         Self {
-            full_w: (flux_lm / DEFAULT_EFFICACY_LM_PER_W).max(DEFAULT_STANDBY_W),
-            standby_w: DEFAULT_STANDBY_W,
+            full_w: r.full_w,
+            standby_w: DEFAULT_STANDBY_W.min(r.full_w),
             min_arc: DEFAULT_MIN_ARC,
         }
     }

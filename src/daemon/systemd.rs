@@ -151,7 +151,7 @@ mod tests {
             model_rel_uncertainty: vec![f64::NAN],
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
-            luminaire_flux_lm: vec![1000.0],
+            luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0)],
         };
         let node = Arc::new(Mutex::new(
             Node::new(

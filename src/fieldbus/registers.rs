@@ -135,7 +135,7 @@ mod tests {
             model_rel_uncertainty: vec![0.03, f64::NAN],
             uncertainty_parts_lx: Vec::new(),
             generation: 5,
-            luminaire_flux_lm: vec![1200.0; 3],
+            luminaire_power: vec![crate::control::rating::RatedPower::assumed(1200.0); 3],
         }
     }
 

@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 pub mod health;
 
 use crate::control::LuminairePower;
+use crate::control::rating::RatedPower;
 use crate::control::regulator::{Mode, Settings as RegulatorSettings};
 use crate::dali::{ArcLevel, DimmingCurve};
 use crate::modbus::access::{AccessPolicy, MAX_CLIENT_SETTINGS, Settings, Source};
@@ -52,8 +53,8 @@ pub struct NodeModel {
     pub uncertainty_parts_lx: Vec<f64>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
-    /// Rated flux per luminaire, lm (the power model's default).
-    pub luminaire_flux_lm: Vec<f64>,
+    /// Rated input power per luminaire (the power model's default, [`RatedPower`]).
+    pub luminaire_power: Vec<RatedPower>,
 }
 
 /// Why a node cannot serve a model.
@@ -112,9 +113,7 @@ impl NodeModel {
                 .as_ref()
                 .map_or_else(Vec::new, |live| live.uncertainty_parts_vec()),
             generation,
-            luminaire_flux_lm: (0..l)
-                .map(|j| image.payload.luminaire_flux_lm.f64_at(j))
-                .collect(),
+            luminaire_power: crate::control::rating::rated_powers(image),
         }
     }
 
@@ -184,8 +183,8 @@ pub struct ControlOptions {
     pub target_lx: f64,
     /// Targets of named desks (desk id, lx).
     pub desk_targets_lx: Vec<(u32, f64)>,
-    /// Rated power of every luminaire at full, W (`None`: its flux over
-    /// [`crate::control::DEFAULT_EFFICACY_LM_PER_W`]).
+    /// Rated power of every luminaire at full, W (`None`: each one's photometry wattage, or
+    /// its flux over [`crate::control::DEFAULT_EFFICACY_LM_PER_W`] where the file has none).
     pub rated_power_w: Option<f64>,
     /// Standby power of a luminaire that is off, W.
     pub standby_power_w: f64,
@@ -314,10 +313,10 @@ impl Node {
             let _ = map.control.met.push(NOT_AVAILABLE_U16);
         }
         let power: Vec<LuminairePower> = model
-            .luminaire_flux_lm
+            .luminaire_power
             .iter()
-            .map(|&f| {
-                let mut p = LuminairePower::for_flux(f);
+            .map(|&r| {
+                let mut p = LuminairePower::rated(r);
                 if let Some(w) = options.control.rated_power_w {
                     p.full_w = w;
                 }
@@ -326,6 +325,15 @@ impl Node {
                 p
             })
             .collect();
+        if options.control.rated_power_w.is_none() {
+            let warning = crate::control::rating::assumed_warning(
+                &model.luminaire_ids,
+                &model.luminaire_power,
+            );
+            if let Some(w) = warning {
+                tracing::warn!("control: {w}");
+            }
+        }
         map.control.all_on_w = power.iter().map(|p| p.full_w).sum();
         let now = Instant::now();
         let model_luminaires = model.luminaire_ids.len();
@@ -1015,7 +1023,7 @@ mod tests {
             model_rel_uncertainty: vec![f64::NAN; 2],
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
-            luminaire_flux_lm: vec![1000.0; 2],
+            luminaire_power: vec![RatedPower::assumed(1000.0); 2],
         }
     }
 

@@ -25,6 +25,8 @@ use super::camera_view::{self, ViewDesk, ViewOptions};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
 use super::task_points::{self, TaskPoint, covered};
+use crate::control::DEFAULT_EFFICACY_LM_PER_W;
+use crate::control::rating::{PowerSource, RatedPower};
 use crate::en12464::{self, Check, Rect, Requirement, Statistics};
 use crate::engine::dense::{DenseField, DenseImage, DenseSettings, Readings, SurfacePoint};
 use crate::image_geometry::Room;
@@ -136,8 +138,11 @@ pub struct LuminaireRow {
     pub luminaire: String,
     /// Flux at 100 %, lm.
     pub flux_lm: f64,
-    /// Input power, W (null when the file gives none).
+    /// Rated input power, W ([`crate::control::rating::RatedPower`]: the file's wattage,
+    /// or the assumed efficacy's guess when it gives none).
     pub power_w: Option<f64>,
+    /// The power is the assumed efficacy's guess, not the file's.
+    pub power_assumed: bool,
     /// Efficacy, lm/W.
     pub efficacy_lm_per_w: Option<f64>,
     /// Position, m.
@@ -634,7 +639,11 @@ fn luminaire_rows(room: &Room) -> Vec<LuminaireRow> {
         .iter()
         .map(|rec| {
             let ph = room.section.photometries.get(rec.photometry as usize);
-            let power = ph.map(|p| p.power_w).filter(|w| w.is_finite() && *w > 0.0);
+            let rated = match ph {
+                Some(p) => RatedPower::of(rec.flux_lm, p.power_w, p.file_flux_lm),
+                None => RatedPower::assumed(rec.flux_lm),
+            };
+            let power = Some(rated.full_w);
             LuminaireRow {
                 id: rec.id,
                 name: rec.name.clone(),
@@ -642,6 +651,7 @@ fn luminaire_rows(room: &Room) -> Vec<LuminaireRow> {
                 luminaire: ph.map(|p| p.luminaire.clone()).unwrap_or_default(),
                 flux_lm: rec.flux_lm,
                 power_w: power,
+                power_assumed: rated.source == PowerSource::AssumedEfficacy,
                 efficacy_lm_per_w: power.map(|w| rec.flux_lm / w),
                 position_m: rec.position_m,
                 opening_m: rec.opening_m,
@@ -1243,7 +1253,11 @@ fn html_tables(h: &mut String, x: &Results) {
             esc(&l.photometry_file),
             esc(&l.luminaire),
             l.flux_lm,
-            l.power_w.map_or("–".into(), |w| format!("{w:.1}")),
+            l.power_w.map_or("–".into(), |w| if l.power_assumed {
+                format!("{w:.1} (assumed: {DEFAULT_EFFICACY_LM_PER_W} lm/W, the file gives none)")
+            } else {
+                format!("{w:.1}")
+            }),
             l.efficacy_lm_per_w
                 .map_or("–".into(), |e| format!("{e:.0}")),
             l.position_m[0],

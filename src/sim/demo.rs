@@ -20,6 +20,8 @@ use crate::scene::{Camera, Desk, Desks, Luminaire, MeshBuilder, ObjReport, Scene
 pub const ROOM_M: [f64; 3] = [8.0, 6.0, 2.8];
 /// Flux of each luminaire, lm.
 pub const LUMINAIRE_FLUX_LM: f64 = 4000.0;
+/// Rated input power of each luminaire, W (a 125 lm/W LED downlight).
+pub const LUMINAIRE_POWER_W: f64 = 32.0;
 /// Desk top height, m.
 const DESK_Z_M: f64 = 0.75;
 
@@ -33,9 +35,11 @@ pub fn demo_photometry() -> IntensityDistribution {
         }
     });
     // The shape integrates to a positive flux, so scaling cannot fail; fall back to the shape.
-    shape
+    let mut d = shape
         .scaled_to_flux(LUMINAIRE_FLUX_LM)
-        .unwrap_or_else(|_| shape.clone())
+        .unwrap_or_else(|_| shape.clone());
+    d.meta.power_w = Some(LUMINAIRE_POWER_W);
+    d
 }
 
 /// Builds the demo office.

@@ -68,7 +68,7 @@ pub fn sample_node() -> Node {
         model_rel_uncertainty: vec![0.03, f64::NAN, 0.1, 0.1],
         uncertainty_parts_lx: Vec::new(),
         generation: 3,
-        luminaire_flux_lm: vec![1000.0; 3],
+        luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0); 3],
     };
     let options = NodeOptions {
         initial_arc: Some(200),
