@@ -86,6 +86,7 @@ pub fn modbus_rtu(data: &[u8]) {
         uncertainty_parts_lx: Vec::new(),
         generation: 1,
         luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0); 2],
+        point_names: Vec::new(),
     };
     let Ok(mut node) = Node::new(model, NodeOptions::default()) else {
         panic!("the node refused a valid model");

@@ -4,7 +4,7 @@ inputs per decoder, as small as they can be while reaching the decoder's whole s
 
 * modbus_pdu / modbus_rtu: a request of every supported function (RTU frames with their
   CRC-16/MODBUS), written here from the specification;
-* eulumdat, ies: the smallest files of ../shared/photometry (copied);
+* eulumdat, ies: the smallest files of reference/photometry (copied);
 * obj_mtl: a unit quad and its material (OBJ, NUL byte, MTL), written here;
 * scene_json: office_a's luminaires.json, sensors.json, desks.json, camera.json, each after its
   selector byte (0..3);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes tests/fixtures/small_office: a small scene in the format of ../shared/scenes/README.md,
+"""Writes tests/fixtures/small_office: a small scene in the format of docs/formats.md,
 so that tests which need *a* scene (not the Radiance truth) run without ../shared.
 
 Method: everything is constructed here, in closed form, with no other input.
@@ -13,7 +13,7 @@ Method: everything is constructed here, in closed form, with no other input.
   flux is a closed-form check.
 - Three sensors (desk centre, desk corner, floor near a wall), desks.json with a 0.25 m grid,
   camera.json (a 90 degree pinhole at the ceiling centre looking down), states.csv with three
-  scenarios. No truth.csv: the Radiance yardstick stays ../shared/scenes.
+  scenarios. No truth.csv: the Radiance yardstick stays reference/scenes.
 
 Run: python3 scripts/make-fixture-scene.py  (deterministic; rewrites the directory's files)
 """
@@ -208,8 +208,8 @@ def main():
     write_json()
     with open(os.path.join(OUT, "README.md"), "w") as f:
         f.write("# small_office: a test fixture\n\nWritten by `scripts/make-fixture-scene.py` (its docstring states the method).\n"
-                "Format: `../shared/scenes/README.md`. No Radiance truth: tests that compare with\n"
-                "Radiance use `../shared/scenes/office_a`.\n")
+                "Format: `docs/formats.md`. No Radiance truth: tests that compare with\n"
+                "Radiance use `reference/scenes/office_a`.\n")
     print("wrote", os.path.normpath(OUT))
 
 

@@ -3,7 +3,7 @@
 //! The software of a ceiling-mounted smart-lighting node that tells a building how much light
 //! falls on every desk, in lux, without a luxmeter on any desk. It follows RGBD2lux (Tsesmelis
 //! et al., WACV 2019) and corrects it where the paper is radiometrically loose (see
-//! `../shared/reference/physics.md`).
+//! `reference/physics.md`).
 //!
 //! ## Layers, and the one direction data flows
 //!
@@ -31,10 +31,10 @@
 //! | 0 | `units`, `layout`, `rng`, `host`, `en12464`, `sky` | no_std (`rng`, `host`, `en12464`: std) | the reflectance, validated once (other quantities are `f64` named with their unit); the `memory.x` regions; a seedable generator; facts of the host process; the rules of EN 12464-1 (grids, statistics, requirements); the sky for daylight coefficients: time, the sun's position, the Tregenza patches, the CIE standard skies |
 //! | 1 | `dali`, `solver` | no_std | DALI dimming curves (IEC 62386-102 logarithmic, -207 linear); the radiosity solve over any sparse system (Gauss-Seidel, f64) |
 //! | 2 | `store` | no_std core | the flash image (header + postcard payload), A/B slots on a flash device; image and flash files (std) |
-//! | 3 | `runtime`, `control`, `peripherals` | no_std core | the solver over stored data: desk lux for any dimming state from an image borrowed in place; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
+//! | 3 | `runtime`, `control`, `peripherals`, `points` | no_std core (`points`: std) | the solver over stored data: desk lux for any dimming state from an image borrowed in place; the measuring points' names (`desk 1 (S2)`, `floor S8`), one per sensor everywhere; lighting control: the least-power dimming state that meets every desk's target, and its loop; the sensor layer: ambient light sensor, calibration EEPROM, status LED on `embedded-hal` (Linux, simulated buses: std) |
 //! | 4 | `modbus` | no_std core | registers: Modbus wire format and register map (no_std); who may write and how each client reads (access), the settings clients wrote (std) |
 //! | 5 | `node`, `bacnet` | std (`bacnet`: no_std core) | the node's application state, whatever protocol reads it: model, levels, targets and control mode, ageing, daylight, live values, faults, health (its servers' counters through a trait, liveness); BACnet: BVLC/NPDU/APDU wire format and tagged encodings (no_std), the node's objects over the register snapshot, COV subscriptions, the PICS |
-//! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the BACnet/IP services and UDP server, the DALI gateway link and the lighting loop; the frame and datagram fuzzers (feature `sim`) |
+//! | 6 | `fieldbus` | std | protocol adapters over the node: Modbus requests onto it, the TCP/TLS/RTU servers (each with its counters), the BACnet/IP services and UDP server, the DALI gateway link and the lighting loop; the frame and datagram fuzzers (feature `sim`); the integrator's points list (Modbus and BACnet) |
 //! | 7 | `photometry`, `lsc`, `live`, `occupancy` | std | EULUMDAT / IES LM-63 into one intensity distribution; the desk sensor (luxmeter) model: LSC, cosine error f2; live light at run time: the cameras' frames into measured desk lux, daylight, occlusion, ageing, from the stored image alone; occupancy at run time: who is at which desk, from a depth frame against the commissioned depth |
 //! | 8 | `scene` | std | scene input: OBJ/MTL geometry, luminaires, sensors, desks, camera; validation; scenarios and truth |
 //! | 9 | `evaluate`, `camera` | std | accuracy against a reference; sensors: the ToF and luminance cameras (replay, A010, V4L2), registration, capture sets, the capture sequence |
@@ -143,6 +143,8 @@ pub mod scene;
 pub mod board;
 #[cfg(feature = "std")]
 pub mod daemon;
+#[cfg(feature = "std")]
+pub mod points;
 #[cfg(feature = "std")]
 pub mod preset;
 #[cfg(feature = "std")]

@@ -22,7 +22,7 @@ struct Cli {
 enum Command {
     /// Summarise a photometric file (EULUMDAT .ldt or IES .ies).
     Photometry(cli::photometry::Args),
-    /// Scene directories (the format of ../shared/scenes/README.md).
+    /// Scene directories (the format of docs/formats.md).
     Scene {
         #[command(subcommand)]
         command: cli::scene::Command,
@@ -62,6 +62,9 @@ enum Command {
     Live(Box<cli::live::Args>),
     /// Run the node on a board.
     Run(Box<cli::run::Args>),
+    /// The integrator's points list: every published value with its point, unit, Modbus
+    /// address and type, and BACnet object (CSV, JSON, or BACnet EDE).
+    Points(Box<cli::points::Args>),
     /// The commissioning report of an image: report.html (self-contained) and results.json.
     #[cfg(feature = "report")]
     Report(Box<cli::report::Args>),
@@ -93,6 +96,7 @@ fn main() -> ExitCode {
         Command::Control(a) => cli::control::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Live(a) => cli::live::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Run(a) => cli::run::run(&a),
+        Command::Points(a) => cli::points::run(&a).map(|()| ExitCode::SUCCESS),
         #[cfg(feature = "report")]
         Command::Report(a) => cli::report::run(&a).map(|()| ExitCode::SUCCESS),
         Command::Hw { command } => cli::hw::run(&command).map(|()| ExitCode::SUCCESS),

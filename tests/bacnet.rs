@@ -71,6 +71,38 @@ fn serve(extra: &[&str]) -> Node {
     }
 }
 
+/// The Object_Name `luxnode points` lists for BACnet object `table`,`instance` of the office.
+fn points_list_object_name(table: &str, instance: u64) -> String {
+    let out = Command::new(LUXNODE)
+        .args([
+            "points",
+            "--format",
+            "json",
+            "--bacnet-device-id",
+            "4321",
+            "--image",
+        ])
+        .arg(office_image())
+        .output()
+        .expect("run luxnode points");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).expect("points json");
+    let row = v["values"]
+        .as_array()
+        .and_then(|rows| {
+            rows.iter().find(|r| {
+                r["protocol"] == "bacnet" && r["table"] == table && r["address"] == instance
+            })
+        })
+        .cloned()
+        .unwrap_or_default();
+    row["object_name"].as_str().unwrap_or_default().to_owned()
+}
+
 fn python() -> String {
     std::env::var("LUXNODE_PYTHON").unwrap_or_else(|_| "python3".into())
 }
@@ -160,14 +192,10 @@ fn who_is_finds_the_device_in_and_only_in_its_range() {
 #[test]
 fn who_has_by_identifier_and_by_name_is_answered_with_the_right_i_have() {
     let node = serve(&["--arc", "254"]);
-    // desk 1's id from Modbus (input 501): its total's Analog Input is named after it
-    let desk_id = rt().block_on(async {
-        let mut c = tokio_modbus::client::tcp::connect_slave(node.proc.addr, Slave(1))
-            .await
-            .expect("connect");
-        c.read_input_registers(501, 1).await.unwrap().unwrap()[0]
-    });
-    let name = format!("desk {desk_id} illuminance");
+    // the second point's total Analog Input is named after the point (`luxnode points`)
+    let name = points_list_object_name("analog-input", 1);
+    // office_a's sensor 2 stands on desk 1 (its sensors.json note says so)
+    assert_eq!(name, "desk 1 (S2) illuminance");
     let only = |q: &[&str]| {
         let mut args = vec!["whohas", "--low", "4321", "--high", "4321"];
         args.extend_from_slice(q);
@@ -245,7 +273,7 @@ fn every_desk_reads_what_modbus_and_the_runtime_give() {
         assert!(
             ai["object-name"]
                 .as_str()
-                .is_some_and(|n| n.starts_with("desk "))
+                .is_some_and(|n| n.ends_with(" illuminance"))
         );
         // artificial = total without live light; the daylight is not known: NaN, flagged
         let art = object(&read, &format!("analog-input,{}", 200 + k));

@@ -301,3 +301,65 @@ fn the_luminaire_wattage_is_one_number_in_control_report_and_modbus() {
     let w: f64 = all_on[0].parse().expect("float");
     assert!((w - n * file_w).abs() < 1e-3, "{all_on:?}");
 }
+
+/// Issue 31 item 3: `luxnode points` lists every published value with its point's name and
+/// address; mbpoll, reading each listed id register at the listed address, gets the listed
+/// point's sensor id and luminaire id, and each listed float reads as one.
+#[test]
+fn the_points_list_addresses_are_the_ones_the_node_serves() {
+    need("mbpoll");
+    let image = demo_image();
+    let out = Command::new(LUXNODE)
+        .args(["points", "--format", "json", "--image"])
+        .arg(&image)
+        .output()
+        .expect("run luxnode points");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("points json");
+    let rows = v["values"].as_array().cloned().unwrap_or_default();
+    let points = v["points"].as_array().cloned().unwrap_or_default();
+    // the demo office: 6 sensors on its 6 desks and one on the floor, named for it
+    let names: Vec<&str> = points.iter().filter_map(|p| p["name"].as_str()).collect();
+    assert_eq!(names.len(), 7, "{names:?}");
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("desk ")).count(),
+        6,
+        "{names:?}"
+    );
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("floor S")).count(),
+        1,
+        "{names:?}"
+    );
+    let node = serve_demo(&["--arc", "254"]);
+    let mut checked = 0;
+    for r in &rows {
+        let q = r["quantity"].as_str().unwrap_or_default();
+        let reference = (r["address"].as_u64().unwrap_or(u64::MAX) + 1) as u16;
+        let expect = match q {
+            "desk id" => r["sensor_id"].as_u64(),
+            "luminaire id" => r["luminaire_id"].as_u64(),
+            _ => None,
+        };
+        if let Some(id) = expect {
+            let got = mbpoll_read(&node, reference, 1, "3");
+            assert_eq!(got, vec![id.to_string()], "{r}");
+            checked += 1;
+        }
+        if q == "desk lux (float)" {
+            let got = mbpoll_read(&node, reference, 1, "3:float");
+            let lx: f64 = got[0].parse().unwrap_or(f64::NAN);
+            assert!(lx > 50.0, "{r}: {got:?}");
+            checked += 1;
+        }
+    }
+    assert_eq!(
+        checked,
+        7 + 6 + 7,
+        "every desk id, luminaire id and desk float"
+    );
+}

@@ -3,7 +3,7 @@
 //! - the open-plan zone of `scenes/open_plan_nodes` (12 × 7 m, 8 luminaires, 8 desks and a
 //!   cabinet, two ceiling nodes), whose capture sets and truth `bench/radiance/open_plan_nodes.py`
 //!   rendered with Radiance;
-//! - the reference office `../shared/scenes/office_a` (its own capture and truth), with the
+//! - the reference office `reference/scenes/office_a` (its own capture and truth), with the
 //!   capture sets of other cameras that `bench/radiance/office_a_nodes.py` rendered with
 //!   Radiance from office_a's own Radiance scene (`scenes/office_a_nodes`).
 //!

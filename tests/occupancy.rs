@@ -263,6 +263,7 @@ mod daemon {
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0)],
+            point_names: Vec::new(),
         };
         let node = Node::new(model, NodeOptions::default()).unwrap();
         let tracker =
@@ -296,6 +297,7 @@ mod daemon {
             daylight: None,
             device: &device,
             cov_increments: &inc,
+            points: &[],
         };
         let r = v.reading(Kind::DeskOccupancy, k);
         (r.value, r.reliability, r.status_flags())
@@ -531,11 +533,7 @@ mod daemon {
             assert_eq!(o["object-type"], 3, "{o}");
             assert_eq!(o["active-text"], "Occupied", "{o}");
             assert_eq!(o["inactive-text"], "Vacant", "{o}");
-            assert_eq!(
-                o["object-name"],
-                format!("desk {} occupancy", 11 + k),
-                "{o}"
-            );
+            assert_eq!(o["object-name"], format!("S{} occupancy", 11 + k), "{o}");
         }
         assert!(bi(4).is_null(), "{v}");
     }

@@ -13,7 +13,7 @@ fn load(rel: &str) -> IntensityDistribution {
 
 #[test]
 fn ies_lab_files_match_photometric_toolbox_flux() {
-    // ../shared/photometry/README.md: reference flux by Photometric Toolbox; tolerance 0.5 %.
+    // reference/photometry/README.md: reference flux by Photometric Toolbox; tolerance 0.5 %.
     let reference = [
         ("1.ies", 9217.18, Symmetry::Quadrant),
         ("2.ies", 5834.2, Symmetry::AboutC0C180),

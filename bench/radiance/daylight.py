@@ -3,7 +3,7 @@
 and a sky outside, rendered by Radiance: a commissioning capture taken in daylight (with the
 all-off frame), the components of live frames, and the truth at the sensors.
 
-The variant (--write). office_a (../../../shared/scenes/office_a) unchanged except:
+The variant (--write). office_a (reference/scenes/office_a) unchanged except:
   * window_1 (wall_n, x 1..5 m, z 0.9..2.4 m, 6 m^2) is clear glazing: in Radiance a `glass` pane
     (transmissivity 0.96, i.e. 88 % transmittance at normal incidence) in an opening of wall_n,
     the sky and ground (gensky) outside; in the luxnode scene a surface of diffuse reflectance
@@ -38,7 +38,7 @@ Assembly (--assemble), 16-bit PNGs in the capture-set encoding (value * gain = c
   * live/: lum_L<k>.png, sky_<id>.png at their own gains (components.csv), depth.png (exact).
 Values are rounded and clipped at 65535 (saturated), as a camera would.
 
-Truth (--truth). `rtrace -I` at the sensors, the method of ../../../shared/scenes/README.md at
+Truth (--truth). `rtrace -I` at the sensors, the method of docs/formats.md at
 reduced cost: no irradiance cache (-aa 0), -ab 10 -ad 4096 -lw 5e-5 (skies: -ad 8192), every
 source shadow-tested, sources subdivided (-ds 0.05 -dj 1); `--seeds` passes averaged, their
 standard error reported. live/truth.csv: component,sensor_id,lux,lux_stderr for every component
@@ -80,7 +80,7 @@ except ImportError:  # pragma: no cover
     sys.exit("pyradiance is not installed: pip install pyradiance")
 
 BIN = Path(pyradiance.BINPATH)
-SRC = Path("/work/shared/scenes/office_a")
+SRC = Path(__file__).resolve().parents[2] / "reference/scenes/office_a"
 OUT = Path(__file__).resolve().parents[2] / "scenes" / "office_a_daylight"
 EFFICACY = 179.0
 RGB_Y = (0.265, 0.670, 0.065)

@@ -3,7 +3,7 @@
 `luxnode bench control-day --daylight CSV` (docs/control.md).
 
 Method:
-  * The room is office_a (`/work/shared/scenes/office_a/radiance/`) with every luminaire off
+  * The room is office_a (`reference/scenes/office_a/radiance/`) with every luminaire off
     (`lum_off_*.rad`). Its window (x 1..5 m, z 0.9..2.4 m in wall_n, y = 7.2 m) becomes a
     real opening: wall_n is rebuilt around it and the pane is Radiance `glass` of normal
     transmittance 0.65 (clear double glazing). The wall has no thickness; nothing outside
@@ -47,7 +47,7 @@ XFORM = str(BINPATH / "xform")
 OCONV = str(BINPATH / "oconv")
 RTRACE = str(BINPATH / "rtrace")
 
-DEFAULT_SCENE = Path("/work/shared/scenes/office_a")
+DEFAULT_SCENE = Path(__file__).resolve().parents[2] / "reference/scenes/office_a"
 LUMINOUS_EFFICACY = 179.0  # lm/W, Radiance's WHTEFFICACY
 RGB_TO_Y = (0.265, 0.670, 0.065)
 LATITUDE, LONGITUDE_E, MERIDIAN_E = 47.4, 8.5, 15.0

@@ -50,7 +50,7 @@ BINPATH = Path(pyradiance.BINPATH)
 OCONV = str(BINPATH / "oconv")
 RTRACE = str(BINPATH / "rtrace")
 
-DEFAULT_SCENE = Path("/work/shared/scenes/office_a")
+DEFAULT_SCENE = Path(__file__).resolve().parents[2] / "reference/scenes/office_a"
 LUMINOUS_EFFICACY = 179.0  # lm/W, Radiance's WHTEFFICACY
 RGB_TO_Y = (0.265, 0.670, 0.065)  # Radiance's standard RGB luminance weights
 # A point far outside the closed room, facing up: its ambient samples escape and its

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """office_a seen by other cameras (scenes/office_a_nodes/): capture sets of the reference office
-../../../shared/scenes/office_a rendered by Radiance for cameras its capture does not have, so
+reference/scenes/office_a rendered by Radiance for cameras its capture does not have, so
 docs/commissioning.md can give office_a's errors with and without a fisheye and with one and
 two nodes (issue 18). The scene, its Radiance files and its truth are office_a's own (read from
 the shared directory, never copied or changed).
@@ -34,7 +34,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from open_plan_nodes import FISHEYE_K, GAIN, assemble_set, render_frame  # noqa: E402
 
-SRC = Path("/work/shared/scenes/office_a")
+SRC = Path(__file__).resolve().parents[2] / "reference/scenes/office_a"
 RAD = SRC / "radiance"
 OUT = Path(__file__).resolve().parents[2] / "scenes" / "office_a_nodes"
 LUMINAIRES = list(range(1, 9))

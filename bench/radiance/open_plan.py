@@ -8,7 +8,7 @@ x 3.33 m), their openings 3 mm below the ceiling like office_a's; 40 desks (1.6 
 0.75 m, rho 0.50, 30 mm thick slabs) in 10 islands of 4; four 1.5 m high screens (rho 0.40,
 40 mm thick) between islands; 8 desk-top luxmeters (ideal cosine, facing up).
 
-Method of the truth (that of ../../../shared/scenes/README.md, at reduced cost for 60 sources):
+Method of the truth (that of docs/formats.md, at reduced cost for 60 sources):
 Radiance `rtrace -I` without irradiance cache (-aa 0), -ab 8 -ad 2048 -lw 1e-4, every source
 shadow-tested (-dt 0 -dc 1), sources subdivided (-ds 0.05 -dj 1), `--seeds` passes averaged
 (standard error reported). The luminaire is office_a's ies2rad output (flatcorr, luminaire.dat).

@@ -26,12 +26,12 @@ daylight.py's --fast irradiance-cache settings (-ab 7 -ad 512 -as 128 -aa 0.15 -
 -ds 0.05 -dj 0.7 -dt 0); depth = first-hit distance (-oL) projected on the optical axis.
 One rendering per camera and luminaire (luminaire k alone at 100 %).
 
-Assembly (--assemble). Capture sets in the format of ../../../shared/scenes/README.md:
+Assembly (--assemble). Capture sets in the format of docs/formats.md:
 pinhole_a/, pinhole_b/, fisheye_a/, fisheye_b/, each camera.json (gain 0.02 cd/m^2 per unit),
 depth_000..002.png with office_a's ToF error model (1 % range noise, flying pixels at depth
 edges, 0.5 % dropouts; seeded) and luminance_L<k>.png (16-bit, rounded, clipped at 65535).
 
-Truth (--truth). `rtrace -I` at the sensors, the method of ../../../shared/scenes/README.md at
+Truth (--truth). `rtrace -I` at the sensors, the method of docs/formats.md at
 reduced cost: no irradiance cache (-aa 0), -ab 10 -ad 4096 -lw 5e-5, every source
 shadow-tested (-dt 0 -dc 1), sources subdivided (-ds 0.05 -dj 1), `--seeds` passes averaged;
 one luminaire at a time (Radiance is linear in its sources), each scenario the sum; the direct

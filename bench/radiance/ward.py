@@ -7,7 +7,7 @@ of the ceiling with emittance 31.416 W/m^2 (radiance 10 W/m^2/sr), reflectance 0
 ceiling 0.70, walls 0.50, floor 0.30, all Lambertian. Points on a 0.5 grid starting 0.25 from
 the corner; by symmetry one quarter (x <= 5, y <= 3) is enough.
 
-Method (the one of ../../../shared/scenes/README.md): `rtrace -I` without irradiance cache
+Method (the one of docs/formats.md): `rtrace -I` without irradiance cache
 (-aa 0), 4096 first-bounce samples, 12 bounces (-ab 12 -lw 5e-5), every source shadow-tested,
 the source subdivided (-ds 0.05 -dj 1); `--seeds` passes in one rtrace process, averaged (each
 pass continues the random stream). Irradiance E [W/m^2] at the point, facing into the room;

@@ -61,7 +61,8 @@ pub struct ObjectClass {
     pub base: u32,
     /// Engineering units (None for the Device).
     pub units: Option<u32>,
-    /// Object_Name pattern (`{id}`: the desk's or luminaire's id).
+    /// Object_Name pattern (`{point}`: the point's name, [`crate::points`]; `{id}`: the
+    /// luminaire's id).
     pub name: &'static str,
     /// What Present_Value is, for the PICS.
     pub meaning: &'static str,
@@ -85,7 +86,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::ANALOG_INPUT,
         base: 0,
         units: Some(units::LUXES),
-        name: "desk {id} illuminance",
+        name: "{point} illuminance",
         meaning: "total illuminance on desk k: the live total when live light runs, else the model's value for the dimming state (Modbus input 100 + 2k)",
         writable: false,
     },
@@ -94,7 +95,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::ANALOG_INPUT,
         base: 100,
         units: Some(units::LUXES),
-        name: "desk {id} daylight",
+        name: "{point} daylight",
         meaning: "daylight part (live light, else the lighting control's fresh estimate; NaN and unreliable-other when neither has one)",
         writable: false,
     },
@@ -103,7 +104,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::ANALOG_INPUT,
         base: 200,
         units: Some(units::LUXES),
-        name: "desk {id} artificial",
+        name: "{point} artificial",
         meaning: "the luminaires' part (live light, else the model's value)",
         writable: false,
     },
@@ -112,7 +113,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::ANALOG_INPUT,
         base: 300,
         units: Some(units::LUXES),
-        name: "desk {id} uncertainty",
+        name: "{point} uncertainty",
         meaning: "stated standard uncertainty of the total (live light, else the image's relative uncertainty × the value; NaN and unreliable-other when not stated)",
         writable: false,
     },
@@ -130,7 +131,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::ANALOG_VALUE,
         base: 1000,
         units: Some(units::LUXES),
-        name: "desk {id} target",
+        name: "{point} target",
         meaning: "desk k's lighting-control target, 0..=10000 lx, whole lux (Modbus holding 2100 + k; persisted)",
         writable: true,
     },
@@ -139,7 +140,7 @@ pub const TABLE: &[ObjectClass] = &[
         object_type: ot::BINARY_INPUT,
         base: 0,
         units: None,
-        name: "desk {id} occupancy",
+        name: "{point} occupancy",
         meaning: "desk k occupied (active, \"Occupied\") or vacant (inactive, \"Vacant\") after the hold time; unknown: inactive with the fault flag (Modbus input 4600 + k); only when the node has occupancy (a depth camera and an image with desks)",
         writable: false,
     },
@@ -340,6 +341,8 @@ pub struct View<'a> {
     pub device: &'a DeviceInfo,
     /// COV_Increment written by clients, by object.
     pub cov_increments: &'a HashMap<ObjectId, f64>,
+    /// Each desk's point name ([`crate::points`]; `S<id>` where missing).
+    pub points: &'a [String],
 }
 
 impl View<'_> {
@@ -391,9 +394,14 @@ impl View<'_> {
     pub fn name(&self, class: &ObjectClass, index: usize) -> String {
         match class.kind {
             Kind::Device => self.device.name.clone(),
-            _ => class
-                .name
-                .replace("{id}", &self.owner_id(class.kind, index).to_string()),
+            _ => {
+                let id = self.owner_id(class.kind, index);
+                let point = match self.points.get(index) {
+                    Some(p) if class.kind != Kind::LuminaireLevel => p.clone(),
+                    _ => format!("S{id}"),
+                };
+                object_name(class.name, &point, id)
+            }
         }
     }
 
@@ -517,12 +525,18 @@ impl View<'_> {
                 u32::from(addr::ARC_LEVEL) + index as u32
             ),
             _ => format!(
-                "{} (desk {})",
-                class
-                    .name
-                    .replace("{id}", &self.owner_id(class.kind, index).to_string()),
+                "{} (sensor {}, Modbus desk index {index})",
+                self.name(class, index),
                 self.owner_id(class.kind, index)
             ),
         }
     }
+}
+
+/// A desk object's Object_Name: its pattern with the point's name (`{point}`) and sensor id
+/// (`{id}`).
+pub fn object_name(pattern: &str, point: &str, id: u32) -> String {
+    pattern
+        .replace("{point}", point)
+        .replace("{id}", &id.to_string())
 }

@@ -159,7 +159,9 @@ pub fn markdown() -> String {
     let _ = writeln!(
         s,
         "k = desk index, j = luminaire index, both from 0 in the image's order (as in the Modbus\n\
-         map); `{{id}}` is the desk's or luminaire's id. No object can be created or deleted.\n"
+         map); `{{point}}` is the measuring point's name, the same in the report and the points\n\
+         list (`desk 1 (S2)`: sensor 2 on desk 1; `floor S8`; `S9`: on neither; `luxnode points`),\n\
+         `{{id}}` the luminaire's id. No object can be created or deleted.\n"
     );
     let _ = writeln!(
         s,

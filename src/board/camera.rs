@@ -22,7 +22,7 @@
 //! tilt_deg = 0.0            # optional tilt of the optical axis about the camera's x axis
 //! position_m = [2.0, 3.0, 2.78]  # optional: the camera's place in the room (one of several nodes)
 //! [camera.replay]
-//! dir = "../../../shared/scenes/office_a/capture_clean"
+//! dir = "reference/scenes/office_a/capture_clean"
 //! [camera.tof]              # source = "hardware"
 //! driver = "a010"
 //! device = "/dev/ttyUSB0"

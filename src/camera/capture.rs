@@ -1,4 +1,4 @@
-//! A capture set on disk (format in `../shared/scenes/README.md`, extended in `docs/cameras.md`):
+//! A capture set on disk (format in `docs/formats.md`, extended in `docs/cameras.md`):
 //! `camera.json`, `depth_NNN.png` (16-bit, mm along the optical axis, 0 = no return),
 //! `luminance_L<k>.png` (16-bit linear, one luminaire on) and, optionally, `luminance_off.png`
 //! (every luminaire off: the daylight and any other light during the capture, in the same

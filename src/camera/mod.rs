@@ -5,7 +5,7 @@
 //! | driver | module | what it is |
 //! |---|---|---|
 //! | simulated | `crate::sim::camera` (feature `sim`) | renders depth and luminance of a scene with the project's own ray caster and engine; seeded ToF noise |
-//! | replay | [`replay`] | serves a recorded capture directory (`../shared/scenes/README.md`) |
+//! | replay | [`replay`] | serves a recorded capture directory (`docs/formats.md`) |
 //! | Sipeed MaixSense A010 | [`a010`] | ToF over serial / USB-CDC: AT commands, framed packets with checksum, resynchronising parser |
 //! | V4L2 | [`v4l2`], [`stream`] | a UVC/CSI colour camera on Linux (YUYV or GREY, sRGB decoded to linear luminance) or a depth camera (Z16), streaming I/O with mmap buffers; a recorded stream replayed behind the same device interface |
 //! | registration | [`register`] | resamples colour frames of another camera (size, intrinsics, baseline) onto the ToF grid |

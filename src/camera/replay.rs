@@ -1,4 +1,4 @@
-//! Replay of a recorded capture directory (format: `../shared/scenes/README.md`) as the two
+//! Replay of a recorded capture directory (format: `docs/formats.md`) as the two
 //! cameras and the light control.
 //!
 //! The depth camera serves `depth_000.png`, `depth_001.png`, ... in turn (and starts over). The

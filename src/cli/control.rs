@@ -89,25 +89,7 @@ pub fn run(a: &Args) -> Result<()> {
         let (id, lux) = id_lux(s, "--daylight")?;
         daylight[index(id, "--daylight")?] = lux;
     }
-    let ratings = luxnode::control::rating::rated_powers(&image);
-    if a.rated_power_w.is_none() {
-        let ids: Vec<u32> = (0..l).map(|j| image.luminaire_id(j)).collect();
-        if let Some(w) = luxnode::control::rating::assumed_warning(&ids, &ratings) {
-            eprintln!("warning: {w}");
-        }
-    }
-    let power: Vec<LuminairePower> = ratings
-        .iter()
-        .map(|&r| {
-            let mut p = LuminairePower::rated(r);
-            if let Some(w) = a.rated_power_w {
-                p.full_w = w;
-            }
-            p.standby_w = a.standby_power_w;
-            p.min_arc = a.min_arc;
-            p
-        })
-        .collect();
+    let power = luminaire_power(&image, a);
     if let Some(p) = power.iter().find(|p| {
         !(p.full_w.is_finite()
             && p.full_w >= p.standby_w
@@ -218,4 +200,31 @@ pub fn run(a: &Args) -> Result<()> {
         dt.as_secs_f64() * 1e6
     );
     Ok(())
+}
+
+/// Each luminaire's power model: its rated power ([`luxnode::control::rating`]; a warning when
+/// it is the assumed efficacy's guess) unless `--rated-power-w` sets every one, with the
+/// standby and minimum level of the arguments.
+fn luminaire_power(image: &Image<'_>, a: &Args) -> Vec<LuminairePower> {
+    let ratings = luxnode::control::rating::rated_powers(image);
+    if a.rated_power_w.is_none() {
+        let ids: Vec<u32> = (0..image.luminaires())
+            .map(|j| image.luminaire_id(j))
+            .collect();
+        if let Some(w) = luxnode::control::rating::assumed_warning(&ids, &ratings) {
+            eprintln!("warning: {w}");
+        }
+    }
+    ratings
+        .iter()
+        .map(|&r| {
+            let mut p = LuminairePower::rated(r);
+            if let Some(w) = a.rated_power_w {
+                p.full_w = w;
+            }
+            p.standby_w = a.standby_power_w;
+            p.min_arc = a.min_arc;
+            p
+        })
+        .collect()
 }

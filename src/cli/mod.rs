@@ -15,6 +15,7 @@ pub mod live;
 pub mod logging;
 pub mod modbus;
 pub mod photometry;
+pub mod points;
 #[cfg(feature = "report")]
 pub mod report;
 pub mod run;

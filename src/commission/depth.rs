@@ -7,7 +7,7 @@
 //!    depth: a pixel keeps its depth only when at least [`DepthOptions::min_agreeing`] of its 8
 //!    neighbours lie within [`DepthOptions::edge_rel`] (relative) of it.
 //!
-//! Back-projection (`../shared/scenes/README.md`): the pixel (u, v) at depth z (along the
+//! Back-projection (`docs/formats.md`): the pixel (u, v) at depth z (along the
 //! optical axis) is `p_camera = z d / d_z` for the unit ray d of the pixel (the pinhole's
 //! `z ((u − cx)/fx, (v − cy)/fy, 1)`; a fisheye's per [`crate::scene::Lens`]), `p_world =
 //! position + world_from_camera · p_camera`.

@@ -152,6 +152,7 @@ mod tests {
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0)],
+            point_names: Vec::new(),
         };
         let node = Arc::new(Mutex::new(
             Node::new(

@@ -16,6 +16,7 @@
 pub mod bacnet;
 pub mod gateway;
 pub mod lighting;
+pub mod points;
 pub mod registers;
 pub mod rtu;
 pub mod tcp;

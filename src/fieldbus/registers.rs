@@ -136,6 +136,7 @@ mod tests {
             uncertainty_parts_lx: Vec::new(),
             generation: 5,
             luminaire_power: vec![crate::control::rating::RatedPower::assumed(1200.0); 3],
+            point_names: Vec::new(),
         }
     }
 

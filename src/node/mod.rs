@@ -55,6 +55,8 @@ pub struct NodeModel {
     pub generation: u64,
     /// Rated input power per luminaire (the power model's default, [`RatedPower`]).
     pub luminaire_power: Vec<RatedPower>,
+    /// Each sensor's point name ([`crate::points`]: `desk 1 (S2)`, `floor S8`; empty: `S<id>`).
+    pub point_names: Vec<String>,
 }
 
 /// Why a node cannot serve a model.
@@ -114,6 +116,10 @@ impl NodeModel {
                 .map_or_else(Vec::new, |live| live.uncertainty_parts_vec()),
             generation,
             luminaire_power: crate::control::rating::rated_powers(image),
+            point_names: crate::points::points_of(image)
+                .into_iter()
+                .map(|p| p.name)
+                .collect(),
         }
     }
 
@@ -1024,6 +1030,7 @@ mod tests {
             uncertainty_parts_lx: Vec::new(),
             generation: 1,
             luminaire_power: vec![RatedPower::assumed(1000.0); 2],
+            point_names: Vec::new(),
         }
     }
 

@@ -1,4 +1,4 @@
-//! Scene input: what a room is, as files (format in `../shared/scenes/README.md`).
+//! Scene input: what a room is, as files (format in `docs/formats.md`).
 //!
 //! | file | required | read into |
 //! |---|---|---|

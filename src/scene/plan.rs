@@ -1,4 +1,4 @@
-//! The room plan (`room.json`, format `luxnode-room-plan/1`, `../shared/scenes/README.md`):
+//! The room plan (`room.json`, format `luxnode-room-plan/1`, `docs/formats.md`):
 //! what a commissioning engineer types from the building's floor plan for the parts of the room
 //! the ceiling cameras may not see. The outline polygon, the floor and ceiling heights, glazed
 //! windows with their transmittance, opaque doors, the site (latitude, longitude, north) and

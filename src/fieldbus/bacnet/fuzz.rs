@@ -69,6 +69,7 @@ pub fn sample_node() -> Node {
         uncertainty_parts_lx: Vec::new(),
         generation: 3,
         luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0); 3],
+        point_names: Vec::new(),
     };
     let options = NodeOptions {
         initial_arc: Some(200),

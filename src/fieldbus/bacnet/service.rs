@@ -166,6 +166,7 @@ fn view<'a>(node: &'a Node, config: &'a ServerConfig, inc: &'a HashMap<ObjectId,
         daylight: node.fresh_daylight(),
         device: &config.device,
         cov_increments: inc,
+        points: &node.model().point_names,
     }
 }
 

@@ -518,17 +518,17 @@ fn who_has_is_answered_with_i_have_only_for_objects_the_node_has() {
         (h.device, h.object, h.name.to_owned())
     };
     let dev = ObjectId::new(ot::DEVICE, 1234);
-    // by name: desk 9 is desk index 1 (sensor ids 7, 9, 11, 13)
+    // by name: sensor 9 is desk index 1 (sensor ids 7, 9, 11, 13; no geometry: named S<id>)
     let a = ask(
         &mut s,
         &mut node,
         peer(),
-        &who_has(None, Wanted::Name("desk 9 daylight")),
+        &who_has(None, Wanted::Name("S9 daylight")),
     );
     let want = (
         dev,
         ObjectId::new(ot::ANALOG_INPUT, 101),
-        "desk 9 daylight".into(),
+        "S9 daylight".into(),
     );
     assert_eq!(i_have(&a[0]), want);
     // by identifier, inside the range; the Device by its own identifier
@@ -539,7 +539,7 @@ fn who_has_is_answered_with_i_have_only_for_objects_the_node_has() {
         peer(),
         &who_has(Some((1234, 1234)), Wanted::Id(bi)),
     );
-    assert_eq!(i_have(&a[0]), (dev, bi, "desk 13 occupancy".into()));
+    assert_eq!(i_have(&a[0]), (dev, bi, "S13 occupancy".into()));
     let a = ask(&mut s, &mut node, peer(), &who_has(None, Wanted::Id(dev)));
     assert_eq!(i_have(&a[0]), (dev, dev, "fuzz 1234".into()));
     // silence: outside the range, an object or name the node does not have, the Device's
