@@ -9,6 +9,7 @@ pub mod plot;
 pub mod report;
 pub mod task_points;
 pub mod text;
+pub mod ugr;
 
 use std::path::Path;
 
