@@ -322,9 +322,27 @@ fn report_opens_in_a_browser_with_every_picture() {
         assert!(html.contains(&format!("{m:.0}")));
     }
     assert!(
-        json["pass"].as_bool().unwrap(),
+        json["desks_pass"].as_bool().unwrap(),
         "office_a's desks meet EN 12464-1"
     );
+    // the overall verdict: every checked requirement, and the reasons on the first screen
+    let rows = json["requirements"].as_array().unwrap();
+    assert!(
+        rows.iter()
+            .any(|r| r["what"].as_str().unwrap().starts_with("UGR"))
+    );
+    let all_pass = rows.iter().all(|r| r["pass"].as_bool() != Some(false));
+    assert_eq!(json["pass"].as_bool().unwrap(), all_pass);
+    let verdict =
+        &html[html.find("id=\"verdict\"").unwrap()..html.find("id=\"requirements\"").unwrap()];
+    for why in json["fails_because"].as_array().unwrap() {
+        let escaped = why
+            .as_str()
+            .unwrap()
+            .replace('<', "&lt;")
+            .replace('>', "&gt;");
+        assert!(verdict.contains(&escaped), "{why} not on the first screen");
+    }
     task_points_of_office_a(desks);
     let lum = &json["luminaires"][0];
     assert_eq!(lum["photometry_file"], "luminaire.ldt");
@@ -562,4 +580,118 @@ fn task_points_flag_the_points_under_a_box_and_match_the_closed_form() {
     for k in ["x_m", "y_m", "z_m", "e_lx", "covered"] {
         assert!(jp[0].get(k).is_some(), "results.json point lacks {k}");
     }
+}
+
+/// UGR of one luminaire, worked by hand from the definitions of CIE 117: a flat 0.6 × 0.6 m
+/// Lambertian opening (`I(γ) = 1000 cd · cos γ`) centred 2.0 m ahead of and 1.6 m above a seated
+/// eye looking at it horizontally, background 40 cd/m².
+///
+/// * Lambertian: `L = I₀ / A = 1000 / 0.36 = 2777.8 cd/m²` in every direction;
+/// * `d = √(2.0² + 1.6²) = 2.5612 m`, `cos θ = 1.6 / d = 0.62470`, `ω = A cos θ / d² =
+///   0.36 · 0.62470 / 6.56 = 0.034282 sr`;
+/// * Guth table (T/R = 0, H/R = 0.8): `p = 5.00`;
+/// * `UGR = 8 log10(0.25 / 40 · 2777.8² · 0.034282 / 5.00²) = 14.56`.
+///
+/// The module's closed form gives p = 5.09 there, UGR 14.44: within 0.2 of the table's.
+#[test]
+fn ugr_of_one_luminaire_matches_the_hand_computation() {
+    use glam::DVec3;
+    use luxnode::render::ugr::{Observer, Opening, term, ugr};
+    let obs = Observer {
+        eye_m: DVec3::new(0.0, 0.0, 1.2),
+        sight: DVec3::Y,
+    };
+    let o = Opening::new(
+        1,
+        DVec3::new(0.0, 2.0, 2.8),
+        DVec3::NEG_Z,
+        [0.6, 0.6],
+        false,
+    );
+    let cos_theta = 1.6 / (2.0f64 * 2.0 + 1.6 * 1.6).sqrt();
+    let t = term(&obs, &o, 1000.0 * cos_theta, 1.0).unwrap().unwrap();
+    let l_hand_cd_per_m2 = 1000.0 / 0.36;
+    let omega_hand_sr = 0.36 * 0.624_695 / 6.56;
+    assert!(
+        (t.l_cd_per_m2 / l_hand_cd_per_m2 - 1.0).abs() < 1e-9,
+        "{t:?}"
+    );
+    assert!((t.omega_sr / omega_hand_sr - 1.0).abs() < 1e-5, "{t:?}");
+    assert!((t.p / 5.00 - 1.0).abs() < 0.02, "Guth table 5.00: {}", t.p);
+    let u = ugr(40.0, &[t]).unwrap().unwrap();
+    let hand = 8.0 * (0.25 / 40.0 * 2777.78f64.powi(2) * 0.034_282 / 25.0).log10();
+    assert!((hand - 14.56).abs() < 0.01, "{hand}");
+    assert!(
+        (u - hand).abs() < 0.2,
+        "UGR {u} vs the hand computation {hand}"
+    );
+    // four such luminaires in the same place: UGR + 8 log10 4 = + 4.8
+    let u4 = ugr(40.0, &[t, t, t, t]).unwrap().unwrap();
+    assert!((u4 - u - 8.0 * 4f64.log10()).abs() < 1e-9);
+}
+
+/// office_a's UGR per desk observer against an independent computation in this test: the
+/// luminaires from the scene files (their positions, openings and photometry as the scene
+/// loads them, not the image's stored copy), R, T, H and the Guth index from the angles σ and
+/// τ, the observers' eyes and background luminance taken from results.json. Within 1 unit (the
+/// issue's target); the convention's seat checked too.
+#[test]
+fn office_a_ugr_matches_an_independent_computation() {
+    use glam::DVec3;
+    let (scene, model) = scene_and_model();
+    let bytes = image_with_geometry(&scene, &model);
+    let image = Image::parse(&bytes).unwrap();
+    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    let u = &r.results.ugr;
+    let desks = &scene.desks.as_ref().unwrap().desks;
+    assert_eq!(u.observers.len(), desks.len());
+    let floor_z = r.results.room_extent_m.1;
+    let mut max: f64 = 0.0;
+    for o in &u.observers {
+        let desk = desks.iter().find(|d| d.id == o.desk).unwrap();
+        let eye = DVec3::from_array(o.eye_m);
+        let sight = DVec3::from_array(o.sight);
+        assert!((eye.z - floor_z - 1.2).abs() < 1e-9);
+        let off_m = [
+            eye.x - desk.x_m[0],
+            desk.x_m[1] - eye.x,
+            eye.y - desk.y_m[0],
+            desk.y_m[1] - eye.y,
+        ]
+        .iter()
+        .map(|v| v.abs())
+        .fold(f64::INFINITY, f64::min);
+        assert!((off_m - 0.5).abs() < 1e-9, "0.5 m out from an edge: {eye}");
+        let mut sum = 0.0;
+        for l in &scene.luminaires {
+            let v = l.position_m - eye;
+            let (r_m, h_m) = (v.dot(sight), v.z);
+            let t_m = v.dot(sight.cross(DVec3::Z)).abs();
+            if r_m <= 0.0 || h_m < 0.0 {
+                continue;
+            }
+            let d = v.length();
+            let area_m2 = l.opening_m[0] * l.opening_m[1];
+            let cos_theta = l.aim.dot(-v / d);
+            let i_cd = l.intensity_toward_cd(-v / d);
+            let lum = i_cd / (area_m2 * cos_theta);
+            let omega = area_m2 * cos_theta / (d * d);
+            let sigma = (r_m / d).acos().to_degrees();
+            let tau = t_m.atan2(h_m).to_degrees();
+            let ln_p = (35.2 - 0.31889 * tau - 1.22 * (-2.0 * tau / 9.0).exp()) * 1e-3 * sigma
+                + (21.0 + 0.26667 * tau - 0.002963 * tau * tau) * 1e-5 * sigma * sigma;
+            sum += lum * lum * omega / (2.0 * ln_p).exp();
+        }
+        let reference = 8.0 * (0.25 / (o.e_ind_lx / std::f64::consts::PI) * sum).log10();
+        let got = o.ugr.expect("computed");
+        assert!(
+            (got - reference).abs() < 1.0,
+            "desk {}: UGR {got} vs {reference}",
+            o.desk
+        );
+        assert!(o.l_b_cd_per_m2 > 10.0 && o.l_b_cd_per_m2 < 1000.0, "{o:?}");
+        max = max.max(got);
+    }
+    assert_eq!(u.max.map(|m| m.0), Some(max));
+    assert_eq!(u.pass, (max * 10.0).round() / 10.0 <= 19.0);
 }

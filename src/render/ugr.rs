@@ -165,7 +165,7 @@ pub fn term(
     i_cd: f64,
     visible: f64,
 ) -> Result<Option<Term>, UgrError> {
-    if !(o.area_m2 > 0.0) {
+    if o.area_m2.is_nan() || o.area_m2 <= 0.0 {
         return Err(UgrError::NoOpening(o.id));
     }
     let to_eye = obs.eye_m - o.centre_m;
