@@ -695,3 +695,109 @@ fn office_a_ugr_matches_an_independent_computation() {
     assert_eq!(u.max.map(|m| m.0), Some(max));
     assert_eq!(u.pass, (max * 10.0).round() / 10.0 <= 19.0);
 }
+
+/// EN 12464-1:2021's room values on the black room with a point source of constant intensity
+/// (tests/common `desk_with_box_scene`: I = 300 cd at (1.4, 1.3, 2.7) m, 3 × 3 × 2.8 m, no
+/// interreflection), against closed forms computed here:
+///
+/// * walls: `Ē` is the wall's flux over its area, `∫ I cos θ / d² dA / A`, integrated on a
+///   1 cm grid; the report's area-weighted patch mean within 2 %;
+/// * cylindrical illuminance at 1.2 m on the room grid: the mean over 8 azimuths of the
+///   vertical illuminance `I max(0, n·u) / d²` within 1 %, and within 6 % of the exact
+///   `E_z = I sin α / (π d²)` (α from the vertical; 8 directions under-read by up to 5 %);
+/// * UGR: the black room gives no background luminance, so each observer is "not computed"
+///   with that reason, never a NaN, and the verdict says so.
+#[test]
+fn room_values_match_the_point_source_closed_form() {
+    let scene = common::desk_with_box_scene();
+    let settings = luxnode::engine::Settings {
+        patches: luxnode::engine::PatchSettings {
+            patch_size_m: 0.5,
+            detail_ratio: 0.0,
+            min_patch_m: 0.2,
+            light_ratio: 0.0,
+        },
+        rays: 100,
+        sensor_rays: 300,
+        final_gather_rays: 100,
+        ..Settings::default()
+    };
+    let model = compute_model(&scene, &settings).unwrap();
+    let bytes = image_with_geometry(&scene, &model);
+    let image = Image::parse(&bytes).unwrap();
+    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    let x = &r.results;
+    let mf = x.maintenance_factor;
+    let (i_cd, lum) = (300.0, [1.4, 1.3, 2.7]);
+    // walls: four 3 × 2.8 m walls, each the mean of its closed form on a 1 cm midpoint grid
+    let mut sum = 0.0;
+    let n = (300, 280);
+    for wall in 0..4 {
+        for a in 0..n.0 {
+            for b in 0..n.1 {
+                let (s, z) = ((a as f64 + 0.5) * 0.01, (b as f64 + 0.5) * 0.01);
+                let (p, dist_normal) = match wall {
+                    0 => ([0.0, s, z], lum[0]),
+                    1 => ([3.0, s, z], 3.0 - lum[0]),
+                    2 => ([s, 0.0, z], lum[1]),
+                    _ => ([s, 3.0, z], 3.0 - lum[1]),
+                };
+                let d2: f64 = (0..3).map(|k| (p[k] - lum[k]).powi(2)).sum();
+                sum += i_cd * dist_normal / d2.powf(1.5);
+            }
+        }
+    }
+    let walls_closed_lx = mf * sum / (4 * n.0 * n.1) as f64;
+    let walls = x.room_surfaces[0].maintained.expect("walls computed");
+    assert!(
+        common::rel(walls.e_mean_lx, walls_closed_lx) < 0.02,
+        "walls {walls:?} vs {walls_closed_lx:.2} lx"
+    );
+    // cylindrical: the same grid as the report's (the floor less its 0.5 m band) at 1.2 m
+    let inner = luxnode::en12464::Rect {
+        x_m: [0.5, 2.5],
+        y_m: [0.5, 2.5],
+    };
+    let g = luxnode::en12464::grid(&inner).unwrap();
+    let (mut eight, mut exact) = (Vec::new(), Vec::new());
+    for p in &g.points_m {
+        let u = [lum[0] - p[0], lum[1] - p[1], lum[2] - 1.2];
+        let d2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        let d = d2.sqrt();
+        let ev = |phi: f64| i_cd * ((phi.cos() * u[0] + phi.sin() * u[1]) / d).max(0.0) / d2;
+        eight.push(
+            mf * (0..8)
+                .map(|k| ev(k as f64 * std::f64::consts::FRAC_PI_4))
+                .sum::<f64>()
+                / 8.0,
+        );
+        exact.push(mf * i_cd * (u[0].hypot(u[1]) / d) / (std::f64::consts::PI * d2));
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let cyl = x.room_surfaces[2].maintained.expect("cylindrical computed");
+    assert_eq!(cyl.points, g.points_m.len());
+    assert!(
+        common::rel(cyl.e_mean_lx, mean(&eight)) < 0.01,
+        "{cyl:?} vs {:.2}",
+        mean(&eight)
+    );
+    assert!(
+        common::rel(cyl.e_mean_lx, mean(&exact)) < 0.06,
+        "{cyl:?} vs exact {:.2}",
+        mean(&exact)
+    );
+    // UGR: no background luminance in a black room: not computed, with the reason
+    for o in &x.ugr.observers {
+        assert_eq!(o.ugr, None);
+        let why = o.not_computed.as_deref().expect("a reason");
+        assert!(why.contains("background luminance"), "{why}");
+    }
+    assert!(!x.ugr.pass && !x.pass);
+    assert!(
+        x.fails_because.iter().any(|w| w.contains("not computed")),
+        "{:?}",
+        x.fails_because
+    );
+    let html = report::html(&r);
+    assert!(!html.contains("NaN"), "a NaN printed as a value");
+}
