@@ -128,6 +128,13 @@ fn ugr_row(u: &UgrResult) -> RequirementRow {
     )
 }
 
+/// ` at (x, y, z) m` where the least value lies.
+fn at(v: &RoomValue) -> String {
+    v.e_min_at_m.map_or(String::new(), |p| {
+        format!(" at {:.1}, {:.1}, {:.1} m", p[0], p[1], p[2])
+    })
+}
+
 /// `Ēm` and `U0` of a room value against `e_lx` and `u0`.
 fn room_rows(v: &RoomValue, e_lx: f64, u0: f64) -> [RequirementRow; 2] {
     let (what_e, what_u) = (format!("Ēm {}", v.what), format!("U0 {}", v.what));
@@ -154,7 +161,12 @@ fn room_rows(v: &RoomValue, e_lx: f64, u0: f64) -> [RequirementRow; 2] {
                     if pu {
                         String::new()
                     } else {
-                        format!("{what_u} {:.2} < {u0:.2}", s.u0)
+                        format!(
+                            "{what_u} {:.2} < {u0:.2} (Emin {:.0} lx{})",
+                            s.u0,
+                            s.e_min_lx,
+                            at(v)
+                        )
                     },
                 ),
             ]

@@ -5,6 +5,8 @@
 //!   sideways) and `ceiling…` (facing down), at the patch's centroid, with the dense field's
 //!   illuminance there (exact direct light, interreflection interpolated over the patch mesh);
 //!   `Ē` is the area-weighted mean over the patches, `Emin` the least point, `U0 = Emin / Ē`.
+//!   A patch whose centroid is covered (furniture standing within 5 cm of the surface, as a
+//!   desk's covered task points) is left out: no light reaches it and no luxmeter goes there.
 //!   The points follow the radiosity mesh, not the EN 12464-1 grid rule.
 //! * **Cylindrical illuminance** `E_z` at the room grid's points (the floor's grid less the
 //!   0.5 m wall band) at [`super::glare::EYE_HEIGHT_SEATED_M`] above the floor: the mean of the
@@ -18,8 +20,10 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::glare::EYE_HEIGHT_SEATED_M;
+use super::task_points::COVER_CLEARANCE_M;
 use crate::en12464::{self, Rect, Statistics};
 use crate::engine::dense::{DenseField, SurfacePoint};
+use crate::engine::raycast::Hit;
 use crate::image_geometry::Room;
 
 /// Horizontal directions averaged for the cylindrical illuminance.
@@ -32,6 +36,10 @@ pub struct RoomValue {
     pub what: String,
     /// Maintained statistics (area-weighted mean for surfaces).
     pub maintained: Option<Statistics>,
+    /// Where the least value lies, m.
+    pub e_min_at_m: Option<[f64; 3]>,
+    /// Points left out as covered (furniture standing against the surface).
+    pub covered: usize,
     /// Why not computed.
     pub not_computed: Option<String>,
 }
@@ -83,10 +91,18 @@ pub fn surface(
     levels: &[f64],
     mf: f64,
 ) -> RoomValue {
-    let ids = group_patches(room, prefix, facing);
+    let all = group_patches(room, prefix, facing);
+    let ids: Vec<usize> = all
+        .iter()
+        .copied()
+        .filter(|&i| !covered_along(field, room.patches.centroid_m(i), room.patches.normal[i]))
+        .collect();
+    let covered = all.len() - ids.len();
     let none = |why: String| RoomValue {
         what: what.into(),
         maintained: None,
+        e_min_at_m: None,
+        covered: 0,
         not_computed: Some(why),
     };
     if ids.is_empty() {
@@ -110,6 +126,8 @@ pub fn surface(
         Some(s) => RoomValue {
             what: what.into(),
             maintained: Some(s),
+            e_min_at_m: argmin(&lux).map(|k| pts[k].position_m.to_array()),
+            covered,
             not_computed: None,
         },
         None => none("no finite illuminance on its patches".into()),
@@ -163,6 +181,8 @@ pub fn cylindrical(
             return RoomValue {
                 what,
                 maintained: None,
+                e_min_at_m: None,
+                covered: 0,
                 not_computed: Some(e.to_string()),
             };
         }
@@ -184,10 +204,31 @@ pub fn cylindrical(
                 .map(|c| mf * c.iter().sum::<f64>() / CYLINDER_DIRECTIONS as f64)
                 .collect()
         });
-    let stats = ez.ok().and_then(|v| Statistics::of(&v));
+    let ez = ez.unwrap_or_default();
+    let stats = Statistics::of(&ez);
     RoomValue {
         what,
         not_computed: stats.is_none().then(|| "no finite value".to_string()),
         maintained: stats,
+        e_min_at_m: argmin(&ez).map(|k| [grid.points_m[k][0], grid.points_m[k][1], z]),
+        covered: 0,
     }
+}
+
+/// True when a surface point is covered: looking out along its normal from 1 mm off it, it sees
+/// the inside of a solid or any surface within [`COVER_CLEARANCE_M`] (a sideboard standing
+/// against the wall), as a desk's task points are.
+fn covered_along(field: &DenseField<'_>, p_m: DVec3, normal: DVec3) -> bool {
+    let c = field.caster();
+    let from = c.offset(p_m + normal * 0.001, normal);
+    match c.closest(from, normal) {
+        Hit::Back { .. } => true,
+        Hit::Front { t_m, .. } => t_m + 0.001 < COVER_CLEARANCE_M,
+        Hit::Miss => false,
+    }
+}
+
+/// The index of the least value.
+fn argmin(v: &[f64]) -> Option<usize> {
+    (0..v.len()).min_by(|&a, &b| v[a].total_cmp(&v[b]))
 }
