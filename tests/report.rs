@@ -343,6 +343,11 @@ fn report_opens_in_a_browser_with_every_picture() {
             .replace('>', "&gt;");
         assert!(verdict.contains(&escaped), "{why} not on the first screen");
     }
+    // the glare table: each observer's UGR as results.json has it
+    for o in json["ugr"]["observers"].as_array().unwrap() {
+        let cell = format!("<td>{:.1}</td></tr>", o["ugr"].as_f64().unwrap());
+        assert!(html.contains(&cell), "{cell}");
+    }
     task_points_of_office_a(desks);
     let lum = &json["luminaires"][0];
     assert_eq!(lum["photometry_file"], "luminaire.ldt");

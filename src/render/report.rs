@@ -1140,6 +1140,15 @@ fn html_requirements(h: &mut String, x: &Results) {
     );
 }
 
+/// A value to `decimals` places, or "–" when it is not a number.
+fn finite(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        "–".into()
+    }
+}
+
 /// UGR per observer.
 fn html_ugr(h: &mut String, x: &Results) {
     let u = &x.ugr;
@@ -1160,15 +1169,15 @@ fn html_ugr(h: &mut String, x: &Results) {
         };
         let _ = writeln!(
             h,
-            "<tr><td>desk {}</td><td>{:.2}, {:.2}, {:.2}</td><td>{:+.0}, {:+.0}</td><td>{:.0}</td><td>{:.1}</td><td>{}</td><td>{value}</td></tr>",
+            "<tr><td>desk {}</td><td>{:.2}, {:.2}, {:.2}</td><td>{:+.0}, {:+.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{value}</td></tr>",
             o.desk,
             o.eye_m[0],
             o.eye_m[1],
             o.eye_m[2],
             o.sight[0],
             o.sight[1],
-            o.e_ind_lx,
-            o.l_b_cd_per_m2,
+            finite(o.e_ind_lx, 0),
+            finite(o.l_b_cd_per_m2, 1),
             o.terms.len()
         );
     }

@@ -35,11 +35,20 @@ pub enum UgrError {
     #[error("the eye lies within luminaire {0}'s opening ({1:.2} m from its centre)")]
     InsideLuminaire(u32, f64),
     /// The background luminance is zero or not a number: the ratio is undefined.
-    #[error("background luminance {0} cd/m² (no indirect light at the eye): UGR undefined")]
+    #[error("background luminance {} (no indirect light at the eye): UGR undefined", luminance_text(*.0))]
     Background(f64),
     /// A value that is not finite (bad geometry or photometry).
     #[error("{0} is not finite")]
     NotFinite(&'static str),
+}
+
+/// A luminance as the reasons print it: `0.0 cd/m²`, or "not a number".
+fn luminance_text(l_cd_per_m2: f64) -> String {
+    if l_cd_per_m2.is_finite() {
+        format!("{l_cd_per_m2:.1} cd/m²")
+    } else {
+        "not a number".into()
+    }
 }
 
 /// An observer: the eye and the line of sight (unit, horizontal).
@@ -295,7 +304,8 @@ mod tests {
             Err(UgrError::InsideLuminaire(8, _))
         ));
         assert!(matches!(ugr(0.0, &[]), Err(UgrError::Background(_))));
-        assert!(matches!(ugr(f64::NAN, &[]), Err(UgrError::Background(_))));
+        let nan = ugr(f64::NAN, &[]).unwrap_err();
+        assert!(!nan.to_string().contains("NaN"), "{nan}");
         assert_eq!(ugr(10.0, &[]), Ok(None));
         let behind = Opening::new(
             9,
