@@ -7,7 +7,7 @@ use serde::Serialize;
 use super::glare::UgrResult;
 use super::report::DeskResult;
 use super::room_surfaces::RoomValue;
-use crate::en12464::Requirement;
+use crate::en12464::{Check, Requirement};
 
 /// One requirement of the activity, checked.
 #[derive(Debug, Clone, Serialize)]
@@ -48,9 +48,10 @@ fn value(v: f64, unit: &str) -> String {
     }
 }
 
-/// One row per check the desks share (`Ēm task area`...): the worst desk, every failing desk.
-fn desk_rows(desks: &[DeskResult]) -> Vec<RequirementRow> {
-    let Some(first) = desks.first() else {
+/// One row per check the desks have (`Ēm task area`...), in the order they first appear: the
+/// worst desk, every failing desk. `modified_lx` the task area's modified Ēm, stated.
+fn desk_rows(desks: &[DeskResult], modified_lx: f64) -> Vec<RequirementRow> {
+    if desks.is_empty() {
         return vec![row(
             "desks",
             "–".into(),
@@ -58,42 +59,60 @@ fn desk_rows(desks: &[DeskResult]) -> Vec<RequirementRow> {
             Some(false),
             "the model has no desk to check".into(),
         )];
-    };
-    let mut out = Vec::new();
-    for (k, c0) in first.checks.iter().enumerate() {
-        let checks: Vec<(u32, &crate::en12464::Check)> = desks
-            .iter()
-            .filter_map(|d| d.checks.get(k).map(|c| (d.id, c)))
-            .collect();
-        let worst = checks
-            .iter()
-            .min_by(|a, b| a.1.achieved.total_cmp(&b.1.achieved))
-            .map(|(id, c)| format!("{} (desk {id})", value(c.achieved, c.unit)));
-        let failing: Vec<String> = checks
-            .iter()
-            .filter(|(_, c)| !c.pass)
-            .map(|(id, c)| {
-                format!(
-                    "desk {id}: {} {} < {}",
-                    c0.what,
-                    value(c.achieved, c.unit),
-                    value(c.required, c.unit)
-                )
-            })
-            .collect();
-        let mut required = format!("≥ {}", value(c0.required, c0.unit));
-        if k == 0 {
-            required.push_str(" (modified Ēm 1000 lx where the context raises it: not applied)");
-        }
-        out.push(row(
-            &c0.what,
-            required,
-            worst.unwrap_or_default(),
-            Some(failing.is_empty()),
-            failing.join("; "),
-        ));
     }
-    out
+    let mut names: Vec<&str> = Vec::new();
+    for c in desks.iter().flat_map(|d| &d.checks) {
+        if !names.contains(&c.what.as_str()) {
+            names.push(&c.what);
+        }
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let checks: Vec<(u32, &Check)> = desks
+                .iter()
+                .flat_map(|d| d.checks.iter().map(move |c| (d.id, c)))
+                .filter(|(_, c)| c.what == *name)
+                .collect();
+            let mut r = checks_row(name, &checks);
+            if k == 0 {
+                r.required.push_str(&format!(
+                    " (modified Ēm {modified_lx:.0} lx where the context raises it: not applied)"
+                ));
+            }
+            r
+        })
+        .collect()
+}
+
+/// The row of one check over the desks that have it.
+fn checks_row(name: &str, checks: &[(u32, &Check)]) -> RequirementRow {
+    let worst = checks
+        .iter()
+        .min_by(|a, b| a.1.achieved.total_cmp(&b.1.achieved))
+        .map(|(id, c)| format!("{} (desk {id})", value(c.achieved, c.unit)));
+    let failing: Vec<String> = checks
+        .iter()
+        .filter(|(_, c)| !c.pass)
+        .map(|(id, c)| {
+            format!(
+                "desk {id}: {name} {} < {}",
+                value(c.achieved, c.unit),
+                value(c.required, c.unit)
+            )
+        })
+        .collect();
+    let required = checks.first().map_or("–".into(), |(_, c)| {
+        format!("≥ {}", value(c.required, c.unit))
+    });
+    row(
+        name,
+        required,
+        worst.unwrap_or_default(),
+        Some(failing.is_empty()),
+        failing.join("; "),
+    )
 }
 
 fn ugr_row(u: &UgrResult) -> RequirementRow {
@@ -195,7 +214,7 @@ pub fn table(
     ugr: &UgrResult,
     room: &[RoomValue],
 ) -> Vec<RequirementRow> {
-    let mut out = desk_rows(desks);
+    let mut out = desk_rows(desks, req.e_m_modified_lx);
     out.push(ugr_row(ugr));
     let limits = [
         (req.e_m_wall_lx, req.u0_room_surfaces),
@@ -229,4 +248,69 @@ pub fn verdict(rows: &[RequirementRow]) -> (bool, Vec<String>) {
         })
         .collect();
     (reasons.is_empty(), reasons)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::en12464::{OFFICE_WRITING_READING, Statistics, check_task};
+    use crate::render::glare::summarise;
+    use crate::render::report::AreaResult;
+
+    fn desk(id: u32, values_lx: &[f64]) -> DeskResult {
+        let s = Statistics::of(values_lx).unwrap();
+        let checks = check_task(&OFFICE_WRITING_READING, &s, None);
+        DeskResult {
+            id,
+            extent_m: [0.0, 1.6, 0.0, 0.8],
+            z_m: 0.75,
+            grid: ([5, 10], [0.16, 0.16]),
+            pass: checks.iter().all(|c| c.pass),
+            task: AreaResult {
+                new: s,
+                maintained: s,
+                points: Vec::new(),
+            },
+            surrounding: None,
+            checks,
+        }
+    }
+
+    fn room(what: &str, values_lx: &[f64]) -> RoomValue {
+        RoomValue {
+            what: what.into(),
+            maintained: Statistics::of(values_lx),
+            e_min_at_m: Some([0.0, 1.0, 2.0]),
+            covered: 0,
+            not_computed: None,
+        }
+    }
+
+    #[test]
+    fn the_verdict_names_each_failing_requirement_and_its_value() {
+        // desk 3's Ēm is 450 lx < 500 lx; the walls' U0 is 10/160 = 0.06 < 0.10; no observer
+        let desks = [desk(1, &[600.0, 640.0]), desk(3, &[420.0, 480.0])];
+        let ugr = summarise(Vec::new());
+        let rooms = [
+            room("walls", &[10.0, 310.0]),
+            room("ceiling", &[120.0, 130.0]),
+            room("cylindrical", &[200.0, 220.0]),
+        ];
+        let rows = table(&OFFICE_WRITING_READING, &desks, &ugr, &rooms);
+        assert_eq!(rows[0].achieved, "450 lx (desk 3)");
+        assert!(rows[0].required.contains("1000 lx"), "{:?}", rows[0]);
+        let (pass, why) = verdict(&rows);
+        assert!(!pass);
+        assert_eq!(
+            why,
+            [
+                "desk 3: Ēm task area 450 lx < 500 lx",
+                "no desk to place an observer at",
+                "U0 walls 0.06 < 0.10 (Emin 10 lx at 0.0, 1.0, 2.0 m)",
+            ]
+        );
+        // Ra is stated, not checked, and does not decide the verdict
+        let ra = rows.last().unwrap();
+        assert_eq!((ra.what.as_str(), ra.pass), ("Ra", None));
+    }
 }
