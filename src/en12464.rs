@@ -18,8 +18,9 @@
 //! * **Requirements per activity** ([`Requirement`]): offices, writing, typing, reading, data
 //!   processing (Table 5.26 of the 2011 edition, ref. 34.2.x of the 2021 edition): `Ēm = 500 lx`,
 //!   `U0 ≥ 0.60`, the same in both editions, so the report cites the current one, EN
-//!   12464-1:2021. The 2021 edition's further values for the activity (the modified Ēm, walls,
-//!   ceiling, cylindrical illuminance) are not checked here yet.
+//!   12464-1:2021, with the 2021 edition's further values for the activity: the modified Ēm
+//!   (stated), UGR_L, Ra, the cylindrical illuminance and the walls' and ceiling's
+//!   illuminance ([`OFFICE_WRITING_READING`]).
 //!
 //! Statistics over a grid ([`Statistics`]): `Ē` (arithmetic mean of the points), `Emin`, `Emax`,
 //! `U0 = Emin / Ē` (the standard's uniformity) and `Emin / Emax` (the diversity, DIALux's g2).
@@ -308,14 +309,44 @@ pub struct Requirement {
     pub e_m_lx: f64,
     /// `U0` required on the task area.
     pub u0: f64,
+    /// The "modified" `Ēm` (2021), lx: the value the task area needs where the context raises
+    /// it (visual work critical, errors costly, small details or low contrast, long duration,
+    /// low visual capacity: EN 12464-1:2021 §5.3.3); stated, applied only when the designer
+    /// says the context applies.
+    pub e_m_modified_lx: f64,
+    /// `UGR_L`: the largest Unified Glare Rating allowed.
+    pub ugr_l: f64,
+    /// `Ra`: the least colour rendering index of the lamps.
+    pub ra: f64,
+    /// `Ēm,z`: the least mean cylindrical illuminance on the activity area (1.2 m seated), lx.
+    pub e_m_z_lx: f64,
+    /// `Ēm,wall`: the least mean illuminance on the walls, lx.
+    pub e_m_wall_lx: f64,
+    /// `Ēm,ceiling`: the least mean illuminance on the ceiling, lx.
+    pub e_m_ceiling_lx: f64,
+    /// The least `U0` for the cylindrical, wall and ceiling illuminances.
+    pub u0_room_surfaces: f64,
 }
 
-/// Offices: writing, typing, reading, data processing.
+/// Offices: writing, typing, reading, data processing. The 2021 values as the edition's office
+/// table gives them (Ēm 500 lx, modified 1000 lx, UGR_L 19, U0 0.60, Ra 80, Ēm,z 150 lx,
+/// Ēm,wall 150 lx, Ēm,ceiling 100 lx, U0 ≥ 0.10 for the last three; read from a luminaire
+/// maker's reprint of the table, Glamox's "Beleuchtungsanforderungen gemäss EN 12464-1:2021",
+/// not from a copy of the standard). The table's note: in small single offices the wall value
+/// is for the front wall, the other walls may get at least 75 lx; the 2021 edition's general
+/// floor for any room is walls ≥ 75 lx and ceiling ≥ 50 lx with U0 ≥ 0.10 (Trilux's summary).
 pub const OFFICE_WRITING_READING: Requirement = Requirement {
     activity: "offices: writing, typing, reading, data processing",
-    reference: "EN 12464-1:2021 (the same Ēm and U0 as EN 12464-1:2011 Table 5.26, ref. 5.26.2)",
+    reference: "EN 12464-1:2021, offices (writing, typing, reading, data processing; Ēm and U0 as in EN 12464-1:2011 Table 5.26, ref. 5.26.2)",
     e_m_lx: 500.0,
     u0: 0.60,
+    e_m_modified_lx: 1000.0,
+    ugr_l: 19.0,
+    ra: 80.0,
+    e_m_z_lx: 150.0,
+    e_m_wall_lx: 150.0,
+    e_m_ceiling_lx: 100.0,
+    u0_room_surfaces: 0.10,
 };
 
 /// The maintained illuminance the immediate surrounding area needs for a task area of

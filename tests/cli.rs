@@ -421,6 +421,28 @@ fn report_from_an_image_and_a_states_file() {
     assert_eq!(json["states"][1]["name"], "left");
     assert_eq!(json["desks"].as_array().unwrap().len(), 5);
     assert!(out.join("report.html").exists());
+    // UGR per desk observer and the verdict with its reasons, as results.json has them
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for obs in json["ugr"]["observers"].as_array().unwrap() {
+        let line = format!(
+            "UGR desk {}: {:.1}",
+            obs["desk"],
+            obs["ugr"].as_f64().unwrap()
+        );
+        assert!(stdout.contains(&line), "{line} not in {stdout}");
+    }
+    let verdict = if json["pass"].as_bool().unwrap() {
+        "EN 12464-1:2021: pass".to_string()
+    } else {
+        let why: Vec<&str> = json["fails_because"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap())
+            .collect();
+        format!("EN 12464-1:2021: fail because {}", why.join("; "))
+    };
+    assert!(stdout.contains(&verdict), "{verdict} not in {stdout}");
     // a state naming a luminaire the image does not have
     std::fs::write(&states, "scenario_id,luminaires_on\nbad,1;99\n").unwrap();
     let o = luxnode(&[

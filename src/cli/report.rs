@@ -101,5 +101,29 @@ pub fn run(a: &Args) -> Result<()> {
             if d.pass { "pass" } else { "fail" }
         );
     }
+    print_ugr_and_verdict(x);
     Ok(())
+}
+
+/// UGR per desk observer and the overall verdict with its reasons.
+fn print_ugr_and_verdict(x: &report::Results) {
+    for o in &x.ugr.observers {
+        let v = match (&o.ugr, &o.not_computed) {
+            (Some(u), _) => format!("{u:.1}"),
+            (None, Some(why)) => format!("not computed: {why}"),
+            (None, None) => "no luminaire in view".into(),
+        };
+        println!(
+            "UGR desk {}: {v} (eye {:.2}, {:.2}, {:.2} m, L_b {:.1} cd/m²)",
+            o.desk, o.eye_m[0], o.eye_m[1], o.eye_m[2], o.l_b_cd_per_m2
+        );
+    }
+    if x.pass {
+        println!("EN 12464-1:2021: pass");
+    } else {
+        println!(
+            "EN 12464-1:2021: fail because {}",
+            x.fails_because.join("; ")
+        );
+    }
 }

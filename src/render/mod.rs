@@ -4,11 +4,15 @@
 //! one small RGB canvas, a perceptual colour map and the embedded DejaVu Sans ([`text`]).
 
 pub mod camera_view;
+pub mod glare;
 pub mod map;
 pub mod plot;
 pub mod report;
+pub mod requirements;
+pub mod room_surfaces;
 pub mod task_points;
 pub mod text;
+pub mod ugr;
 
 use std::path::Path;
 

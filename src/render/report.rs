@@ -22,8 +22,11 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::camera_view::{self, ViewDesk, ViewOptions};
+use super::glare::{self, UgrResult};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
+use super::requirements::{self, RequirementRow};
+use super::room_surfaces::{self, RoomValue};
 use super::task_points::{self, TaskPoint, covered};
 use crate::control::DEFAULT_EFFICACY_LM_PER_W;
 use crate::control::rating::{PowerSource, RatedPower};
@@ -251,8 +254,18 @@ pub struct Results {
     pub states: Vec<StateResult>,
     /// The desk sensors.
     pub sensors: Vec<SensorRow>,
-    /// All desks pass.
+    /// UGR at a seated observer per desk (design state, new installation).
+    pub ugr: UgrResult,
+    /// Walls, ceiling and the cylindrical illuminance (design state, maintained).
+    pub room_surfaces: Vec<RoomValue>,
+    /// The EN 12464-1:2021 requirements of the activity, checked.
+    pub requirements: Vec<RequirementRow>,
+    /// All desks pass their task-area and surrounding checks.
+    pub desks_pass: bool,
+    /// Every checked requirement passes.
     pub pass: bool,
+    /// Why the design fails (empty when it passes).
+    pub fails_because: Vec<String>,
     /// Seconds the report took (computing, not writing).
     pub seconds: f64,
 }
@@ -890,6 +903,33 @@ impl Design<'_> {
     }
 }
 
+/// EN 12464-1:2021's checks beyond the desks in the design state: UGR per desk observer, the
+/// walls, the ceiling and the cylindrical illuminance; and the requirements table with them.
+fn room_checks(
+    field: &DenseField<'_>,
+    room: &Room,
+    plan: &Plan,
+    design: &[f64],
+    mf: f64,
+    opts: &ReportOptions,
+    desks: &[DeskResult],
+) -> (UgrResult, Vec<RoomValue>, Vec<RequirementRow>) {
+    let (rect, z) = (&plan.room_rect, plan.floor_z);
+    let ugr = glare::room_ugr(field, room, rect, z, design, opts.air_rays);
+    let mut values = room_surfaces::walls_and_ceiling(field, room, design, mf).to_vec();
+    values.push(room_surfaces::cylindrical(
+        field,
+        room,
+        rect,
+        z,
+        design,
+        mf,
+        opts.air_rays,
+    ));
+    let table = requirements::table(&opts.requirement, desks, &ugr, &values);
+    (ugr, values, table)
+}
+
 /// Computes the report of an image: the states checked, the dense field, the desks' and the
 /// room's grids, every state's results, the design state's desks, the tables and the pictures.
 pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
@@ -943,7 +983,10 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     if let (Some(view), Some(cam)) = (&view, &room.camera) {
         pictures.extend(d.camera_pictures(view, cam, scale_max)?);
     }
-    let pass = !desks.is_empty() && desks.iter().all(|d| d.pass);
+    let desks_pass = !desks.is_empty() && desks.iter().all(|d| d.pass);
+    let (ugr, room_surfaces, requirements) =
+        room_checks(&field, &room, &plan, design, mf, opts, &desks);
+    let (pass, fails_because) = requirements::verdict(&requirements);
     let results = Results {
         scene: room.section.scene_name.clone(),
         preset: room.section.preset.clone(),
@@ -962,7 +1005,12 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         desks,
         states: state_results,
         sensors: sensor_rows(image),
+        ugr,
+        room_surfaces,
+        requirements,
+        desks_pass,
         pass,
+        fails_because,
         seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(Report { results, pictures })
@@ -1021,6 +1069,7 @@ pub fn html(r: &Report) -> String {
     html_head(&mut h, x);
     html_pictures(&mut h, &r.pictures);
     html_checks(&mut h, x);
+    html_ugr(&mut h, x);
     html_desks(&mut h, x);
     html_points(&mut h, x);
     html_states(&mut h, x);
@@ -1040,16 +1089,22 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)
     );
     let _ = write!(
         h,
-        "<h1>Lighting commissioning report: {}</h1>\n<p>Overall EN 12464-1 result for the desks ({}): {}</p>\n",
+        "<h1>Lighting commissioning report: {}</h1>\n<p id=\"verdict\">Overall EN 12464-1:2021 result ({}): {}{}</p>\n",
         esc(&x.scene),
         esc(x.requirement.activity),
-        verdict(x.pass)
+        verdict(x.pass),
+        if x.pass {
+            String::new()
+        } else {
+            format!(" because {}", esc(&x.fails_because.join("; ")))
+        }
     );
+    html_requirements(h, x);
     let _ = write!(
         h,
         "<table class=\"meta\"><tr><th>scene</th><td>{}</td></tr><tr><th>preset</th><td>{}</td></tr>\
@@ -1068,6 +1123,75 @@ figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{col
         x.counts[1],
         x.counts[2]
     );
+}
+
+/// The requirements of the activity: required, achieved, result, why.
+fn html_requirements(h: &mut String, x: &Results) {
+    h.push_str("<table id=\"requirements\"><tr><th>requirement</th><th>required</th><th>achieved (worst)</th><th>result</th><th>why</th></tr>\n");
+    for r in &x.requirements {
+        let result = match r.pass {
+            Some(p) => verdict(p).to_string(),
+            None => "not checked".into(),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{result}</td><td>{}</td></tr>",
+            esc(&r.what),
+            esc(&r.required),
+            esc(&r.achieved),
+            esc(&r.reason)
+        );
+    }
+    let _ = writeln!(
+        h,
+        "</table>\n<p>Maintained values (MF {:.2}) except UGR (new installation, as CIE 117 rates it); the values from {}.</p>",
+        x.maintenance_factor,
+        esc(x.requirement.reference)
+    );
+}
+
+/// A value to `decimals` places, or "–" when it is not a number.
+fn finite(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        "–".into()
+    }
+}
+
+/// UGR per observer.
+fn html_ugr(h: &mut String, x: &Results) {
+    let u = &x.ugr;
+    let _ = write!(
+        h,
+        "<h2>Glare: UGR (CIE 117)</h2>\n<p>UGR = 8 log<sub>10</sub>((0.25/L<sub>b</sub>) Σ L² ω / p²) at {} observer(s); limit UGR<sub>L</sub> {:.0}: {}. Convention: {}.</p>\n\
+<table><tr><th>desk</th><th>eye (m)</th><th>looking</th><th>E<sub>ind</sub> (lx)</th><th>L<sub>b</sub> (cd/m²)</th><th>luminaires in view</th><th>UGR</th></tr>\n",
+        u.observers.len(),
+        u.limit,
+        verdict(u.pass),
+        esc(u.convention)
+    );
+    for o in &u.observers {
+        let value = match (&o.ugr, &o.not_computed) {
+            (Some(v), _) => format!("{v:.1}"),
+            (None, Some(why)) => format!("not computed: {}", esc(why)),
+            (None, None) => "no luminaire in view".into(),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>desk {}</td><td>{:.2}, {:.2}, {:.2}</td><td>{:+.0}, {:+.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{value}</td></tr>",
+            o.desk,
+            o.eye_m[0],
+            o.eye_m[1],
+            o.eye_m[2],
+            o.sight[0],
+            o.sight[1],
+            finite(o.e_ind_lx, 0),
+            finite(o.l_b_cd_per_m2, 1),
+            o.terms.len()
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 /// The pictures, embedded.
