@@ -5,6 +5,9 @@
 //! Memory: the process's peak resident set (`VmHWM`), reset before each run through
 //! `/proc/self/clear_refs` (Linux), so each row's peak is its own; and the bytes of the form
 //! factors as stored (CSR: 4 bytes column + 8 bytes value per entry).
+//!
+//! Per ray: [`profile_table`] gives, for each row, the form-factor stage's sub-stages on one
+//! thread (`engine::ffprofile`) beside the BVH's own rate on the same rays.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -12,6 +15,7 @@ use std::time::Duration;
 
 use glam::DVec3;
 
+use crate::engine::ffprofile::RayProfile;
 use crate::engine::{self, EngineError, Model, PatchSettings, Settings};
 use crate::lsc::AngularResponse;
 use crate::photometry::IntensityDistribution;
@@ -128,7 +132,12 @@ pub struct ScalingRow {
     pub peak_rss_bytes: Option<u64>,
     /// Bytes of the form factors as stored in the model (CSR).
     pub ff_bytes: usize,
+    /// Where the time per ray goes in the form-factor stage (one thread, a sample of patches).
+    pub profile: RayProfile,
 }
+
+/// Patches the per-ray profile samples (spread evenly over the patch list).
+pub const PROFILE_PATCHES: usize = 128;
 
 /// Resets the peak resident set of this process (Linux: `echo 5 > /proc/self/clear_refs`).
 fn reset_peak_rss() {
@@ -177,6 +186,7 @@ pub fn scaling(
             }
             results.sort_by_key(|(m, _)| m.stats.total());
             let (m, peak) = results.swap_remove(results.len() / 2);
+            let profile = engine::form_factor_profile(scene, &settings, PROFILE_PATCHES)?;
             out.push(ScalingRow {
                 patch_size_m: size,
                 patches: m.stats.patches,
@@ -186,6 +196,7 @@ pub fn scaling(
                 total: m.stats.total(),
                 peak_rss_bytes: peak,
                 ff_bytes: m.ff.f.nnz() * 12 + m.ff.f.row_ptr.len() * 4,
+                profile,
             });
         }
     }
@@ -237,6 +248,53 @@ pub fn table(rows: &[ScalingRow]) -> String {
             r.peak_rss_bytes
                 .map_or("-".to_owned(), |b| format!("{:.0}", b as f64 / 1048576.0)),
             r.ff_bytes as f64 / 1048576.0
+        ));
+    }
+    s
+}
+
+/// The per-ray table (markdown): each form-factor sub-stage in µs per ray on one thread, the
+/// BVH's own rate on the same rays, and the stages as the run measured them (wall time over
+/// patches × rays, all threads: compare with the one-thread figures times the threads).
+pub fn profile_table(rows: &[ScalingRow]) -> String {
+    let mut s = String::from(
+        "| patches | rays | sampled rays | generation | BVH traversal | patch lookup | accumulation | \
+         sum | stage (one thread) | BVH own (obvhs test) | stage / BVH own | BVH own (M rays/s) | \
+         form factors (run, wall) | rectification (run, wall) |\n|",
+    );
+    for _ in 0..14 {
+        s.push_str("---:|");
+    }
+    s.push('\n');
+    for r in rows {
+        let p = &r.profile;
+        let pr = (r.patches * r.rays_per_patch).max(1) as f64;
+        let stage = |name: &str| {
+            r.stages
+                .iter()
+                .filter(|(n, _)| *n == name)
+                .map(|(_, t)| t.as_secs_f64())
+                .sum::<f64>()
+                * 1e6
+                / pr
+        };
+        let sum = p.generation_us + p.traversal_us + p.lookup_us + p.accumulation_us;
+        s.push_str(&format!(
+            "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} | {:.3} | {:.3} |\n",
+            r.patches,
+            r.rays_per_patch,
+            p.rays,
+            p.generation_us,
+            p.traversal_us,
+            p.lookup_us,
+            p.accumulation_us,
+            sum,
+            p.stage_us,
+            p.bvh_own_us,
+            p.stage_us / p.bvh_own_us.max(1e-12),
+            1.0 / p.bvh_own_us.max(1e-12),
+            stage("form factors"),
+            stage("rectification"),
         ));
     }
     s

@@ -31,5 +31,10 @@ pub fn run(
     );
     let rows = scaling::scaling(&sc, patch_sizes_m, rays, uniform, runs)?;
     println!("{}", scaling::table(&rows));
+    println!(
+        "Form-factor stage per ray, µs (one thread, {} patches sampled):\n",
+        scaling::PROFILE_PATCHES
+    );
+    println!("{}", scaling::profile_table(&rows));
     Ok(())
 }

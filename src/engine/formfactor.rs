@@ -18,6 +18,7 @@
 //! Rectification (physics.md §4): see [`rectify`]. Pairs that no ray connected stay exactly zero.
 
 use glam::DVec3;
+use obvhs::ray::Ray;
 use rayon::prelude::*;
 
 use super::patches::Patches;
@@ -67,66 +68,177 @@ pub(crate) fn patch_point(patches: &Patches, i: usize, k: usize, shift: (f64, f6
     patches.point_m(i, u, v)
 }
 
-/// One patch's casting result: its row, escaped fraction, visible fraction, whether cast.
-type CastRow = (Vec<(u32, f64)>, f64, f64, bool);
+/// One patch's casting result: its row as (column, ray count) in ascending columns, the rays
+/// that escaped, the valid rays (not started under a cover), whether rays were cast.
+pub(crate) struct CastRow {
+    pub(crate) hits: Vec<(u32, u32)>,
+    escaped: usize,
+    valid: usize,
+    cast: bool,
+}
+
+/// Patches cast per parallel block: the rows of one block are held as ray counts (8 bytes per
+/// entry) until they are appended to the CSR in patch order, so at most one block's rows exist
+/// beside the matrix (no per-thread or per-row copy of the whole matrix).
+const BLOCK_PATCHES: usize = 512;
 
 /// Casts the rays of every patch and builds the sparse rows.
+///
+/// Memory: the CSR itself (4 bytes column + 8 bytes value per entry), grown in patch order,
+/// plus one block of rows as counts. Values are the same f64 sums as adding `1 / valid` once per
+/// hit (bit for bit), in the order the rays were cast.
 pub fn compute(patches: &Patches, caster: &RayCaster, rays: &RaySet, seed: u64) -> FormFactors {
     let n = patches.len();
     let nr = rays.len();
     let inv = 1.0 / nr as f64;
-    let rows: Vec<CastRow> = (0..n)
-        .into_par_iter()
-        .map_init(Vec::<u32>::new, |hits, i| {
-            if patches.area_m2[i] <= 0.0 {
-                return (Vec::new(), 0.0, 1.0, false);
-            }
-            let (shift, azimuth) = patch_jitter(i, seed);
-            let fr = frame(patches.normal[i], azimuth);
-            let mut escaped = 0usize;
-            let mut covered = 0usize;
-            hits.clear();
-            for (k, d) in rays.dirs.iter().enumerate() {
-                let origin = caster.offset(patch_point(patches, i, k, shift), patches.normal[i]);
-                match caster.closest(origin, to_world(&fr, *d)) {
-                    Hit::Front { patch, .. } if patch as usize != i => hits.push(patch),
-                    Hit::Front { .. } | Hit::Back { .. } => covered += 1,
-                    Hit::Miss => escaped += 1,
-                }
-            }
-            let valid = nr - covered;
-            if valid == 0 {
-                return (Vec::new(), 0.0, 0.0, true);
-            }
-            let w = 1.0 / valid as f64;
-            hits.sort_unstable();
-            let mut row: Vec<(u32, f64)> = Vec::new();
-            for &j in hits.iter() {
-                match row.last_mut() {
-                    Some((c, v)) if *c == j => *v += w,
-                    _ => row.push((j, w)),
-                }
-            }
-            (row, escaped as f64 * w, valid as f64 * inv, true)
-        })
-        .collect();
+    let mut f = Csr {
+        row_ptr: Vec::with_capacity(n + 1),
+        ..Csr::default()
+    };
+    f.row_ptr.push(0);
     let mut escaped = Vec::with_capacity(n);
     let mut visible = Vec::with_capacity(n);
     let mut cast = Vec::with_capacity(n);
-    let mut csr_rows = Vec::with_capacity(n);
-    for (row, e, l, c) in rows {
-        csr_rows.push(row);
-        escaped.push(e);
-        visible.push(l);
-        cast.push(c);
+    for start in (0..n).step_by(BLOCK_PATCHES) {
+        let block: Vec<CastRow> = (start..n.min(start + BLOCK_PATCHES))
+            .into_par_iter()
+            .map_init(
+                || vec![0u32; n],
+                |counts, i| cast_patch(patches, caster, rays, seed, i, counts),
+            )
+            .collect();
+        for row in block {
+            let valid = row.valid;
+            let w = if valid == 0 { 0.0 } else { 1.0 / valid as f64 };
+            for (j, count) in row.hits {
+                f.col.push(j);
+                f.val.push(repeated_sum(w, count));
+            }
+            f.row_ptr.push(f.col.len() as u32);
+            escaped.push(row.escaped as f64 * w);
+            visible.push(if row.cast { valid as f64 * inv } else { 1.0 });
+            cast.push(row.cast);
+        }
     }
     FormFactors {
-        f: Csr::from_rows(csr_rows),
+        f,
         escaped,
         visible,
         cast,
         rays_per_patch: nr,
     }
+}
+
+/// `w` added `count` times (from `w`): the f64 value a row accumulates ray by ray.
+fn repeated_sum(w: f64, count: u32) -> f64 {
+    let mut v = w;
+    for _ in 1..count {
+        v += w;
+    }
+    v
+}
+
+/// The rays of patch `i` (one with an area) in the caster's frame, in cast order.
+/// Origins spread over the patch by the R2 sequence, directions the ray set turned by the
+/// patch's azimuth.
+#[inline]
+pub(crate) fn for_each_ray(
+    patches: &Patches,
+    caster: &RayCaster,
+    rays: &RaySet,
+    seed: u64,
+    i: usize,
+    mut f: impl FnMut(&Ray),
+) {
+    let (shift, azimuth) = patch_jitter(i, seed);
+    let normal = patches.normal[i];
+    let fr = frame(normal, azimuth);
+    for (k, d) in rays.dirs.iter().enumerate() {
+        let origin = caster.offset(patch_point(patches, i, k, shift), normal);
+        f(&caster.frame_ray(origin, to_world(&fr, *d)));
+    }
+}
+
+/// A patch's hit tally: ray counts per patch seen, escaped and covered rays.
+pub(crate) struct Tally<'a> {
+    /// Patch casting.
+    i: usize,
+    /// Hits per patch (all zero between patches).
+    counts: &'a mut [u32],
+    /// Patches seen at least once, in first-seen order.
+    seen: Vec<u32>,
+    escaped: usize,
+    covered: usize,
+}
+
+impl<'a> Tally<'a> {
+    pub(crate) fn new(i: usize, counts: &'a mut [u32]) -> Self {
+        Self {
+            i,
+            counts,
+            seen: Vec::new(),
+            escaped: 0,
+            covered: 0,
+        }
+    }
+
+    /// Adds one ray's hit: a front face of another patch counts for it, a front face of the
+    /// patch itself or a back face means the ray started under a cover, a miss escaped.
+    #[inline]
+    pub(crate) fn add(&mut self, hit: Hit) {
+        match hit {
+            Hit::Front { patch, .. } if patch as usize != self.i => {
+                let c = &mut self.counts[patch as usize];
+                if *c == 0 {
+                    self.seen.push(patch);
+                }
+                *c += 1;
+            }
+            Hit::Front { .. } | Hit::Back { .. } => self.covered += 1,
+            Hit::Miss => self.escaped += 1,
+        }
+    }
+
+    /// The row (sorted columns with counts; `counts` is left all zero).
+    pub(crate) fn finish(mut self, rays: usize) -> CastRow {
+        self.seen.sort_unstable();
+        let hits = self
+            .seen
+            .iter()
+            .map(|&j| (j, std::mem::take(&mut self.counts[j as usize])))
+            .collect();
+        CastRow {
+            hits,
+            escaped: self.escaped,
+            valid: rays - self.covered,
+            cast: true,
+        }
+    }
+}
+
+/// Casts patch `i`'s rays. `counts` (one per patch, all zero on entry and on return) tallies the
+/// hits per patch; its touched entries come out as the sorted row.
+pub(crate) fn cast_patch(
+    patches: &Patches,
+    caster: &RayCaster,
+    rays: &RaySet,
+    seed: u64,
+    i: usize,
+    counts: &mut [u32],
+) -> CastRow {
+    if patches.area_m2[i] <= 0.0 {
+        return CastRow {
+            hits: Vec::new(),
+            escaped: 0,
+            valid: 0,
+            cast: false,
+        };
+    }
+    let mut tally = Tally::new(i, counts);
+    for_each_ray(patches, caster, rays, seed, i, |ray| {
+        tally.add(caster.hit(caster.trace(ray), ray));
+    });
+    tally.finish(rays.len())
 }
 
 /// Outcome of a rectification.
@@ -185,10 +297,13 @@ pub fn ml_exchange_area(a_i: f64, a_j: f64, f_ij: f64, f_ji: f64, n_rays: f64) -
 /// fewer than [`MIN_VISIBLE_FRACTION`] valid rays) have no partner; they scale with their row
 /// only.
 ///
-/// Cost: building the symmetric pattern is a transpose by counting sort and a merge per row,
-/// O(nnz); partners are found by binary search, O(nnz log(row length)); each closure pass is
-/// O(nnz). Memory: the pattern, the exchange areas and the partner index, 16 bytes per entry
-/// beyond the CSR itself.
+/// Cost: every step is O(nnz): the missing transposed entries and each entry's partner are
+/// found by one cursor per row (rows visited in order meet their partners in row order), the
+/// pattern grows in place by a backward merge per row, each closure pass is one sweep.
+/// Memory: in place. The pattern's new entries (12 bytes each, plus 12 while they are
+/// placed) and a few bytes per patch beyond the CSR: the exchange areas replace the form factors
+/// in their own array, and an entry has a partner exactly when both of its patches take part
+/// (the pattern is symmetric among them), so no partner index is stored.
 pub fn rectify(
     ff: &mut FormFactors,
     patch_area_m2: &[f64],
@@ -208,46 +323,26 @@ pub fn rectify(
     let sparse_patches = (0..n)
         .filter(|&i| ff.cast[i] && area[i] > 0.0 && !takes_part[i])
         .count();
-
-    // 1. Symmetric pattern among taking-part patches, and each entry's partner.
-    ff.f = symmetric_pattern(&ff.f, &takes_part);
-    let row_of: Vec<u32> = (0..n)
-        .flat_map(|i| {
-            std::iter::repeat_n(i as u32, (ff.f.row_ptr[i + 1] - ff.f.row_ptr[i]) as usize)
-        })
-        .collect();
-    let partner = partners(&ff.f, &takes_part);
-
-    // 2. Exchange areas: ML common value for partnered pairs, A_i F_ij for one-sided entries.
-    let g = exchange_areas(ff, &area, &partner, &row_of);
-
-    // 3. Symmetric scaling to closure.
-    let target: Vec<f64> = ff.escaped.iter().map(|e| 1.0 - e).collect();
     let in_play: Vec<bool> = (0..n).map(|i| ff.cast[i] && area[i] > 0.0).collect();
+
+    // 1. Symmetric pattern among taking-part patches; exchange areas in place of F (rows in
+    // play: ML common value for partnered pairs, A_i F_ij for one-sided entries).
+    symmetrize(&mut ff.f, &takes_part);
+    let n_rays = ff.rays_per_patch as f64;
+    exchange_areas(&mut ff.f, &area, &takes_part, &in_play, n_rays);
+
+    // 2. Symmetric scaling to closure.
+    let target: Vec<f64> = ff.escaped.iter().map(|e| 1.0 - e).collect();
     let closure = Closure {
         f: &ff.f,
-        partner: &partner,
-        g: &g,
+        takes_part: &takes_part,
         area_m2: &area,
         target: &target,
         in_play: &in_play,
     };
     let (x, iterations) = closure.scale(tolerance, max_iterations);
-    let x = &x;
-    let area = &area;
-    ff.f.val.par_iter_mut().enumerate().for_each(|(k, v)| {
-        let i = row_of[k] as usize;
-        if !in_play[i] {
-            return;
-        }
-        let xj = if partner[k] == u32::MAX {
-            1.0
-        } else {
-            x[ff.f.col[k] as usize]
-        };
-        *v = x[i] * g[k] * xj / area[i];
-    });
-    // 4. The guard: a row still off its target by more than the tolerance is scaled alone.
+    apply_scaling(&mut ff.f, &x, &area, &takes_part, &in_play);
+    // 3. The guard: a row still off its target by more than the tolerance is scaled alone.
     let capped = cap_rows(&mut ff.f, &target, &in_play, tolerance);
     let mut is_capped = vec![false; n];
     for &i in &capped {
@@ -255,7 +350,7 @@ pub fn rectify(
     }
     RectifyReport {
         iterations,
-        reciprocity_error: reciprocity_error(&ff.f, &partner, area, &is_capped),
+        reciprocity_error: reciprocity_error(&ff.f, &takes_part, &area, &is_capped),
         closure_error: (0..n)
             .filter(|&i| in_play[i] && ff.f.row_sum(i) > 0.0)
             .map(|i| (ff.f.row_sum(i) - target[i]).abs())
@@ -265,147 +360,161 @@ pub fn rectify(
     }
 }
 
-/// `f` with a symmetric pattern among taking-part patches: (j, i) exists wherever (i, j) does
-/// (new entries 0). The transpose's columns by counting sort (rows visited in order, so each
-/// list is sorted), merged with each row's own sorted columns.
-fn symmetric_pattern(f: &Csr, takes_part: &[bool]) -> Csr {
-    let n = f.rows();
-    let mut t_count = vec![0u32; n + 1];
-    for i in 0..n {
-        if !takes_part[i] {
-            continue;
-        }
-        for (j, _) in f.row(i) {
-            if takes_part[j as usize] {
-                t_count[j as usize + 1] += 1;
-            }
-        }
-    }
-    for k in 0..n {
-        t_count[k + 1] += t_count[k];
-    }
-    let mut t_col = vec![0u32; t_count[n] as usize];
-    let mut fill = t_count.clone();
-    for i in 0..n {
-        if !takes_part[i] {
-            continue;
-        }
-        for (j, _) in f.row(i) {
-            let j = j as usize;
-            if takes_part[j] {
-                t_col[fill[j] as usize] = i as u32;
-                fill[j] += 1;
-            }
-        }
-    }
-    drop(fill);
-    let merged: Vec<Vec<(u32, f64)>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if !takes_part[i] {
-                return f.row(i).collect();
-            }
-            let tr = &t_col[t_count[i] as usize..t_count[i + 1] as usize];
-            merge_row(f, i, tr)
-        })
-        .collect();
-    Csr::from_rows(merged)
-}
-
-/// Row `i` of `f` merged with the sorted columns `tr` of its transpose (new entries 0).
-fn merge_row(f: &Csr, i: usize, tr: &[u32]) -> Vec<(u32, f64)> {
-    let mut out = Vec::with_capacity(tr.len().max(1) + (f.row_ptr[i + 1] - f.row_ptr[i]) as usize);
-    let mut own = f.row(i).peekable();
-    let mut k = 0;
-    loop {
-        match (own.peek().copied(), tr.get(k).copied()) {
-            (Some((c, v)), Some(t)) => {
-                if c < t {
-                    out.push((c, v));
-                    own.next();
-                } else if t < c {
-                    out.push((t, 0.0));
-                    k += 1;
-                } else {
-                    out.push((c, v));
-                    own.next();
-                    k += 1;
-                }
-            }
-            (Some(e), None) => {
-                out.push(e);
-                own.next();
-            }
-            (None, Some(t)) => {
-                out.push((t, 0.0));
-                k += 1;
-            }
-            (None, None) => break,
-        }
-    }
-    out
-}
-
-/// Each entry's partner (the index of entry (j, i) for entry (i, j); `u32::MAX`: none).
+/// Visits every entry `k` = (i, j) whose patches both take part, with the index `p` of the
+/// entry (j, i) when row j holds it (`None`: it does not).
 ///
-/// Partners without searching: rows are visited in order, so the entries (j, i) that row j
-/// holds for its partners i are met in increasing i, i.e. in the order of row j's sorted
-/// columns; one cursor per row walks them. O(nnz) with one step into row j per entry (a
-/// binary search per entry costs log(row length) cache misses once the matrix outgrows
-/// the cache: the superlinear part of the old rectification).
-fn partners(f: &Csr, takes_part: &[bool]) -> Vec<u32> {
-    let n = f.rows();
-    let mut partner = vec![u32::MAX; f.nnz()];
-    let mut cursor: Vec<u32> = f.row_ptr[..n].to_vec();
-    for i in 0..n {
-        if !takes_part[i] {
-            continue;
-        }
-        let (a, b) = (f.row_ptr[i] as usize, f.row_ptr[i + 1] as usize);
-        for (p, &j) in partner[a..b].iter_mut().zip(&f.col[a..b]) {
-            let j = j as usize;
+/// Without searching: rows are visited in order, so the entries (j, i) that row j holds for
+/// its partners i are met in increasing i, i.e. in the order of row j's sorted columns; one
+/// cursor per row walks them. O(nnz) with one step into row j per entry (a binary search per
+/// entry costs log(row length) cache misses once the matrix outgrows the cache).
+fn for_each_pair(
+    row_ptr: &[u32],
+    col: &[u32],
+    takes_part: &[bool],
+    mut pair: impl FnMut(usize, usize, usize, Option<usize>),
+) {
+    let n = row_ptr.len().saturating_sub(1);
+    let mut cursor: Vec<u32> = row_ptr[..n].to_vec();
+    for i in (0..n).filter(|&i| takes_part[i]) {
+        for k in row_ptr[i] as usize..row_ptr[i + 1] as usize {
+            let j = col[k] as usize;
             if !takes_part[j] {
                 continue;
             }
-            let end = f.row_ptr[j + 1] as usize;
+            let end = row_ptr[j + 1] as usize;
             let mut q = cursor[j] as usize;
-            while q < end && (f.col[q] as usize) < i {
+            while q < end && (col[q] as usize) < i {
                 q += 1;
             }
             cursor[j] = q as u32;
-            if q < end && f.col[q] as usize == i {
-                *p = q as u32;
+            pair(i, j, k, (q < end && col[q] as usize == i).then_some(q));
+        }
+    }
+}
+
+/// Makes the pattern of `f` symmetric among taking-part patches, in place: (j, i) exists
+/// wherever (i, j) does (new entries 0).
+///
+/// The missing entries (j, i) are found by [`for_each_pair`] and bucketed by row (counting
+/// sort, stable: each row's list comes out sorted, rows i being visited in order; 12 bytes per
+/// missing entry while they are placed); the arrays then grow by their number and each row,
+/// from the last back, is merged with its list from its end, so no entry is overwritten before
+/// it is read (a row only moves toward the end).
+fn symmetrize(f: &mut Csr, takes_part: &[bool]) {
+    let n = f.rows();
+    let mut missing: Vec<(u32, u32)> = Vec::new();
+    for_each_pair(&f.row_ptr, &f.col, takes_part, |i, j, _, p| {
+        if p.is_none() {
+            missing.push((j as u32, i as u32));
+        }
+    });
+    let mut start = vec![0u32; n + 1];
+    for &(j, _) in &missing {
+        start[j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut extra = vec![0u32; missing.len()];
+    let mut fill = start[..n].to_vec();
+    for (j, i) in missing {
+        extra[fill[j as usize] as usize] = i;
+        fill[j as usize] += 1;
+    }
+    drop(fill);
+    let nnz = f.nnz() + extra.len();
+    f.col.resize(nnz, 0);
+    f.val.resize(nnz, 0.0);
+    for i in (0..n).rev() {
+        let (s0, s1) = (start[i] as usize, start[i + 1] as usize);
+        merge_back(f, i, s0, &extra[s0..s1]);
+    }
+    for (r, s) in f.row_ptr.iter_mut().zip(&start) {
+        *r += s;
+    }
+}
+
+/// Moves row `i` of `f` (still at its old place) `shift` entries toward the end, merged with the
+/// sorted new columns `extra` (value 0), walking both from their ends.
+fn merge_back(f: &mut Csr, i: usize, shift: usize, extra: &[u32]) {
+    let (a, b) = (f.row_ptr[i] as usize, f.row_ptr[i + 1] as usize);
+    let (mut o, mut e) = (b, extra.len());
+    let mut w = b + shift + extra.len();
+    while e > 0 {
+        w -= 1;
+        if o > a && f.col[o - 1] > extra[e - 1] {
+            o -= 1;
+            f.col[w] = f.col[o];
+            f.val[w] = f.val[o];
+        } else {
+            e -= 1;
+            f.col[w] = extra[e];
+            f.val[w] = 0.0;
+        }
+    }
+    if shift > 0 {
+        f.col.copy_within(a..o, a + shift);
+        f.val.copy_within(a..o, a + shift);
+    }
+}
+
+/// Replaces the form factors of rows in play by exchange areas, m²: the ML common value of each
+/// partnered pair (both entries from the pair's two ray counts), `A_i F_ij` for one-sided
+/// entries. Rows not in play keep their values.
+fn exchange_areas(f: &mut Csr, area: &[f64], takes_part: &[bool], in_play: &[bool], n_rays: f64) {
+    let Csr { row_ptr, col, val } = f;
+    for_each_pair(row_ptr, col, takes_part, |i, j, k, p| {
+        if let Some(p) = p.filter(|_| j > i) {
+            let (f_ij, f_ji) = (val[k], val[p]);
+            val[k] = ml_exchange_area(area[i], area[j], f_ij, f_ji, n_rays);
+            val[p] = ml_exchange_area(area[j], area[i], f_ji, f_ij, n_rays);
+        }
+    });
+    for i in (0..in_play.len()).filter(|&i| in_play[i]) {
+        for k in row_ptr[i] as usize..row_ptr[i + 1] as usize {
+            if !(takes_part[i] && takes_part[col[k] as usize]) {
+                val[k] *= area[i];
             }
         }
     }
-    partner
 }
 
-/// Exchange areas per entry, m²: the ML common value for partnered pairs, `A_i F_ij` for
-/// one-sided entries.
-fn exchange_areas(ff: &FormFactors, area: &[f64], partner: &[u32], row_of: &[u32]) -> Vec<f64> {
-    let n_rays = ff.rays_per_patch as f64;
-    let old = &ff.f.val;
-    let mut g = vec![0.0; ff.f.nnz()];
-    g.par_iter_mut().enumerate().for_each(|(k, gk)| {
-        let i = row_of[k] as usize;
-        let j = ff.f.col[k] as usize;
-        *gk = match partner[k] {
-            u32::MAX => area[i] * old[k],
-            p => ml_exchange_area(area[i], area[j], old[k], old[p as usize], n_rays),
-        };
+/// Sets `F_ij = x_i G_ij x_j / A_i` on rows in play (`x_j` = 1 for one-sided entries), the
+/// exchange areas `G_ij` being the values in place.
+fn apply_scaling(f: &mut Csr, x: &[f64], area: &[f64], takes_part: &[bool], in_play: &[bool]) {
+    let Csr { row_ptr, col, val } = f;
+    let mut rows: Vec<&mut [f64]> = Vec::with_capacity(row_ptr.len());
+    let mut rest = val.as_mut_slice();
+    for w in row_ptr.windows(2) {
+        let (row, tail) = std::mem::take(&mut rest).split_at_mut((w[1] - w[0]) as usize);
+        rows.push(row);
+        rest = tail;
+    }
+    let col = &*col;
+    let row_ptr = &*row_ptr;
+    rows.into_par_iter().enumerate().for_each(|(i, row)| {
+        if !in_play[i] {
+            return;
+        }
+        let cols = &col[row_ptr[i] as usize..row_ptr[i + 1] as usize];
+        for (v, &j) in row.iter_mut().zip(cols) {
+            let j = j as usize;
+            let xj = if takes_part[i] && takes_part[j] {
+                x[j]
+            } else {
+                1.0
+            };
+            *v = x[i] * *v * xj / area[i];
+        }
     });
-    g
 }
 
 /// The symmetric scaling to closure: `x_i` with `Σ_j x_i G_ij x_j / A_i = 1 − F_sp,i`.
 struct Closure<'a> {
-    /// The symmetric pattern.
+    /// The symmetric pattern, exchange areas per entry (m²) as values.
     f: &'a Csr,
-    /// Each entry's partner (`u32::MAX`: none).
-    partner: &'a [u32],
-    /// Exchange areas per entry, m².
-    g: &'a [f64],
+    /// Patches taking part in reciprocity (an entry has a partner when both its patches do).
+    takes_part: &'a [bool],
     /// Visible areas, m².
     area_m2: &'a [f64],
     /// Row targets `1 − F_sp,i`.
@@ -419,13 +528,14 @@ impl Closure<'_> {
     fn row_sum(&self, i: usize, x: &[f64]) -> f64 {
         let (a, b) = (self.f.row_ptr[i] as usize, self.f.row_ptr[i + 1] as usize);
         let mut s = 0.0;
-        for k in a..b {
-            let xj = if self.partner[k] == u32::MAX {
-                1.0
+        for (&g, &j) in self.f.val[a..b].iter().zip(&self.f.col[a..b]) {
+            let j = j as usize;
+            let xj = if self.takes_part[i] && self.takes_part[j] {
+                x[j]
             } else {
-                x[self.f.col[k] as usize]
+                1.0
             };
-            s += self.g[k] * xj;
+            s += g * xj;
         }
         x[i] * s / self.area_m2[i]
     }
@@ -491,28 +601,18 @@ fn cap_rows(f: &mut Csr, target: &[f64], in_play: &[bool], tolerance: f64) -> Ve
 }
 
 /// The largest relative reciprocity error over partnered pairs, leaving out capped rows.
-fn reciprocity_error(f: &Csr, partner: &[u32], area_m2: &[f64], capped: &[bool]) -> f64 {
+fn reciprocity_error(f: &Csr, takes_part: &[bool], area_m2: &[f64], capped: &[bool]) -> f64 {
     let mut worst: f64 = 0.0;
-    for i in 0..f.rows() {
-        if capped[i] {
-            continue;
+    for_each_pair(&f.row_ptr, &f.col, takes_part, |i, j, k, p| {
+        let Some(p) = p.filter(|_| !capped[i] && !capped[j]) else {
+            return;
+        };
+        let a = area_m2[i] * f.val[k];
+        let b = area_m2[j] * f.val[p];
+        if a + b > 0.0 {
+            worst = worst.max((a - b).abs() / (a + b));
         }
-        let range = f.row_ptr[i] as usize..f.row_ptr[i + 1] as usize;
-        for (k, &p) in range.clone().zip(&partner[range]) {
-            if p == u32::MAX {
-                continue;
-            }
-            let j = f.col[k] as usize;
-            if capped[j] {
-                continue;
-            }
-            let a = area_m2[i] * f.val[k];
-            let b = area_m2[j] * f.val[p as usize];
-            if a + b > 0.0 {
-                worst = worst.max((a - b).abs() / (a + b));
-            }
-        }
-    }
+    });
     worst
 }
 
@@ -533,6 +633,144 @@ mod tests {
         // A_i F_ij = A_j F_ji already: η is that exchange area (idempotence)
         let eta = ml_exchange_area(1.0, 2.0, 0.3, 0.15, 1000.0);
         assert!((eta - 0.3).abs() < 1e-12, "{eta}");
+    }
+
+    /// A sparse pseudo-random pattern (rows sorted, no diagonal), values 1 + i + j / 1000.
+    fn random_rows(n: usize, seed: u64) -> Vec<Vec<(u32, f64)>> {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    .filter(|&j| j != i && hash64(seed ^ (i * n + j) as u64).is_multiple_of(5))
+                    .map(|j| (j as u32, 1.0 + i as f64 + j as f64 / 1000.0))
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn symmetrize_in_place_matches_a_dense_reference() {
+        let n = 60;
+        let rows = random_rows(n, 7);
+        let takes_part: Vec<bool> = (0..n).map(|i| i % 7 != 3).collect();
+        let mut f = Csr::from_rows(rows.clone());
+        symmetrize(&mut f, &takes_part);
+        // reference: a dense n × n table of the entries, then the transposed ones added
+        let mut dense = vec![vec![None; n]; n];
+        for (i, row) in rows.iter().enumerate() {
+            for &(j, v) in row {
+                dense[i][j as usize] = Some(v);
+            }
+        }
+        for i in 0..n {
+            for j in 0..n {
+                if takes_part[i] && takes_part[j] && dense[i][j].is_some() && dense[j][i].is_none()
+                {
+                    dense[j][i] = Some(0.0);
+                }
+            }
+        }
+        let expected = Csr::from_rows(
+            dense
+                .iter()
+                .map(|r| (0..n).filter_map(|j| r[j].map(|v| (j as u32, v))).collect())
+                .collect(),
+        );
+        assert_eq!(f, expected);
+        // every entry between taking-part patches has its partner
+        let mut pairs = 0;
+        for_each_pair(&f.row_ptr, &f.col, &takes_part, |i, j, _, p| {
+            let p = p.unwrap_or_else(|| panic!("({i}, {j}) has no partner"));
+            assert_eq!(f.col[p] as usize, i);
+            pairs += 1;
+        });
+        let expected_pairs = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .filter(|&(i, j)| takes_part[i] && takes_part[j] && dense[i][j].is_some())
+            .count();
+        assert_eq!(pairs, expected_pairs);
+    }
+
+    /// A closed cube of side 2 m, each face an `n × n` grid of squares split in two triangles,
+    /// normals inward.
+    fn closed_cube(n: usize) -> Patches {
+        let mut patches = Patches::default();
+        let s = 2.0 / n as f64;
+        // (origin, u, v) per face, u × v pointing into the cube
+        let faces = [
+            (DVec3::ZERO, DVec3::X, DVec3::Y),
+            (DVec3::new(0.0, 0.0, 2.0), DVec3::Y, DVec3::X),
+            (DVec3::ZERO, DVec3::Z, DVec3::X),
+            (DVec3::new(0.0, 2.0, 0.0), DVec3::X, DVec3::Z),
+            (DVec3::ZERO, DVec3::Y, DVec3::Z),
+            (DVec3::new(2.0, 0.0, 0.0), DVec3::Z, DVec3::Y),
+        ];
+        for (o, u, v) in faces {
+            for a in 0..n {
+                for b in 0..n {
+                    let p = |da: usize, db: usize| {
+                        o + u * ((a + da) as f64 * s) + v * ((b + db) as f64 * s)
+                    };
+                    for t in [[p(0, 0), p(1, 0), p(1, 1)], [p(0, 0), p(1, 1), p(0, 1)]] {
+                        let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+                        patches.corners_m.push(t);
+                        patches.normal.push(cross.normalize());
+                        patches.area_m2.push(0.5 * cross.length());
+                        patches.rho.push(0.5);
+                        patches.group.push(0);
+                        patches.source_triangle.push(0);
+                    }
+                }
+            }
+        }
+        patches
+    }
+
+    /// This process's resident-set high-water mark and current size, bytes (Linux).
+    fn rss_bytes() -> Option<(u64, u64)> {
+        let s = std::fs::read_to_string("/proc/self/status").ok()?;
+        let kb = |key: &str| -> Option<u64> {
+            let line = s.lines().find(|l| l.starts_with(key))?;
+            line.split_whitespace().nth(1)?.parse().ok()
+        };
+        Some((kb("VmHWM:")? * 1024, kb("VmRSS:")? * 1024))
+    }
+
+    /// Memory guard: casting and rectifying hold little beyond the CSR they build (the rows
+    /// stream into it; rectification works in place). The peak resident set grows by
+    /// `PEAK_OVER_CSR` × the CSR's bytes at most; measured 1.1 on this cube (the rows held per
+    /// patch and per thread, then the CSR built beside them, then the merged pattern, used to
+    /// take about 4). Measured only in a process of its own (nextest's process-per-test mode:
+    /// under `cargo test` other tests allocate beside it) where `/proc/self/clear_refs` can
+    /// reset the high-water mark; skipped elsewhere.
+    #[test]
+    fn form_factors_peak_memory_is_about_the_csr() {
+        const PEAK_OVER_CSR: f64 = 1.6;
+        if std::env::var("NEXTEST_EXECUTION_MODE").as_deref() != Ok("process-per-test") {
+            println!("skipped: not in a process of its own");
+            return;
+        }
+        let patches = closed_cube(24);
+        let caster = RayCaster::new(&patches);
+        let rays = RaySet::isocell(300);
+        if std::fs::write("/proc/self/clear_refs", "5").is_err() {
+            return;
+        }
+        let Some((_, rss_before)) = rss_bytes() else {
+            return;
+        };
+        let mut ff = compute(&patches, &caster, &rays, 1);
+        let r = rectify(&mut ff, &patches.area_m2, 1e-9, 500);
+        let Some((peak, _)) = rss_bytes() else {
+            return;
+        };
+        let csr = (ff.f.nnz() * 12 + ff.f.row_ptr.len() * 4) as f64;
+        let ratio = peak.saturating_sub(rss_before) as f64 / csr;
+        println!(
+            "{} entries, CSR {csr:.0} B, peak growth {ratio:.2} × CSR, {r:?}",
+            ff.f.nnz()
+        );
+        assert!(r.closure_error < 1e-6, "{r:?}");
+        assert!(ratio <= PEAK_OVER_CSR, "peak grew by {ratio:.2} × the CSR");
     }
 
     #[test]

@@ -23,6 +23,7 @@
 pub mod daylight;
 pub mod dense;
 pub mod direct;
+pub mod ffprofile;
 pub mod formfactor;
 pub mod multisolve;
 pub mod patches;
@@ -740,6 +741,27 @@ pub fn compute_model(scene: &Scene, settings: &Settings) -> Result<Model, Engine
         sensor_f2: responses.iter().map(AngularResponse::f2).collect(),
         stats,
     })
+}
+
+/// Where the time per ray goes in the form-factor stage of `scene` at `settings`:
+/// [`ffprofile::profile`] on `sample` of its patches (one thread).
+pub fn form_factor_profile(
+    scene: &Scene,
+    settings: &Settings,
+    sample: usize,
+) -> Result<ffprofile::RayProfile, EngineError> {
+    check_settings(settings)?;
+    let luminaires = engine_luminaires(scene, settings);
+    let patches = make_patches(scene, settings, &luminaires, &mut Stats::default())?;
+    let caster = RayCaster::new(&patches);
+    let rays = RaySet::new(settings.ray_set, settings.rays);
+    Ok(ffprofile::profile(
+        &patches,
+        &caster,
+        &rays,
+        settings.seed,
+        sample,
+    ))
 }
 
 /// Largest system [`dense_solve`] accepts (an n × n f64 matrix: 128 MiB at 4096).

@@ -44,11 +44,22 @@ pub enum Hit {
     Miss,
 }
 
+/// A triangle as its first corner and two edges (`v1 − v0`, `v2 − v0`), computed once: the
+/// same f32 values Möller–Trumbore forms per test, so a hit's distance is bit for bit the same.
+#[derive(Debug, Clone, Copy)]
+struct EdgeTriangle {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+}
+
 /// A BVH over the patches.
 pub struct RayCaster {
     bvh: CwBvh,
-    /// Triangles in BVH primitive order.
-    tris: Vec<Triangle>,
+    /// Triangles in BVH primitive order, as corner and edges.
+    tris: Vec<EdgeTriangle>,
+    /// The same triangles as obvhs stores them (for [`RayCaster::trace_obvhs`]).
+    obvhs_tris: Vec<Triangle>,
     /// Unnormalised normals in BVH primitive order (for front/back).
     normals: Vec<Vec3A>,
     /// BVH primitive → patch id: the one mapping.
@@ -69,10 +80,9 @@ const FRAME_DIAGONAL: f64 = 1e4;
 /// along a quad's diagonal could slip through both halves). Two-sided; returns the distance or
 /// infinity.
 #[inline(always)]
-fn intersect(t: &Triangle, ray: &Ray) -> f32 {
+fn intersect(t: &EdgeTriangle, ray: &Ray) -> f32 {
     const EDGE_TOLERANCE: f32 = 1e-6;
-    let e1 = t.v1 - t.v0;
-    let e2 = t.v2 - t.v0;
+    let (e1, e2) = (t.e1, t.e2);
     let p = ray.direction.cross(e2);
     let det = e1.dot(p);
     if det == 0.0 {
@@ -155,14 +165,20 @@ impl RayCaster {
         let mut build_time = Duration::ZERO;
         let bvh = build_cwbvh_from_tris(&input, BvhBuildParams::fast_build(), &mut build_time);
         let patch_of = bvh.primitive_indices.clone();
-        let tris: Vec<Triangle> = patch_of.iter().map(|&i| input[i as usize]).collect();
-        let normals = tris
+        let obvhs_tris: Vec<Triangle> = patch_of.iter().map(|&i| input[i as usize]).collect();
+        let tris: Vec<EdgeTriangle> = obvhs_tris
             .iter()
-            .map(|t| (t.v1 - t.v0).cross(t.v2 - t.v0))
+            .map(|t| EdgeTriangle {
+                v0: t.v0,
+                e1: t.v1 - t.v0,
+                e2: t.v2 - t.v0,
+            })
             .collect();
+        let normals = tris.iter().map(|t| t.e1.cross(t.e2)).collect();
         Self {
             bvh,
             tris,
+            obvhs_tris,
             normals,
             patch_of,
             eps_m,
@@ -178,26 +194,52 @@ impl RayCaster {
 
     /// The first surface along a unit direction from `origin`.
     pub fn closest(&self, origin: DVec3, dir: DVec3) -> Hit {
+        let ray = self.frame_ray(origin, dir);
+        self.hit(self.trace(&ray), &ray)
+    }
+
+    /// The ray from `origin` along a unit direction, in the caster's frame (f32), unbounded.
+    #[inline]
+    pub fn frame_ray(&self, origin: DVec3, dir: DVec3) -> Ray {
         debug_assert!(
             (dir.length() - 1.0).abs() < 1e-6,
             "ray directions are unit vectors"
         );
-        let ray = Ray::new(
+        Ray::new(
             self.to_frame(origin),
             direction_f32(dir),
             0.0,
             f32::INFINITY,
-        );
+        )
+    }
+
+    /// BVH traversal alone: the closest primitive (BVH order) and its distance (caster units).
+    #[inline]
+    pub fn trace(&self, ray: &Ray) -> Option<(u32, f32)> {
         let mut hit = RayHit::none();
-        if !self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| intersect(&self.tris[id], r))
-        {
+        self.bvh
+            .ray_traverse(*ray, &mut hit, |r, id| intersect(&self.tris[id], r))
+            .then_some((hit.primitive_id, hit.t))
+    }
+
+    /// The BVH's own rate: the same traversal with obvhs' own triangle test (two-sided, no
+    /// edge tolerance): for the micro benchmark, not for form factors.
+    pub fn trace_obvhs(&self, ray: &Ray) -> Option<(u32, f32)> {
+        let mut hit = RayHit::none();
+        self.bvh
+            .ray_traverse(*ray, &mut hit, |r, id| self.obvhs_tris[id].intersect(r))
+            .then_some((hit.primitive_id, hit.t))
+    }
+
+    /// A traced primitive as a patch hit: the patch lookup and the face test.
+    #[inline]
+    pub fn hit(&self, traced: Option<(u32, f32)>, ray: &Ray) -> Hit {
+        let Some((prim, t)) = traced else {
             return Hit::Miss;
-        }
-        let prim = hit.primitive_id as usize;
+        };
+        let prim = prim as usize;
         let patch = self.patch_of[prim];
-        let t_m = f64::from(hit.t) / self.scale;
+        let t_m = f64::from(t) / self.scale;
         if self.normals[prim].dot(ray.direction) < 0.0 {
             Hit::Front { patch, t_m }
         } else {
