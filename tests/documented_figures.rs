@@ -335,3 +335,44 @@ fn the_readers_of_the_tables_read_what_they_must() {
     let (b, h) = bytes("1.98 MB (u16)");
     assert!((b - 1.98e6).abs() < 1e-6 && (h - 5e3).abs() < 1e-9);
 }
+
+/// Issue 31 item 6: one source per figure. The README's headline times and errors are the
+/// preset table's balanced row, and the preset table is docs/tradeoffs.md's (the measured run
+/// the docs record), cell for cell.
+#[test]
+fn the_readme_tables_say_what_docs_tradeoffs_says() {
+    let readme = readme();
+    let doc = std::fs::read_to_string(common::manifest().join("docs/tradeoffs.md"))
+        .expect("docs/tradeoffs.md");
+    let balanced = row(&readme, "balanced (default)");
+    assert_eq!(row(&readme, "error over")[1], balanced[6], "headline error");
+    assert_eq!(row(&readme, "worst sensor")[1], balanced[7], "headline worst sensor");
+    assert_eq!(row(&readme, "commissioning (patches")[1], balanced[2], "headline commissioning");
+    assert_eq!(
+        row(&readme, "one dimming state")[1],
+        balanced[4],
+        "headline per-state time"
+    );
+    for preset in ["fast", "balanced", "accurate"] {
+        let r = row(&readme, preset);
+        // docs/tradeoffs.md's first table row for the preset with numbers: the current run
+        let d = doc
+            .lines()
+            .map(|l| l.trim().trim_matches('|').split('|').map(|c| c.trim().to_owned()))
+            .map(Vec::from_iter)
+            .find(|c: &Vec<String>| c.len() >= 8 && c[0] == preset && c[1].parse::<u32>().is_ok())
+            .unwrap_or_else(|| panic!("docs/tradeoffs.md: no measured row for {preset}"));
+        // the README rounds; each of its numbers within half its last digit of the doc's
+        for (what, i) in [("patches", 1), ("commissioning", 2), ("per state", 4), ("re-solve", 5)] {
+            let (printed, half) = number(&r[i]);
+            let documented: f64 = d[i].parse().unwrap_or(f64::NAN);
+            assert!(
+                (printed - documented).abs() <= half + 1e-9,
+                "{preset} {what}: README {} vs docs/tradeoffs.md {}",
+                r[i],
+                d[i]
+            );
+        }
+        assert_eq!(&r[6..8], &d[6..8], "{preset} error and worst sensor");
+    }
+}
