@@ -73,24 +73,16 @@ fn serve(extra: &[&str]) -> Node {
 
 /// The Object_Name `luxnode points` lists for BACnet object `table`,`instance` of the office.
 fn points_list_object_name(table: &str, instance: u64) -> String {
-    let out = Command::new(LUXNODE)
-        .args([
-            "points",
-            "--format",
-            "json",
-            "--bacnet-device-id",
-            "4321",
-            "--image",
-        ])
-        .arg(office_image())
-        .output()
-        .expect("run luxnode points");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).expect("points json");
+    let image = office_image();
+    let v = common::procs::luxnode_json(&[
+        "points".as_ref(),
+        "--format".as_ref(),
+        "json".as_ref(),
+        "--bacnet-device-id".as_ref(),
+        "4321".as_ref(),
+        "--image".as_ref(),
+        image.as_os_str(),
+    ]);
     let row = v["values"]
         .as_array()
         .and_then(|rows| {

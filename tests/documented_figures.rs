@@ -346,8 +346,16 @@ fn the_readme_tables_say_what_docs_tradeoffs_says() {
         .expect("docs/tradeoffs.md");
     let balanced = row(&readme, "balanced (default)");
     assert_eq!(row(&readme, "error over")[1], balanced[6], "headline error");
-    assert_eq!(row(&readme, "worst sensor")[1], balanced[7], "headline worst sensor");
-    assert_eq!(row(&readme, "commissioning (patches")[1], balanced[2], "headline commissioning");
+    assert_eq!(
+        row(&readme, "worst sensor")[1],
+        balanced[7],
+        "headline worst sensor"
+    );
+    assert_eq!(
+        row(&readme, "commissioning (patches")[1],
+        balanced[2],
+        "headline commissioning"
+    );
     assert_eq!(
         row(&readme, "one dimming state")[1],
         balanced[4],
@@ -358,12 +366,22 @@ fn the_readme_tables_say_what_docs_tradeoffs_says() {
         // docs/tradeoffs.md's first table row for the preset with numbers: the current run
         let d = doc
             .lines()
-            .map(|l| l.trim().trim_matches('|').split('|').map(|c| c.trim().to_owned()))
+            .map(|l| {
+                l.trim()
+                    .trim_matches('|')
+                    .split('|')
+                    .map(|c| c.trim().to_owned())
+            })
             .map(Vec::from_iter)
             .find(|c: &Vec<String>| c.len() >= 8 && c[0] == preset && c[1].parse::<u32>().is_ok())
             .unwrap_or_else(|| panic!("docs/tradeoffs.md: no measured row for {preset}"));
         // the README rounds; each of its numbers within half its last digit of the doc's
-        for (what, i) in [("patches", 1), ("commissioning", 2), ("per state", 4), ("re-solve", 5)] {
+        for (what, i) in [
+            ("patches", 1),
+            ("commissioning", 2),
+            ("per state", 4),
+            ("re-solve", 5),
+        ] {
             let (printed, half) = number(&r[i]);
             let documented: f64 = d[i].parse().unwrap_or(f64::NAN);
             assert!(

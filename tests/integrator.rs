@@ -309,17 +309,13 @@ fn the_luminaire_wattage_is_one_number_in_control_report_and_modbus() {
 fn the_points_list_addresses_are_the_ones_the_node_serves() {
     need("mbpoll");
     let image = demo_image();
-    let out = Command::new(LUXNODE)
-        .args(["points", "--format", "json", "--image"])
-        .arg(&image)
-        .output()
-        .expect("run luxnode points");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("points json");
+    let v = common::procs::luxnode_json(&[
+        "points".as_ref(),
+        "--format".as_ref(),
+        "json".as_ref(),
+        "--image".as_ref(),
+        image.as_os_str(),
+    ]);
     let rows = v["values"].as_array().cloned().unwrap_or_default();
     let points = v["points"].as_array().cloned().unwrap_or_default();
     // the demo office: 6 sensors on its 6 desks and one on the floor, named for it

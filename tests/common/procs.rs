@@ -210,3 +210,19 @@ pub fn cli_office_image(tag: &str) -> std::path::PathBuf {
         &["--scene".as_ref(), scene.as_os_str()],
     )
 }
+
+/// `luxnode ARGS` run to completion, its stdout parsed as JSON (the run must succeed).
+#[allow(dead_code)]
+pub fn luxnode_json<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> serde_json::Value {
+    let out = Command::new(LUXNODE)
+        .args(args)
+        .output()
+        .expect("run luxnode");
+    assert!(
+        out.status.success(),
+        "luxnode {:?}: {}",
+        args.iter().map(|a| a.as_ref()).collect::<Vec<_>>(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("luxnode's JSON")
+}
