@@ -1328,7 +1328,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "W",
         "1",
         "R",
-        "electric power with every luminaire at full"
+        "electric power with every luminaire at full (each at its rated power: the photometry file's wattage, as in the report; flux / 120 lm/W only where the file has none, with a warning; the board's `[control] rated_power_w` overrides)"
     ),
     row!(
         Input,
