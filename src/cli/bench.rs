@@ -394,7 +394,11 @@ fn engine(scene: &Path, runs: usize, radiance: Option<PathBuf>, radiance_args: &
         "# luxnode engine benchmark: {} ({threads} threads)",
         sc.name
     );
+    let bar = super::step_spinner("commissioning runs");
     let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     println!();
     println!(
         "commissioning at default settings, median of {runs} runs: {:.3} s",

@@ -182,7 +182,8 @@ impl Args {
             readings: luxmeter_rho,
             force: self.force,
             engine: self.engine.settings(),
-            progress: true,
+            // spinners per stage on a terminal; in a pipe or the journal, the log lines
+            progress: super::progress_on_a_terminal(),
             start_rho: self.start_rho,
             estimate_reflectances: self.reflectances == OnOff::On,
             ..CommissionOptions::default()

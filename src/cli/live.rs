@@ -160,12 +160,13 @@ pub fn run(a: &Args) -> Result<()> {
     };
     match a.format {
         OutputFormat::Csv => {
-            println!(
-                "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied"
+            // the table in one write: no log line can land between its rows
+            let mut table = String::from(
+                "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied\n",
             );
             for (k, d) in desks.iter().enumerate() {
-                println!(
-                    "{},{},{},{},{},{},{},{}",
+                table.push_str(&format!(
+                    "{},{},{},{},{},{},{},{}\n",
                     d.id,
                     csv_lx(d.total_lx),
                     csv_lx(d.artificial_lx),
@@ -174,8 +175,9 @@ pub fn run(a: &Args) -> Result<()> {
                     flags::describe(d.flags),
                     csv_lx(d.uncertainty_lx),
                     occupied_csv(k)
-                );
+                ));
             }
+            print!("{table}");
         }
         OutputFormat::Json => {
             let v: Vec<serde_json::Value> = desks

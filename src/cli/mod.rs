@@ -24,6 +24,7 @@ pub mod simulate;
 #[cfg(feature = "bench")]
 pub mod tradeoffs;
 
+use std::io::IsTerminal;
 use std::path::Path;
 
 use anyhow::{Result, bail};
@@ -284,4 +285,38 @@ pub fn load_scene(dir: &Path, options: &LoadOptions) -> Result<Scene> {
         bail!("{} is not a scene directory", dir.display());
     }
     Ok(Scene::load(dir, options)?)
+}
+
+/// True when progress may be drawn: stderr is a terminal, not a pipe, a file or the journal
+/// (there the plain log lines stay as they are).
+pub fn progress_on_a_terminal() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("JOURNAL_STREAM").is_none()
+}
+
+/// A spinner on stderr with the time `what` has taken (and the steps done, with
+/// [`print_step`]), on a terminal only; `finish_and_clear` it before the summary.
+pub fn step_spinner(what: &'static str) -> Option<indicatif::ProgressBar> {
+    if !progress_on_a_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    let style = indicatif::ProgressStyle::with_template("{spinner} {prefix}: {elapsed}{msg}")
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner());
+    bar.set_style(style);
+    bar.set_prefix(what);
+    bar.enable_steady_tick(std::time::Duration::from_millis(100));
+    Some(bar)
+}
+
+/// Prints a result line on stdout; with a spinner on the same terminal, around it (the
+/// spinner hidden while the line is written, then counting one more step).
+pub fn print_step(bar: Option<&indicatif::ProgressBar>, line: &str) {
+    match bar {
+        Some(b) => {
+            b.suspend(|| println!("{line}"));
+            b.inc(1);
+            b.set_message(format!(", {} done", b.position()));
+        }
+        None => println!("{line}"),
+    }
 }
