@@ -351,7 +351,22 @@ fn damaged_images_are_refused_with_a_clear_message() {
     std::fs::write(&img, &bytes[..100]).unwrap();
     let o = luxnode(&["image", "info", img.to_str().unwrap()]);
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("truncated"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("truncated"), "{err}");
+    assert_eq!(doubled_word(&err), None, "{err}");
+}
+
+/// The first word said twice in a row (`image: image`, `error: error`), if any (issue 31).
+fn doubled_word(text: &str) -> Option<String> {
+    let words: Vec<String> = text
+        .split(|c: char| c.is_whitespace() || c == ':' || c == ',')
+        .filter(|w| !w.is_empty())
+        .map(str::to_lowercase)
+        .collect();
+    words
+        .windows(2)
+        .find(|w| w[0] == w[1] && w[0].chars().all(char::is_alphabetic))
+        .map(|w| w[0].clone())
 }
 
 #[test]
@@ -661,6 +676,11 @@ fn every_help_is_in_one_style_and_the_readme_lists_every_command() {
                 continue;
             }
             problems.extend(help_problems(&path.join(" "), &head, &text));
+            // the prose, not the possible values' list (`- ies: IES`)
+            let prose: Vec<&str> = text.lines().filter(|l| !l.starts_with("- ")).collect();
+            if let Some(w) = doubled_word(&prose.join("\n")) {
+                problems.push(format!("{path:?} {head}: {w:?} twice in a row"));
+            }
         }
     }
     assert!(seen > 30, "only {seen} subcommands walked");

@@ -207,7 +207,7 @@ fn info(file: &std::path::Path) -> Result<()> {
         "payload:          {} bytes, CRC-32 {:#010x}",
         header.payload_len, header.payload_crc32
     );
-    let image = Image::parse(&bytes).with_context(|| format!("{}: image", file.display()))?;
+    let image = Image::parse(&bytes).with_context(|| format!("image {}", file.display()))?;
     let p = &image.payload;
     println!("checksums:        header and payload OK");
     println!("scene:            {}", p.scene_name);
