@@ -21,16 +21,21 @@ pub enum Command {
     /// Commissioning time per stage, per-state time, accuracy against the scene's truth.
     Engine {
         /// The scene directory (with states.csv and truth.csv for accuracy).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
         /// Commissioning runs (the median is printed).
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, value_name = "N", default_value_t = 3)]
         runs: usize,
         /// Also run this Radiance harness (bench/radiance/office_a.py) and compare.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         radiance: Option<PathBuf>,
         /// Arguments for the Radiance harness (its settings), one string.
-        #[arg(long, default_value = "", allow_hyphen_values = true)]
+        #[arg(
+            long,
+            value_name = "ARGS",
+            default_value = "",
+            allow_hyphen_values = true
+        )]
         radiance_args: String,
     },
     /// Speed against accuracy: the presets, every engine and store knob one at a time, and the
@@ -39,17 +44,17 @@ pub enum Command {
     Tradeoffs {
         /// The scene directory (states.csv, truth.csv; with --capture: luminaires.json,
         /// sensors.json, desks.json).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
         /// Commission from this capture set instead of the scene's CAD model (each point a full
         /// `commission` run).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         capture: Option<PathBuf>,
         /// Grid: rays per patch (empty: no grid).
-        #[arg(long, value_delimiter = ',', default_values_t = [100, 300, 1000])]
+        #[arg(long, value_name = "N", value_delimiter = ',', default_values_t = [100, 300, 1000])]
         rays: Vec<usize>,
         /// Grid: base patch sizes, m.
-        #[arg(long, value_delimiter = ',', default_values_t = [2.0, 1.0, 0.5, 0.25])]
+        #[arg(long, value_name = "M", value_delimiter = ',', default_values_t = [2.0, 1.0, 0.5, 0.25])]
         patch_sizes: Vec<f64>,
         /// Skip the grid.
         #[arg(long)]
@@ -58,62 +63,63 @@ pub enum Command {
         #[arg(long)]
         no_knobs: bool,
         /// Commissioning runs per point (the median is kept).
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_name = "N", default_value_t = 1)]
         runs: usize,
         /// Commissioning runs per preset.
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, value_name = "N", default_value_t = 3)]
         preset_runs: usize,
         /// Write the Pareto plots (PNG) into this directory.
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         plots: Option<PathBuf>,
         /// Also write the rays x patch-size plot (PNG) of the grid rows.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         plot: Option<PathBuf>,
     },
     /// "Model only what the scene requires": patch counts per preset and surface, pictures of
     /// the patch layout, and the error of uniform meshes with the same patch counts.
     Patches {
         /// The scene directory (with states.csv and truth.csv).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
         /// Write the layout pictures (PNG) into this directory.
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         out_dir: Option<PathBuf>,
     },
-    /// Commissioning stage times and memory against patches x rays (default: Ward's grey room).
+    /// Commissioning stage times and memory against patches x rays (Ward's grey room unless --scene).
     Scaling {
-        /// A scene directory (default: Ward's grey room, built in code).
-        #[arg(long)]
+        /// A scene directory [if absent: Ward's grey room, built in code].
+        #[arg(long, value_name = "DIR")]
         scene: Option<PathBuf>,
         /// Base patch sizes, m.
-        #[arg(long, value_delimiter = ',', default_values_t = [1.0, 0.7, 0.5])]
+        #[arg(long, value_name = "M", value_delimiter = ',', default_values_t = [1.0, 0.7, 0.5])]
         patch_sizes: Vec<f64>,
         /// Rays per patch.
-        #[arg(long, value_delimiter = ',', default_values_t = [300, 3000])]
+        #[arg(long, value_name = "N", value_delimiter = ',', default_values_t = [300, 3000])]
         rays: Vec<usize>,
         /// Uniform patches (no refinement toward sensors and luminaires).
         #[arg(long)]
         uniform: bool,
         /// Commissioning runs per point (the median is kept).
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_name = "N", default_value_t = 1)]
         runs: usize,
     },
     /// The run-time core over an image: one dimming state, and a full re-solve.
     Runtime {
         /// The image file.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         image: PathBuf,
     },
     /// Draw the trade-off plot from a table printed by `bench tradeoffs`.
     PlotTradeoffs {
         /// The markdown table (the output of `bench tradeoffs`).
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         table: PathBuf,
         /// The PNG to write.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         out: PathBuf,
         /// Plot title.
         #[arg(
+            value_name = "TEXT",
             long,
             default_value = "office_a: commissioning time against error (rays 100..10000)"
         )]
@@ -122,52 +128,52 @@ pub enum Command {
     /// Many Modbus TCP clients polling the desk lux at once: throughput, latency, memory.
     ModbusLoad {
         /// The image to serve.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         image: PathBuf,
         /// Concurrent Modbus TCP clients.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, value_name = "N", default_value_t = 100)]
         clients: usize,
         /// How long the clients poll, s.
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(long, value_name = "S", default_value_t = 60.0)]
         seconds: f64,
         /// Each client's poll interval, ms (0: back to back).
-        #[arg(long, default_value_t = 0)]
+        #[arg(long, value_name = "MS", default_value_t = 0)]
         interval_ms: u64,
         /// The pollers come from this many BMS hosts (loopback addresses 127.0.1.1, ...), so
         /// the server's default caps apply as in a building (128 connections, 64 per host).
-        #[arg(long, default_value_t = 4)]
+        #[arg(long, value_name = "N", default_value_t = 4)]
         hosts: u8,
         /// An attacker at 127.0.0.2 first opens this many sockets and never speaks (the
         /// idle-socket attack); the pollers must still all be served.
-        #[arg(long, default_value_t = 0)]
+        #[arg(long, value_name = "N", default_value_t = 0)]
         idle_attack: usize,
     },
     /// Does BACnet slow Modbus? Modbus pollers' throughput without and with COV subscribers
     /// (in-process sockets), runs alternating, medians compared (docs/bacnet.md).
     BacnetCovLoad {
         /// The image to serve.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         image: PathBuf,
         /// COV subscribers in the runs with them.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, value_name = "N", default_value_t = 100)]
         subscribers: usize,
         /// Modbus TCP clients polling the desk floats back to back.
-        #[arg(long, default_value_t = 8)]
+        #[arg(long, value_name = "N", default_value_t = 8)]
         pollers: usize,
         /// Each run's duration, s.
-        #[arg(long, default_value_t = 3.0)]
+        #[arg(long, value_name = "S", default_value_t = 3.0)]
         seconds: f64,
         /// Runs of each kind (without, with), alternating.
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, value_name = "N", default_value_t = 5)]
         runs: usize,
     },
     /// Mutated Modbus frames into the register map and the RTU handler; every answer checked.
     Fuzz {
         /// Frames to send.
-        #[arg(long, default_value_t = 10_000_000)]
+        #[arg(long, value_name = "N", default_value_t = 10_000_000)]
         frames: u64,
         /// Seed of the frame generator (the same seed sends the same frames).
-        #[arg(long, default_value_t = 0x6C75_786E)]
+        #[arg(long, value_name = "N", default_value_t = 0x6C75_786E)]
         seed: u64,
     },
     /// The paper's Table 1, CAD vs RGBD rows: commissioning from the capture sets (clean and
@@ -176,7 +182,7 @@ pub enum Command {
     Table1 {
         /// The scene directory (capture/, capture_clean/ with groundtruth/, states.csv,
         /// truth.csv, luminaires.json, sensors.json).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
     },
     /// The least-power optimiser (luminaires x desks up to 128 x 200): time per optimisation,
@@ -184,39 +190,39 @@ pub enum Command {
     /// then the DALI plan against the exhaustive DALI optimum for 2 to 4 luminaires.
     Control {
         /// Instances per size.
-        #[arg(long, default_value_t = 20)]
+        #[arg(long, value_name = "N", default_value_t = 20)]
         instances: usize,
         /// Seed of the instances.
-        #[arg(long, default_value_t = 1)]
+        #[arg(long, value_name = "N", default_value_t = 1)]
         seed: u64,
     },
     /// Energy over a day of daylight: the least-power controller against all on and against one
     /// photocell dimming every luminaire together, over the occupied hours.
     ControlDay {
         /// The commissioned image (its response matrix and luminaire fluxes).
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         image: PathBuf,
         /// Daylight alone per desk over the day: CSV time_h,sensor_id,lux.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         daylight: PathBuf,
         /// Target of every desk, lx.
-        #[arg(long, default_value_t = luxnode::control::DEFAULT_TARGET_LX)]
+        #[arg(long, value_name = "LUX", default_value_t = luxnode::control::DEFAULT_TARGET_LX)]
         target: f64,
         /// Occupied from this hour.
-        #[arg(long, default_value_t = 8.0)]
+        #[arg(long, value_name = "H", default_value_t = 8.0)]
         from_h: f64,
         /// Occupied until this hour.
-        #[arg(long, default_value_t = 18.0)]
+        #[arg(long, value_name = "H", default_value_t = 18.0)]
         to_h: f64,
         /// Write the power over the day as a PNG.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         plot: Option<PathBuf>,
         /// Who sits where: CSV sensor_id,from_h,to_h (a fourth controller, least power
         /// following people; bench/control/office_a_occupancy.csv).
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         occupancy: Option<PathBuf>,
         /// Occupancy's hold, s (a desk stays occupied this long after its person left).
-        #[arg(long, default_value_t = 900.0)]
+        #[arg(long, value_name = "S", default_value_t = 900.0)]
         hold_s: f64,
         /// What a vacant desk is lit to: surrounding (EN 12464-1's immediate surrounding
         /// level) or off.
@@ -228,13 +234,13 @@ pub enum Command {
     /// with their times.
     Dense {
         /// The scene directory (with truth_dense.csv).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
-        /// The capture set with the rendered truth (default: the scene's capture_clean).
-        #[arg(long)]
+        /// The capture set with the rendered truth [if absent: the scene's capture_clean].
+        #[arg(long, value_name = "DIR")]
         capture: Option<PathBuf>,
         /// Timed runs (the median is printed).
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, value_name = "N", default_value_t = 3)]
         runs: usize,
     },
     /// Live light's cost: one update of the estimator (frame in, desk values out) under
@@ -242,10 +248,10 @@ pub enum Command {
     /// daylight; the boot cost and the memory held (docs/live.md).
     Live {
         /// A board file with simulated cameras (its scene and optics).
-        #[arg(long, default_value = "boards/sim/board.toml")]
+        #[arg(long, value_name = "FILE", default_value = "boards/sim/board.toml")]
         board: PathBuf,
         /// Timed updates in all (cycling through the conditions).
-        #[arg(long, default_value_t = 120)]
+        #[arg(long, value_name = "N", default_value_t = 120)]
         frames: usize,
     },
     /// Occupancy (issue 29) against the bench's rendered rooms (bench/occupancy/generate.py):
@@ -253,16 +259,16 @@ pub enum Command {
     /// µs per update, memory. Prints a markdown table (docs/occupancy.md).
     Occupancy {
         /// The generated bench: one directory per room and pose.
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         dir: PathBuf,
         /// Every stride-th pixel is watched.
-        #[arg(long, default_value_t = 2)]
+        #[arg(long, value_name = "N", default_value_t = 2)]
         stride: u32,
     },
     /// The paper's ablation (paper vs exact direct light, LDC, LSC) against the truth.
     Ablation {
         /// The scene directory.
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
     },
 }
@@ -388,7 +394,11 @@ fn engine(scene: &Path, runs: usize, radiance: Option<PathBuf>, radiance_args: &
         "# luxnode engine benchmark: {} ({threads} threads)",
         sc.name
     );
+    let bar = super::step_spinner("commissioning runs");
     let ((total, stages), model) = bench::time_commissioning(&sc, &settings, runs)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     println!();
     println!(
         "commissioning at default settings, median of {runs} runs: {:.3} s",

@@ -29,7 +29,11 @@ pub fn run(
             .collect::<Vec<_>>()
             .join(" ")
     );
+    let bar = super::step_spinner("patches x rays");
     let rows = scaling::scaling(&sc, patch_sizes_m, rays, uniform, runs)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     println!("{}", scaling::table(&rows));
     println!(
         "Form-factor stage per ray, µs (one thread, {} patches sampled):\n",

@@ -26,67 +26,73 @@ pub struct Args {
     /// The capture set directory (camera.json, depth_NNN.png, luminance_L<k>.png). Repeat it
     /// for several nodes in one room (each camera.json with its pose in the room's frame and its
     /// gain), with one --out per capture set, in the same order.
-    #[arg(long, required = true)]
+    #[arg(long, required = true, value_name = "DIR")]
     capture: Vec<PathBuf>,
-    /// luminaires.json (installed positions and photometry).
-    #[arg(long, required_unless_present = "board")]
+    /// luminaires.json (installed positions and photometry); required without --board.
+    #[arg(long, required_unless_present = "board", value_name = "FILE")]
     luminaires: Option<PathBuf>,
-    /// sensors.json (the desk points to answer for).
-    #[arg(long, required_unless_present = "board")]
+    /// sensors.json (the desk points to answer for); required without --board.
+    #[arg(long, required_unless_present = "board", value_name = "FILE")]
     sensors: Option<PathBuf>,
     /// The luminaires, sensors and desks of this board file's room instead (its `[scene]`).
-    #[arg(long, conflicts_with_all = ["luminaires", "sensors", "desks"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["luminaires", "sensors", "desks"])]
     board: Option<PathBuf>,
     /// desks.json, for the report's desk outlines and desk lux.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     desks: Option<PathBuf>,
     /// The flash image to write (one per --capture: node k's image holds the whole room and
     /// node k's camera and desks).
-    #[arg(long, required = true)]
+    #[arg(long, required = true, value_name = "FILE")]
     out: Vec<PathBuf>,
     /// Also write the mesh as PLY (grey = reflectance).
-    #[arg(long, value_name = "FILE.ply")]
+    #[arg(long, value_name = "FILE.PLY")]
     export_mesh: Option<PathBuf>,
     /// Also draw the camera view with a false-colour lux overlay, desk outlines and desk lux.
     #[cfg(feature = "report")]
-    #[arg(long, value_name = "FILE.png")]
+    #[arg(long, value_name = "FILE.PNG")]
     report: Option<PathBuf>,
     /// Close the room (inferred floor, walls, ceiling).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     closure: OnOff,
     /// Reflectance of the inferred walls.
-    #[arg(long, default_value_t = commission::ClosureOptions::default().wall_rho)]
+    #[arg(long, value_name = "RHO", default_value_t = commission::ClosureOptions::default().wall_rho)]
     wall_rho: f64,
     /// Reflectance of the inferred ceiling.
-    #[arg(long, default_value_t = commission::ClosureOptions::default().ceiling_rho)]
+    #[arg(long, value_name = "RHO", default_value_t = commission::ClosureOptions::default().ceiling_rho)]
     ceiling_rho: f64,
-    /// Room box x0,y0,x1,y1 in m (default: inferred).
+    /// Room box in m, one comma-separated value [if absent: inferred].
     #[arg(
         long,
-        value_delimiter = ',',
-        num_args = 4,
+        value_name = "X0,Y0,X1,Y1",
+        value_parser = parse_room,
         conflicts_with = "room_plan"
     )]
-    room: Option<Vec<f64>>,
-    /// Ceiling height, m (default: just above the highest luminaire opening).
-    #[arg(long, conflicts_with = "room_plan")]
+    room: Option<RoomBox>,
+    /// Ceiling height, m [if absent: just above the highest luminaire opening].
+    #[arg(long, value_name = "M", conflicts_with = "room_plan")]
     ceiling_height: Option<f64>,
     /// The room plan (room.json, luxnode-room-plan/1): outline, heights, windows, site. The
-    /// walls, windows and ceiling the cameras do not see are built from it (default: the
-    /// board's `[room] plan`, else an inferred box).
-    #[arg(long, value_name = "room.json")]
+    /// walls, windows and ceiling the cameras do not see are built from it [if absent: the
+    /// board's `[room] plan`, else an inferred box].
+    #[arg(long, value_name = "ROOM.JSON")]
     room_plan: Option<PathBuf>,
     /// Target patch size of the reconstructed mesh (largest rectangle side), m.
-    #[arg(long, default_value_t = commission::MeshOptions::default().patch_size_m)]
+    #[arg(long, value_name = "M", default_value_t = commission::MeshOptions::default().patch_size_m)]
     mesh_patch_size: f64,
     /// Camera gain from one luxmeter reading instead of camera.json: SENSOR_ID:LUX with all
     /// luminaires on.
     #[arg(long, value_name = "ID:LUX")]
     luxmeter: Option<String>,
-    /// A luxmeter reading with every luminaire at full, SENSOR_ID:LUX (repeat for more desks):
+    /// A luxmeter reading with every luminaire at full, SENSOR_ID:LUX (repeat the flag or
+    /// comma-separate for more desks):
     /// the readings set the reflectance of the walls and ceiling the camera did not see
     /// (with camera.json's gain; docs/commissioning.md).
-    #[arg(long, value_name = "ID:LUX", conflicts_with = "luxmeter")]
+    #[arg(
+        long,
+        value_name = "ID:LUX",
+        value_delimiter = ',',
+        conflicts_with = "luxmeter"
+    )]
     luxmeter_rho: Vec<String>,
     /// Commission even when a luxmeter refit hits its reflectance limits and still misses a
     /// reading: a warning in the report, the desks flagged estimated in the image.
@@ -96,17 +102,17 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     reflectances: OnOff,
     /// Reflectance of seen surfaces before (or without) estimation.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, value_name = "RHO", default_value_t = 0.5)]
     start_rho: f64,
     /// How the one-luminaire-on frames combine: median of π L / E per pixel, or the paper's
     /// first-order spherical-harmonic fit per triangle (docs/commissioning.md).
     #[arg(long, value_enum, default_value_t = ReflectanceMethodArg::Median)]
     reflectance_method: ReflectanceMethodArg,
     /// Print the error against a truth.csv (with --states).
-    #[arg(long, requires = "states")]
+    #[arg(long, value_name = "FILE", requires = "states")]
     truth: Option<PathBuf>,
     /// states.csv for --truth.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     states: Option<PathBuf>,
     #[command(flatten)]
     engine: EngineArgs,
@@ -118,8 +124,27 @@ pub struct Args {
     no_geometry: bool,
     /// The installation's maintenance factor, recorded for reports (EN 12464-1 maintained
     /// values).
-    #[arg(long, default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
+    #[arg(long, value_name = "MF", default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
     maintenance_factor: f64,
+}
+
+/// `--room`: a box in m.
+#[derive(Clone, Copy)]
+struct RoomBox([f64; 4]);
+
+/// `--room X0,Y0,X1,Y1`.
+fn parse_room(s: &str) -> Result<RoomBox, String> {
+    let v = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("{v:?}: {e}")))
+        .collect::<Result<Vec<f64>, String>>()?;
+    match v[..] {
+        [x0, y0, x1, y1] => Ok(RoomBox([x0, y0, x1, y1])),
+        _ => Err(format!(
+            "want X0,Y0,X1,Y1 (four numbers in m), got {}",
+            v.len()
+        )),
+    }
 }
 
 /// `--reflectance-method`.
@@ -157,7 +182,8 @@ impl Args {
             readings: luxmeter_rho,
             force: self.force,
             engine: self.engine.settings(),
-            progress: true,
+            // spinners per stage on a terminal; in a pipe or the journal, the log lines
+            progress: super::progress_on_a_terminal(),
             start_rho: self.start_rho,
             estimate_reflectances: self.reflectances == OnOff::On,
             ..CommissionOptions::default()
@@ -170,7 +196,7 @@ impl Args {
         o.closure.wall_rho = self.wall_rho;
         o.closure.ceiling_rho = self.ceiling_rho;
         o.closure.ceiling_z_m = self.ceiling_height;
-        o.closure.room_xy_m = self.room.as_ref().map(|r| [r[0], r[1], r[2], r[3]]);
+        o.closure.room_xy_m = self.room.map(|r| r.0);
         o.mesh.patch_size_m = self.mesh_patch_size;
         o.validate()?;
         Ok(o)

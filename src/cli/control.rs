@@ -17,28 +17,30 @@ use super::OutputFormat;
 #[derive(clap::Args)]
 pub struct Args {
     /// The commissioned image.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     image: PathBuf,
     /// Target (maintained) illuminance of every desk, lx.
-    #[arg(long, default_value_t = DEFAULT_TARGET_LX)]
+    #[arg(long, value_name = "LUX", default_value_t = DEFAULT_TARGET_LX)]
     target: f64,
-    /// A desk's own target, DESK_ID:LUX (repeat for several desks).
-    #[arg(long = "target-desk", value_name = "ID:LUX")]
+    /// A desk's own target, DESK_ID:LUX (repeat the flag or comma-separate for several desks).
+    #[arg(long = "target-desk", value_name = "ID:LUX", value_delimiter = ',')]
     target_desk: Vec<String>,
-    /// Daylight per desk, ID:LUX,ID:LUX,... (default: none).
+    /// Daylight on a desk, DESK_ID:LUX (repeat the flag or comma-separate for several desks)
+    /// [if absent: none].
     #[arg(long, value_delimiter = ',', value_name = "ID:LUX")]
     daylight: Vec<String>,
     /// Every desk at least this fraction of the mean desk illuminance (0..=1).
-    #[arg(long)]
+    #[arg(long, value_name = "FRACTION")]
     uniformity: Option<f64>,
-    /// Rated power of every luminaire at full output, W [default: the photometry file's wattage; its flux / 120 lm/W when the file has none].
-    #[arg(long)]
+    /// Rated power of every luminaire at full output, W [if absent: the photometry file's
+    /// wattage; its flux / 120 lm/W when the file has none].
+    #[arg(long, value_name = "W")]
     rated_power_w: Option<f64>,
     /// Standby power of a luminaire that is off, W.
-    #[arg(long, default_value_t = luxnode::control::DEFAULT_STANDBY_W)]
+    #[arg(long, value_name = "W", default_value_t = luxnode::control::DEFAULT_STANDBY_W)]
     standby_power_w: f64,
     /// The lowest arc level a luminaire can be on at (DALI physical minimum level, 1..=254).
-    #[arg(long, default_value_t = luxnode::control::DEFAULT_MIN_ARC)]
+    #[arg(long, value_name = "LEVEL", default_value_t = luxnode::control::DEFAULT_MIN_ARC)]
     min_arc: u8,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]

@@ -14,17 +14,17 @@ pub enum Command {
     /// Read the ambient light sensor once (auto-ranged) and the calibration EEPROM's records.
     Probe {
         /// The board file.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         board: PathBuf,
     },
     /// Write the board file's colour calibration ([camera.colour.registration] and
     /// calibration_cd_m2_s) into the camera module's EEPROM, as a new record generation.
     WriteCalibration {
         /// The board file.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         board: PathBuf,
         /// The module's serial number (up to 16 ASCII characters).
-        #[arg(long)]
+        #[arg(long, value_name = "SERIAL")]
         serial: String,
     },
 }

@@ -20,12 +20,12 @@ pub enum Command {
     /// Commission a scene (CAD input) and write its flash image.
     Build {
         /// The scene directory; `demo-office` for the built-in demo office (feature `sim`).
-        #[arg(long)]
+        #[arg(long, value_name = "DIR")]
         scene: PathBuf,
         #[command(flatten)]
         load: SceneArgs,
         /// The image file to write.
-        #[arg(long)]
+        #[arg(long, value_name = "FILE")]
         out: PathBuf,
         #[command(flatten)]
         engine: EngineArgs,
@@ -37,7 +37,7 @@ pub enum Command {
         no_geometry: bool,
         /// The installation's maintenance factor, recorded for reports (EN 12464-1 maintained
         /// values).
-        #[arg(long, default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
+        #[arg(long, value_name = "MF", default_value_t = luxnode::en12464::DEFAULT_MAINTENANCE_FACTOR)]
         maintenance_factor: f64,
     },
     /// Print an image's header, sections and FORMFACTORS usage; verify its checksums.
@@ -52,7 +52,7 @@ pub enum Command {
         file: PathBuf,
         /// A state: one DALI arc level per luminaire (0 off, 1..254, 255 no change), comma
         /// separated; repeat for several states (MASK keeps the previous state's level).
-        #[arg(long = "arc", value_delimiter = ',', num_args = 1.., action = clap::ArgAction::Append, required_unless_present = "demo_states")]
+        #[arg(long = "arc", value_name = "LEVEL,...", value_delimiter = ',', num_args = 1.., action = clap::ArgAction::Append, required_unless_present = "demo_states")]
         arc: Vec<String>,
         /// The firmware's demo states instead.
         #[arg(long, conflicts_with = "arc")]
@@ -207,7 +207,7 @@ fn info(file: &std::path::Path) -> Result<()> {
         "payload:          {} bytes, CRC-32 {:#010x}",
         header.payload_len, header.payload_crc32
     );
-    let image = Image::parse(&bytes).with_context(|| format!("{}: image", file.display()))?;
+    let image = Image::parse(&bytes).with_context(|| format!("image {}", file.display()))?;
     let p = &image.payload;
     println!("checksums:        header and payload OK");
     println!("scene:            {}", p.scene_name);

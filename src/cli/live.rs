@@ -24,18 +24,18 @@ use super::OutputFormat;
 #[derive(clap::Args)]
 pub struct Args {
     /// The commissioned image (with its live-light section).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     image: PathBuf,
     /// A luminance frame: 16-bit greyscale PNG, value × the image's camera gain = cd/m²,
     /// 65535 saturated, 0 no data.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     frame: PathBuf,
     /// One DALI arc level per luminaire while the frame was taken (0 off, 1..=254), in the
     /// image's luminaire order.
-    #[arg(long, value_delimiter = ',', required = true)]
+    #[arg(long, value_name = "LEVEL,...", value_delimiter = ',', required = true)]
     arc: Vec<String>,
     /// The depth frame taken with it: 16-bit PNG, mm along the optical axis, 0 no return.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     depth: Option<PathBuf>,
     /// The luminaires' dimming curve.
     #[arg(long, value_enum, default_value_t = Curve::Logarithmic)]
@@ -50,7 +50,7 @@ pub struct Args {
     format: OutputFormat,
     /// Time this many more updates with the same frame and print the cost of one (the live
     /// update's time on this image, sky fit included; docs/live.md).
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=10_000))]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=10_000))]
     repeat: u32,
 }
 
@@ -160,12 +160,13 @@ pub fn run(a: &Args) -> Result<()> {
     };
     match a.format {
         OutputFormat::Csv => {
-            println!(
-                "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied"
+            // the table in one write: no log line can land between its rows
+            let mut table = String::from(
+                "sensor_id,lux_total,lux_artificial,lux_daylight,source,flags,uncertainty_lx,occupied\n",
             );
             for (k, d) in desks.iter().enumerate() {
-                println!(
-                    "{},{},{},{},{},{},{},{}",
+                table.push_str(&format!(
+                    "{},{},{},{},{},{},{},{}\n",
                     d.id,
                     csv_lx(d.total_lx),
                     csv_lx(d.artificial_lx),
@@ -174,8 +175,9 @@ pub fn run(a: &Args) -> Result<()> {
                     flags::describe(d.flags),
                     csv_lx(d.uncertainty_lx),
                     occupied_csv(k)
-                );
+                ));
             }
+            print!("{table}");
         }
         OutputFormat::Json => {
             let v: Vec<serde_json::Value> = desks

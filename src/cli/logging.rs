@@ -53,9 +53,40 @@ pub fn init() {
     if std::env::var_os("JOURNAL_STREAM").is_some() {
         builder.with_ansi(false).event_format(JournalFormat).init();
     } else if std::io::stderr().is_terminal() {
-        builder.init();
+        builder.with_writer(LineOfItsOwn::stderr).init();
     } else {
         builder.with_ansi(false).init();
+    }
+}
+
+/// stderr on a terminal, each log line starting on a cleared line: a progress spinner drawn
+/// there (commissioning stages, benchmarks) is wiped first, not left in front of the line, and
+/// redrawn below it at its next tick.
+pub struct LineOfItsOwn {
+    err: std::io::Stderr,
+    cleared: bool,
+}
+
+impl LineOfItsOwn {
+    fn stderr() -> Self {
+        LineOfItsOwn {
+            err: std::io::stderr(),
+            cleared: false,
+        }
+    }
+}
+
+impl std::io::Write for LineOfItsOwn {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if !self.cleared {
+            self.err.write_all(b"\r\x1b[2K")?;
+            self.cleared = true;
+        }
+        self.err.write(b)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.err.flush()
     }
 }
 

@@ -24,6 +24,7 @@ pub mod simulate;
 #[cfg(feature = "bench")]
 pub mod tradeoffs;
 
+use std::io::IsTerminal;
 use std::path::Path;
 
 use anyhow::{Result, bail};
@@ -40,58 +41,58 @@ pub struct EngineArgs {
     /// knobs below override it one by one. Balanced is the engine's default.
     #[arg(long, default_value = "balanced", value_parser = parse_preset)]
     pub preset: Preset,
-    /// Rays per patch (Isocell rounds up: 1000 becomes 1083) [balanced: 300].
-    #[arg(long)]
+    /// Rays per patch (Isocell rounds up: 1000 becomes 1083) [from --preset; balanced: 300].
+    #[arg(long, value_name = "N")]
     rays: Option<usize>,
-    /// Rays per sensor [balanced: 10000].
-    #[arg(long)]
+    /// Rays per sensor [from --preset; balanced: 10000].
+    #[arg(long, value_name = "N")]
     sensor_rays: Option<usize>,
-    /// Final-gather rays per sensor (exact first bounce; 0: off) [balanced: 1000].
-    #[arg(long)]
+    /// Final-gather rays per sensor (exact first bounce; 0: off) [from --preset; balanced: 1000].
+    #[arg(long, value_name = "N")]
     final_gather_rays: Option<usize>,
-    /// Largest patch edge, m [balanced: 1].
-    #[arg(long)]
+    /// Largest patch edge, m [from --preset; balanced: 1].
+    #[arg(long, value_name = "M")]
     patch_size: Option<f64>,
     /// Largest projected angle a patch may subtend at a sensor that sees it (0: uniform
-    /// patches) [balanced: 0.5].
-    #[arg(long)]
+    /// patches) [from --preset; balanced: 0.5].
+    #[arg(long, value_name = "RATIO")]
     detail: Option<f64>,
-    /// Smallest patch edge the refinement goes to, m [balanced: 0.0625].
-    #[arg(long)]
+    /// Smallest patch edge the refinement goes to, m [from --preset; balanced: 0.0625].
+    #[arg(long, value_name = "M")]
     min_patch: Option<f64>,
-    /// Largest patch edge over its distance to a luminaire lighting it (0: off) [balanced: 1].
-    #[arg(long)]
+    /// Largest patch edge over its distance to a luminaire lighting it (0: off) [from --preset; balanced: 1].
+    #[arg(long, value_name = "RATIO")]
     light_detail: Option<f64>,
-    /// Ray set [balanced: isocell].
+    /// Ray set [from --preset; balanced: isocell].
     #[arg(long, value_enum)]
     ray_set: Option<RaySetArg>,
     /// Points over each luminaire opening for direct light on patches (sensors: 16 times as
-    /// many) [balanced: 8].
-    #[arg(long)]
+    /// many) [from --preset; balanced: 8].
+    #[arg(long, value_name = "N")]
     opening_samples: Option<usize>,
-    /// Points per patch at which direct light is averaged [balanced: 4].
-    #[arg(long)]
+    /// Points per patch at which direct light is averaged [from --preset; balanced: 4].
+    #[arg(long, value_name = "N")]
     patch_direct_points: Option<usize>,
-    /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's [exact].
+    /// Direct light: exact (photometry, inverse square, shadow rays) or the paper's [from --preset; balanced: exact].
     #[arg(long, value_enum)]
     direct: Option<DirectArg>,
-    /// Model the luminaires' LDC (off: Lambertian luminaires of the same flux) [on].
+    /// Model the luminaires' LDC (off: Lambertian luminaires of the same flux) [from --preset; balanced: on].
     #[arg(long, value_enum)]
     ldc: Option<OnOff>,
-    /// Model the sensors' LSC (off: ideal cosine sensors) [on].
+    /// Model the sensors' LSC (off: ideal cosine sensors) [from --preset; balanced: on].
     #[arg(long, value_enum)]
     lsc: Option<OnOff>,
-    /// Reciprocity and closure rectification [balanced: on].
+    /// Reciprocity and closure rectification [from --preset; balanced: on].
     #[arg(long, value_enum)]
     rectify: Option<OnOff>,
-    /// Rectification stops when every row sum is this close to its closure target [1e-9].
-    #[arg(long)]
+    /// Rectification stops when every row sum is this close to its closure target [from --preset; balanced: 1e-9].
+    #[arg(long, value_name = "TOL")]
     rectify_tolerance: Option<f64>,
-    /// Solver stop: relative residual [balanced: 1e-10].
-    #[arg(long)]
+    /// Solver stop: relative residual [from --preset; balanced: 1e-10].
+    #[arg(long, value_name = "TOL")]
     tolerance: Option<f64>,
-    /// Seed of every pseudo-random choice [1].
-    #[arg(long)]
+    /// Seed of every pseudo-random choice [from --preset; balanced: 1].
+    #[arg(long, value_name = "N")]
     seed: Option<u64>,
 }
 
@@ -184,8 +185,8 @@ pub struct StoreArgs {
     /// Storage precision of the form factors and direct terms [from --preset; balanced: u16].
     #[arg(long, value_enum)]
     precision: Option<PrecisionArg>,
-    /// Drop form factors below this (each row keeps its sum); 0 keeps all [0].
-    #[arg(long)]
+    /// Drop form factors below this (each row keeps its sum); 0 keeps all [from --preset; balanced: 0].
+    #[arg(long, value_name = "FRACTION")]
     prune: Option<f64>,
 }
 
@@ -284,4 +285,38 @@ pub fn load_scene(dir: &Path, options: &LoadOptions) -> Result<Scene> {
         bail!("{} is not a scene directory", dir.display());
     }
     Ok(Scene::load(dir, options)?)
+}
+
+/// True when progress may be drawn: stderr is a terminal, not a pipe, a file or the journal
+/// (there the plain log lines stay as they are).
+pub fn progress_on_a_terminal() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("JOURNAL_STREAM").is_none()
+}
+
+/// A spinner on stderr with the time `what` has taken (and the steps done, with
+/// [`print_step`]), on a terminal only; `finish_and_clear` it before the summary.
+pub fn step_spinner(what: &'static str) -> Option<indicatif::ProgressBar> {
+    if !progress_on_a_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    let style = indicatif::ProgressStyle::with_template("{spinner} {prefix}: {elapsed}{msg}")
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner());
+    bar.set_style(style);
+    bar.set_prefix(what);
+    bar.enable_steady_tick(std::time::Duration::from_millis(100));
+    Some(bar)
+}
+
+/// Prints a result line on stdout; with a spinner on the same terminal, around it (the
+/// spinner hidden while the line is written, then counting one more step).
+pub fn print_step(bar: Option<&indicatif::ProgressBar>, line: &str) {
+    match bar {
+        Some(b) => {
+            b.suspend(|| println!("{line}"));
+            b.inc(1);
+            b.set_message(format!(", {} done", b.position()));
+        }
+        None => println!("{line}"),
+    }
 }

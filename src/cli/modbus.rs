@@ -18,39 +18,39 @@ use luxnode::serve::{DEFAULT_BIND, ServeOptions};
 #[derive(clap::Args)]
 pub struct ServeArgs {
     /// The commissioned image.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub image: PathBuf,
     /// Take the Modbus settings (TCP, RTU, gateway) from this board file; flags override it.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub board: Option<PathBuf>,
-    /// Modbus TCP address (port 0: any free port, printed at start) [default: the board's, or
+    /// Modbus TCP address (port 0: any free port, printed at start) [if absent: the board's, or
     /// 127.0.0.1:1502].
-    #[arg(long)]
+    #[arg(long, value_name = "ADDR:PORT")]
     pub bind: Option<SocketAddr>,
-    /// Most TCP connections at once [default: the board's, or 128].
-    #[arg(long)]
+    /// Most TCP connections at once [if absent: the board's, or 128].
+    #[arg(long, value_name = "N")]
     pub max_connections: Option<usize>,
-    /// Most TCP connections from one address [default: the board's, or 64].
-    #[arg(long)]
+    /// Most TCP connections from one address [if absent: the board's, or 64].
+    #[arg(long, value_name = "N")]
     pub max_per_source: Option<usize>,
     /// Allow writes from these sources (IP, ADDR/PREFIX, "rtu", "tls", "role:NAME"; repeat or
-    /// comma-separate) [default: the board's write_allow, or nobody: read-only].
-    #[arg(long, value_delimiter = ',')]
+    /// comma-separate) [if absent: the board's write_allow, or nobody: read-only].
+    #[arg(long, value_name = "SOURCE", value_delimiter = ',')]
     pub allow_writes_from: Vec<String>,
     /// Persist the settings clients write (word orders, dimming curve) in this JSON file.
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,
-    /// Close a TCP connection silent for this long, s [default: the board's, or 60].
-    #[arg(long)]
+    /// Close a TCP connection silent for this long, s [if absent: the board's, or 60].
+    #[arg(long, value_name = "S")]
     pub idle_timeout_s: Option<f64>,
     /// Also serve Modbus RTU on this serial device.
     #[arg(long, value_name = "DEVICE")]
     pub rtu: Option<String>,
     /// RTU unit id (1..=247).
-    #[arg(long, default_value_t = 1, requires = "rtu")]
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "rtu")]
     pub unit_id: u8,
     /// RTU baud rate.
-    #[arg(long, default_value_t = 19200, requires = "rtu")]
+    #[arg(long, value_name = "BAUD", default_value_t = 19200, requires = "rtu")]
     pub baud: u32,
     /// RTU parity.
     #[arg(long, value_enum, default_value_t = ParityArg::Even, requires = "rtu")]
@@ -59,16 +59,16 @@ pub struct ServeArgs {
     #[arg(long, value_name = "FILE")]
     pub gateway: Option<PathBuf>,
     /// Arc level of every luminaire at start (0 = off .. 254).
-    #[arg(long)]
+    #[arg(long, value_name = "LEVEL")]
     pub arc: Option<u8>,
-    /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
-    #[arg(long)]
+    /// Stop after this many seconds [if absent: until Ctrl-C or SIGTERM].
+    #[arg(long, value_name = "S")]
     pub seconds: Option<f64>,
     /// Also serve BACnet/IP on this UDP address (port 0: any free port, printed at start)
-    /// [default: the board's `[bacnet]`, or none]. Writes follow the Modbus write allowlist.
+    /// [if absent: the board's `[bacnet]`, or none]. Writes follow the Modbus write allowlist.
     #[arg(long, value_name = "ADDR:PORT")]
     pub bacnet: Option<SocketAddr>,
-    /// BACnet Device object instance (0..=4194302) [default: the board's, or 1].
+    /// BACnet Device object instance (0..=4194302) [if absent: the board's, or 1].
     #[arg(long, value_name = "N")]
     pub bacnet_device_id: Option<u32>,
 }

@@ -14,13 +14,13 @@ use luxnode::daemon::assemble::{self, RunOptions, SimController};
 #[derive(clap::Args)]
 pub struct Args {
     /// The board file, e.g. boards/sim/board.toml.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub board: PathBuf,
     /// Flash device or file instead of the board's.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub flash: Option<PathBuf>,
     /// Modbus TCP address instead of the board's (port 0: any free port, printed).
-    #[arg(long)]
+    #[arg(long, value_name = "ADDR:PORT")]
     pub bind: Option<SocketAddr>,
     /// Commission again even if the flash holds a valid image.
     #[arg(long)]
@@ -33,13 +33,13 @@ pub struct Args {
     #[arg(long)]
     pub no_controller: bool,
     /// Passes of the simulated controller through its dimming states.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1)]
     pub cycles: usize,
     /// Time per dimming state of the simulated controller, ms.
-    #[arg(long, default_value_t = 400)]
+    #[arg(long, value_name = "MS", default_value_t = 400)]
     pub step_ms: u64,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_name = "S")]
     pub seconds: Option<f64>,
     /// Commission from the board's CAD scene instead of its cameras.
     #[arg(long)]
@@ -51,7 +51,7 @@ pub struct Args {
     pub capture_to: Option<PathBuf>,
     /// Install this flash image (commissioned elsewhere: the room's nodes together) as the next
     /// generation, then serve it.
-    #[arg(long, value_name = "IMAGE", conflicts_with = "cad")]
+    #[arg(long, value_name = "FILE", conflicts_with = "cad")]
     pub image: Option<PathBuf>,
     /// Test only (HIL): the simulated power fails after this many bytes of the image write.
     #[cfg(feature = "sim")]

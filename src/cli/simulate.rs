@@ -15,41 +15,52 @@ use super::{EngineArgs, OutputFormat, SceneArgs, load_scene};
 #[derive(clap::Args)]
 pub struct Args {
     /// The scene directory (CAD input).
-    #[arg(long, required_unless_present = "image", conflicts_with = "image")]
+    #[arg(
+        long,
+        value_name = "DIR",
+        required_unless_present = "image",
+        conflicts_with = "image"
+    )]
     scene: Option<PathBuf>,
     /// Answer from a flash image alone (no scene needed).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     image: Option<PathBuf>,
     #[command(flatten)]
     load: SceneArgs,
-    /// All luminaires on (the default when no state is given).
+    /// All luminaires on (also when no state is given).
     #[arg(long, conflicts_with_all = ["on", "states"])]
     all_on: bool,
-    /// These luminaire ids on (comma separated), the others off.
-    #[arg(long, value_delimiter = ',', conflicts_with = "states")]
+    /// These luminaire ids on (repeat the flag or comma-separate), the others off.
+    #[arg(
+        long,
+        value_name = "ID",
+        value_delimiter = ',',
+        conflicts_with = "states"
+    )]
     on: Option<Vec<u32>>,
     /// A CSV of scenarios (header with scenario_id and luminaires_on, ids separated by ';').
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     states: Option<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = OutputFormat::Csv)]
     format: OutputFormat,
     #[command(flatten)]
     engine: EngineArgs,
-    /// Compare with this truth file (default: the scene's truth.csv when present).
-    #[arg(long)]
+    /// Compare with this truth file [if absent: the scene's truth.csv when
+    /// present].
+    #[arg(long, value_name = "FILE")]
     truth: Option<PathBuf>,
     /// Write a top view of the room in false-colour lux (PNG) for one scenario.
     #[cfg(feature = "report")]
-    #[arg(long, value_name = "FILE.png")]
+    #[arg(long, value_name = "FILE.PNG")]
     map: Option<PathBuf>,
-    /// The scenario the map shows (default: the first).
+    /// The scenario the map shows [if absent: the first].
     #[cfg(feature = "report")]
-    #[arg(long, requires = "map")]
+    #[arg(long, value_name = "ID", requires = "map")]
     map_scenario: Option<String>,
     /// Map cell size, m.
     #[cfg(feature = "report")]
-    #[arg(long, default_value_t = 0.1, requires = "map")]
+    #[arg(long, value_name = "M", default_value_t = 0.1, requires = "map")]
     map_cell: f64,
 }
 

@@ -30,7 +30,8 @@ pub fn tradeoffs(a: &Args) -> Result<()> {
     let (sc, scenarios, truth) = super::bench::scene_with_truth(&a.scene)?;
     let threads = rayon::current_num_threads();
     let started = std::time::Instant::now();
-    let mut print = |m: &Measured| println!("{}", st::table_row(m));
+    let bar = super::step_spinner("speed vs accuracy points");
+    let mut print = |m: &Measured| super::print_step(bar.as_ref(), &st::table_row(m));
     let (points, prefix, what) = match &a.capture {
         None => {
             println!(
@@ -84,6 +85,9 @@ pub fn tradeoffs(a: &Args) -> Result<()> {
             )
         }
     };
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
     println!(
         "\n{} points in {:.0} s; load average at the end {}\n",
         points.len(),
