@@ -22,6 +22,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::camera_view::{self, ViewDesk, ViewOptions};
+use super::energy::{self, Energy, EnergyInput};
 use super::glare::{self, UgrResult};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
@@ -266,6 +267,10 @@ pub struct Results {
     pub pass: bool,
     /// Why the design fails (empty when it passes).
     pub fails_because: Vec<String>,
+    /// Installed power, power densities and LENI (EN 15193-1) with their assumptions.
+    pub energy: Energy,
+    /// LENI, kWh/(m²·year) (the issue's key; `energy` holds its assumptions).
+    pub leni_kwh_per_m2_year: Option<f64>,
     /// Seconds the report took (computing, not writing).
     pub seconds: f64,
 }
@@ -304,9 +309,9 @@ fn is_floor(name: &str) -> bool {
     name.eq_ignore_ascii_case("floor") || name.starts_with("floor")
 }
 
-/// The floor: its outline in plan and its height (the `floor` group's up-facing patches, or the
-/// lowest up-facing patches).
-fn floor_of(room: &Room) -> ([f64; 4], f64) {
+/// The floor: its outline in plan, its height and its area, m² (the `floor` group's up-facing
+/// patches, or the lowest up-facing patches).
+fn floor_of(room: &Room) -> ([f64; 4], f64, f64) {
     let p = &room.patches;
     let up: Vec<usize> = (0..p.len()).filter(|&i| p.normal[i].z > 0.9).collect();
     let named: Vec<usize> = up
@@ -349,9 +354,9 @@ fn floor_of(room: &Room) -> ([f64; 4], f64) {
         area += p.area_m2[i];
     }
     if area > 0.0 {
-        (b, z / area)
+        (b, z / area, area)
     } else {
-        ([0.0, 1.0, 0.0, 1.0], 0.0)
+        ([0.0, 1.0, 0.0, 1.0], 0.0, 0.0)
     }
 }
 
@@ -447,6 +452,8 @@ struct Plan {
     floor_ext: [f64; 4],
     /// Floor height, m.
     floor_z: f64,
+    /// Floor area (its patches), m².
+    floor_area_m2: f64,
     /// The floor's rectangle.
     room_rect: Rect,
     /// Each desk's rectangle (the room's desk order).
@@ -455,10 +462,11 @@ struct Plan {
 
 impl Plan {
     fn of(room: &Room) -> Plan {
-        let (floor_ext, floor_z) = floor_of(room);
+        let (floor_ext, floor_z, floor_area_m2) = floor_of(room);
         Plan {
             floor_ext,
             floor_z,
+            floor_area_m2,
             room_rect: Rect {
                 x_m: [floor_ext[0], floor_ext[1]],
                 y_m: [floor_ext[2], floor_ext[3]],
@@ -930,6 +938,50 @@ fn room_checks(
     (ugr, values, table)
 }
 
+/// The energy figures: the schedule's powers, the floor's area, the maintained mean of the room
+/// grid (or, without one, the task areas' area-weighted mean), the daylight the image holds.
+fn energy_of(
+    image: &Image<'_>,
+    plan: &Plan,
+    luminaires: &[LuminaireRow],
+    room: Option<&AreaResult>,
+    desks: &[DeskResult],
+    mf: f64,
+) -> Energy {
+    let powers_w: Vec<f64> = luminaires.iter().filter_map(|l| l.power_w).collect();
+    let task = || {
+        let (mut sum, mut area) = (0.0, 0.0);
+        for d in desks {
+            let a = (d.extent_m[1] - d.extent_m[0]) * (d.extent_m[3] - d.extent_m[2]);
+            sum += d.task.maintained.e_mean_lx * a;
+            area += a;
+        }
+        (area > 0.0).then(|| {
+            (
+                sum / area,
+                "the task areas' maintained Ēm (area-weighted), design state".to_string(),
+            )
+        })
+    };
+    let em = room
+        .map(|r| {
+            (
+                r.maintained.e_mean_lx,
+                "the room grid's maintained Ēm (floor less the 0.5 m wall band), design state"
+                    .to_string(),
+            )
+        })
+        .or_else(task);
+    energy::energy(&EnergyInput {
+        powers_w: &powers_w,
+        power_assumed: luminaires.iter().any(|l| l.power_assumed),
+        floor_area_m2: plan.floor_area_m2,
+        em,
+        maintenance_factor: mf,
+        daylight_window_m2: image.daylight.map(|d| d.window_area_m2),
+    })
+}
+
 /// Computes the report of an image: the states checked, the dense field, the desks' and the
 /// room's grids, every state's results, the design state's desks, the tables and the pictures.
 pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
@@ -987,6 +1039,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     let (ugr, room_surfaces, requirements) =
         room_checks(&field, &room, &plan, design, mf, opts, &desks);
     let (pass, fails_because) = requirements::verdict(&requirements);
+    let energy = energy_of(image, &plan, &luminaires, room_result.as_ref(), &desks, mf);
     let results = Results {
         scene: room.section.scene_name.clone(),
         preset: room.section.preset.clone(),
@@ -1011,6 +1064,8 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         desks_pass,
         pass,
         fails_because,
+        leni_kwh_per_m2_year: energy.leni_kwh_per_m2_year,
+        energy,
         seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(Report { results, pictures })
@@ -1073,6 +1128,7 @@ pub fn html(r: &Report) -> String {
     html_desks(&mut h, x);
     html_points(&mut h, x);
     html_states(&mut h, x);
+    html_energy(&mut h, &x.energy);
     html_tables(&mut h, x);
     html_tail(&mut h, x);
     h
@@ -1336,6 +1392,59 @@ fn html_states(h: &mut String, x: &Results) {
         }
         h.push_str("</tr>\n");
     }
+}
+
+/// A figure or "–" with the reason.
+fn or_dash(v: Option<f64>, decimals: usize, why: &str) -> String {
+    v.filter(|v| v.is_finite()).map_or_else(
+        || format!("– ({})", esc(why)),
+        |v| format!("{v:.decimals$}"),
+    )
+}
+
+/// Installed power, power densities and LENI (EN 15193-1) with the factors they rest on.
+fn html_energy(h: &mut String, e: &Energy) {
+    let why = e.not_computed.as_deref().unwrap_or("no maintained mean");
+    let flag = e.flag.as_ref().map_or(String::new(), |f| {
+        format!(" <span class=\"fail\">{}</span>", esc(f))
+    });
+    let _ = write!(
+        h,
+        "<h2>Energy (EN 15193-1)</h2>\n<table id=\"energy\" class=\"meta\">\
+<tr><th>installed power</th><td>{:.1} W{flag}</td></tr>\
+<tr><th>floor area</th><td>{:.2} m²</td></tr>\
+<tr><th>power density</th><td>{} W/m²</td></tr>\
+<tr><th>per 100 lx</th><td>{} W/m²/100 lx, against {} ({} lx)</td></tr>\
+<tr><th>W<sub>L</sub> + W<sub>P</sub></th><td>{:.1} + {:.1} kWh/year</td></tr>\
+<tr><th>LENI</th><td id=\"leni\">{} kWh/(m²·year){flag}</td></tr></table>\n",
+        e.installed_w,
+        e.floor_area_m2,
+        or_dash(e.w_per_m2, 2, why),
+        or_dash(e.w_per_m2_per_100lx, 2, why),
+        esc(&e.em_basis),
+        or_dash(e.em_lx, 0, why),
+        e.w_l_kwh,
+        e.w_p_kwh,
+        or_dash(e.leni_kwh_per_m2_year, 1, why),
+    );
+    let a = &e.assumptions;
+    let rows = [
+        ("t<sub>D</sub>, t<sub>N</sub>", format!("{:.0} h, {:.0} h", a.t_d_h, a.t_n_h), "EN 15193-1 default operating hours of an office".to_string()),
+        ("F<sub>C</sub>", format!("{:.3}", a.f_c), a.f_c_source.clone()),
+        ("F<sub>O</sub>", format!("{:.2}", a.f_o), a.f_o_source.clone()),
+        ("F<sub>D</sub>", format!("{:.2}", a.f_d), a.f_d_source.clone()),
+        ("parasitic", format!("{:.1} W × {:.0} h per luminaire", a.standby_w_per_luminaire, a.standby_h), "the gear's and the node's rated standby, in the hours t<sub>y</sub> − t<sub>D</sub> − t<sub>N</sub> the lighting is not operated".to_string()),
+        ("emergency", format!("{:.0} kWh", a.emergency_kwh), "no emergency lighting charged".to_string()),
+    ];
+    h.push_str("<table id=\"energy-assumptions\"><tr><th>assumption</th><th>value</th><th>source</th></tr>\n");
+    for (name, value, source) in rows {
+        let _ = writeln!(
+            h,
+            "<tr><td>{name}</td><td>{value}</td><td style=\"text-align:left\">{}</td></tr>",
+            source.replace('&', "&amp;")
+        );
+    }
+    h.push_str("</table>\n<p>LENI = (W<sub>L</sub> + W<sub>P</sub>)/A, W<sub>L</sub> = Σ P<sub>n</sub> F<sub>C</sub> (t<sub>D</sub> F<sub>O</sub> F<sub>D</sub> + t<sub>N</sub> F<sub>O</sub>)/1000.</p>\n");
 }
 
 /// The desk sensors, the surfaces and the luminaire schedule.
