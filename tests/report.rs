@@ -913,3 +913,46 @@ fn office_a_energy_matches_the_hand_computation() {
         .collect();
     assert!(!text.contains("NaN"));
 }
+
+/// No two labels on the plan overlap (geometry: pairwise box intersection), on office_a and on
+/// the demo office (built by the CLI); each luminaire's id is placed (L<id> boxes counted by
+/// their presence: at least one label per luminaire and desk).
+#[test]
+fn plan_labels_never_overlap_on_office_a_and_the_demo_office() {
+    let (scene, model) = scene_and_model();
+    let office_a_bytes = image_with_geometry(&scene, &model);
+    let img = std::env::temp_dir().join(format!("luxnode-demo-{}.img", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args(["image", "build", "--scene", "demo-office", "--out"])
+        .arg(&img)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let demo_bytes = std::fs::read(&img).unwrap();
+    let _ = std::fs::remove_file(&img);
+    for bytes in [office_a_bytes, demo_bytes] {
+        let image = Image::parse(&bytes).unwrap();
+        let r = report::compute(&image, &ReportOptions::default()).unwrap();
+        let b = &r.plan_label_boxes;
+        let n = r.results.luminaires.len() + r.results.desks.len();
+        assert!(
+            b.len() >= n,
+            "{} labels for {n} luminaires and desks",
+            b.len()
+        );
+        for i in 0..b.len() {
+            assert!(b[i][0] < b[i][2] && b[i][1] < b[i][3], "{:?}", b[i]);
+            for j in i + 1..b.len() {
+                let overlap = b[i][0] < b[j][2]
+                    && b[j][0] < b[i][2]
+                    && b[i][1] < b[j][3]
+                    && b[j][1] < b[i][3];
+                assert!(!overlap, "{}: {:?} and {:?}", r.results.scene, b[i], b[j]);
+            }
+        }
+    }
+}

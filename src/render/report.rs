@@ -281,6 +281,8 @@ pub struct Report {
     pub results: Results,
     /// (file stem, caption, PNG bytes).
     pub pictures: Vec<(String, String, Vec<u8>)>,
+    /// The boxes of the labels placed on the plan's map, pixels: x0, y0, x1, y1.
+    pub plan_label_boxes: Vec<[f64; 4]>,
 }
 
 /// Seconds since 1970 as `YYYY-MM-DD hh:mm UTC`.
@@ -714,14 +716,15 @@ type Picture = (String, String, Vec<u8>);
 
 impl Design<'_> {
     /// The plan view: the top view's map (upward-facing surfaces), the room grid's values off
-    /// the desks, the desks and the sensors. Also the colour scale's top, lx.
+    /// the desks, the desks, the luminaires and the sensors. Also the colour scale's top, lx,
+    /// and the placed labels' boxes.
     fn plan_picture(
         &self,
         field: &DenseField<'_>,
         room_points: &[SurfacePoint],
         room_readings: &Readings,
         opts: &ReportOptions,
-    ) -> Result<(Picture, f64), ReportError> {
+    ) -> Result<(Picture, f64, Vec<[f64; 4]>), ReportError> {
         let (room, mf, design) = (self.room, self.mf, self.levels);
         let (origin_m, cells, map_pts) = map::map_points(
             field,
@@ -778,7 +781,7 @@ impl Design<'_> {
             .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
             .collect();
         let scale_max = nice_ceiling(top.max_lx());
-        let plan = map::draw_plan(&PlanView {
+        let view = PlanView {
             title: format!(
                 "{}: maintained illuminance, {} (MF {:.2})",
                 room.section.scene_name, self.name, mf
@@ -804,10 +807,21 @@ impl Design<'_> {
                 .iter()
                 .map(|s| (s.id, s.position_m.x, s.position_m.y))
                 .collect(),
+            luminaires: room
+                .section
+                .luminaires
+                .iter()
+                .map(|l| (l.id, [l.position_m[0], l.position_m[1]], l.opening_m))
+                .collect(),
             values: room_values,
             scale_max_lx: scale_max,
             pixels_per_m: 100.0,
-        });
+        };
+        let plan = map::draw_plan(&view);
+        let boxes = map::plan_labels(&view)
+            .iter()
+            .map(super::Label::bbox)
+            .collect();
         Ok((
             (
                 "plan".to_string(),
@@ -815,6 +829,7 @@ impl Design<'_> {
                 plan.png_bytes()?,
             ),
             scale_max,
+            boxes,
         ))
     }
 
@@ -1030,7 +1045,8 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         mf,
         desks: &desks,
     };
-    let (plan_pic, scale_max) = d.plan_picture(&field, &room_points, &room_readings, opts)?;
+    let (plan_pic, scale_max, plan_label_boxes) =
+        d.plan_picture(&field, &room_points, &room_readings, opts)?;
     let mut pictures = vec![plan_pic];
     if let (Some(view), Some(cam)) = (&view, &room.camera) {
         pictures.extend(d.camera_pictures(view, cam, scale_max)?);
@@ -1068,7 +1084,11 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         energy,
         seconds: t0.elapsed().as_secs_f64(),
     };
-    Ok(Report { results, pictures })
+    Ok(Report {
+        results,
+        pictures,
+        plan_label_boxes,
+    })
 }
 
 fn esc(s: &str) -> String {
@@ -1145,7 +1165,10 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}\
+@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}\
+img{{max-width:100%;border:none}}#imgstatus{{display:none}}th{{background:#eee;-webkit-print-color-adjust:exact;print-color-adjust:exact}}\
+@page{{size:A4;margin:12mm}}}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)
     );
     let _ = write!(
