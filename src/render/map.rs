@@ -444,17 +444,22 @@ pub fn plan_labels(v: &PlanView) -> Vec<Label> {
                 if k == 0 { l.bold() } else { l }
             })
             .collect();
-        let dy = 17.0 * n;
-        p.place_block(
-            &lines,
-            &[
-                (0.0, 0.0),
-                (0.0, dy),
-                (0.0, -dy),
-                (0.0, 2.0 * dy),
-                (0.0, -2.0 * dy),
-            ],
-        );
+        // the desk's middle, else just beside the luminaire there, then further, each at the
+        // desk's height first, then a line block up or down
+        let half_w = lines
+            .iter()
+            .map(|l| 0.5 * (l.bbox()[2] - l.bbox()[0]))
+            .fold(0.0, f64::max);
+        let lum_half_w = (v.luminaires.iter())
+            .filter(|(_, q, _)| q[0] >= a && q[0] <= b && q[1] >= c && q[1] <= e)
+            .map(|(_, c, o)| 0.5 * (px.luminaire_box(*c, *o)[2] - px.luminaire_box(*c, *o)[0]))
+            .fold(0.0, f64::max);
+        let near = lum_half_w + half_w + 3.0;
+        let offsets: Vec<(f64, f64)> = [0.0, near, -near, near + 60.0, -near - 60.0]
+            .iter()
+            .flat_map(|&dx| [0.0, 1.0, -1.0, 2.0, -2.0].map(|k| (dx, k * 17.0 * n)))
+            .collect();
+        p.place_block(&lines, &offsets);
     }
     for (id, c, o) in &v.luminaires {
         let l = Label::new(format!("L{id}"), (0.0, 0.0), 12.0).halo([255, 255, 255]);
