@@ -798,6 +798,16 @@ fn room_values_match_the_point_source_closed_form() {
         assert!(why.contains("background luminance"), "{why}");
     }
     assert!(!x.ugr.pass && !x.pass);
+    // the point source's photometry gives no wattage: LENI is shown, flagged as resting on the
+    // assumed efficacy, its installed power the flux over 120 lm/W
+    let e = &x.energy;
+    let flux_lm: f64 = x.luminaires.iter().map(|l| l.flux_lm).sum();
+    assert!(e.power_assumed, "{e:?}");
+    assert!(common::rel(e.installed_w, flux_lm / 120.0) < 1e-9, "{e:?}");
+    assert!(e.leni_kwh_per_m2_year.is_some());
+    let flag = e.flag.as_deref().expect("flagged");
+    assert!(flag.contains("assumed efficacy of 120 lm/W"), "{flag}");
+    assert!(report::html(&r).contains(flag));
     assert!(
         x.fails_because.iter().any(|w| w.contains("not computed")),
         "{:?}",
@@ -805,4 +815,144 @@ fn room_values_match_the_point_source_closed_form() {
     );
     let html = report::html(&r);
     assert!(!html.contains("NaN"), "a NaN printed as a value");
+}
+
+/// The floor's area from scene.obj's `floor` group: its triangles' areas, `|a × b| / 2`.
+fn obj_floor_area_m2(obj: &str) -> f64 {
+    let v: Vec<[f64; 3]> = obj
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let c: Vec<f64> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let mut group = "";
+    let mut area = 0.0;
+    for l in obj.lines() {
+        if let Some(g) = l.strip_prefix("g ") {
+            group = g.trim();
+        } else if let (Some(f), "floor") = (l.strip_prefix("f "), group) {
+            let i: Vec<usize> = f
+                .split_whitespace()
+                .map(|t| t.split('/').next().unwrap().parse::<usize>().unwrap() - 1)
+                .collect();
+            for k in 1..i.len() - 1 {
+                let (a, b, c) = (v[i[0]], v[i[k]], v[i[k + 1]]);
+                let (u, w) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+                area += (u[0] * w[1] - u[1] * w[0]).abs() / 2.0;
+            }
+        }
+    }
+    area
+}
+
+/// office_a's energy against a hand computation from EN 15193-1's formula with the room's own
+/// numbers: the luminaire count from luminaires.json, the wattage from luminaire.ldt (EULUMDAT
+/// line 32, the lamp set's watts), the floor's area from scene.obj's floor triangles, MF and the
+/// room's maintained Ēm from results.json; office hours t_D 2250 h, t_N 250 h, F_C = (1 + MF)/2,
+/// F_O 0.9, F_D 1, 0.3 W standby per luminaire in the 8760 − 2500 h the lighting is off.
+#[test]
+fn office_a_energy_matches_the_hand_computation() {
+    let (scene, model) = scene_and_model();
+    let bytes = image_with_geometry(&scene, &model);
+    let image = Image::parse(&bytes).unwrap();
+    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    let x = &r.results;
+    let dir = office_a();
+    let ldt = std::fs::read_to_string(dir.join("luminaire.ldt")).unwrap();
+    let lamp_w: f64 = ldt.lines().nth(31).unwrap().trim().parse().unwrap();
+    let json = std::fs::read_to_string(dir.join("luminaires.json")).unwrap();
+    let n = serde_json::from_str::<Vec<serde_json::Value>>(&json)
+        .unwrap()
+        .len() as f64;
+    let area_m2 = obj_floor_area_m2(&std::fs::read_to_string(dir.join("scene.obj")).unwrap());
+    assert!((n, lamp_w) == (8.0, 60.0) && (area_m2 - 6.0 * 7.2).abs() < 1e-9);
+    let mf = x.maintenance_factor;
+    let installed_w = n * lamp_w;
+    let w_l_kwh = installed_w * (1.0 + mf) / 2.0 * (2250.0 * 0.9 * 1.0 + 250.0 * 0.9) / 1000.0;
+    let w_p_kwh = n * 0.3 * (8760.0 - 2250.0 - 250.0) / 1000.0;
+    let leni = (w_l_kwh + w_p_kwh) / area_m2;
+    let e = &x.energy;
+    assert!((e.installed_w - installed_w).abs() < 1e-9, "{e:?}");
+    assert!(common::rel(e.floor_area_m2, area_m2) < 1e-6, "{e:?}");
+    assert!(common::rel(e.w_per_m2.unwrap(), installed_w / area_m2) < 1e-6);
+    let em = x.room.as_ref().unwrap().maintained.e_mean_lx;
+    let per_100 = installed_w / area_m2 / (em / 100.0);
+    assert!(common::rel(e.w_per_m2_per_100lx.unwrap(), per_100) < 1e-6);
+    assert!(
+        common::rel(e.leni_kwh_per_m2_year.unwrap(), leni) < 1e-6,
+        "{e:?} vs {leni}"
+    );
+    assert_eq!(x.leni_kwh_per_m2_year, e.leni_kwh_per_m2_year);
+    assert!(!e.power_assumed && e.flag.is_none());
+    let json = serde_json::to_value(x).unwrap();
+    assert!(json["leni_kwh_per_m2_year"].as_f64().is_some());
+    assert!(
+        json["energy"]["assumptions"]["f_d_source"]
+            .as_str()
+            .unwrap()
+            .contains("F_D = 1")
+    );
+    let html = report::html(&r);
+    assert!(
+        html.contains(&format!("{leni:.1} kWh/(m²·year)")),
+        "LENI in the page"
+    );
+    // no NaN printed (the pictures' base64 may spell it: their data is left out)
+    let text: String = html
+        .split("base64,")
+        .enumerate()
+        .map(|(i, part)| {
+            if i == 0 {
+                part
+            } else {
+                part.split_once('"').map_or("", |p| p.1)
+            }
+        })
+        .collect();
+    assert!(!text.contains("NaN"));
+}
+
+/// No two labels on the plan overlap (geometry: pairwise box intersection), on office_a and on
+/// the demo office (built by the CLI); each luminaire's id is placed (L<id> boxes counted by
+/// their presence: at least one label per luminaire and desk).
+#[test]
+fn plan_labels_never_overlap_on_office_a_and_the_demo_office() {
+    let (scene, model) = scene_and_model();
+    let office_a_bytes = image_with_geometry(&scene, &model);
+    let img = std::env::temp_dir().join(format!("luxnode-demo-{}.img", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args(["image", "build", "--scene", "demo-office", "--out"])
+        .arg(&img)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let demo_bytes = std::fs::read(&img).unwrap();
+    let _ = std::fs::remove_file(&img);
+    for bytes in [office_a_bytes, demo_bytes] {
+        let image = Image::parse(&bytes).unwrap();
+        let r = report::compute(&image, &ReportOptions::default()).unwrap();
+        let b = &r.plan_label_boxes;
+        let n = r.results.luminaires.len() + r.results.desks.len();
+        assert!(
+            b.len() >= n,
+            "{} labels for {n} luminaires and desks",
+            b.len()
+        );
+        for i in 0..b.len() {
+            assert!(b[i][0] < b[i][2] && b[i][1] < b[i][3], "{:?}", b[i]);
+            for j in i + 1..b.len() {
+                let overlap = b[i][0] < b[j][2]
+                    && b[j][0] < b[i][2]
+                    && b[i][1] < b[j][3]
+                    && b[j][1] < b[i][3];
+                assert!(!overlap, "{}: {:?} and {:?}", r.results.scene, b[i], b[j]);
+            }
+        }
+    }
 }

@@ -9,6 +9,7 @@
 use glam::DVec3;
 use plotters::prelude::*;
 
+use super::placement::{Placer, around};
 use super::{Anchor, Canvas, Colour, Label, nice_ceiling, viridis};
 use crate::engine::Model;
 use crate::engine::dense::{DenseField, DenseSettings, SurfacePoint};
@@ -180,6 +181,17 @@ impl TopView {
         if w > 1e-9 { sum / w } else { f64::NAN }
     }
 
+    /// The smallest value, lx (0 when none).
+    pub fn min_lx(&self) -> f64 {
+        let m = self
+            .lux
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        if m.is_finite() { m } else { 0.0 }
+    }
+
     /// The largest value, lx.
     pub fn max_lx(&self) -> f64 {
         self.lux
@@ -292,12 +304,27 @@ pub struct PlanView {
     pub desks: Vec<PlanDesk>,
     /// Sensors: (id, x, y).
     pub sensors: Vec<(u32, f64, f64)>,
+    /// Luminaires: (id, centre x, y, luminous opening along x, y), m.
+    pub luminaires: Vec<(u32, [f64; 2], [f64; 2])>,
     /// The grid of values printed: ((x, y), lx).
     pub values: Vec<([f64; 2], f64)>,
     /// Top of the colour scale, lx (0: from the map).
     pub scale_max_lx: f64,
     /// Pixels per metre.
     pub pixels_per_m: f64,
+}
+
+/// EN 12464-1's scale of illuminances, lx: the isolines of the report's plan.
+pub const EN12464_LEVELS_LX: [f64; 13] = [
+    20.0, 30.0, 50.0, 75.0, 100.0, 150.0, 200.0, 300.0, 500.0, 750.0, 1000.0, 1500.0, 2000.0,
+];
+
+/// The EN 12464-1 levels strictly between `min` and `max`.
+pub fn en12464_levels(min: f64, max: f64) -> Vec<f64> {
+    EN12464_LEVELS_LX
+        .into_iter()
+        .filter(|&v| v > min && v < max)
+        .collect()
 }
 
 /// Isoline levels for a scale: about six round steps.
@@ -339,6 +366,139 @@ fn plan_size(v: &PlanView) -> (u32, u32, f64) {
     ((w + LEFT + RIGHT) as u32, (h + TOP + BOTTOM) as u32, ppm)
 }
 
+/// Metres to the plan picture's pixels.
+#[derive(Debug, Clone, Copy)]
+struct Px {
+    x0: f64,
+    y1: f64,
+    ppm: f64,
+    /// The map's area in pixels: x0, y0, x1, y1.
+    area: [f64; 4],
+}
+
+impl Px {
+    fn of(v: &PlanView) -> Px {
+        let (_, _, ppm) = plan_size(v);
+        let [x0, x1, y0, y1] = v.bounds_m;
+        Px {
+            x0,
+            y1,
+            ppm,
+            area: [LEFT, TOP, LEFT + (x1 - x0) * ppm, TOP + (y1 - y0) * ppm],
+        }
+    }
+
+    fn at(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            LEFT + (x - self.x0) * self.ppm,
+            TOP + (self.y1 - y) * self.ppm,
+        )
+    }
+
+    /// A luminaire symbol's box: its opening, at least 10 pixels a side.
+    fn luminaire_box(&self, c: [f64; 2], o: [f64; 2]) -> [f64; 4] {
+        let (cx, cy) = self.at(c[0], c[1]);
+        let (hw, hh) = (
+            (o[0] * self.ppm).max(10.0) / 2.0,
+            (o[1] * self.ppm).max(10.0) / 2.0,
+        );
+        [cx - hw, cy - hh, cx + hw, cy + hh]
+    }
+
+    /// A point symbol's box, `r` pixels round it.
+    fn point_box(&self, x: f64, y: f64, r: f64) -> [f64; 4] {
+        let (px, py) = self.at(x, y);
+        [px - r, py - r, px + r, py + r]
+    }
+}
+
+/// The labels inside a plan's map, placed ([`placement`]): the desks' blocks, then the
+/// luminaires' ids, the sensors' ids, the isolines' levels and the grid's values; a label
+/// with no free place is left out, so no two overlap.
+pub fn plan_labels(v: &PlanView) -> Vec<Label> {
+    let px = Px::of(v);
+    let mut p = Placer::new(px.area);
+    for (_, c, o) in &v.luminaires {
+        p.symbol(px.luminaire_box(*c, *o));
+    }
+    for (_, x, y) in &v.sensors {
+        p.symbol(px.point_box(*x, *y, 7.0));
+    }
+    for (q, _) in &v.values {
+        p.symbol(px.point_box(q[0], q[1], 2.0));
+    }
+    for d in &v.desks {
+        let [a, b, c, e] = d.extent_m;
+        let (mx, my) = px.at(0.5 * (a + b), 0.5 * (c + e));
+        let n = d.label.len() as f64;
+        let lines: Vec<Label> = (d.label.iter().enumerate())
+            .map(|(k, text)| {
+                let l = Label::new(
+                    text.clone(),
+                    (mx, my + (k as f64 - 0.5 * (n - 1.0)) * 17.0),
+                    14.0,
+                )
+                .anchored(Anchor::Middle, Anchor::Middle)
+                .colour(super::WHITE)
+                .halo([20, 20, 20]);
+                if k == 0 { l.bold() } else { l }
+            })
+            .collect();
+        // the desk's middle, else just beside the luminaire there, then further, each at the
+        // desk's height first, then a line block up or down
+        let half_w = lines
+            .iter()
+            .map(|l| 0.5 * (l.bbox()[2] - l.bbox()[0]))
+            .fold(0.0, f64::max);
+        let lum_half_w = (v.luminaires.iter())
+            .filter(|(_, q, _)| q[0] >= a && q[0] <= b && q[1] >= c && q[1] <= e)
+            .map(|(_, c, o)| 0.5 * (px.luminaire_box(*c, *o)[2] - px.luminaire_box(*c, *o)[0]))
+            .fold(0.0, f64::max);
+        let near = lum_half_w + half_w + 3.0;
+        let offsets: Vec<(f64, f64)> = [0.0, near, -near, near + 60.0, -near - 60.0]
+            .iter()
+            .flat_map(|&dx| [0.0, 1.0, -1.0, 2.0, -2.0].map(|k| (dx, k * 17.0 * n)))
+            .collect();
+        p.place_block(&lines, &offsets);
+    }
+    for (id, c, o) in &v.luminaires {
+        let l = Label::new(format!("L{id}"), (0.0, 0.0), 12.0).halo([255, 255, 255]);
+        p.place(around(&l, px.luminaire_box(*c, *o), 3.0));
+    }
+    for (id, x, y) in &v.sensors {
+        let l = Label::new(format!("S{id}"), (0.0, 0.0), 13.0)
+            .colour(super::WHITE)
+            .halo([20, 20, 20]);
+        p.place(around(&l, px.point_box(*x, *y, 7.0), 1.0));
+    }
+    isoline_labels(v, &px, &mut p);
+    for (q, val) in &v.values {
+        let l = Label::new(format!("{val:.0}"), (0.0, 0.0), 11.0).halo([255, 255, 255]);
+        let mut c = around(&l, px.point_box(q[0], q[1], 2.0), 1.0);
+        c.rotate_left(2); // below the dot first
+        p.place(c);
+    }
+    p.labels()
+}
+
+/// Each isoline's level, once, at the first of its segments (nearest the room's middle first)
+/// where it fits.
+fn isoline_labels(v: &PlanView, px: &Px, p: &mut Placer) {
+    let [x0, x1, y0, y1] = v.bounds_m;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    for level in en12464_levels(v.map.min_lx(), v.map.max_lx()) {
+        let mut segs = v.map.isoline(level);
+        let d = |s: &[(f64, f64); 2]| (s[0].0 - cx).powi(2) + (s[0].1 - cy).powi(2);
+        segs.sort_by(|a, b| d(a).total_cmp(&d(b)));
+        p.place(segs.iter().step_by(3).map(|s| {
+            Label::new(format!("{level:.0}"), px.at(s[0].0, s[0].1), 12.0)
+                .anchored(Anchor::Middle, Anchor::Middle)
+                .colour(super::WHITE)
+                .halo([40, 40, 40])
+        }));
+    }
+}
+
 /// Draws a plan view.
 pub fn draw_plan(v: &PlanView) -> Canvas {
     let (w, h, ppm) = plan_size(v);
@@ -354,8 +514,6 @@ pub fn draw_plan(v: &PlanView) -> Canvas {
             (TOP + (y1 - y) * ppm).round() as i32,
         )
     };
-    let fmap =
-        move |x: f64, y: f64| -> (f64, f64) { (LEFT + (x - x0) * ppm, TOP + (y1 - y) * ppm) };
     super::with_plotters(w, h, &mut |root, labels| {
         root.fill(&WHITE)?;
         labels.push(Label::new(v.title.clone(), (LEFT, 12.0), 19.0).bold());
@@ -392,74 +550,44 @@ pub fn draw_plan(v: &PlanView) -> Canvas {
             false,
             labels,
         )?;
-        // isolines, labelled once each near the middle of the room
-        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-        for level in isoline_levels(0.0, v.map.max_lx()) {
-            let segs = v.map.isoline(level);
-            for s in &segs {
+        let px = Px::of(v);
+        for level in en12464_levels(v.map.min_lx(), v.map.max_lx()) {
+            for s in &v.map.isoline(level) {
                 root.draw(&PathElement::new(
                     vec![map(s[0].0, s[0].1), map(s[1].0, s[1].1)],
                     WHITE.stroke_width(1),
                 ))?;
             }
-            if let Some(s) = segs.iter().min_by(|a, b| {
-                let d = |s: &[(f64, f64); 2]| (s[0].0 - cx).powi(2) + (s[0].1 - cy).powi(2);
-                d(a).total_cmp(&d(b))
-            }) {
-                labels.push(
-                    Label::new(format!("{level:.0}"), fmap(s[0].0, s[0].1), 12.0)
-                        .anchored(Anchor::Middle, Anchor::Middle)
-                        .colour(super::WHITE)
-                        .halo([40, 40, 40]),
-                );
-            }
         }
-        // the value grid
-        for (p, val) in &v.values {
+        for (p, _) in &v.values {
             root.draw(&Circle::new(map(p[0], p[1]), 2, BLACK.filled()))?;
-            let (px, py) = fmap(p[0], p[1]);
-            labels.push(
-                Label::new(format!("{val:.0}"), (px, py + 3.0), 11.0)
-                    .anchored(Anchor::Middle, Anchor::Start)
-                    .halo([255, 255, 255]),
-            );
         }
-        // desks
         for d in &v.desks {
             let [a, b, c, e] = d.extent_m;
             root.draw(&Rectangle::new(
                 [map(a, e), map(b, c)],
                 WHITE.stroke_width(2),
             ))?;
-            let (mx, my) = fmap(0.5 * (a + b), 0.5 * (c + e));
-            let n = d.label.len() as f64;
-            for (k, text) in d.label.iter().enumerate() {
-                let y = my + (k as f64 - 0.5 * (n - 1.0)) * 17.0;
-                let mut l = Label::new(text.clone(), (mx, y), 14.0)
-                    .anchored(Anchor::Middle, Anchor::Middle)
-                    .colour(super::WHITE)
-                    .halo([20, 20, 20]);
-                if k == 0 {
-                    l = l.bold();
-                }
-                labels.push(l);
-            }
         }
-        // sensors
-        for (id, x, y) in &v.sensors {
+        for (_, c, o) in &v.luminaires {
+            let [x0, y0, x1, y1] = px.luminaire_box(*c, *o);
+            let (a, b) = ((x0 as i32, y0 as i32), (x1 as i32, y1 as i32));
+            root.draw(&Rectangle::new([a, b], WHITE.filled()))?;
+            root.draw(&Rectangle::new([a, b], BLACK.stroke_width(2)))?;
+            root.draw(&PathElement::new(vec![a, b], BLACK.stroke_width(1)))?;
+            root.draw(&PathElement::new(
+                vec![(a.0, b.1), (b.0, a.1)],
+                BLACK.stroke_width(1),
+            ))?;
+        }
+        for (_, x, y) in &v.sensors {
             root.draw(&Cross::new(
                 map(*x, *y),
                 6,
                 RGBColor(230, 30, 30).stroke_width(3),
             ))?;
-            let (px, py) = fmap(*x, *y);
-            labels.push(
-                Label::new(format!("S{id}"), (px + 7.0, py - 4.0), 13.0)
-                    .anchored(Anchor::Start, Anchor::End)
-                    .colour(super::WHITE)
-                    .halo([20, 20, 20]),
-            );
         }
+        labels.extend(plan_labels(v));
         if !v.subtitle.is_empty() {
             labels.push(Label::new(
                 v.subtitle.clone(),
@@ -514,6 +642,11 @@ pub fn draw(scene: &Scene, view: &TopView, opts: &MapOptions) -> Canvas {
             .sensors
             .iter()
             .map(|s| (s.id, s.position_m.x, s.position_m.y))
+            .collect(),
+        luminaires: scene
+            .luminaires
+            .iter()
+            .map(|l| (l.id, [l.position_m.x, l.position_m.y], l.opening_m))
             .collect(),
         values: Vec::new(),
         scale_max_lx: 0.0,

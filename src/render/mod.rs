@@ -4,8 +4,10 @@
 //! one small RGB canvas, a perceptual colour map and the embedded DejaVu Sans ([`text`]).
 
 pub mod camera_view;
+pub mod energy;
 pub mod glare;
 pub mod map;
+pub mod placement;
 pub mod plot;
 pub mod report;
 pub mod requirements;
@@ -237,14 +239,17 @@ impl Label {
         self
     }
 
-    /// Draws it.
-    pub fn draw(&self, c: &mut Canvas) {
-        let weight = if self.bold {
+    fn weight(&self) -> text::Weight {
+        if self.bold {
             text::Weight::Bold
         } else {
             text::Weight::Regular
-        };
-        let w = f64::from(text::width(&self.text, self.size, weight));
+        }
+    }
+
+    /// The box its text covers, pixels: x0, y0, x1, y1.
+    pub fn bbox(&self) -> [f64; 4] {
+        let w = f64::from(text::width(&self.text, self.size, self.weight()));
         let h = f64::from(self.size) * 1.17;
         let x = match self.anchor.0 {
             Anchor::Start => self.at.0,
@@ -256,6 +261,13 @@ impl Label {
             Anchor::Middle => self.at.1 - h / 2.0,
             Anchor::End => self.at.1 - h,
         };
+        [x, y, x + w, y + h]
+    }
+
+    /// Draws it.
+    pub fn draw(&self, c: &mut Canvas) {
+        let weight = self.weight();
+        let [x, y, _, _] = self.bbox();
         if let Some(halo) = self.halo {
             for (dx, dy) in [(-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)] {
                 text::draw(
@@ -278,6 +290,11 @@ impl Label {
             &mut |px, py, a| c.blend(px, py, col, a),
         );
     }
+}
+
+/// Two boxes (x0, y0, x1, y1) share some area.
+pub fn boxes_overlap(a: &[f64; 4], b: &[f64; 4]) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
 }
 
 /// Round tick values over [lo, hi]: 1, 2, 5 × 10^k on a log axis, about five steps of 1, 2,

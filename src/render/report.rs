@@ -22,6 +22,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::camera_view::{self, ViewDesk, ViewOptions};
+use super::energy::{self, Energy, EnergyInput};
 use super::glare::{self, UgrResult};
 use super::map::{self, PlanDesk, PlanView, TopView};
 use super::nice_ceiling;
@@ -266,6 +267,10 @@ pub struct Results {
     pub pass: bool,
     /// Why the design fails (empty when it passes).
     pub fails_because: Vec<String>,
+    /// Installed power, power densities and LENI (EN 15193-1) with their assumptions.
+    pub energy: Energy,
+    /// LENI, kWh/(m²·year) (the issue's key; `energy` holds its assumptions).
+    pub leni_kwh_per_m2_year: Option<f64>,
     /// Seconds the report took (computing, not writing).
     pub seconds: f64,
 }
@@ -276,6 +281,8 @@ pub struct Report {
     pub results: Results,
     /// (file stem, caption, PNG bytes).
     pub pictures: Vec<(String, String, Vec<u8>)>,
+    /// The boxes of the labels placed on the plan's map, pixels: x0, y0, x1, y1.
+    pub plan_label_boxes: Vec<[f64; 4]>,
 }
 
 /// Seconds since 1970 as `YYYY-MM-DD hh:mm UTC`.
@@ -304,9 +311,9 @@ fn is_floor(name: &str) -> bool {
     name.eq_ignore_ascii_case("floor") || name.starts_with("floor")
 }
 
-/// The floor: its outline in plan and its height (the `floor` group's up-facing patches, or the
-/// lowest up-facing patches).
-fn floor_of(room: &Room) -> ([f64; 4], f64) {
+/// The floor: its outline in plan, its height and its area, m² (the `floor` group's up-facing
+/// patches, or the lowest up-facing patches).
+fn floor_of(room: &Room) -> ([f64; 4], f64, f64) {
     let p = &room.patches;
     let up: Vec<usize> = (0..p.len()).filter(|&i| p.normal[i].z > 0.9).collect();
     let named: Vec<usize> = up
@@ -349,9 +356,9 @@ fn floor_of(room: &Room) -> ([f64; 4], f64) {
         area += p.area_m2[i];
     }
     if area > 0.0 {
-        (b, z / area)
+        (b, z / area, area)
     } else {
-        ([0.0, 1.0, 0.0, 1.0], 0.0)
+        ([0.0, 1.0, 0.0, 1.0], 0.0, 0.0)
     }
 }
 
@@ -447,6 +454,8 @@ struct Plan {
     floor_ext: [f64; 4],
     /// Floor height, m.
     floor_z: f64,
+    /// Floor area (its patches), m².
+    floor_area_m2: f64,
     /// The floor's rectangle.
     room_rect: Rect,
     /// Each desk's rectangle (the room's desk order).
@@ -455,10 +464,11 @@ struct Plan {
 
 impl Plan {
     fn of(room: &Room) -> Plan {
-        let (floor_ext, floor_z) = floor_of(room);
+        let (floor_ext, floor_z, floor_area_m2) = floor_of(room);
         Plan {
             floor_ext,
             floor_z,
+            floor_area_m2,
             room_rect: Rect {
                 x_m: [floor_ext[0], floor_ext[1]],
                 y_m: [floor_ext[2], floor_ext[3]],
@@ -706,14 +716,15 @@ type Picture = (String, String, Vec<u8>);
 
 impl Design<'_> {
     /// The plan view: the top view's map (upward-facing surfaces), the room grid's values off
-    /// the desks, the desks and the sensors. Also the colour scale's top, lx.
+    /// the desks, the desks, the luminaires and the sensors. Also the colour scale's top, lx,
+    /// and the placed labels' boxes.
     fn plan_picture(
         &self,
         field: &DenseField<'_>,
         room_points: &[SurfacePoint],
         room_readings: &Readings,
         opts: &ReportOptions,
-    ) -> Result<(Picture, f64), ReportError> {
+    ) -> Result<(Picture, f64, Vec<[f64; 4]>), ReportError> {
         let (room, mf, design) = (self.room, self.mf, self.levels);
         let (origin_m, cells, map_pts) = map::map_points(
             field,
@@ -770,7 +781,7 @@ impl Design<'_> {
             .map(|(p, v)| ([p.position_m.x, p.position_m.y], mf * v))
             .collect();
         let scale_max = nice_ceiling(top.max_lx());
-        let plan = map::draw_plan(&PlanView {
+        let view = PlanView {
             title: format!(
                 "{}: maintained illuminance, {} (MF {:.2})",
                 room.section.scene_name, self.name, mf
@@ -796,10 +807,21 @@ impl Design<'_> {
                 .iter()
                 .map(|s| (s.id, s.position_m.x, s.position_m.y))
                 .collect(),
+            luminaires: room
+                .section
+                .luminaires
+                .iter()
+                .map(|l| (l.id, [l.position_m[0], l.position_m[1]], l.opening_m))
+                .collect(),
             values: room_values,
             scale_max_lx: scale_max,
             pixels_per_m: 100.0,
-        });
+        };
+        let plan = map::draw_plan(&view);
+        let boxes = map::plan_labels(&view)
+            .iter()
+            .map(super::Label::bbox)
+            .collect();
         Ok((
             (
                 "plan".to_string(),
@@ -807,6 +829,7 @@ impl Design<'_> {
                 plan.png_bytes()?,
             ),
             scale_max,
+            boxes,
         ))
     }
 
@@ -930,6 +953,50 @@ fn room_checks(
     (ugr, values, table)
 }
 
+/// The energy figures: the schedule's powers, the floor's area, the maintained mean of the room
+/// grid (or, without one, the task areas' area-weighted mean), the daylight the image holds.
+fn energy_of(
+    image: &Image<'_>,
+    plan: &Plan,
+    luminaires: &[LuminaireRow],
+    room: Option<&AreaResult>,
+    desks: &[DeskResult],
+    mf: f64,
+) -> Energy {
+    let powers_w: Vec<f64> = luminaires.iter().filter_map(|l| l.power_w).collect();
+    let task = || {
+        let (mut sum, mut area) = (0.0, 0.0);
+        for d in desks {
+            let a = (d.extent_m[1] - d.extent_m[0]) * (d.extent_m[3] - d.extent_m[2]);
+            sum += d.task.maintained.e_mean_lx * a;
+            area += a;
+        }
+        (area > 0.0).then(|| {
+            (
+                sum / area,
+                "the task areas' maintained Ēm (area-weighted), design state".to_string(),
+            )
+        })
+    };
+    let em = room
+        .map(|r| {
+            (
+                r.maintained.e_mean_lx,
+                "the room grid's maintained Ēm (floor less the 0.5 m wall band), design state"
+                    .to_string(),
+            )
+        })
+        .or_else(task);
+    energy::energy(&EnergyInput {
+        powers_w: &powers_w,
+        power_assumed: luminaires.iter().any(|l| l.power_assumed),
+        floor_area_m2: plan.floor_area_m2,
+        em,
+        maintenance_factor: mf,
+        daylight_window_m2: image.daylight.map(|d| d.window_area_m2),
+    })
+}
+
 /// Computes the report of an image: the states checked, the dense field, the desks' and the
 /// room's grids, every state's results, the design state's desks, the tables and the pictures.
 pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, ReportError> {
@@ -978,7 +1045,8 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         mf,
         desks: &desks,
     };
-    let (plan_pic, scale_max) = d.plan_picture(&field, &room_points, &room_readings, opts)?;
+    let (plan_pic, scale_max, plan_label_boxes) =
+        d.plan_picture(&field, &room_points, &room_readings, opts)?;
     let mut pictures = vec![plan_pic];
     if let (Some(view), Some(cam)) = (&view, &room.camera) {
         pictures.extend(d.camera_pictures(view, cam, scale_max)?);
@@ -987,6 +1055,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     let (ugr, room_surfaces, requirements) =
         room_checks(&field, &room, &plan, design, mf, opts, &desks);
     let (pass, fails_because) = requirements::verdict(&requirements);
+    let energy = energy_of(image, &plan, &luminaires, room_result.as_ref(), &desks, mf);
     let results = Results {
         scene: room.section.scene_name.clone(),
         preset: room.section.preset.clone(),
@@ -1011,9 +1080,15 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         desks_pass,
         pass,
         fails_because,
+        leni_kwh_per_m2_year: energy.leni_kwh_per_m2_year,
+        energy,
         seconds: t0.elapsed().as_secs_f64(),
     };
-    Ok(Report { results, pictures })
+    Ok(Report {
+        results,
+        pictures,
+        plan_label_boxes,
+    })
 }
 
 fn esc(s: &str) -> String {
@@ -1073,6 +1148,7 @@ pub fn html(r: &Report) -> String {
     html_desks(&mut h, x);
     html_points(&mut h, x);
     html_states(&mut h, x);
+    html_energy(&mut h, &x.energy);
     html_tables(&mut h, x);
     html_tail(&mut h, x);
     h
@@ -1089,7 +1165,10 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}</style></head>\n<body data-images=\"pending\">\n",
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}\
+@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}\
+img{{max-width:100%;border:none}}#imgstatus{{display:none}}th{{background:#eee;-webkit-print-color-adjust:exact;print-color-adjust:exact}}\
+@page{{size:A4;margin:12mm}}}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)
     );
     let _ = write!(
@@ -1336,6 +1415,59 @@ fn html_states(h: &mut String, x: &Results) {
         }
         h.push_str("</tr>\n");
     }
+}
+
+/// A figure or "–" with the reason.
+fn or_dash(v: Option<f64>, decimals: usize, why: &str) -> String {
+    v.filter(|v| v.is_finite()).map_or_else(
+        || format!("– ({})", esc(why)),
+        |v| format!("{v:.decimals$}"),
+    )
+}
+
+/// Installed power, power densities and LENI (EN 15193-1) with the factors they rest on.
+fn html_energy(h: &mut String, e: &Energy) {
+    let why = e.not_computed.as_deref().unwrap_or("no maintained mean");
+    let flag = e.flag.as_ref().map_or(String::new(), |f| {
+        format!(" <span class=\"fail\">{}</span>", esc(f))
+    });
+    let _ = write!(
+        h,
+        "<h2>Energy (EN 15193-1)</h2>\n<table id=\"energy\" class=\"meta\">\
+<tr><th>installed power</th><td>{:.1} W{flag}</td></tr>\
+<tr><th>floor area</th><td>{:.2} m²</td></tr>\
+<tr><th>power density</th><td>{} W/m²</td></tr>\
+<tr><th>per 100 lx</th><td>{} W/m²/100 lx, against {} ({} lx)</td></tr>\
+<tr><th>W<sub>L</sub> + W<sub>P</sub></th><td>{:.1} + {:.1} kWh/year</td></tr>\
+<tr><th>LENI</th><td id=\"leni\">{} kWh/(m²·year){flag}</td></tr></table>\n",
+        e.installed_w,
+        e.floor_area_m2,
+        or_dash(e.w_per_m2, 2, why),
+        or_dash(e.w_per_m2_per_100lx, 2, why),
+        esc(&e.em_basis),
+        or_dash(e.em_lx, 0, why),
+        e.w_l_kwh,
+        e.w_p_kwh,
+        or_dash(e.leni_kwh_per_m2_year, 1, why),
+    );
+    let a = &e.assumptions;
+    let rows = [
+        ("t<sub>D</sub>, t<sub>N</sub>", format!("{:.0} h, {:.0} h", a.t_d_h, a.t_n_h), "EN 15193-1 default operating hours of an office".to_string()),
+        ("F<sub>C</sub>", format!("{:.3}", a.f_c), a.f_c_source.clone()),
+        ("F<sub>O</sub>", format!("{:.2}", a.f_o), a.f_o_source.clone()),
+        ("F<sub>D</sub>", format!("{:.2}", a.f_d), a.f_d_source.clone()),
+        ("parasitic", format!("{:.1} W × {:.0} h per luminaire", a.standby_w_per_luminaire, a.standby_h), "the gear's and the node's rated standby, in the hours t<sub>y</sub> − t<sub>D</sub> − t<sub>N</sub> the lighting is not operated".to_string()),
+        ("emergency", format!("{:.0} kWh", a.emergency_kwh), "no emergency lighting charged".to_string()),
+    ];
+    h.push_str("<table id=\"energy-assumptions\"><tr><th>assumption</th><th>value</th><th>source</th></tr>\n");
+    for (name, value, source) in rows {
+        let _ = writeln!(
+            h,
+            "<tr><td>{name}</td><td>{value}</td><td style=\"text-align:left\">{}</td></tr>",
+            source.replace('&', "&amp;")
+        );
+    }
+    h.push_str("</table>\n<p>LENI = (W<sub>L</sub> + W<sub>P</sub>)/A, W<sub>L</sub> = Σ P<sub>n</sub> F<sub>C</sub> (t<sub>D</sub> F<sub>O</sub> F<sub>D</sub> + t<sub>N</sub> F<sub>O</sub>)/1000.</p>\n");
 }
 
 /// The desk sensors, the surfaces and the luminaire schedule.
