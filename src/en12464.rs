@@ -253,11 +253,26 @@ pub struct Statistics {
 impl Statistics {
     /// Statistics of a set of values, lx; `None` when there is none or one is not finite.
     pub fn of(values_lx: &[f64]) -> Option<Statistics> {
-        if values_lx.is_empty() || values_lx.iter().any(|v| !v.is_finite()) {
+        Self::weighted(values_lx, &vec![1.0; values_lx.len()])
+    }
+
+    /// The statistics of values with weights (areas): the weighted mean, and U0 and Emin/Emax
+    /// from it (`None` for no values, a value that is not finite, or no positive total weight).
+    pub fn weighted(values_lx: &[f64], weights: &[f64]) -> Option<Statistics> {
+        let w: f64 = weights.iter().sum();
+        if values_lx.is_empty()
+            || w.is_nan()
+            || w <= 0.0
+            || values_lx.iter().any(|v| !v.is_finite())
+        {
             return None;
         }
-        let sum: f64 = values_lx.iter().sum();
-        let mean = sum / values_lx.len() as f64;
+        let mean = values_lx
+            .iter()
+            .zip(weights)
+            .map(|(v, w)| v * w)
+            .sum::<f64>()
+            / w;
         let min = values_lx.iter().copied().fold(f64::INFINITY, f64::min);
         let max = values_lx.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Some(Statistics {

@@ -670,11 +670,6 @@ fn every_help_is_in_one_style_and_the_readme_lists_every_command() {
             todo.push(p);
         }
         for (head, text) in argument_blocks(&help) {
-            // src/cli/report.rs belongs to the report's branch: its "Default: all on, ..."
-            // becomes "[if absent: ...]" there (issue 31 item 7, noted on the issue)
-            if path == ["report"] && head.starts_with("--states") {
-                continue;
-            }
             problems.extend(help_problems(&path.join(" "), &head, &text));
             // the prose, not the possible values' list (`- ies: IES`)
             let prose: Vec<&str> = text.lines().filter(|l| !l.starts_with("- ")).collect();

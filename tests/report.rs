@@ -515,7 +515,10 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<h2>Desk sensors</h2>"));
-    assert!(html.contains("<td>S1</td><td>out of view</td>"), "sensor 1");
+    assert!(
+        html.contains("<td>floor S1</td><td>out of view</td>"),
+        "sensor 1, on the floor"
+    );
     assert_eq!(html.matches("± ").count(), 8);
 }
 

@@ -295,6 +295,7 @@ pub fn progress_on_a_terminal() -> bool {
 
 /// A spinner on stderr with the time `what` has taken (and the steps done, with
 /// [`print_step`]), on a terminal only; `finish_and_clear` it before the summary.
+#[cfg(feature = "bench")]
 pub fn step_spinner(what: &'static str) -> Option<indicatif::ProgressBar> {
     if !progress_on_a_terminal() {
         return None;
@@ -310,6 +311,7 @@ pub fn step_spinner(what: &'static str) -> Option<indicatif::ProgressBar> {
 
 /// Prints a result line on stdout; with a spinner on the same terminal, around it (the
 /// spinner hidden while the line is written, then counting one more step).
+#[cfg(feature = "bench")]
 pub fn print_step(bar: Option<&indicatif::ProgressBar>, line: &str) {
     match bar {
         Some(b) => {

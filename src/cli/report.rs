@@ -13,18 +13,18 @@ use luxnode::store::file::read_image_file;
 #[derive(clap::Args)]
 pub struct Args {
     /// The image: an image file, or a flash file with A/B slots (its newest valid image).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     image: PathBuf,
     /// The directory to write report.html and results.json into.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Dimming states to report (`scenario_id,luminaires_on` with ids separated by `;`, the
-    /// format of states.csv); the first is the design state of the EN 12464-1 check. Default:
-    /// all on, then each luminaire alone.
-    #[arg(long)]
+    /// format of states.csv); the first is the design state of the EN 12464-1 check [if absent:
+    /// all on, then each luminaire alone].
+    #[arg(long, value_name = "FILE")]
     states: Option<PathBuf>,
     /// Overrides the maintenance factor recorded in the image.
-    #[arg(long)]
+    #[arg(long, value_name = "MF")]
     maintenance_factor: Option<f64>,
 }
 

@@ -209,6 +209,8 @@ pub struct StateResult {
 pub struct SensorRow {
     /// Id.
     pub id: u32,
+    /// Its point's name, the same on Modbus, BACnet and the points list ([`crate::points`]).
+    pub name: String,
     /// The camera sees it (the model there rests on what the camera saw).
     pub in_view: bool,
     /// Its surroundings were partly inferred (commissioning's flag).
@@ -685,11 +687,15 @@ fn luminaire_rows(room: &Room) -> Vec<LuminaireRow> {
 
 /// The sensors table, from the image.
 fn sensor_rows(image: &Image<'_>) -> Vec<SensorRow> {
+    let points = crate::points::points_of(image);
     (0..image.sensors())
         .map(|k| {
             let f = image.sensor_flags(k);
             SensorRow {
                 id: image.sensor_id(k),
+                name: points
+                    .get(k)
+                    .map_or_else(|| format!("S{}", image.sensor_id(k)), |p| p.name.clone()),
                 in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
                 estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
                 stated_rel_uncertainty: image.model_rel_uncertainty(k),
@@ -1476,8 +1482,8 @@ fn html_tables(h: &mut String, x: &Results) {
     for r in &x.sensors {
         let _ = writeln!(
             h,
-            "<tr><td>S{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            r.id,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&r.name),
             if r.in_view { "in view" } else { "out of view" },
             if r.estimated {
                 "partly inferred"

@@ -57,30 +57,6 @@ fn group_patches(room: &Room, prefix: &str, facing: &dyn Fn(DVec3) -> bool) -> V
         .collect()
 }
 
-/// Area-weighted statistics (the ratios from the weighted mean).
-fn weighted(values_lx: &[f64], weights: &[f64]) -> Option<Statistics> {
-    let w: f64 = weights.iter().sum();
-    if values_lx.is_empty() || w.is_nan() || w <= 0.0 || values_lx.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    let mean = values_lx
-        .iter()
-        .zip(weights)
-        .map(|(v, w)| v * w)
-        .sum::<f64>()
-        / w;
-    let min = values_lx.iter().copied().fold(f64::INFINITY, f64::min);
-    let max = values_lx.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    Some(Statistics {
-        points: values_lx.len(),
-        e_mean_lx: mean,
-        e_min_lx: min,
-        e_max_lx: max,
-        u0: if mean > 0.0 { min / mean } else { 0.0 },
-        e_min_over_e_max: if max > 0.0 { min / max } else { 0.0 },
-    })
-}
-
 /// The maintained statistics of the surfaces named `prefix…` facing as `facing` says.
 pub fn surface(
     field: &DenseField<'_>,
@@ -122,7 +98,7 @@ pub fn surface(
     };
     let lux: Vec<f64> = lux.iter().map(|v| v * mf).collect();
     let areas: Vec<f64> = ids.iter().map(|&i| room.patches.area_m2[i]).collect();
-    match weighted(&lux, &areas) {
+    match Statistics::weighted(&lux, &areas) {
         Some(s) => RoomValue {
             what: what.into(),
             maintained: Some(s),
