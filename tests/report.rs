@@ -522,12 +522,9 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
     assert_eq!(html.matches("± ").count(), 8);
 }
 
-/// docs/report.md, point values: a desk with a box standing on it on 5 mm pads (built in code,
-/// tests/common): the points inside the box's footprint are flagged covered, exactly those, and
-/// have no value; every free point's value is the closed form of a point source of constant
-/// intensity I over a black room, E = I h / d³; Ēm, Emin and U0 are the free points' alone.
-#[test]
-fn task_points_flag_the_points_under_a_box_and_match_the_closed_form() {
+/// The report of the desk with a box on it (tests/common), a point source over a black room,
+/// at settings that keep the test fast.
+fn box_scene_report() -> report::Report {
     let scene = common::desk_with_box_scene();
     let settings = luxnode::engine::Settings {
         patches: luxnode::engine::PatchSettings {
@@ -544,7 +541,16 @@ fn task_points_flag_the_points_under_a_box_and_match_the_closed_form() {
     let model = compute_model(&scene, &settings).unwrap();
     let bytes = image_with_geometry(&scene, &model);
     let image = Image::parse(&bytes).unwrap();
-    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    report::compute(&image, &ReportOptions::default()).unwrap()
+}
+
+/// docs/report.md, point values: a desk with a box standing on it on 5 mm pads (built in code,
+/// tests/common): the points inside the box's footprint are flagged covered, exactly those, and
+/// have no value; every free point's value is the closed form of a point source of constant
+/// intensity I over a black room, E = I h / d³; Ēm, Emin and U0 are the free points' alone.
+#[test]
+fn task_points_flag_the_points_under_a_box_and_match_the_closed_form() {
+    let r = box_scene_report();
     let desk = &r.results.desks[0];
     let pts = &desk.task.points;
     // the EN 12464-1 grid of a 1.0 × 0.8 m desk: d = 1 m, p = 0.2 m, 5 × 4 points
@@ -717,23 +723,7 @@ fn office_a_ugr_matches_an_independent_computation() {
 ///   with that reason, never a NaN, and the verdict says so.
 #[test]
 fn room_values_match_the_point_source_closed_form() {
-    let scene = common::desk_with_box_scene();
-    let settings = luxnode::engine::Settings {
-        patches: luxnode::engine::PatchSettings {
-            patch_size_m: 0.5,
-            detail_ratio: 0.0,
-            min_patch_m: 0.2,
-            light_ratio: 0.0,
-        },
-        rays: 100,
-        sensor_rays: 300,
-        final_gather_rays: 100,
-        ..Settings::default()
-    };
-    let model = compute_model(&scene, &settings).unwrap();
-    let bytes = image_with_geometry(&scene, &model);
-    let image = Image::parse(&bytes).unwrap();
-    let r = report::compute(&image, &ReportOptions::default()).unwrap();
+    let r = box_scene_report();
     let x = &r.results;
     let mf = x.maintenance_factor;
     let (i_cd, lum) = (300.0, [1.4, 1.3, 2.7]);
@@ -924,19 +914,11 @@ fn office_a_energy_matches_the_hand_computation() {
 fn plan_labels_never_overlap_on_office_a_and_the_demo_office() {
     let (scene, model) = scene_and_model();
     let office_a_bytes = image_with_geometry(&scene, &model);
-    let img = std::env::temp_dir().join(format!("luxnode-demo-{}.img", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_luxnode"))
-        .args(["image", "build", "--scene", "demo-office", "--out"])
-        .arg(&img)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let demo = common::procs::cli_image(
+        "report-demo.img",
+        &["--scene", "demo-office"].map(std::ffi::OsStr::new),
     );
-    let demo_bytes = std::fs::read(&img).unwrap();
-    let _ = std::fs::remove_file(&img);
+    let demo_bytes = std::fs::read(&demo).unwrap();
     for bytes in [office_a_bytes, demo_bytes] {
         let image = Image::parse(&bytes).unwrap();
         let r = report::compute(&image, &ReportOptions::default()).unwrap();
