@@ -71,11 +71,20 @@ pub fn rated_powers(image: &crate::store::Image<'_>) -> std::vec::Vec<RatedPower
     let section = image
         .geometry_bytes()
         .and_then(|b| GeometrySection::decode(b).ok());
+    rated_powers_in(image, section.as_ref())
+}
+
+/// [`rated_powers`] with the image's geometry section already decoded (`None`: it has none).
+#[cfg(feature = "std")]
+pub fn rated_powers_in(
+    image: &crate::store::Image<'_>,
+    section: Option<&crate::store::geometry::GeometrySection>,
+) -> std::vec::Vec<RatedPower> {
     (0..image.luminaires())
         .map(|j| {
             let flux_lm = image.payload.luminaire_flux_lm.f64_at(j);
             let id = image.luminaire_id(j);
-            let file = section.as_ref().and_then(|s| {
+            let file = section.and_then(|s| {
                 let rec = s.luminaires.iter().find(|r| r.id == id)?;
                 s.photometries.get(rec.photometry as usize)
             });

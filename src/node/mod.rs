@@ -96,6 +96,11 @@ impl NodeModel {
     /// Copies what the server needs out of a checked image.
     pub fn from_image(image: &Image<'_>, generation: u64) -> Self {
         let (s, l) = (image.sensors(), image.luminaires());
+        let sensor_ids: Vec<u32> = (0..s).map(|k| image.sensor_id(k)).collect();
+        // the geometry section once, for the luminaires' ratings and the points' names
+        let section = image
+            .geometry_bytes()
+            .and_then(|b| crate::store::geometry::GeometrySection::decode(b).ok());
         let mut response_lx = Vec::with_capacity(s * l);
         for si in 0..s {
             for li in 0..l {
@@ -104,7 +109,7 @@ impl NodeModel {
         }
         Self {
             response_lx,
-            sensor_ids: (0..s).map(|k| image.sensor_id(k)).collect(),
+            sensor_ids: sensor_ids.clone(),
             luminaire_ids: (0..l).map(|j| image.luminaire_id(j)).collect(),
             sensor_flags: (0..s).map(|k| image.sensor_flags(k)).collect(),
             model_rel_uncertainty: (0..s)
@@ -115,8 +120,8 @@ impl NodeModel {
                 .as_ref()
                 .map_or_else(Vec::new, |live| live.uncertainty_parts_vec()),
             generation,
-            luminaire_power: crate::control::rating::rated_powers(image),
-            point_names: crate::points::points_of(image)
+            luminaire_power: crate::control::rating::rated_powers_in(image, section.as_ref()),
+            point_names: crate::points::points_in(&sensor_ids, section.as_ref())
                 .into_iter()
                 .map(|p| p.name)
                 .collect(),
