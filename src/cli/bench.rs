@@ -998,7 +998,11 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
     let timed = timed_stage;
     let mut times: Vec<[(Duration, f64); 3]> = Vec::new();
     let mut last = None;
-    for _ in 0..runs.max(1) {
+    let bar = super::step_spinner("dense field, desk grid and camera view");
+    for run in 0..runs.max(1) {
+        if let Some(b) = &bar {
+            b.set_message(format!(", run {} of {}", run + 1, runs.max(1)));
+        }
         let mut field = None;
         let t_field = timed(&mut || {
             field = Some(DenseField::from_model(
@@ -1025,8 +1029,11 @@ fn dense(dir: &Path, capture: Option<&Path>, runs: usize) -> Result<()> {
         times.push([t_field, t_grid, t_image]);
         last = Some((grid, view.context("no view")?));
     }
-    let (grid_lux, (img, img_lux)) = last.context("no run")?;
     let (t_report, n_states) = time_report(&scene, &model, runs)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let (grid_lux, (img, img_lux)) = last.context("no run")?;
     let g = bd::compare_grid(&truth, &grid_lux).context("grid comparison")?;
     println!();
     println!("| desk grid (truth_dense.csv, all on) | value | target |");

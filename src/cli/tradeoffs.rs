@@ -1,5 +1,6 @@
 //! `luxnode bench tradeoffs` and `luxnode bench patches`.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -135,8 +136,12 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
         std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
     }
     println!("# patches per preset on {}\n", sc.name);
+    let bar = super::step_spinner("patches per preset (adaptive and uniform twin)");
     let mut rows = Vec::new();
     for preset in Preset::ALL {
+        if let Some(b) = &bar {
+            b.set_message(format!(", {preset}"));
+        }
         let s = preset.engine();
         let adaptive = engine::compute_model(&sc, &s)?;
         let acc = luxnode::bench::accuracy(&adaptive, &scenarios, &truth)?
@@ -150,13 +155,17 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
         let uniform = engine::compute_model(&sc, &u_settings)?;
         let acc_u = luxnode::bench::accuracy(&uniform, &scenarios, &truth)?
             .context("no truth values match the scenarios")?;
-        println!("## {preset}: {n} patches\n");
-        println!("| surface | patches | area (m²) | mean patch area (m²) |");
-        println!("|---|---:|---:|---:|");
+        let mut out = format!("## {preset}: {n} patches\n\n");
+        out.push_str("| surface | patches | area (m²) | mean patch area (m²) |\n");
+        out.push_str("|---|---:|---:|---:|\n");
         for (g, count, area) in lp::per_group(&sc, &adaptive.patches) {
-            println!("| {g} | {count} | {area:.1} | {:.3} |", area / count as f64);
+            let _ = writeln!(
+                out,
+                "| {g} | {count} | {area:.1} | {:.3} |",
+                area / count as f64
+            );
         }
-        println!();
+        out.push('\n');
         if let Some(d) = out_dir {
             let range = (0.0625, 4.0);
             for (model, name, what) in [
@@ -177,10 +186,14 @@ pub fn patches(scene: &Path, out_dir: Option<&Path>) -> Result<()> {
                 )
                 .save_png(&path)
                 .with_context(|| format!("writing {}", path.display()))?;
-                println!("picture: {}\n", path.display());
+                let _ = writeln!(out, "picture: {}\n", path.display());
             }
         }
+        super::print_step(bar.as_ref(), &format!("{}\n", out.trim_end()));
         rows.push((preset, n, acc, size, n_uniform, acc_u));
+    }
+    if let Some(b) = &bar {
+        b.finish_and_clear();
     }
     println!(
         "| preset | adaptive patches | error | worst sensor | uniform patch size (m) | uniform patches | error | worst sensor |"

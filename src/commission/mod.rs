@@ -11,7 +11,7 @@
 //! ```
 //!
 //! Stages are timed ([`Report::timings`]); with [`CommissionOptions::progress`] each shows a
-//! spinner and its time. Bad input is an error ([`CommissionError`]) or a counted warning,
+//! bar over the stages, each finished stage printed with its time. Bad input is an error ([`CommissionError`]) or a counted warning,
 //! never a panic. The capture's `groundtruth/` is never read.
 
 pub mod ambient;
@@ -658,22 +658,58 @@ pub struct Commissioned {
     pub uncalibrated_all_on_lx: Vec<f64>,
 }
 
-struct Stage {
+/// Commissioning's progress on a terminal: one bar over the stages (`[3/7] mesh 0.4 s`), each
+/// finished stage printed above it with its time ([`CommissionOptions::progress`]).
+struct Progress {
     bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    /// A bar of `stages` steps when `on` (a terminal), else nothing.
+    fn new(on: bool, stages: u64) -> Progress {
+        let bar = on.then(|| {
+            let b = indicatif::ProgressBar::new(stages);
+            let style = indicatif::ProgressStyle::with_template(
+                "commissioning [{bar:24}] {pos}/{len} {msg} {elapsed}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> ");
+            b.set_style(style);
+            b.enable_steady_tick(Duration::from_millis(100));
+            b
+        });
+        Progress { bar }
+    }
+}
+
+impl Drop for Progress {
+    /// Done or failed, the bar leaves the terminal; the stages' lines stay above it.
+    fn drop(&mut self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// The stages a commissioning with options `o` goes through (the bar's length).
+fn stage_count(o: &CommissionOptions) -> u64 {
+    // depth, planes, pose, mesh, closure, engine, uncertainty; pass model and reflectances
+    7 + if o.estimate_reflectances { 2 } else { 0 }
+}
+
+struct Stage<'a> {
+    progress: &'a Progress,
     t0: Instant,
     name: &'static str,
 }
 
-impl Stage {
-    fn start(name: &'static str, progress: bool) -> Stage {
-        let bar = progress.then(|| {
-            let b = indicatif::ProgressBar::new_spinner();
+impl<'a> Stage<'a> {
+    fn start(name: &'static str, progress: &'a Progress) -> Stage<'a> {
+        if let Some(b) = &progress.bar {
             b.set_message(name);
-            b.enable_steady_tick(Duration::from_millis(100));
-            b
-        });
+        }
         Stage {
-            bar,
+            progress,
             t0: Instant::now(),
             name,
         }
@@ -681,8 +717,9 @@ impl Stage {
 
     fn done(self, report: &mut Report) {
         let dt = self.t0.elapsed();
-        if let Some(b) = self.bar {
-            b.finish_with_message(format!("{}: {:.0} ms", self.name, dt.as_secs_f64() * 1e3));
+        if let Some(b) = &self.progress.bar {
+            b.println(format!("{}: {:.0} ms", self.name, dt.as_secs_f64() * 1e3));
+            b.inc(1);
         }
         report.timings.push((self.name, dt));
     }
@@ -873,6 +910,7 @@ struct Inputs<'a> {
     sensors: &'a [Sensor],
     desks: Option<&'a Desks>,
     o: &'a CommissionOptions,
+    progress: Progress,
 }
 
 impl Inputs<'_> {
@@ -1462,13 +1500,13 @@ fn estimate_reflectances(
 ) -> Result<Reflectances, CommissionError> {
     let o = i.o;
     let reco = &meshed.reco;
-    let st = Stage::start("pass model", o.progress);
+    let st = Stage::start("pass model", &i.progress);
     let pass = pass_settings(&o.engine);
     let pass_model = run_engine(&i.scene(reco, start_rho), &pass, &mut report.warnings)?;
     let pass = pass_model.settings.clone();
     st.done(report);
 
-    let st = Stage::start("reflectances", o.progress);
+    let st = Stage::start("reflectances", &i.progress);
     let caster = RayCaster::new(&pass_model.patches);
     let first = i.first();
     let mut samples = reflectance::sample(
@@ -1814,6 +1852,7 @@ pub fn from_captures(
         sensors: &sensors,
         desks: desks.as_ref(),
         o,
+        progress: Progress::new(o.progress, stage_count(o)),
     };
     check_captures(&i)?;
     let mut report = Report {
@@ -1821,24 +1860,24 @@ pub fn from_captures(
         ..Report::default()
     };
 
-    let st = Stage::start("depth", o.progress);
+    let st = Stage::start("depth", &i.progress);
     let depths = fuse_depths(&i)?;
     report.depth = depths[0].stats;
     st.done(&mut report);
 
-    let st = Stage::start("planes", o.progress);
+    let st = Stage::start("planes", &i.progress);
     let planes = find_planes(&i, &depths);
     st.done(&mut report);
 
-    let st = Stage::start("pose", o.progress);
+    let st = Stage::start("pose", &i.progress);
     pose::check(&i, &planes, &mut report)?;
     st.done(&mut report);
 
-    let st = Stage::start("mesh", o.progress);
+    let st = Stage::start("mesh", &i.progress);
     let mut meshed = mesh_room(&i, &depths, &planes, &mut report)?;
     st.done(&mut report);
 
-    let st = Stage::start("closure", o.progress);
+    let st = Stage::start("closure", &i.progress);
     close_room(&i, &mut meshed, &mut report)?;
     st.done(&mut report);
 
@@ -1852,11 +1891,11 @@ pub fn from_captures(
         }
     };
 
-    let st = Stage::start("engine", o.progress);
+    let st = Stage::start("engine", &i.progress);
     let (scene, model) = final_model(&i, &meshed.reco, &refl, &mut report)?;
     st.done(&mut report);
 
-    let st = Stage::start("uncertainty", o.progress);
+    let st = Stage::start("uncertainty", &i.progress);
     let sigma = o.uncertainty.with_plan(o.room_plan.as_ref());
     // an unseen monitor stands on a desk: a sensor out of view on a declared desk (on any,
     // without desks.json) may be behind one

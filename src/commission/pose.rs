@@ -561,6 +561,7 @@ pub fn check_captures(
         sensors: &[],
         desks: None,
         o,
+        progress: super::Progress::new(false, 0),
     };
     super::check_captures(&i)?;
     let depths = super::fuse_depths(&i)?;
