@@ -1,17 +1,21 @@
 //! Building the daylight-coefficient section at commissioning ([`crate::store::daylight`]; the
-//! run-time side is [`crate::live`]): the room plan's windows that no camera sees, the sky's
-//! light through them on the seen patches and at the desk sensors.
+//! run-time side is [`crate::live`]): the room plan's windows, the sky's light through them on
+//! the seen patches and at the desk sensors.
 //!
 //! ```text
-//! plan windows ─► unseen by the camera? ─► direct sky per patch and sensor (engine::daylight)
+//! plan windows ─► direct sky per patch and sensor (engine::daylight)
 //!   ─► boundary solve: unseen patches reflect it, seen patches held at 0 ─► seen × 146, sensors × 146
 //! ```
 //!
 //! The seen patches are held at zero exitance because at run time their exitance is what the
 //! camera measures, and the live estimator propagates it itself; the coefficients add what the
 //! camera cannot see: the sky through the windows and its reflections off unseen surfaces.
-//! A window the camera sees is left out: its glass is measured like any surface, and its
-//! light enters through the measured exitance (counting it twice would double its daylight).
+//! A window the camera sees goes through the coefficients too: the camera on the ceiling sees
+//! its glass looking down and out, at the ground's luminance, while the light it lets into the
+//! room comes from the sky above (on the generalization bench, desks by a seen window got a
+//! third to a seventh of their daylight from the glass's measured exitance). Its seen patches
+//! are listed in the section ([`DaylightSectionData::glazing_seen`]); the live estimator holds
+//! them at zero exitance and leaves them out of the fit when it fits the sky.
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -22,7 +26,9 @@ use crate::engine::raycast::{Hit, RayCaster};
 use crate::scene::plan::{OpeningKind, RoomPlan};
 use crate::sky::SkyFrame;
 use crate::solver::{self, CsrSystem, RhsState, Rows, Workspace};
-use crate::store::daylight::{DAYLIGHT_MAGIC, DAYLIGHT_VERSION, DaylightV1, MAX_COEFFICIENT};
+use crate::store::daylight::{
+    DAYLIGHT_MAGIC, DAYLIGHT_VERSION, DaylightCoefficients, MAX_COEFFICIENT,
+};
 use crate::store::{Bytes, Image};
 
 /// Ground reflectance outside (CIE's and `gensky`'s default, 0.2).
@@ -59,6 +65,8 @@ pub struct DaylightSectionData {
     pub seen_lx: Vec<f32>,
     /// `[sensor][COLUMNS]`, lx per cd/m².
     pub sensor_lx: Vec<f32>,
+    /// The seen patches that are glazing, ascending.
+    pub glazing_seen: Vec<u32>,
 }
 
 /// The plan's windows on the commissioned room's walls (which may stand behind the plan's where
@@ -143,19 +151,14 @@ pub fn build(
     let room = c.report.room.as_ref().ok_or("no room")?;
     let live = image.live.as_ref().ok_or("no live-light section")?;
     let caster = RayCaster::new(&c.model.patches);
-    let all = plan_windows(room);
-    let windows: Vec<Window> = all
-        .iter()
-        .filter(|w| !camera_sees(c, &caster, w))
-        .cloned()
-        .collect();
+    let windows = plan_windows(room);
     if windows.is_empty() {
-        return Err(if all.is_empty() {
-            "the room plan has no window".into()
-        } else {
-            "the camera sees every window of the room plan (their light is measured)".into()
-        });
+        return Err("the room plan has no window".into());
     }
+    let seen_windows = windows
+        .iter()
+        .filter(|w| camera_sees(c, &caster, w))
+        .count();
     let frame = SkyFrame::new([site.north.x, site.north.y]).ok_or("site north")?;
     let sensors: Vec<(DVec3, DVec3)> = c
         .scene
@@ -180,6 +183,12 @@ pub fn build(
         .map_err(|e| e.to_string())?;
     let direct = (&direct.patch.values[..], &direct.sensor.values[..]);
     let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, direct)?;
+    let glazing_seen = glazing_among(c, &all_seen);
+    tracing::debug!(
+        "daylight coefficients: {} windows ({seen_windows} seen), {} seen glazing patches",
+        windows.len(),
+        glazing_seen.len()
+    );
     Ok(DaylightSectionData {
         site: (
             site.latitude_deg,
@@ -191,7 +200,23 @@ pub fn build(
         seen_patch,
         seen_lx,
         sensor_lx,
+        glazing_seen,
     })
+}
+
+/// The patches among `seen` (ascending) on the plan's windows (mesh groups `window_<k>`).
+fn glazing_among(c: &Commissioned, seen: &[u32]) -> Vec<u32> {
+    let groups = &c.scene.mesh.groups;
+    let p = &c.model.patches;
+    seen.iter()
+        .copied()
+        .filter(|&i| {
+            p.group
+                .get(i as usize)
+                .and_then(|&g| groups.get(g as usize))
+                .is_some_and(|g| g.starts_with("window_"))
+        })
+        .collect()
 }
 
 /// The boundary coefficients: the direct sky on the unseen patches reflected over them (seen
@@ -273,7 +298,12 @@ pub fn encode(d: &DaylightSectionData) -> Result<Vec<u8>, String> {
     };
     let seen: Vec<u8> = d.seen_patch.iter().flat_map(|p| p.to_le_bytes()).collect();
     let (seen_lx, sensor_lx) = (le(&d.seen_lx), le(&d.sensor_lx));
-    let s = DaylightV1 {
+    let glazing: Vec<u8> = d
+        .glazing_seen
+        .iter()
+        .flat_map(|p| p.to_le_bytes())
+        .collect();
+    let s = DaylightCoefficients {
         version: DAYLIGHT_VERSION,
         latitude_deg: d.site.0,
         longitude_deg: d.site.1,
@@ -284,8 +314,9 @@ pub fn encode(d: &DaylightSectionData) -> Result<Vec<u8>, String> {
         seen_patch: Bytes(&seen),
         seen_lx: Bytes(&seen_lx),
         sensor_lx: Bytes(&sensor_lx),
+        glazing_seen: Bytes(&glazing),
     };
-    postcard::to_stdvec(&s).map_err(|e| e.to_string())
+    s.encode().map_err(|e| e.to_string())
 }
 
 /// The image with the daylight section of a commissioning with a plan added, within the
@@ -307,8 +338,8 @@ pub fn with_daylight_section(image: Vec<u8>, c: &Commissioned, plan: Option<&Roo
     match built {
         Ok(bytes) if bytes.len() <= crate::image_build::formfactors_region_bytes() => {
             tracing::info!(
-                "commission: daylight coefficients of {} bytes added (windows the camera does \
-                 not see) in {:.0} ms",
+                "commission: daylight coefficients of {} bytes added (the plan's windows) in \
+                 {:.0} ms",
                 bytes.len() - image.len(),
                 t0.elapsed().as_secs_f64() * 1e3
             );
@@ -317,7 +348,7 @@ pub fn with_daylight_section(image: Vec<u8>, c: &Commissioned, plan: Option<&Roo
         Ok(bytes) => {
             tracing::warn!(
                 "commission: no room for the daylight coefficients ({} bytes) in the flash \
-                 region; daylight through unseen windows is fitted by emitters",
+                 region; daylight through the plan's windows is fitted by emitters",
                 bytes.len() - image.len()
             );
             image

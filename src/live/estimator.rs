@@ -7,6 +7,7 @@ use crate::solver::{
 };
 use crate::store::Image;
 
+use super::emitters::{EmitterFit, placement_lx, robust_fit};
 use super::nnls::nnls_gram;
 use super::sky_fit::{SkyBasis, SkyCoefficients};
 use super::window::window_sigma_m;
@@ -139,6 +140,12 @@ pub struct LiveSettings {
     /// 4 % to 8 %). An image commissioned from cameras states one per desk
     /// (`crate::commission::uncertainty`).
     pub model_rel_uncertainty: f64,
+    /// An inferred desk value whose stated relative standard uncertainty exceeds this is
+    /// published as not available ([`flags::DAYLIGHT_UNKNOWN`]): its two-uncertainty interval
+    /// would be wider than the value itself. By day without a room plan, daylight through
+    /// windows the cameras do not see is told only as well as the seen surfaces tell the
+    /// candidate windows apart ([`placement_lx`]).
+    pub unknown_above_rel_uncertainty: f64,
 }
 
 impl Default for LiveSettings {
@@ -160,6 +167,7 @@ impl Default for LiveSettings {
             inferred_rel_uncertainty: 0.25,
             measured_rel_uncertainty: 0.04,
             model_rel_uncertainty: 0.07,
+            unknown_above_rel_uncertainty: 1.0,
         }
     }
 }
@@ -186,6 +194,14 @@ impl LiveSettings {
         frac("inferred_rel_uncertainty", self.inferred_rel_uncertainty)?;
         frac("measured_rel_uncertainty", self.measured_rel_uncertainty)?;
         frac("model_rel_uncertainty", self.model_rel_uncertainty)?;
+        if !(self.unknown_above_rel_uncertainty.is_finite()
+            && (0.05..=10.0).contains(&self.unknown_above_rel_uncertainty))
+        {
+            return Err(LiveError::Input(format!(
+                "live unknown_above_rel_uncertainty {} is outside 0.05..=10",
+                self.unknown_above_rel_uncertainty
+            )));
+        }
         if !(self.maintenance_factor.is_finite() && (0.0..=1.5).contains(&self.maintenance_factor))
         {
             return Err(LiveError::Input(format!(
@@ -225,9 +241,6 @@ impl LiveSettings {
 
 /// A seen patch whose unexplained light exceeds this multiple of the median is in direct sun.
 const SUN_FACTOR: f64 = 8.0;
-
-/// Ridge weight of the unknown-emitter fit, relative to the mean diagonal of its normal matrix.
-const RIDGE: f64 = 0.01;
 
 /// A frame on the commissioned camera's grid.
 #[derive(Debug, Clone, Copy)]
@@ -662,7 +675,7 @@ fn incident(m: &Csr<f32>, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
     out
 }
 
-fn median(v: &mut [f64]) -> Option<f64> {
+pub(super) fn median(v: &mut [f64]) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
@@ -934,7 +947,13 @@ impl Live {
         let ok = self.desks.iter().all(|d| {
             d.source != Source::Model && d.frame_age_s <= max_age_s && d.flags & flags::STALE == 0
         });
-        ok.then(|| self.desks.iter().map(|d| d.daylight_lx).collect())
+        // a desk whose daylight is not known plans without it (the safe side)
+        ok.then(|| {
+            self.desks
+                .iter()
+                .map(|d| finite_or(d.daylight_lx, 0.0))
+                .collect()
+        })
     }
 
     fn check_levels(&self, levels: &[f64]) -> Result<(), LiveError> {
@@ -1070,7 +1089,12 @@ impl Live {
                 return Ok(&self.desks);
             }
         };
-        let (d_inferred, fit_residual, daylight_seen) = inferred;
+        let Inferred {
+            daylight_lx: d_inferred,
+            placement_lx,
+            fit_residual,
+            daylight_seen_lx: daylight_seen,
+        } = inferred;
         // 4. ageing: night frames accumulate the luminaires' fit
         let (night, ageing_updated) = self.ageing_step(&seen.d, &seen.w, &seen.a, daylight_seen);
         // 5. desks: decided with the model borrowed, applied after
@@ -1078,6 +1102,7 @@ impl Live {
             levels,
             no_depth: geometry.no_depth,
             fit_residual,
+            placement_lx: &placement_lx,
             taken_s: frame.taken_s,
         };
         let actions: Vec<Action> = (0..self.model.sensors())
@@ -1331,13 +1356,15 @@ impl Live {
             self.model
                 .model_rel_uncertainty_at(s, ctx.levels, st.model_rel_uncertainty);
         let day = inferred_lx.max(0.0);
+        let placement = ctx.placement_lx.get(s).copied().unwrap_or(0.0);
         if self.model.windows[s].sample.is_empty() {
             // out of view: the model's light and the inferred daylight
             let unc = ((st.inferred_rel_uncertainty * day).powi(2)
                 + (ctx.fit_residual * day).powi(2)
+                + placement.powi(2)
                 + (model_rel * art).powi(2))
             .sqrt();
-            return Action::Set(art, day, unc, Source::Inferred, extra);
+            return self.inferred(art, day, unc, extra);
         }
         let w = self.window_state(s, ctx);
         if w.changed {
@@ -1356,9 +1383,11 @@ impl Live {
             if fresh {
                 return Action::Hold(f);
             }
-            let unc =
-                ((st.inferred_rel_uncertainty * day).powi(2) + (model_rel * art).powi(2)).sqrt();
-            return Action::Set(art, day, unc, Source::Inferred, f);
+            let unc = ((st.inferred_rel_uncertainty * day).powi(2)
+                + placement.powi(2)
+                + (model_rel * art).powi(2))
+            .sqrt();
+            return self.inferred(art, day, unc, f);
         }
         // the weighted median residual of the window; spread for the uncertainty
         let mut v2 = w.values.clone();
@@ -1377,6 +1406,23 @@ impl Live {
             .max(self.model.model_rel_uncertainty(s, 0.0));
         let unc = ((1.2533 * mad / n_eff.sqrt()).powi(2) + (rel * total).powi(2)).sqrt();
         Action::Set(total - day, day, unc, Source::Measured, extra)
+    }
+
+    /// An inferred desk value, or, when its stated uncertainty is beyond
+    /// [`LiveSettings::unknown_above_rel_uncertainty`], its artificial part alone with the
+    /// total and the daylight not available ([`flags::DAYLIGHT_UNKNOWN`]).
+    fn inferred(&self, art: f64, day: f64, unc: f64, f: u16) -> Action {
+        let total = art + day;
+        if unc > self.settings.unknown_above_rel_uncertainty * total {
+            return Action::Set(
+                art,
+                f64::NAN,
+                f64::NAN,
+                Source::Inferred,
+                f | flags::DAYLIGHT_UNKNOWN,
+            );
+        }
+        Action::Set(art, day, unc, Source::Inferred, f)
     }
 
     /// Desk `s`'s window in this frame: its valid samples' (extraneous light, weight), and
@@ -1431,7 +1477,12 @@ impl Live {
     ) {
         let age_s = finite_or((now_s - taken_s).max(0.0), 0.0);
         let Some(unc) = stated_uncertainty_lx(art, day, unc) else {
-            self.desks[s] = DeskLive::not_estimated(self.model.ids[s], source, f, age_s);
+            let mut d = DeskLive::not_estimated(self.model.ids[s], source, f, age_s);
+            if f & flags::DAYLIGHT_UNKNOWN != 0 {
+                // the luminaires' part is known; the daylight and so the total are not
+                d.artificial_lx = art;
+            }
+            self.desks[s] = d;
             return;
         };
         // a held value is not new, and a covered desk's inferred one is not its own
@@ -1471,18 +1522,23 @@ impl Live {
     /// `ρ D` propagated over the unseen patches (Gauss-Seidel, warm), plus unknown emitters
     /// fitted to what that leaves unexplained on the seen surfaces (robust NNLS). Returns
     /// (daylight per sensor, relative RMS residual, mean fitted daylight on the seen surfaces).
-    fn infer(
-        &mut self,
-        d_seen: &[f64],
-        w_seen: &[f64],
-    ) -> Result<(Vec<f64>, f64, f64), SolveError> {
+    fn infer(&mut self, d_seen: &[f64], w_seen: &[f64]) -> Result<Inferred, SolveError> {
         let m = &self.model;
         let (k, n_seen, s_count) = (m.k, m.seen.len(), m.sensors());
+        // the sky through the plan's windows when the image has its coefficients and the time
+        // is known; else the unknown emitters
+        let bases = match (&m.sky, self.time) {
+            (Some(sky), Some(t)) => sky.bases(t).filter(|b| !b.is_empty()).map(|b| (sky, b)),
+            _ => None,
+        };
+        // a window's glass the camera sees: its light is in the sky's coefficients, and its
+        // luminance (the ground's, seen through it from the ceiling) is not what it lets in
+        let glass = |r: usize| bases.as_ref().is_some_and(|(sky, _)| sky.glazing(r));
         // seen exitance fixed, unseen solved
         let b = &mut self.b_boundary;
         for (r, &p) in m.seen.iter().enumerate() {
             let p = p as usize;
-            b[p] = if w_seen[r] > 0.0 {
+            b[p] = if w_seen[r] > 0.0 && !glass(r) {
                 m.rho[p] * d_seen[r].max(0.0)
             } else {
                 0.0
@@ -1494,7 +1550,9 @@ impl Live {
         let rows: Vec<u32> = (0..s_count as u32).collect();
         let from_seen = incident(&m.gather, &rows, b, 1);
         // emitters: y = D − c ≈ V w, weighted, twice (the second without outliers: sun patches)
-        let mut w_use: Vec<f64> = w_seen.to_vec();
+        let mut w_use: Vec<f64> = (0..n_seen)
+            .map(|r| if glass(r) { 0.0 } else { w_seen[r] })
+            .collect();
         let y: Vec<f64> = (0..n_seen).map(|r| d_seen[r] - c[r]).collect();
         // direct sun: seen patches far brighter than the diffuse daylight of the rest (a sun
         // patch on the floor gets tens of klx where the sky gives hundreds of lx) are measured
@@ -1511,14 +1569,8 @@ impl Live {
                 }
             }
         }
-        // the sky through the plan's unseen windows when the image has its coefficients and
-        // the time is known; else the unknown emitters
-        let bases = match (&m.sky, self.time) {
-            (Some(sky), Some(t)) => sky.bases(t).map(|b| (sky, b)),
-            _ => None,
-        };
         let (x, resid, w_use, chosen) = match bases {
-            Some((sky, mut bases)) if !bases.is_empty() => {
+            Some((sky, mut bases)) => {
                 // the fit over the seen rows whose coefficients the image stores
                 for (r, w) in w_use.iter_mut().enumerate() {
                     if !sky.stored(r) {
@@ -1551,17 +1603,33 @@ impl Live {
             }
         }
         let rel = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
-        let out = (0..s_count)
+        let out: Vec<f64> = (0..s_count)
             .map(|s| {
                 let e: f64 = (0..k).map(|q| g_basis[s * k + q] * x[q]).sum();
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
-        Ok((
-            out,
-            finite_or(rel, 0.0),
-            if sw > 0.0 { fitted / sw } else { 0.0 },
-        ))
+        // without the sky: where the emitters are is known only as well as the seen surfaces
+        // tell them apart
+        let placement_lx = if chosen.is_none() {
+            let fit = EmitterFit {
+                v: v_basis,
+                g: g_basis,
+                k,
+                y: &y,
+                resid: &resid,
+                w: &w_use,
+            };
+            placement_lx(&fit, s_count)
+        } else {
+            vec![0.0; s_count]
+        };
+        Ok(Inferred {
+            daylight_lx: out,
+            placement_lx,
+            fit_residual: finite_or(rel, 0.0),
+            daylight_seen_lx: if sw > 0.0 { fitted / sw } else { 0.0 },
+        })
     }
 
     /// The night test and the ageing fit. A frame is night when both fits of the unknown
@@ -1750,10 +1818,25 @@ struct SeenPatches {
 }
 
 /// What every desk of one frame shares.
+/// What [`Live::infer`] found in a frame.
+struct Inferred {
+    /// Per sensor, the inferred daylight, lx.
+    daylight_lx: Vec<f64>,
+    /// Per sensor, its standard uncertainty from where the emitters may be, lx.
+    placement_lx: Vec<f64>,
+    /// The fit's relative residual on the seen surfaces.
+    fit_residual: f64,
+    /// The fitted daylight on the seen surfaces (weighted mean), lx.
+    daylight_seen_lx: f64,
+}
+
 struct DeskContext<'a> {
     levels: &'a [f64],
     no_depth: bool,
     fit_residual: f64,
+    /// Per sensor, the standard uncertainty of its inferred daylight from where the
+    /// emitters may be ([`placement_lx`]; 0 with the sky fit), lx.
+    placement_lx: &'a [f64],
     taken_s: f64,
 }
 
@@ -1775,60 +1858,6 @@ enum Action {
 
 fn finite_or(x: f64, fallback: f64) -> f64 {
     if x.is_finite() { x } else { fallback }
-}
-
-/// The robust non-negative fit of `y ≈ V x` (V: rows × k, row-major) with weights `w`, twice:
-/// the second time without the outliers of the first (their weight set to 0). A small ridge:
-/// a column the seen surfaces hardly see cannot be estimated from them (unregularised, one
-/// emitter group reached 2e7 lm/m² and put 27 klx on a desk). Returns (x, residuals).
-fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64>, Vec<f64>) {
-    let n_seen = y.len();
-    let mut x = vec![0.0; k];
-    let mut resid = vec![0.0; n_seen];
-    for pass in 0..2 {
-        if k > 0 {
-            let mut g = vec![0.0; k * k];
-            let mut h = vec![0.0; k];
-            for r in 0..n_seen {
-                let wr = w_use[r];
-                if wr <= 0.0 {
-                    continue;
-                }
-                let v = &v[r * k..(r + 1) * k];
-                for a in 0..k {
-                    h[a] += wr * v[a] * y[r];
-                    for bb in 0..k {
-                        g[a * k + bb] += wr * v[a] * v[bb];
-                    }
-                }
-            }
-            // ridge: an emitter the seen surfaces hardly see cannot be estimated from them
-            // (unregularised, one such group reached 2e7 lm/m² and put 27 klx on a desk)
-            let mean_diag = (0..k).map(|a| g[a * k + a]).sum::<f64>() / k as f64;
-            let ridge = RIDGE * mean_diag;
-            for a in 0..k {
-                g[a * k + a] += ridge;
-            }
-            x = nnls_gram(&g, &h, k);
-        }
-        for r in 0..n_seen {
-            let fit: f64 = (0..k).map(|q| v[r * k + q] * x[q]).sum();
-            resid[r] = y[r] - fit;
-        }
-        if pass == 0 {
-            let mut a: Vec<f64> = (0..n_seen)
-                .filter(|&r| w_use[r] > 0.0)
-                .map(|r| resid[r].abs())
-                .collect();
-            let mad = median(&mut a).unwrap_or(0.0) * 1.4826;
-            for r in 0..n_seen {
-                if resid[r].abs() > 3.0 * mad + 5.0 {
-                    w_use[r] = 0.0;
-                }
-            }
-        }
-    }
-    (x, resid)
 }
 
 /// One sky's fit: its index, scale, residuals and weights.

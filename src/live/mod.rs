@@ -72,6 +72,7 @@
 //! [`aged_response`] applies to the response matrix of the control plant.
 
 pub mod desk_scale;
+pub mod emitters;
 pub mod estimator;
 pub mod nnls;
 pub mod sky_fit;
@@ -115,6 +116,7 @@ pub mod flags {
             (GEOMETRY_CHANGED, "geometry_changed"),
             (NO_DEPTH, "no_depth"),
             (NOT_ESTIMATED, "not_estimated"),
+            (DAYLIGHT_UNKNOWN, "daylight_unknown"),
         ];
         let v: Vec<&str> = names
             .iter()

@@ -1,4 +1,4 @@
-//! Daylight through the room plan's unseen windows at run time: the image's daylight
+//! Daylight through the room plan's windows at run time: the image's daylight
 //! coefficients ([`crate::store::daylight`]) and the frame's time give, for each CIE standard
 //! sky at the frame's sun, one *sky basis*: its light on the seen surfaces and at the desks per
 //! unit zenith luminance. The live estimator fits each basis's scale to the daylight the camera
@@ -33,6 +33,9 @@ pub struct SkyCoefficients {
     stored: Vec<bool>,
     /// `[sensor][COLUMNS]`.
     sensor: Vec<f64>,
+    /// Whether seen row r is glazing (a window the camera sees: its light is in the
+    /// coefficients, its measured luminance is the ground's through the glass).
+    glazing: Vec<bool>,
 }
 
 /// One candidate sky: its basis at the seen patches and the sensors, per cd/m² of zenith
@@ -65,6 +68,7 @@ impl SkyCoefficients {
                 }
             }
         }
+        let glazing = seen.iter().map(|&p| d.is_glazing(p)).collect();
         let sensors = image.sensors();
         let sensor = (0..sensors * COLUMNS)
             .map(|k| d.sensor_lx(k / COLUMNS, k % COLUMNS))
@@ -76,6 +80,7 @@ impl SkyCoefficients {
             seen: seen_rows,
             stored: has,
             sensor,
+            glazing,
         })
     }
 
@@ -131,8 +136,13 @@ impl SkyCoefficients {
         self.stored.get(r).copied().unwrap_or(false)
     }
 
+    /// Whether seen row r is a window's glass.
+    pub fn glazing(&self, r: usize) -> bool {
+        self.glazing.get(r).copied().unwrap_or(false)
+    }
+
     /// Heap bytes.
     pub fn memory_bytes(&self) -> usize {
-        (self.seen.len() + self.sensor.len()) * core::mem::size_of::<f64>()
+        (self.seen.len() + self.sensor.len()) * core::mem::size_of::<f64>() + self.glazing.len()
     }
 }

@@ -250,6 +250,11 @@ pub mod live_flags {
     /// number): the value and its uncertainty are published as not available (NaN, 0xFFFF),
     /// never as a number.
     pub const NOT_ESTIMATED: u16 = 1 << 8;
+    /// With [`NOT_ESTIMATED`]: by day, the daylight at this desk is not bounded by what the
+    /// cameras see (no room plan; light may enter through windows out of view), so the total
+    /// and the daylight are not available; the artificial part is the model's. A room plan
+    /// with the windows (`--room-plan`) removes it.
+    pub const DAYLIGHT_UNKNOWN: u16 = 1 << 9;
 }
 
 /// Where a desk's live value comes from (input 3900 + k).
@@ -1482,7 +1487,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame, 8 not estimated (the value is NaN / 0xFFFF)"
+        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame, 8 not estimated (the value is NaN / 0xFFFF), 9 daylight unknown (with 8: by day without a room plan, the daylight is not bounded by what the cameras see; the total and daylight are NaN / 0xFFFF, the artificial part is the model's)"
     ),
     row!(
         Input,

@@ -22,17 +22,21 @@ use super::{Bytes, ImageError, check};
 
 /// Magic of the daylight-coefficient section.
 pub const DAYLIGHT_MAGIC: [u8; 4] = *b"LXDC";
-/// Version of the section this build writes and reads.
-pub const DAYLIGHT_VERSION: u16 = 1;
+/// Version of the section this build writes (2: with the seen glazing patches).
+pub const DAYLIGHT_VERSION: u16 = 2;
+/// The first version, without [`DaylightCoefficients::glazing_seen`] (still read: no seen
+/// window then).
+pub const DAYLIGHT_VERSION_WITHOUT_GLAZING: u16 = 1;
 /// Columns: the 145 Tregenza patches and the ground.
 pub const COLUMNS: usize = 146;
 /// Largest coefficient accepted, lx per cd/m² (a receiver at a window sees at most π sr of
 /// sky: π).
 pub const MAX_COEFFICIENT: f32 = 4.0;
 
-/// The daylight-coefficient section (version [`DAYLIGHT_VERSION`]).
+/// The daylight-coefficient section (version [`DAYLIGHT_VERSION`]; the body is these fields in
+/// postcard, then, from version 2, [`Self::glazing_seen`] as one more postcard byte string).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct DaylightV1<'a> {
+pub struct DaylightCoefficients<'a> {
     /// [`DAYLIGHT_VERSION`].
     pub version: u16,
     /// Site latitude, degrees north.
@@ -58,19 +62,48 @@ pub struct DaylightV1<'a> {
     /// `[sensor][COLUMNS]` f16 LE, lx per cd/m².
     #[serde(borrow)]
     pub sensor_lx: Bytes<'a>,
+    /// The seen patches that are glazing, ascending u32 LE (version 2; empty in version 1).
+    /// The camera sees a window from the ceiling looking down and out, at the ground's
+    /// luminance, not at the sky's light it lets in: its light comes through the coefficients,
+    /// and its measured luminance is not the exitance it sends into the room.
+    #[serde(skip)]
+    pub glazing_seen: Bytes<'a>,
 }
 
-impl<'a> DaylightV1<'a> {
+impl<'a> DaylightCoefficients<'a> {
     /// Decodes and checks a section body against an image of `patches` patches and `sensors`
     /// sensors.
     pub fn parse(body: &'a [u8], patches: usize, sensors: usize) -> Result<Self, ImageError> {
-        let d: DaylightV1<'a> = postcard::from_bytes(body).map_err(|_| ImageError::Decode)?;
+        let (mut d, rest): (DaylightCoefficients<'a>, &'a [u8]) =
+            postcard::take_from_bytes(body).map_err(|_| ImageError::Decode)?;
+        let rest = if d.version >= DAYLIGHT_VERSION {
+            let (g, rest): (Bytes<'a>, &'a [u8]) =
+                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+            d.glazing_seen = g;
+            rest
+        } else {
+            rest
+        };
+        check(rest.is_empty(), "bytes after the daylight section")?;
         d.validate(patches, sensors)?;
         Ok(d)
     }
 
+    /// The body of this section as [`Self::parse`] reads it.
+    #[cfg(feature = "std")]
+    pub fn encode(&self) -> Result<std::vec::Vec<u8>, postcard::Error> {
+        let mut out = postcard::to_stdvec(self)?;
+        if self.version >= DAYLIGHT_VERSION {
+            out.extend(postcard::to_stdvec(&self.glazing_seen)?);
+        }
+        Ok(out)
+    }
+
     fn validate(&self, patches: usize, sensors: usize) -> Result<(), ImageError> {
-        check(self.version == DAYLIGHT_VERSION, "daylight section version")?;
+        check(
+            (DAYLIGHT_VERSION_WITHOUT_GLAZING..=DAYLIGHT_VERSION).contains(&self.version),
+            "daylight section version",
+        )?;
         check(
             self.latitude_deg.is_finite()
                 && self.longitude_deg.is_finite()
@@ -122,7 +155,41 @@ impl<'a> DaylightV1<'a> {
             Ok(())
         };
         rows_ok(&self.seen_lx, n)?;
-        rows_ok(&self.sensor_lx, sensors)
+        rows_ok(&self.sensor_lx, sensors)?;
+        let g = self
+            .glazing_seen
+            .count(4)
+            .ok_or(ImageError::Inconsistent("daylight glazing"))?;
+        let mut last: Option<u32> = None;
+        for r in 0..g {
+            let p = self.glazing_seen.u32_at(r);
+            check(
+                (p as usize) < patches,
+                "daylight glazing patch out of range",
+            )?;
+            check(
+                last.is_none_or(|q| q < p),
+                "daylight glazing patches not ascending",
+            )?;
+            last = Some(p);
+        }
+        Ok(())
+    }
+
+    /// Whether seen patch `p` is glazing (a window the camera sees).
+    pub fn is_glazing(&self, p: u32) -> bool {
+        let n = self.glazing_seen.0.len() / 4;
+        // ascending: a binary search over the u32s
+        let (mut lo, mut hi) = (0, n);
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            match self.glazing_seen.u32_at(mid).cmp(&p) {
+                core::cmp::Ordering::Less => lo = mid + 1,
+                core::cmp::Ordering::Greater => hi = mid,
+                core::cmp::Ordering::Equal => return true,
+            }
+        }
+        false
     }
 
     /// Seen patches.
@@ -154,11 +221,17 @@ mod tests {
 
     /// A section body over `seen` patches (of 10) and 2 sensors, seen coefficients `c`.
     fn body(seen: &[u32], c: f32, north: [f64; 2]) -> Vec<u8> {
+        body_with(DAYLIGHT_VERSION, seen, &[seen[0]], c, north)
+    }
+
+    /// [`body`] at `version` with the seen patches `glazing` on a window.
+    fn body_with(version: u16, seen: &[u32], glazing: &[u32], c: f32, north: [f64; 2]) -> Vec<u8> {
+        let glazing_b: Vec<u8> = glazing.iter().flat_map(|p| p.to_le_bytes()).collect();
         let seen_b: Vec<u8> = seen.iter().flat_map(|p| p.to_le_bytes()).collect();
         let seen_lx = f16s(&std::vec![c; seen.len() * COLUMNS]);
         let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
-        let d = DaylightV1 {
-            version: DAYLIGHT_VERSION,
+        let d = DaylightCoefficients {
+            version,
             latitude_deg: 47.4,
             longitude_deg: 8.5,
             north,
@@ -168,8 +241,9 @@ mod tests {
             seen_patch: Bytes(&seen_b),
             seen_lx: Bytes(&seen_lx),
             sensor_lx: Bytes(&sensor_lx),
+            glazing_seen: Bytes(&glazing_b),
         };
-        postcard::to_stdvec(&d).expect("encode")
+        d.encode().expect("encode")
     }
 
     /// A valid body: 3 seen patches of 10, 2 sensors.
@@ -192,7 +266,7 @@ mod tests {
                 body[at % n] ^= x;
             }
             body.truncate(body.len() - cut % body.len().max(1));
-            if let Ok(d) = DaylightV1::parse(&body, 10, 2) {
+            if let Ok(d) = DaylightCoefficients::parse(&body, 10, 2) {
                 for r in 0..d.seen() {
                     prop_assert!(d.seen_patch(r) < 10);
                     for j in 0..COLUMNS {
@@ -219,7 +293,7 @@ mod tests {
     /// The parse of [`body`]`(seen, c, north)`.
     fn parse_with(seen: &[u32], c: f32, north: [f64; 2]) -> Result<(), ImageError> {
         let body = body(seen, c, north);
-        let parsed = DaylightV1::parse(&body, 10, 2)?;
+        let parsed = DaylightCoefficients::parse(&body, 10, 2)?;
         assert_eq!(parsed.seen(), seen.len());
         assert!((parsed.sensor_lx(1, 7) - 0.5).abs() < 1e-3);
         Ok(())
@@ -241,10 +315,47 @@ mod tests {
                 other => panic!("{what}: {other:?}"),
             }
         }
+        for (glazing, what) in [
+            (&[4u32, 1][..], "not ascending"),
+            (&[11][..], "out of range"),
+        ] {
+            let b = body_with(DAYLIGHT_VERSION, &[1, 4, 9], glazing, 0.25, [0.0, 1.0]);
+            match DaylightCoefficients::parse(&b, 10, 2) {
+                Err(ImageError::Inconsistent(w)) => assert!(w.contains(what), "{w} / {what}"),
+                other => panic!("glazing {what}: {other:?}"),
+            }
+        }
         // a truncated body
         assert_eq!(
-            DaylightV1::parse(&[1, 2, 3], 10, 2).err(),
+            DaylightCoefficients::parse(&[1, 2, 3], 10, 2).err(),
             Some(ImageError::Decode)
         );
+    }
+
+    #[test]
+    fn version_2_names_the_seen_glazing_and_version_1_still_reads_without_it() {
+        let b = body_with(DAYLIGHT_VERSION, &[1, 4, 9], &[4, 9], 0.25, [0.0, 1.0]);
+        let d = DaylightCoefficients::parse(&b, 10, 2).expect("v2");
+        assert!(d.is_glazing(4) && d.is_glazing(9));
+        assert!(!d.is_glazing(1) && !d.is_glazing(5) && !d.is_glazing(0));
+        // version 1: the same fields without the glazing string (it is not written)
+        let b1 = body_with(
+            DAYLIGHT_VERSION_WITHOUT_GLAZING,
+            &[1, 4, 9],
+            &[4],
+            0.25,
+            [0.0, 1.0],
+        );
+        assert_eq!(b.len(), b1.len() + 1 + 8, "v1 has no glazing string");
+        let d1 = DaylightCoefficients::parse(&b1, 10, 2).expect("v1");
+        assert_eq!(d1.seen(), 3);
+        assert!(!d1.is_glazing(4));
+        // a v1 body with bytes after it, or a v2 body without its glazing string
+        let mut longer = b1.clone();
+        longer.push(0);
+        assert!(DaylightCoefficients::parse(&longer, 10, 2).is_err());
+        let mut v2_short = b.clone();
+        v2_short.truncate(b1.len());
+        assert!(DaylightCoefficients::parse(&v2_short, 10, 2).is_err());
     }
 }

@@ -49,7 +49,7 @@ pub mod mtd;
 use serde::{Deserialize, Serialize};
 
 pub use crc32::{Crc32, crc32};
-pub use daylight::{DAYLIGHT_MAGIC, DaylightV1};
+pub use daylight::{DAYLIGHT_MAGIC, DaylightCoefficients};
 pub use header::{FORMAT_VERSION, HEADER_LEN, Header, MAGIC};
 pub use live::{LIVE_MAGIC, LiveV1};
 pub use values::{Bytes, Precision, Sparse, Values};
@@ -249,7 +249,10 @@ fn unframe(mut rest: &[u8]) -> Result<Found<'_>, ImageError> {
                 found.live_version = version;
                 &mut found.live
             }
-            daylight::DAYLIGHT_MAGIC if version == daylight::DAYLIGHT_VERSION => {
+            daylight::DAYLIGHT_MAGIC
+                if (daylight::DAYLIGHT_VERSION_WITHOUT_GLAZING..=daylight::DAYLIGHT_VERSION)
+                    .contains(&version) =>
+            {
                 &mut found.daylight
             }
             // a known section at a version this build does not read
@@ -286,7 +289,7 @@ pub struct Image<'a> {
     /// The live-light section, when the image has one ([`live`]).
     pub live: Option<LiveV1<'a>>,
     /// The daylight coefficients through the room plan's unseen windows ([`daylight`]).
-    pub daylight: Option<DaylightV1<'a>>,
+    pub daylight: Option<DaylightCoefficients<'a>>,
 }
 
 fn check(ok: bool, what: &'static str) -> Result<(), ImageError> {
@@ -408,7 +411,11 @@ impl<'a> Image<'a> {
             )?);
         }
         if let Some(body) = found.daylight {
-            image.daylight = Some(DaylightV1::parse(body, image.patches(), image.sensors())?);
+            image.daylight = Some(DaylightCoefficients::parse(
+                body,
+                image.patches(),
+                image.sensors(),
+            )?);
         }
         Ok(image)
     }
