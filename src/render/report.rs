@@ -930,7 +930,13 @@ fn room_checks(
         mf,
         opts.air_rays,
     ));
-    let table = requirements::table(&opts.requirement, desks, &ugr, &values);
+    let table = requirements::table(
+        &opts.requirement,
+        desks,
+        &ugr,
+        &values,
+        &room.section.photometries,
+    );
     (ugr, values, table)
 }
 
