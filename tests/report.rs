@@ -1081,3 +1081,82 @@ fn room_02_report_points_match_radiance() {
     );
     assert!(mean_error <= 0.02, "mean error {:.2} %", 100.0 * mean_error);
 }
+
+/// `luxnode report --context-modifiers 1` (EN 12464-1:2021 §5.3.3) on room_02: the task
+/// areas' Ēm required goes from 500 to 750 lx with the reason in the row, and the immediate
+/// surroundings' from 300 to 500 lx (Table 1). Desks 1-4 (maintained Ēm about 554 lx) pass
+/// their Ēm unmodified and fail it modified, each with its value; without the option the row
+/// says the modified Ēm is not applied.
+#[test]
+fn declared_context_modifiers_raise_the_task_areas_em() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = dir.path().join("room_02.img");
+    let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms/room_02");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&[
+        "image".as_ref(),
+        "build".as_ref(),
+        "--scene".as_ref(),
+        room.as_os_str(),
+        "--out".as_ref(),
+        img.as_os_str(),
+    ]);
+    let report = |extra: &[&str]| -> serde_json::Value {
+        let out = dir.path().join(format!("report{}", extra.len()));
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "report".as_ref(),
+            "--image".as_ref(),
+            img.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ];
+        args.extend(extra.iter().map(|a| std::ffi::OsStr::new(*a)));
+        run(&args);
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+    };
+    let checks = |json: &serde_json::Value, desk: usize| -> Vec<(String, f64, bool)> {
+        json["desks"][desk]["checks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                (
+                    c["what"].as_str().unwrap().to_owned(),
+                    c["required"].as_f64().unwrap(),
+                    c["pass"].as_bool().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let plain = report(&[]);
+    let raised = report(&["--context-modifiers", "1"]);
+    assert_eq!(plain["requirement"]["context_modifiers"], 0);
+    assert_eq!(raised["requirement"]["context_modifiers"], 1);
+    let row = |j: &serde_json::Value| {
+        j["requirements"][0]["required"]
+            .as_str()
+            .unwrap()
+            .to_owned()
+    };
+    assert!(row(&plain).starts_with("≥ 500 lx") && row(&plain).contains("not applied"));
+    assert!(row(&raised).starts_with("≥ 750 lx (modified: Ēm 500 lx raised one step"));
+    let why = raised["fails_because"].to_string();
+    for desk in 0..4 {
+        let e = raised["desks"][desk]["task"]["maintained"]["e_mean_lx"]
+            .as_f64()
+            .unwrap();
+        assert!((500.0..750.0).contains(&e), "desk {}: {e}", desk + 1);
+        let (p, r) = (checks(&plain, desk), checks(&raised, desk));
+        assert_eq!(("Ēm task area".to_owned(), 500.0, true), p[0]);
+        assert_eq!(("Ēm task area".to_owned(), 750.0, false), r[0]);
+        assert_eq!((p[2].1, r[2].1), (300.0, 500.0), "{:?}", r[2]);
+        let reason = format!("desk {}: Ēm task area {e:.0} lx < 750 lx", desk + 1);
+        assert!(why.contains(&reason), "{reason} not in {why}");
+    }
+}

@@ -1283,9 +1283,9 @@ immediate surrounding area (0.5 m band at desk height): Ēm ≥ {:.0} lx, U0 ≥
 <table><tr><th>desk</th><th>check</th><th>required</th><th>achieved</th><th>result</th></tr>\n",
         esc(x.requirement.activity),
         esc(x.requirement.reference),
-        x.requirement.e_m_lx,
+        x.requirement.task_e_m_lx(),
         x.requirement.u0,
-        en12464::immediate_surrounding_lx(x.requirement.e_m_lx),
+        en12464::immediate_surrounding_lx(x.requirement.task_e_m_lx()),
         en12464::IMMEDIATE_SURROUNDING_U0
     );
     for d in &x.desks {

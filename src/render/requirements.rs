@@ -49,9 +49,27 @@ fn value(v: f64, unit: &str) -> String {
     }
 }
 
+/// What the task area's Ēm row says of the modified Ēm: not applied, or applied with the
+/// declared context modifiers and the steps they raise it by.
+fn modified_note(req: &Requirement) -> String {
+    let n = req.context_modifiers;
+    if n == 0 {
+        return format!(
+            " (modified Ēm {:.0} lx where the context raises it: not applied, no context \
+             modifier declared)",
+            req.e_m_modified_lx
+        );
+    }
+    format!(
+        " (modified: Ēm {:.0} lx raised one step on the illuminance scale per context modifier, \
+         {n} declared, EN 12464-1:2021 §5.3.3; at most the modified Ēm {:.0} lx)",
+        req.e_m_lx, req.e_m_modified_lx
+    )
+}
+
 /// One row per check the desks have (`Ēm task area`...), in the order they first appear: the
-/// worst desk, every failing desk. `modified_lx` the task area's modified Ēm, stated.
-fn desk_rows(desks: &[DeskResult], modified_lx: f64) -> Vec<RequirementRow> {
+/// worst desk, every failing desk. The task area's Ēm row says whether the modified Ēm applies.
+fn desk_rows(desks: &[DeskResult], req: &Requirement) -> Vec<RequirementRow> {
     if desks.is_empty() {
         return vec![row(
             "desks",
@@ -78,9 +96,7 @@ fn desk_rows(desks: &[DeskResult], modified_lx: f64) -> Vec<RequirementRow> {
                 .collect();
             let mut r = checks_row(name, &checks);
             if k == 0 {
-                r.required.push_str(&format!(
-                    " (modified Ēm {modified_lx:.0} lx where the context raises it: not applied)"
-                ));
+                r.required.push_str(&modified_note(req));
             }
             r
         })
@@ -216,7 +232,7 @@ pub fn table(
     room: &[RoomValue],
     photometries: &[PhotometryRecord],
 ) -> Vec<RequirementRow> {
-    let mut out = desk_rows(desks, req.e_m_modified_lx);
+    let mut out = desk_rows(desks, req);
     out.push(ugr_row(ugr));
     let limits = [
         (req.e_m_wall_lx, req.u0_room_surfaces),
@@ -355,6 +371,39 @@ mod tests {
         // Ra is stated, not checked, and does not decide the verdict
         let ra = rows.last().unwrap();
         assert_eq!((ra.what.as_str(), ra.pass), ("Ra", None));
+    }
+
+    /// A declared context modifier raises the task area's Ēm to 750 lx and says so: a desk of
+    /// 700 lx that passes unmodified fails, with the raised value in its reason.
+    #[test]
+    fn a_declared_context_modifier_raises_em_with_the_reason_shown() {
+        let req = OFFICE_WRITING_READING.with_context_modifiers(1);
+        let s = Statistics::of(&[690.0, 710.0]).unwrap();
+        let mut d = desk(2, &[690.0, 710.0]);
+        d.checks = check_task(&req, &s, None);
+        let ugr = summarise(Vec::new());
+        let rows = table(&req, &[d], &ugr, &[], &[]);
+        assert!(
+            rows[0]
+                .required
+                .starts_with("≥ 750 lx (modified: Ēm 500 lx raised one step")
+        );
+        assert!(
+            rows[0].required.contains("1 declared"),
+            "{}",
+            rows[0].required
+        );
+        assert_eq!(rows[0].pass, Some(false));
+        assert_eq!(rows[0].reason, "desk 2: Ēm task area 700 lx < 750 lx");
+        let plain = table(
+            &OFFICE_WRITING_READING,
+            &[desk(2, &[690.0, 710.0])],
+            &ugr,
+            &[],
+            &[],
+        );
+        assert_eq!(plain[0].pass, Some(true));
+        assert!(plain[0].required.contains("not applied"));
     }
 
     fn lamp(file: &str, stated: &str, ra_min: Option<f64>) -> PhotometryRecord {
