@@ -1160,3 +1160,82 @@ fn declared_context_modifiers_raise_the_task_areas_em() {
         assert!(why.contains(&reason), "{reason} not in {why}");
     }
 }
+
+/// The number of pixels of `rgb` in a PNG, and the number of columns holding one.
+fn pixels_of_colour(png: &[u8], rgb: [u8; 3]) -> (usize, usize) {
+    let img = image::load_from_memory(png).unwrap().to_rgb8();
+    let mut cols = std::collections::BTreeSet::new();
+    let mut n = 0;
+    for (x, _, p) in img.enumerate_pixels() {
+        if p.0 == rgb {
+            n += 1;
+            cols.insert(x);
+        }
+    }
+    (n, cols.len())
+}
+
+/// Windows on the plan: room_02 (its room plan, room.json, has two windows on the wall y = 0,
+/// x 1.12-2.53 and 4.77-6.18 m, sill 0.90 m, head 2.22 m; its scene's glazing is labelled
+/// window_1 and window_2) gets both in results.json where room.json puts them, and as blue bars
+/// on plan.png, one pixel column per centimetre of glazing; the desk with a box (no window) gets
+/// neither.
+#[test]
+fn windows_are_drawn_on_the_plan_when_the_room_has_them() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms/room_02");
+    let scene = Scene::load(&dir, &LoadOptions::default()).expect("room_02 loads");
+    let model = compute_model(&scene, &Settings::default()).expect("model");
+    let bytes = image_with_geometry(&scene, &model);
+    let r = report::compute(&Image::parse(&bytes).unwrap(), &ReportOptions::default()).unwrap();
+    let plan_json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("room.json")).unwrap()).unwrap();
+    let expected = plan_json["windows"].as_array().unwrap();
+    let mut got = r.results.windows.clone();
+    got.sort_by(|a, b| {
+        a.from_m[0]
+            .min(a.to_m[0])
+            .total_cmp(&b.from_m[0].min(b.to_m[0]))
+    });
+    assert_eq!(got.len(), expected.len());
+    let mut length_m = 0.0;
+    for (w, e) in got.iter().zip(expected) {
+        let c: Vec<[f64; 3]> = serde_json::from_value(e["corners_m"].clone()).unwrap();
+        let xs = (
+            c.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min),
+            c.iter().map(|p| p[0]).fold(f64::NEG_INFINITY, f64::max),
+        );
+        let (a, b) = (w.from_m[0].min(w.to_m[0]), w.from_m[0].max(w.to_m[0]));
+        assert!(
+            (a - xs.0).abs() < 0.01 && (b - xs.1).abs() < 0.01,
+            "{w:?} vs {c:?}"
+        );
+        assert!(w.from_m[1].abs() < 0.01 && w.to_m[1].abs() < 0.01, "{w:?}");
+        assert!(
+            (w.z_m[0] - c[0][2]).abs() < 0.01 && (w.z_m[1] - c[1][2]).abs() < 0.01,
+            "{w:?}"
+        );
+        length_m += b - a;
+    }
+    let plan = |r: &report::Report| {
+        r.pictures
+            .iter()
+            .find(|p| p.0 == "plan")
+            .map(|p| p.2.clone())
+            .unwrap()
+    };
+    let rgb = luxnode::render::map::WINDOW_RGB;
+    let (n, cols) = pixels_of_colour(&plan(&r), rgb);
+    // 100 pixels per metre: 282 columns for 2.82 m, a bar 6 pixels thick
+    let want = length_m * 100.0;
+    assert!(
+        (cols as f64 - want).abs() <= 12.0,
+        "{cols} columns for {want:.0}"
+    );
+    assert!(
+        n as f64 >= 4.0 * want && n as f64 <= 8.0 * want,
+        "{n} pixels"
+    );
+    let plain = box_scene_report();
+    assert!(plain.results.windows.is_empty());
+    assert_eq!(pixels_of_colour(&plan(&plain), rgb), (0, 0));
+}

@@ -249,6 +249,8 @@ pub struct Results {
     pub totals: (f64, Option<f64>),
     /// Room floor outline x0, x1, y0, y1, m, and floor height.
     pub room_extent_m: ([f64; 4], f64),
+    /// The windows drawn on the plan (none when the model has no surface labelled `window…`).
+    pub windows: Vec<map::PlanWindow>,
     /// Room grid (floor, less the 0.5 m wall band) in the design state.
     pub room: Option<AreaResult>,
     /// Desks in the design state.
@@ -437,6 +439,8 @@ struct Plan {
     room_rect: Rect,
     /// Each desk's rectangle (the room's desk order).
     desk_rects: Vec<Rect>,
+    /// The windows, from the surfaces labelled `window…`.
+    windows: Vec<map::PlanWindow>,
 }
 
 impl Plan {
@@ -458,6 +462,12 @@ impl Plan {
                     y_m: d.y_m,
                 })
                 .collect(),
+            windows: map::windows_of(
+                &room.patches.corners_m,
+                &room.patches.normal,
+                &room.patches.group,
+                &room.section.groups,
+            ),
         }
     }
 }
@@ -767,8 +777,14 @@ impl Design<'_> {
                 "{}: maintained illuminance, {} (MF {:.2})",
                 room.section.scene_name, self.name, mf
             ),
-            subtitle: "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors."
-                .into(),
+            subtitle: format!(
+                "Upward-facing surfaces; isolines white; numbers: EN 12464-1 floor grid (lx, not under desks); red: sensors{}.",
+                if self.plan.windows.is_empty() {
+                    ""
+                } else {
+                    "; blue bars: windows"
+                }
+            ),
             bounds_m: self.plan.floor_ext,
             map: top,
             desks: self
@@ -797,6 +813,7 @@ impl Design<'_> {
             values: room_values,
             scale_max_lx: scale_max,
             pixels_per_m: 100.0,
+            windows: self.plan.windows.clone(),
         };
         let plan = map::draw_plan(&view);
         let boxes = map::plan_labels(&view)
@@ -1057,6 +1074,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         luminaires,
         totals: (total_flux, total_power),
         room_extent_m: (plan.floor_ext, plan.floor_z),
+        windows: plan.windows.clone(),
         room: room_result,
         desks,
         states: state_results,
