@@ -1239,3 +1239,216 @@ fn windows_are_drawn_on_the_plan_when_the_room_has_them() {
     assert!(plain.results.windows.is_empty());
     assert_eq!(pixels_of_colour(&plan(&plain), rgb), (0, 0));
 }
+
+/// A PDF's objects as (number, dictionary text, stream bytes if any) — enough of the format
+/// for what Chromium (Skia) writes: no object streams, one dictionary per object.
+fn pdf_objects(pdf: &[u8]) -> std::collections::BTreeMap<u32, (String, Vec<u8>)> {
+    let find = |from: usize, pat: &[u8]| -> Option<usize> {
+        pdf.get(from..)?
+            .windows(pat.len())
+            .position(|w| w == pat)
+            .map(|k| from + k)
+    };
+    let mut out = std::collections::BTreeMap::new();
+    let mut at = 0;
+    while let Some(start) = find(at, b" 0 obj") {
+        let num_start = pdf[..start]
+            .iter()
+            .rposition(|c| !c.is_ascii_digit())
+            .map_or(0, |i| i + 1);
+        let end = find(start, b"endobj").unwrap_or(pdf.len());
+        at = start + 6;
+        let Ok(num) = String::from_utf8_lossy(&pdf[num_start..start]).parse::<u32>() else {
+            continue;
+        };
+        let (dict, stream) = match find(start, b"stream").filter(|s| *s < end) {
+            Some(s) => {
+                let from = s + b"stream".len();
+                let from = from + usize::from(pdf[from] == b'\r') + 1;
+                let to = find(from, b"endstream").unwrap_or(end);
+                (&pdf[start + 6..s], pdf[from..to].to_vec())
+            }
+            None => (&pdf[start + 6..end], Vec::new()),
+        };
+        out.insert(num, (String::from_utf8_lossy(dict).into_owned(), stream));
+        at = end;
+    }
+    out
+}
+
+/// Where each image XObject is drawn on a page, in points: the unit square through the
+/// content stream's matrices (`q`, `Q`, `cm`, `Do`), as (x0, y0, x1, y1).
+fn image_boxes_pt(content: &str, images: &[String]) -> Vec<(String, [f64; 4])> {
+    type M = [f64; 6];
+    let mul = |m: &M, c: &M| -> M {
+        [
+            m[0] * c[0] + m[1] * c[2],
+            m[0] * c[1] + m[1] * c[3],
+            m[2] * c[0] + m[3] * c[2],
+            m[2] * c[1] + m[3] * c[3],
+            m[4] * c[0] + m[5] * c[2] + c[4],
+            m[4] * c[1] + m[5] * c[3] + c[5],
+        ]
+    };
+    let (mut ctm, mut stack, mut nums, mut name): (M, Vec<M>, Vec<f64>, String) = (
+        [1.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+        Vec::new(),
+        Vec::new(),
+        String::new(),
+    );
+    let mut out = Vec::new();
+    for tok in content.split_ascii_whitespace() {
+        if let Ok(v) = tok.parse::<f64>() {
+            nums.push(v);
+            continue;
+        }
+        match tok {
+            "q" => stack.push(ctm),
+            "Q" => ctm = stack.pop().unwrap_or(ctm),
+            "cm" if nums.len() >= 6 => {
+                let m: M = nums[nums.len() - 6..].try_into().unwrap();
+                ctm = mul(&m, &ctm);
+            }
+            "Do" if images.contains(&name) => {
+                let pts = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)].map(|(x, y)| {
+                    (
+                        ctm[0] * x + ctm[2] * y + ctm[4],
+                        ctm[1] * x + ctm[3] * y + ctm[5],
+                    )
+                });
+                let xs = pts.map(|p| p.0);
+                let ys = pts.map(|p| p.1);
+                let lo = |v: [f64; 4]| v.into_iter().fold(f64::INFINITY, f64::min);
+                let hi = |v: [f64; 4]| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
+                out.push((name.clone(), [lo(xs), lo(ys), hi(xs), hi(ys)]));
+            }
+            t if t.starts_with('/') => name = t[1..].to_owned(),
+            _ => {}
+        }
+        if !tok.starts_with('/') {
+            nums.clear();
+        }
+    }
+    out
+}
+
+/// A printed report (Chromium's print to PDF): its page count, and each picture's page
+/// boxes in points (a picture split over pages is drawn on each; one clipped by the page
+/// reaches past the page's printable area).
+fn printed(html: &Path, pdf: &Path) -> (usize, Vec<Vec<[f64; 4]>>, [f64; 4]) {
+    let profile = tempfile::tempdir().unwrap();
+    let o = Command::new(chromium())
+        .args(headless(profile.path()))
+        .args([
+            "--no-pdf-header-footer".to_owned(),
+            format!("--print-to-pdf={}", pdf.display()),
+            format!("file://{}", html.display()),
+        ])
+        .output()
+        .expect("chromium runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bytes = std::fs::read(pdf).expect("the PDF is written");
+    assert!(bytes.starts_with(b"%PDF-"), "not a PDF");
+    let objs = pdf_objects(&bytes);
+    let images: Vec<u32> = objs
+        .iter()
+        .filter(|(_, (d, _))| d.contains("/Subtype /Image"))
+        .map(|(k, _)| *k)
+        .collect();
+    let pages: Vec<&String> = objs
+        .values()
+        .map(|(d, _)| d)
+        .filter(|d| {
+            d.contains("/Type /Page\n") || d.contains("/Type /Page/") || d.contains("/Type /Page ")
+        })
+        .collect();
+    let mut media = [0.0; 4];
+    let mut drawn: Vec<Vec<[f64; 4]>> = vec![Vec::new(); images.len()];
+    for page in &pages {
+        let mb = &page[page.find("/MediaBox [").unwrap() + 11..];
+        let v: Vec<f64> = mb[..mb.find(']').unwrap()]
+            .split_ascii_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        media = [v[0], v[1], v[2], v[3]];
+        // the page's names for the images: /Xk n 0 R
+        let names: Vec<(String, usize)> = images
+            .iter()
+            .enumerate()
+            .filter_map(|(i, n)| {
+                let pat = format!(" {n} 0 R");
+                let at = page.find(&pat)?;
+                let slash = page[..at].rfind('/')?;
+                Some((page[slash + 1..at].to_owned(), i))
+            })
+            .collect();
+        let c = &page[page.find("/Contents ").unwrap() + 10..];
+        let content_obj: u32 = c[..c.find(' ').unwrap()].parse().unwrap();
+        let raw = &objs[&content_obj].1;
+        let mut text = String::new();
+        use std::io::Read;
+        flate2::read::ZlibDecoder::new(&raw[..])
+            .read_to_string(&mut text)
+            .expect("a Flate content stream");
+        let list: Vec<String> = names.iter().map(|n| n.0.clone()).collect();
+        for (name, b) in image_boxes_pt(&text, &list) {
+            let i = names.iter().find(|n| n.0 == name).unwrap().1;
+            drawn[i].push(b);
+        }
+    }
+    (pages.len(), drawn, media)
+}
+
+/// The report printed (docs/report.md, print stylesheet: A4, 12 mm margins, no picture split):
+/// Chromium's print to PDF gives A4 pages, a sane count (office_a: 13), each of the 4
+/// pictures drawn once, on one page, inside the printable area (12 mm = 34 pt in from every
+/// edge). The check can fail: the same page with its pictures forced to 1400 px tall prints a
+/// picture past its page.
+#[test]
+fn the_report_prints_to_pdf_with_no_picture_cut() {
+    let (scene, model) = scene_and_model();
+    let bytes = image_with_geometry(&scene, &model);
+    let r = report::compute(&Image::parse(&bytes).unwrap(), &ReportOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    report::write(&r, dir.path()).unwrap();
+    let html = dir.path().join("report.html");
+    let (pages, drawn, media) = printed(&html, &dir.path().join("report.pdf"));
+    // A4: 595.3 × 841.9 pt
+    assert!(
+        (media[2] - 595.3).abs() < 1.0 && (media[3] - 841.9).abs() < 1.0,
+        "{media:?}"
+    );
+    eprintln!("{pages} pages; pictures at (pt) {drawn:?}");
+    assert!((5..=30).contains(&pages), "{pages} pages");
+    assert_eq!(drawn.len(), 4, "the 4 pictures");
+    let margin_pt = 12.0 / 25.4 * 72.0;
+    let inside = |b: &[f64; 4]| {
+        b[0] >= media[0] + margin_pt - 1.0
+            && b[1] >= media[1] + margin_pt - 1.0
+            && b[2] <= media[2] - margin_pt + 1.0
+            && b[3] <= media[3] - margin_pt + 1.0
+    };
+    for (k, boxes) in drawn.iter().enumerate() {
+        assert_eq!(boxes.len(), 1, "picture {k} drawn {} times", boxes.len());
+        assert!(inside(&boxes[0]), "picture {k} at {:?}", boxes[0]);
+        assert!(
+            boxes[0][2] - boxes[0][0] > 200.0,
+            "picture {k} too small: {:?}",
+            boxes[0]
+        );
+    }
+    // the control: pictures taller than a page are cut, and the check sees it
+    let tall = dir.path().join("tall.html");
+    let page = std::fs::read_to_string(&html).unwrap().replacen(
+        "</style>",
+        "img{width:auto!important;max-width:none!important;height:1400px}</style>",
+        1,
+    );
+    std::fs::write(&tall, page).unwrap();
+    let (_, drawn, _) = printed(&tall, &dir.path().join("tall.pdf"));
+    eprintln!("forced 1400 px tall: pictures at (pt) {drawn:?}");
+    assert!(
+        drawn.iter().flatten().any(|b| !inside(b)),
+        "a 1400 px picture fits a page?"
+    );
+}
