@@ -341,6 +341,43 @@ pub struct Requirement {
     pub e_m_ceiling_lx: f64,
     /// The least `U0` for the cylindrical, wall and ceiling illuminances.
     pub u0_room_surfaces: f64,
+    /// The context modifiers the designer declares apply (EN 12464-1:2021 §5.3.3): each raises
+    /// the task area's Ēm one step on the illuminance scale, up to `e_m_modified_lx`; 0, the
+    /// table's Ēm, unless declared.
+    pub context_modifiers: u32,
+}
+
+/// The scale of illuminance (EN 12464-1 §5.3.2), lx: the steps a context modifier moves Ēm by.
+pub const ILLUMINANCE_SCALE_LX: [f64; 19] = [
+    20.0, 30.0, 50.0, 75.0, 100.0, 150.0, 200.0, 300.0, 500.0, 750.0, 1000.0, 1500.0, 2000.0,
+    3000.0, 5000.0, 7500.0, 10000.0, 15000.0, 20000.0,
+];
+
+impl Requirement {
+    /// The same activity with `n` context modifiers declared.
+    pub fn with_context_modifiers(self, n: u32) -> Requirement {
+        Requirement {
+            context_modifiers: n,
+            ..self
+        }
+    }
+
+    /// The Ēm the task area must reach: the table's Ēm raised one step on the scale per
+    /// declared context modifier, at most the table's modified Ēm (never below the table's
+    /// Ēm; a value off the scale steps from the next scale value above it).
+    pub fn task_e_m_lx(&self) -> f64 {
+        if self.context_modifiers == 0 {
+            return self.e_m_lx;
+        }
+        let from = ILLUMINANCE_SCALE_LX
+            .iter()
+            .position(|v| *v >= self.e_m_lx - 1e-9)
+            .unwrap_or(ILLUMINANCE_SCALE_LX.len() - 1);
+        let to = (from + self.context_modifiers as usize).min(ILLUMINANCE_SCALE_LX.len() - 1);
+        ILLUMINANCE_SCALE_LX[to]
+            .min(self.e_m_modified_lx)
+            .max(self.e_m_lx)
+    }
 }
 
 /// Offices: writing, typing, reading, data processing. The 2021 values as the edition's office
@@ -362,6 +399,7 @@ pub const OFFICE_WRITING_READING: Requirement = Requirement {
     e_m_wall_lx: 150.0,
     e_m_ceiling_lx: 100.0,
     u0_room_surfaces: 0.10,
+    context_modifiers: 0,
 };
 
 /// The maintained illuminance the immediate surrounding area needs for a task area of
@@ -419,13 +457,13 @@ pub fn check_task(
     surrounding: Option<&Statistics>,
 ) -> Vec<Check> {
     let mut out = vec![
-        Check::at_least("Ēm task area", req.e_m_lx, task.e_mean_lx, "lx"),
+        Check::at_least("Ēm task area", req.task_e_m_lx(), task.e_mean_lx, "lx"),
         Check::at_least("U0 task area", req.u0, task.u0, ""),
     ];
     if let Some(s) = surrounding {
         out.push(Check::at_least(
             "Ēm immediate surrounding",
-            immediate_surrounding_lx(req.e_m_lx),
+            immediate_surrounding_lx(req.task_e_m_lx()),
             s.e_mean_lx,
             "lx",
         ));
@@ -442,6 +480,33 @@ pub fn check_task(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// EN 12464-1:2021 §5.3.3, as the office table's two columns read: Ēm 500 lx, modified
+    /// 1000 lx; one context modifier raises 500 one step on the scale to 750 lx, two to 1000 lx,
+    /// more stay at the modified 1000 lx; the immediate surroundings follow the raised value
+    /// (Table 1: 750 → 500 lx).
+    #[test]
+    fn context_modifiers_raise_em_a_step_each_up_to_the_modified_value() {
+        let r = OFFICE_WRITING_READING;
+        let at = |n| r.with_context_modifiers(n).task_e_m_lx();
+        assert_eq!(
+            [at(0), at(1), at(2), at(3), at(6)],
+            [500.0, 750.0, 1000.0, 1000.0, 1000.0]
+        );
+        let s = Statistics::of(&[700.0, 720.0]).unwrap();
+        let plain = check_task(&r, &s, Some(&s));
+        let raised = check_task(&r.with_context_modifiers(1), &s, Some(&s));
+        assert!(plain[0].pass && !raised[0].pass);
+        assert_eq!((plain[0].required, raised[0].required), (500.0, 750.0));
+        assert_eq!((plain[2].required, raised[2].required), (300.0, 500.0));
+        // an Ēm off the scale steps from the scale value above it, never below itself
+        let odd = Requirement {
+            e_m_lx: 400.0,
+            e_m_modified_lx: 2000.0,
+            ..r
+        };
+        assert_eq!(odd.with_context_modifiers(1).task_e_m_lx(), 750.0);
+    }
 
     #[test]
     fn grid_rule_of_the_standard() {

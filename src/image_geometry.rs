@@ -54,6 +54,7 @@ fn photometry_record(l: &Luminaire) -> PhotometryRecord {
     let c_deg = d.c_grid_deg().to_vec();
     let gamma_deg = d.gamma_grid_deg().to_vec();
     let mut cd = Vec::with_capacity(c_deg.len() * gamma_deg.len());
+    let lamps = d.meta.lamp_sets.get(d.meta.lamp_set_used);
     for ic in 0..c_deg.len() {
         for ig in 0..gamma_deg.len() {
             cd.push(d.grid_cd(ic, ig) as f32);
@@ -72,6 +73,8 @@ fn photometry_record(l: &Luminaire) -> PhotometryRecord {
         c_deg,
         gamma_deg,
         cd,
+        colour_rendering: lamps.map(|s| s.cri.clone()).unwrap_or_default(),
+        ra_min: lamps.and_then(|s| s.ra_min()),
     }
 }
 

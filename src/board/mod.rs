@@ -38,6 +38,9 @@ pub struct Board {
     /// The installation's maintenance factor for the commissioning report's maintained values
     /// (`[engine] maintenance_factor`, EN 12464-1; 0.8 when absent).
     pub maintenance_factor: f64,
+    /// The EN 12464-1:2021 context modifiers the commissioning report applies to the task
+    /// areas' Ēm (`[engine] context_modifiers`; 0 when absent: the table's Ēm).
+    pub context_modifiers: u32,
     /// The cameras (`[camera]`; simulated when absent).
     pub camera: crate::board::camera::CameraBoard,
     /// Where the flash image lives (`[flash]`; a file next to the board file when absent).
@@ -153,6 +156,8 @@ struct EngineToml {
     preset: Option<String>,
     #[serde(default)]
     maintenance_factor: Option<f64>,
+    #[serde(default)]
+    context_modifiers: u32,
 }
 
 /// The board's Modbus settings (`[modbus]`, `[modbus.rtu]`, `[modbus.tls]`,
@@ -551,6 +556,7 @@ impl Board {
             occupancy_static_after_s,
             preset,
             maintenance_factor,
+            context_modifiers: t.engine.context_modifiers,
             name: t.name,
             description: t.description,
             scene,
@@ -718,6 +724,31 @@ mod tests {
         let e =
             Board::parse(&format!("{base}[engine]\nrays = 10\n"), Path::new("b.toml")).unwrap_err();
         assert!(e.to_string().contains("rays"), "{e}");
+    }
+
+    /// `[engine] context_modifiers` reaches the board (0 when absent), and the report's
+    /// requirement raised from it: one modifier, the office's 500 lx becomes 750 lx.
+    #[test]
+    fn engine_context_modifiers_are_read() {
+        let base = "name = \"x\"\n[scene]\nsource = \"demo-office\"\n";
+        let b = Board::parse(base, Path::new("b.toml")).unwrap();
+        assert_eq!(b.context_modifiers, 0);
+        let b = Board::parse(
+            &format!("{base}[engine]\ncontext_modifiers = 1\n"),
+            Path::new("b.toml"),
+        )
+        .unwrap();
+        assert_eq!(b.context_modifiers, 1);
+        let req =
+            crate::en12464::OFFICE_WRITING_READING.with_context_modifiers(b.context_modifiers);
+        assert_eq!(req.task_e_m_lx(), 750.0);
+        assert!(
+            Board::parse(
+                &format!("{base}[engine]\ncontext_modifiers = -1\n"),
+                Path::new("b.toml")
+            )
+            .is_err()
+        );
     }
 
     #[test]

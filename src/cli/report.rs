@@ -26,6 +26,12 @@ pub struct Args {
     /// Overrides the maintenance factor recorded in the image.
     #[arg(long, value_name = "MF")]
     maintenance_factor: Option<f64>,
+    /// The EN 12464-1:2021 context modifiers that apply (§5.3.3: critical visual work, costly
+    /// errors, small details or low contrast, long duration, low visual capacity...): each
+    /// raises the task area's Ēm one step on the illuminance scale, up to the modified Ēm
+    /// (offices: 500 → 750 → 1000 lx).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    context_modifiers: u32,
 }
 
 /// Runs `luxnode report`.
@@ -73,6 +79,8 @@ pub fn run(a: &Args) -> Result<()> {
     let opts = ReportOptions {
         states,
         maintenance_factor: a.maintenance_factor,
+        requirement: luxnode::en12464::OFFICE_WRITING_READING
+            .with_context_modifiers(a.context_modifiers),
         ..ReportOptions::default()
     };
     let r = report::compute(&image, &opts)?;

@@ -64,6 +64,9 @@ pub struct ReportTarget {
     pub preset: String,
     /// The installation's maintenance factor.
     pub maintenance_factor: f64,
+    /// The EN 12464-1:2021 context modifiers declared (the board's `[engine]
+    /// context_modifiers`).
+    pub context_modifiers: u32,
 }
 
 impl ReportTarget {
@@ -97,7 +100,11 @@ impl ReportTarget {
                 .and_then(|image| {
                     let r = crate::render::report::compute(
                         &image,
-                        &crate::render::report::ReportOptions::default(),
+                        &crate::render::report::ReportOptions {
+                            requirement: crate::en12464::OFFICE_WRITING_READING
+                                .with_context_modifiers(self.context_modifiers),
+                            ..Default::default()
+                        },
                     )
                     .map_err(|e| e.to_string())?;
                     crate::render::report::write(&r, dir).map_err(|e| e.to_string())?;

@@ -454,6 +454,36 @@ mod tests {
         assert!(!d.meta.absolute);
     }
 
+    /// The lamp set's colour rendering line (the fixture's `80`, after the colour temperature
+    /// `4000`): an index, a CIE group, or nothing stated (never assumed).
+    #[test]
+    fn the_lamp_sets_colour_rendering_index_is_read() {
+        let text = ldt_text(1, 1, &[0.0, 90.0], &[0.0], |_, _| 100.0);
+        let ra = |field: &str| {
+            let t = text.replace("\r\n4000\r\n80\r\n", &format!("\r\n4000\r\n{field}\r\n"));
+            let d = parse(&t).unwrap();
+            assert_eq!(d.meta.lamp_sets[0].cri, field.trim());
+            d.meta.lamp_sets[0].ra_min()
+        };
+        assert_eq!(parse(&text).unwrap().meta.lamp_sets[0].ra_min(), Some(80.0));
+        for (field, want) in [
+            ("1B", Some(80.0)),
+            ("1a", Some(90.0)),
+            ("2A", Some(70.0)),
+            ("Ra 85", Some(85.0)),
+            (">= 90", Some(90.0)),
+            ("80-89", Some(80.0)),
+            ("CRI: 92", Some(92.0)),
+            ("", None),
+            ("-", None),
+            ("high", None),
+            ("80%", None),
+            ("400", None),
+        ] {
+            assert_eq!(ra(field), want, "{field:?}");
+        }
+    }
+
     #[test]
     fn malformed_fields_name_their_line() {
         let text = ldt_text(1, 1, &[0.0, 90.0], &[0.0], |_, _| 100.0);

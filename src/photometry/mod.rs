@@ -178,6 +178,49 @@ pub struct LampSet {
     pub power_w: f64,
 }
 
+impl LampSet {
+    /// The least colour rendering index Ra the set's colour rendering field states: an index
+    /// (`80`, `Ra 85`, `>= 80`, `80-89`: its lower end) or a group of CIE 29.2 / DIN 5035
+    /// (`1A` Ra ≥ 90, `1B` 80-89, `2A` 70-79, `2B` 60-69, `3` 40-59, `4` 20-39; a bare `1` ≥ 80,
+    /// `2` ≥ 60). `None` when it states none (empty, `-`, text without an index): never assumed.
+    pub fn ra_min(&self) -> Option<f64> {
+        ra_min_of(&self.cri)
+    }
+}
+
+/// See [`LampSet::ra_min`].
+fn ra_min_of(text: &str) -> Option<f64> {
+    let t = text.trim().to_ascii_uppercase().replace(',', ".");
+    let t = t
+        .trim_start_matches("CRI")
+        .trim_start_matches("RA")
+        .trim_start_matches(|c: char| c.is_whitespace() || "=:>≥".contains(c));
+    let group = match t {
+        "1A" => Some(90.0),
+        "1B" | "1" => Some(80.0),
+        "2A" => Some(70.0),
+        "2B" | "2" => Some(60.0),
+        "3" => Some(40.0),
+        "4" => Some(20.0),
+        _ => None,
+    };
+    if group.is_some() {
+        return group;
+    }
+    let digits: String = t
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    let rest = &t[digits.len()..];
+    if !rest.is_empty() && !rest.trim_start().starts_with(['-', '–', '.', ' ']) {
+        return None;
+    }
+    digits
+        .parse::<f64>()
+        .ok()
+        .filter(|ra| (5.0..=100.0).contains(ra))
+}
+
 /// Shape and size of the luminous opening, metres (from the file; scenes may override it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Opening {

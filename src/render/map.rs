@@ -5,6 +5,9 @@
 //! Each map cell is a point on the surface seen from above with dense illuminance
 //! ([`crate::engine::dense`]): exact direct light and the interreflection interpolated over
 //! the patch mesh, so the picture shows shadows and gradients, not the patches.
+//!
+//! Windows (the surfaces labelled `window…`: a CAD scene's glazing, a room plan's windows in a
+//! commissioned model) are drawn as blue bars along their wall ([`windows_of`]).
 
 use glam::DVec3;
 use plotters::prelude::*;
@@ -312,6 +315,68 @@ pub struct PlanView {
     pub scale_max_lx: f64,
     /// Pixels per metre.
     pub pixels_per_m: f64,
+    /// Windows, drawn as bars along their wall.
+    pub windows: Vec<PlanWindow>,
+}
+
+/// A window seen from above: where its glazing meets the plan.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlanWindow {
+    /// The surface's label (`window_1`).
+    pub id: String,
+    /// One end along the wall, m (x, y).
+    pub from_m: [f64; 2],
+    /// The other end, m.
+    pub to_m: [f64; 2],
+    /// Sill and head heights, m.
+    pub z_m: [f64; 2],
+}
+
+/// The colour of a window's bar on the plan.
+pub const WINDOW_RGB: [u8; 3] = [0, 150, 255];
+
+/// The windows among the patches (`group` indexes `labels`): per surface labelled `window…`
+/// that stands upright (normal within 30° of horizontal), the two extremes of its corners
+/// along the horizontal direction in its plane, and its height range.
+pub fn windows_of(
+    corners_m: &[[DVec3; 3]],
+    normal: &[DVec3],
+    group: &[u32],
+    labels: &[String],
+) -> Vec<PlanWindow> {
+    let mut out: Vec<(u32, Vec<DVec3>, DVec3)> = Vec::new();
+    for ((c, n), g) in corners_m.iter().zip(normal).zip(group) {
+        let label = labels.get(*g as usize).map_or("", String::as_str);
+        if !label.starts_with("window") || n.z.abs() > 0.5 {
+            continue;
+        }
+        match out.iter_mut().find(|(k, _, _)| k == g) {
+            Some((_, pts, _)) => pts.extend_from_slice(c),
+            None => out.push((*g, c.to_vec(), *n)),
+        }
+    }
+    out.into_iter()
+        .map(|(g, pts, n)| {
+            let along = DVec3::new(-n.y, n.x, 0.0).normalize_or_zero();
+            let key = |p: &DVec3| p.dot(along);
+            let lo = pts.iter().min_by(|a, b| key(a).total_cmp(&key(b)));
+            let hi = pts.iter().max_by(|a, b| key(a).total_cmp(&key(b)));
+            let z = pts.iter().map(|p| p.z);
+            let (zl, zh) = z.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| {
+                (a.min(z), b.max(z))
+            });
+            let (a, b) = (
+                lo.copied().unwrap_or_default(),
+                hi.copied().unwrap_or_default(),
+            );
+            PlanWindow {
+                id: labels[g as usize].clone(),
+                from_m: [a.x, a.y],
+                to_m: [b.x, b.y],
+                z_m: [zl, zh],
+            }
+        })
+        .collect()
 }
 
 /// EN 12464-1's scale of illuminances, lx: the isolines of the report's plan.
@@ -562,6 +627,13 @@ pub fn draw_plan(v: &PlanView) -> Canvas {
         for (p, _) in &v.values {
             root.draw(&Circle::new(map(p[0], p[1]), 2, BLACK.filled()))?;
         }
+        let window = RGBColor(WINDOW_RGB[0], WINDOW_RGB[1], WINDOW_RGB[2]);
+        for w in &v.windows {
+            root.draw(&PathElement::new(
+                vec![map(w.from_m[0], w.from_m[1]), map(w.to_m[0], w.to_m[1])],
+                window.stroke_width(6),
+            ))?;
+        }
         for d in &v.desks {
             let [a, b, c, e] = d.extent_m;
             root.draw(&Rectangle::new(
@@ -651,6 +723,7 @@ pub fn draw(scene: &Scene, view: &TopView, opts: &MapOptions) -> Canvas {
         values: Vec::new(),
         scale_max_lx: 0.0,
         pixels_per_m: opts.pixels_per_m,
+        windows: Vec::new(),
     })
 }
 

@@ -8,6 +8,7 @@ use super::glare::UgrResult;
 use super::report::DeskResult;
 use super::room_surfaces::RoomValue;
 use crate::en12464::{Check, Requirement};
+use crate::store::geometry::PhotometryRecord;
 
 /// One requirement of the activity, checked.
 #[derive(Debug, Clone, Serialize)]
@@ -48,9 +49,27 @@ fn value(v: f64, unit: &str) -> String {
     }
 }
 
+/// What the task area's Ēm row says of the modified Ēm: not applied, or applied with the
+/// declared context modifiers and the steps they raise it by.
+fn modified_note(req: &Requirement) -> String {
+    let n = req.context_modifiers;
+    if n == 0 {
+        return format!(
+            " (modified Ēm {:.0} lx where the context raises it: not applied, no context \
+             modifier declared)",
+            req.e_m_modified_lx
+        );
+    }
+    format!(
+        " (modified: Ēm {:.0} lx raised one step on the illuminance scale per context modifier, \
+         {n} declared, EN 12464-1:2021 §5.3.3; at most the modified Ēm {:.0} lx)",
+        req.e_m_lx, req.e_m_modified_lx
+    )
+}
+
 /// One row per check the desks have (`Ēm task area`...), in the order they first appear: the
-/// worst desk, every failing desk. `modified_lx` the task area's modified Ēm, stated.
-fn desk_rows(desks: &[DeskResult], modified_lx: f64) -> Vec<RequirementRow> {
+/// worst desk, every failing desk. The task area's Ēm row says whether the modified Ēm applies.
+fn desk_rows(desks: &[DeskResult], req: &Requirement) -> Vec<RequirementRow> {
     if desks.is_empty() {
         return vec![row(
             "desks",
@@ -77,9 +96,7 @@ fn desk_rows(desks: &[DeskResult], modified_lx: f64) -> Vec<RequirementRow> {
                 .collect();
             let mut r = checks_row(name, &checks);
             if k == 0 {
-                r.required.push_str(&format!(
-                    " (modified Ēm {modified_lx:.0} lx where the context raises it: not applied)"
-                ));
+                r.required.push_str(&modified_note(req));
             }
             r
         })
@@ -207,14 +224,15 @@ fn room_rows(v: &RoomValue, e_lx: f64, u0: f64) -> [RequirementRow; 2] {
 }
 
 /// The table: the desks' checks, UGR, the cylindrical, walls' and ceiling's values (`room`:
-/// walls, ceiling, cylindrical), Ra.
+/// walls, ceiling, cylindrical), Ra (from the luminaires' `photometries`).
 pub fn table(
     req: &Requirement,
     desks: &[DeskResult],
     ugr: &UgrResult,
     room: &[RoomValue],
+    photometries: &[PhotometryRecord],
 ) -> Vec<RequirementRow> {
-    let mut out = desk_rows(desks, req.e_m_modified_lx);
+    let mut out = desk_rows(desks, req);
     out.push(ugr_row(ugr));
     let limits = [
         (req.e_m_wall_lx, req.u0_room_surfaces),
@@ -224,14 +242,55 @@ pub fn table(
     for (v, (e, u)) in room.iter().zip(limits) {
         out.extend(room_rows(v, e, u));
     }
-    out.push(row(
-        "Ra",
-        format!("≥ {:.0}", req.ra),
-        "–".into(),
-        None,
-        "not checked: the image holds no colour rendering index of the lamps".into(),
-    ));
+    out.push(ra_row(req.ra, photometries));
     out
+}
+
+/// Ra from what each photometry file states of its lamps (EULUMDAT's colour rendering group /
+/// index): fails when a file states less than `ra`; passes when every file states at least
+/// `ra`; otherwise not checked, naming the files that state none (never assumed).
+fn ra_row(ra: f64, photometries: &[PhotometryRecord]) -> RequirementRow {
+    let name = |p: &PhotometryRecord| {
+        if p.colour_rendering.is_empty() {
+            p.file_name.clone()
+        } else {
+            format!("{} ({})", p.file_name, p.colour_rendering)
+        }
+    };
+    let low: Vec<String> = photometries
+        .iter()
+        .filter_map(|p| p.ra_min.filter(|v| *v < ra).map(|v| (p, v)))
+        .map(|(p, v)| format!("Ra {v:.0} of {} < {ra:.0}", name(p)))
+        .collect();
+    let unknown: Vec<String> = photometries
+        .iter()
+        .filter(|p| p.ra_min.is_none())
+        .map(|p| p.file_name.clone())
+        .collect();
+    let achieved = photometries
+        .iter()
+        .map(|p| match p.ra_min {
+            Some(v) => format!("≥ {v:.0}: {}", name(p)),
+            None => format!("not known: {}", p.file_name),
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    let (pass, reason) = if !low.is_empty() {
+        (Some(false), low.join("; "))
+    } else if photometries.is_empty() {
+        (None, "not checked: no luminaire".into())
+    } else if !unknown.is_empty() {
+        (
+            None,
+            format!(
+                "not checked: {} states no colour rendering index of its lamps",
+                unknown.join(", ")
+            ),
+        )
+    } else {
+        (Some(true), String::new())
+    };
+    row("Ra", format!("≥ {ra:.0}"), achieved, pass, reason)
 }
 
 /// The overall verdict: pass when every checked row passes; otherwise the reasons.
@@ -296,7 +355,7 @@ mod tests {
             room("ceiling", &[120.0, 130.0]),
             room("cylindrical", &[200.0, 220.0]),
         ];
-        let rows = table(&OFFICE_WRITING_READING, &desks, &ugr, &rooms);
+        let rows = table(&OFFICE_WRITING_READING, &desks, &ugr, &rooms, &[]);
         assert_eq!(rows[0].achieved, "450 lx (desk 3)");
         assert!(rows[0].required.contains("1000 lx"), "{:?}", rows[0]);
         let (pass, why) = verdict(&rows);
@@ -312,5 +371,82 @@ mod tests {
         // Ra is stated, not checked, and does not decide the verdict
         let ra = rows.last().unwrap();
         assert_eq!((ra.what.as_str(), ra.pass), ("Ra", None));
+    }
+
+    /// A declared context modifier raises the task area's Ēm to 750 lx and says so: a desk of
+    /// 700 lx that passes unmodified fails, with the raised value in its reason.
+    #[test]
+    fn a_declared_context_modifier_raises_em_with_the_reason_shown() {
+        let req = OFFICE_WRITING_READING.with_context_modifiers(1);
+        let s = Statistics::of(&[690.0, 710.0]).unwrap();
+        let mut d = desk(2, &[690.0, 710.0]);
+        d.checks = check_task(&req, &s, None);
+        let ugr = summarise(Vec::new());
+        let rows = table(&req, &[d], &ugr, &[], &[]);
+        assert!(
+            rows[0]
+                .required
+                .starts_with("≥ 750 lx (modified: Ēm 500 lx raised one step")
+        );
+        assert!(
+            rows[0].required.contains("1 declared"),
+            "{}",
+            rows[0].required
+        );
+        assert_eq!(rows[0].pass, Some(false));
+        assert_eq!(rows[0].reason, "desk 2: Ēm task area 700 lx < 750 lx");
+        let plain = table(
+            &OFFICE_WRITING_READING,
+            &[desk(2, &[690.0, 710.0])],
+            &ugr,
+            &[],
+            &[],
+        );
+        assert_eq!(plain[0].pass, Some(true));
+        assert!(plain[0].required.contains("not applied"));
+    }
+
+    fn lamp(file: &str, stated: &str, ra_min: Option<f64>) -> PhotometryRecord {
+        PhotometryRecord {
+            file_name: file.into(),
+            luminaire: String::new(),
+            manufacturer: String::new(),
+            file_flux_lm: 1000.0,
+            power_w: 10.0,
+            c_deg: Vec::new(),
+            gamma_deg: Vec::new(),
+            cd: Vec::new(),
+            colour_rendering: stated.into(),
+            ra_min,
+        }
+    }
+
+    /// EN 12464-1's Ra ≥ 80 for offices from the files' lamp data: a known 1B (Ra 80-89) passes,
+    /// a known 2A (70-79) fails with its file named and decides the verdict, a file that states
+    /// nothing leaves the row unchecked (never assumed) unless another file already fails it.
+    #[test]
+    fn ra_is_checked_when_the_files_state_it_and_never_assumed() {
+        let ra = |p: &[PhotometryRecord]| ra_row(OFFICE_WRITING_READING.ra, p);
+        let ok = ra(&[lamp("a.ldt", "1B", Some(80.0))]);
+        assert_eq!(
+            (ok.pass, ok.achieved.as_str()),
+            (Some(true), "≥ 80: a.ldt (1B)")
+        );
+        let low = ra(&[
+            lamp("a.ldt", "1B", Some(80.0)),
+            lamp("b.ldt", "2A", Some(70.0)),
+        ]);
+        assert_eq!(low.pass, Some(false));
+        assert_eq!(low.reason, "Ra 70 of b.ldt (2A) < 80");
+        assert_eq!(verdict(&[low]).1, ["Ra 70 of b.ldt (2A) < 80"]);
+        let unknown = ra(&[lamp("a.ldt", "1B", Some(80.0)), lamp("c.ies", "", None)]);
+        assert_eq!(unknown.pass, None);
+        assert_eq!(
+            unknown.reason,
+            "not checked: c.ies states no colour rendering index of its lamps"
+        );
+        assert!(unknown.achieved.contains("not known: c.ies"));
+        let both = ra(&[lamp("c.ies", "", None), lamp("b.ldt", "2A", Some(70.0))]);
+        assert_eq!(both.pass, Some(false));
     }
 }

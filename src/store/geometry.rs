@@ -14,7 +14,9 @@
 //! Extensions follow the section's postcard bytes inside its length, as postcard bytes of
 //! [`SectionExtension`]: a build that does not know them stops reading at the end of the
 //! section (postcard ignores trailing bytes); this one reads a section without them as before.
-//! The first extension is the camera's lens (a fisheye's Kannala-Brandt coefficients).
+//! The first extension is the camera's lens (a fisheye's Kannala-Brandt coefficients); the
+//! second ([`LampExtension`], after the first) the lamps' colour rendering per photometry. Each
+//! is read when bytes remain after the one before.
 
 use serde::{Deserialize, Serialize};
 
@@ -42,6 +44,15 @@ pub struct CameraRecord {
 pub struct SectionExtension {
     /// The camera lens's Kannala-Brandt coefficients, `None` for a pinhole.
     pub camera_lens_k: Option<[f64; 4]>,
+}
+
+/// The second extension: what the photometry files say of their lamps, one entry per
+/// [`GeometrySection::photometries`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct LampExtension {
+    /// Per photometry: the colour rendering field as the file states it, and the least Ra it
+    /// means (`None`: not stated).
+    pub colour_rendering: Vec<(String, Option<f64>)>,
 }
 
 /// A desk top.
@@ -109,6 +120,13 @@ pub struct PhotometryRecord {
     pub gamma_deg: Vec<f64>,
     /// Intensities, cd, `[ic * gammas + ig]`.
     pub cd: Vec<f32>,
+    /// The lamps' colour rendering field as the file states it (EULUMDAT's group / index), empty
+    /// when none (carried in the [`LampExtension`]).
+    #[serde(skip)]
+    pub colour_rendering: String,
+    /// The least Ra it means, `None` when not stated (carried in the [`LampExtension`]).
+    #[serde(skip)]
+    pub ra_min: Option<f64>,
 }
 
 /// Everything a report needs that the run-time arrays do not hold.
@@ -150,6 +168,14 @@ impl GeometrySection {
             camera_lens_k: self.camera.as_ref().and_then(|c| c.lens_k),
         };
         body.extend_from_slice(&postcard::to_stdvec(&ext)?);
+        let lamps = LampExtension {
+            colour_rendering: self
+                .photometries
+                .iter()
+                .map(|p| (p.colour_rendering.clone(), p.ra_min))
+                .collect(),
+        };
+        body.extend_from_slice(&postcard::to_stdvec(&lamps)?);
         let mut out = Vec::with_capacity(SECTION_FRAME_LEN + body.len());
         out.extend_from_slice(&SECTION_MAGIC);
         out.extend_from_slice(&SECTION_VERSION.to_le_bytes());
@@ -162,12 +188,24 @@ impl GeometrySection {
     pub fn decode(bytes: &[u8]) -> Result<GeometrySection, ImageError> {
         let (mut section, rest): (GeometrySection, &[u8]) =
             postcard::take_from_bytes(bytes).map_err(|_| ImageError::Decode)?;
-        if !rest.is_empty() {
-            let ext: SectionExtension =
-                postcard::from_bytes(rest).map_err(|_| ImageError::Decode)?;
-            if let Some(c) = section.camera.as_mut() {
-                c.lens_k = ext.camera_lens_k;
-            }
+        if rest.is_empty() {
+            return Ok(section);
+        }
+        let (ext, rest): (SectionExtension, &[u8]) =
+            postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+        if let Some(c) = section.camera.as_mut() {
+            c.lens_k = ext.camera_lens_k;
+        }
+        if rest.is_empty() {
+            return Ok(section);
+        }
+        let lamps: LampExtension = postcard::from_bytes(rest).map_err(|_| ImageError::Decode)?;
+        if lamps.colour_rendering.len() != section.photometries.len() {
+            return Err(ImageError::Decode);
+        }
+        for (p, (stated, ra)) in section.photometries.iter_mut().zip(lamps.colour_rendering) {
+            p.colour_rendering = stated;
+            p.ra_min = ra;
         }
         Ok(section)
     }

@@ -205,6 +205,7 @@ pub fn run(options: &RunOptions) -> Result<Exit, AssembleError> {
         dir: Some(state.join("commissioning-report")),
         preset: board.preset.name().into(),
         maintenance_factor: board.maintenance_factor,
+        context_modifiers: board.context_modifiers,
     };
     let ambient = ambient_at_commissioning(&board, &peripherals, &reference)?;
     let mut source = commission_source(
