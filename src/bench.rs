@@ -5,6 +5,7 @@
 pub mod control;
 pub mod control_day;
 pub mod dense;
+pub mod equal_error;
 pub mod live;
 pub mod occupancy;
 pub mod patches;

@@ -48,6 +48,21 @@ pub fn thread_cpu_time() -> Option<std::time::Duration> {
     None
 }
 
+/// CPU time of this process so far, all threads (user + system), to the nanosecond the system
+/// keeps. `None` where the system does not say.
+pub fn process_cpu_time() -> Option<std::time::Duration> {
+    #[cfg(target_os = "linux")]
+    {
+        let t = nix::time::clock_gettime(nix::time::ClockId::CLOCK_PROCESS_CPUTIME_ID).ok()?;
+        Some(std::time::Duration::new(
+            u64::try_from(t.tv_sec()).ok()?,
+            u32::try_from(t.tv_nsec()).ok()?,
+        ))
+    }
+    #[cfg(not(target_os = "linux"))]
+    None
+}
+
 /// CPU time of this process so far (user + system, all threads), s: on a shared machine the
 /// measure of work that the wall clock is not.
 pub fn cpu_seconds() -> Option<f64> {

@@ -394,3 +394,61 @@ fn the_readme_tables_say_what_docs_tradeoffs_says() {
         assert_eq!(&r[6..8], &d[6..8], "{preset} error and worst sensor");
     }
 }
+
+/// The cells of the table row (any markdown table in `text`) whose first cell is `first`.
+fn exact_row(text: &str, first: &str) -> Vec<String> {
+    text.lines()
+        .filter(|l| l.starts_with('|'))
+        .map(|l| {
+            l.trim()
+                .trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_owned())
+                .collect::<Vec<_>>()
+        })
+        .find(|cells| cells.first().map(String::as_str) == Some(first))
+        .unwrap_or_else(|| panic!("no table row whose first cell is {first:?}"))
+}
+
+/// docs/performance.md's equal-error table (issue 33): luxnode's ladder measured again against
+/// the stored Radiance rungs (bench/radiance/results/ad_ladder/sweep.json; no Radiance needed).
+#[test]
+fn the_equal_error_table_against_radiance_holds() {
+    use luxnode::bench::equal_error::{candidates, measure, read_sweep};
+    let root = common::manifest();
+    let doc = std::fs::read_to_string(root.join("docs/performance.md")).expect("performance.md");
+    let sweep = root.join("bench/radiance/results/ad_ladder/sweep.json");
+    let rungs = read_sweep(&std::fs::read_to_string(sweep).expect("sweep.json")).unwrap();
+    let (scene, states, truth) = truth();
+    let mut measured = std::collections::BTreeMap::new();
+    for c in candidates() {
+        let p = measure(&scene, &states, &truth, &c, 3).unwrap().unwrap();
+        let cells = exact_row(&doc, c.label);
+        check_pct(c.label, p.error, &cells[3]);
+        check_time(c.label, p.cpu_s, &format!("{} s", cells[1]), 0.05);
+        measured.insert(c.label, (p, number(&cells[1]).0));
+    }
+    assert_eq!(rungs.len(), 5, "the -ad ladder 256..4096");
+    for r in &rungs {
+        let cells = exact_row(&doc, &format!("`{}`", r.options));
+        let (pick, printed_cpu) = measured
+            .get(cells[5].as_str())
+            .unwrap_or_else(|| panic!("{}: no luxnode setting {:?}", r.options, cells[5]));
+        assert!(
+            pick.error <= r.error,
+            "{}: luxnode's {} at {:.3} % is above Radiance's {:.3} %",
+            r.options,
+            pick.label,
+            100.0 * pick.error,
+            100.0 * r.error
+        );
+        let (ratio, half) = number(&cells[8]);
+        assert!(
+            (ratio - r.cpu_s / printed_cpu).abs() <= half + 0.01 * ratio,
+            "{}: printed ratio {ratio}, stored {} / printed {printed_cpu}",
+            r.options,
+            r.cpu_s
+        );
+        assert!(ratio >= 10.0, "{}: ratio {ratio} < 10", r.options);
+    }
+}

@@ -43,18 +43,24 @@ RUNGS = [
     ("each", "-ab 8 -ad 1024 -lw 1e-4 -ds 0.02"),
 ]
 
+# --ad-ladder: the issue 33 comparison's ladder, the cited `-ab 8 -lw 1e-4` at several -ad
+AD_LADDER = [("superpose", f"-ab 8 -ad {ad} -lw 1e-4") for ad in (256, 512, 1024, 2048, 4096)]
+
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3, help="runs per rung (default %(default)s)")
     ap.add_argument("--out", type=Path, default=HERE / "results", help="output directory (default %(default)s)")
     ap.add_argument("--only", type=int, nargs="*", help="rung numbers (1-based) to run; default all")
+    ap.add_argument("--ad-ladder", action="store_true",
+                    help="run the -ab 8 -lw 1e-4 ladder over -ad 256..4096 instead of RUNGS")
     a = ap.parse_args()
+    rungs = AD_LADDER if a.ad_ladder else RUNGS
 
     runs_dir = a.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
     rows = []
-    for n, (mode, opts) in enumerate(RUNGS, 1):
+    for n, (mode, opts) in enumerate(rungs, 1):
         if a.only and n not in a.only:
             continue
         reps = []

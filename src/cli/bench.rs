@@ -85,6 +85,23 @@ pub enum Command {
         #[arg(long, value_name = "DIR")]
         out_dir: Option<PathBuf>,
     },
+    /// luxnode's speed-accuracy curve against Radiance's stored runs at equal error, in CPU
+    /// seconds: for each Radiance rung, luxnode's cheapest setting at no more error.
+    Radiance {
+        /// The scene directory (states.csv, truth.csv).
+        #[arg(long, value_name = "DIR")]
+        scene: PathBuf,
+        /// Radiance's runs: a `bench/radiance/sweep.py` result.
+        #[arg(
+            long,
+            value_name = "FILE",
+            default_value = "bench/radiance/results/ad_ladder/sweep.json"
+        )]
+        sweep: PathBuf,
+        /// Commissioning runs per luxnode setting (the median is kept).
+        #[arg(long, value_name = "N", default_value_t = 5)]
+        runs: usize,
+    },
     /// Commissioning stage times and memory against patches x rays (Ward's grey room unless --scene).
     Scaling {
         /// A scene directory [if absent: Ward's grey room, built in code].
@@ -320,6 +337,9 @@ pub fn run(command: Command) -> Result<()> {
                 plots,
                 plot,
             })?;
+        }
+        Command::Radiance { scene, sweep, runs } => {
+            super::bench_radiance::run(&scene, &sweep, runs)?;
         }
         Command::Scaling {
             scene,

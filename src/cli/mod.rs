@@ -6,6 +6,8 @@ pub mod bench;
 #[cfg(feature = "bench")]
 pub mod bench_bacnet;
 #[cfg(feature = "bench")]
+pub mod bench_radiance;
+#[cfg(feature = "bench")]
 pub mod bench_scaling;
 pub mod commission;
 pub mod control;
