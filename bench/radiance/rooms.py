@@ -1002,10 +1002,13 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dic
     for s in per_node[0]:
         cands = [rows[s] for rows in per_node if s in rows]
         measured = [r for r in cands if r["source"] == "measured"]
-        pick = min(measured, key=lambda r: float(r["uncertainty_lx"])) if measured else cands[0]
+        # a value not available (empty: NaN, flagged) is taken only when no node gives one
+        valued = [r for r in cands if r["lux_total"]]
+        pick = (min(measured, key=lambda r: float(r["uncertainty_lx"])) if measured
+                else valued[0] if valued else cands[0])
         lux, sky = truth[(1, s)]
         t = lux + (sky if light == "day" else 0.0)
-        out[s] = [(float(pick["lux_total"]), t, float(pick["uncertainty_lx"]))]
+        out[s] = [(float(pick["lux_total"] or "nan"), t, float(pick["uncertainty_lx"] or "nan"))]
         out[s][0] += (pick["source"],)
     return out
 
@@ -1013,11 +1016,15 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dic
 def desk_rows(room: str, config: str, light: str, vals: dict, flags: dict) -> list[dict]:
     rows = []
     for s, v in sorted(vals.items()):
-        err = sum(abs(e - t) for e, t, *_ in v) / max(1e-9, sum(t for _, t, *_ in v))
-        cov = [abs(e - t) <= 2 * u for e, t, u, *_ in v if math.isfinite(u)]
+        # values published as not available (NaN) are counted, never scored as numbers
+        known = [x for x in v if math.isfinite(x[0])]
+        err = (sum(abs(e - t) for e, t, *_ in known) / max(1e-9, sum(t for _, t, *_ in known))
+               if known else math.nan)
+        cov = [abs(e - t) <= 2 * u for e, t, u, *_ in known if math.isfinite(u)]
         rows.append({"room": room, "config": config, "light": light, "sensor": s,
                      "in_view": (flags.get(s, 1) & 1) == 0, "error": err,
                      "values": len(v), "within_2u": sum(cov), "with_u": len(cov),
+                     "unknown": len(v) - len(known),
                      "source": v[0][3] if len(v[0]) > 3 else "model"})
     return rows
 
@@ -1082,7 +1089,8 @@ def evaluate(a) -> None:
         cache = rd / "eval" / "rows.json"
         if a.reuse and cache.exists():
             c = json.loads(cache.read_text())
-            rows += c["rows"]
+            rows += [{k: (math.nan if k == "error" and x is None else x) for k, x in r.items()}
+                     for r in c["rows"]]
             checks += c["frames"]
             failures += c["failures"]
             info += c["commissions"]
@@ -1127,7 +1135,10 @@ def evaluate(a) -> None:
                 info.append({"room": d.name, "config": label, "seconds": round(com["seconds"], 1)})
                 print(f"{d.name} {label}: commissioned in {com['seconds']:.0f} s", flush=True)
         cache.parent.mkdir(parents=True, exist_ok=True)
-        cache.write_text(json.dumps({"rows": rows[n0:], "frames": checks_room,
+        cache.write_text(json.dumps({"rows": [{k: (None if isinstance(x, float) and
+                                                   not math.isfinite(x) else x)
+                                               for k, x in r.items()} for r in rows[n0:]],
+                                     "frames": checks_room,
                                      "failures": failures[f0:], "commissions": info[i0:]}) + "\n")
     save_timings(a, timings)
     text = report(rows, has_plan, a)
@@ -1146,7 +1157,10 @@ def evaluate(a) -> None:
     if a.md:
         Path(a.md).write_text(text)
     if a.json:
-        Path(a.json).write_text(json.dumps({"rows": rows, "commissions": info, "frames": checks,
+        # a desk whose every value was not available has no error: null, not a NaN (JSON has none)
+        clean = [{k: (None if isinstance(x, float) and not math.isfinite(x) else x)
+                  for k, x in r.items()} for r in rows]
+        Path(a.json).write_text(json.dumps({"rows": clean, "commissions": info, "frames": checks,
                                             "room_plan_accepted": has_plan}, indent=1) + "\n")
 
 
@@ -1183,13 +1197,19 @@ def report(rows: list[dict], has_plan: bool, a) -> str:
                     continue
                 if not sel:
                     continue
-                errs = [r["error"] for r in sel]
-                rooms = sorted({r["room"] for r in sel})
-                means = [statistics.fmean(r["error"] for r in sel if r["room"] == rm)
+                errs = [r["error"] for r in sel if math.isfinite(r["error"])]
+                if not errs:
+                    continue
+                rooms = sorted({r["room"] for r in sel if math.isfinite(r["error"])})
+                means = [statistics.fmean(r["error"] for r in sel
+                                          if r["room"] == rm and math.isfinite(r["error"]))
                          for rm in rooms]
                 cov_n = sum(r["within_2u"] for r in sel)
                 cov_d = sum(r["with_u"] for r in sel)
+                unknown = sum(r.get("unknown", 0) for r in sel)
                 cov = f"{100 * cov_n / cov_d:.0f} % of {cov_d}" if cov_d else "—"
+                if unknown:
+                    cov += f" ({unknown} not available)"
                 out.append(f"| {c} | {lt} | {len(sel)} | {view} | {pct(statistics.median(errs))} "
                            f"| {pct(quantile(errs, 0.9))} | {pct(max(errs))} | "
                            f"{pct(statistics.median(means))} | {pct(max(means))} | {cov} | "
@@ -1206,7 +1226,7 @@ def report(rows: list[dict], has_plan: bool, a) -> str:
             for lt in lights:
                 for view in ("all", "in view", "out of view"):
                     sel = [r["error"] for r in rows if r["room"] == rm and r["config"] == c and
-                           r["light"] == lt and
+                           r["light"] == lt and math.isfinite(r["error"]) and
                            (view == "all" or r["in_view"] == (view == "in view"))]
                     cells.append(f"{pct(statistics.fmean(sel))} / {pct(max(sel))}" if sel else "—")
             if any(r["room"] == rm and r["config"] == c for r in rows):

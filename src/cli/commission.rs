@@ -266,6 +266,7 @@ pub fn run(a: &Args) -> Result<()> {
             if seen { 0 } else { c.sensor_flags[k] }
         })
         .collect();
+    warn_out_of_view_without_plan(&flags, o.room_plan.is_some());
     if let Some(p) = &a.export_mesh {
         commission::output::write_ply(c, p).with_context(|| format!("writing {}", p.display()))?;
     }
@@ -634,4 +635,21 @@ fn print_errors(
         100.0 * pooled(&in_view)
     );
     Ok(())
+}
+
+/// Without a room plan, a desk no camera sees gets its daylight from the emitters' fit, which
+/// places windows out of view only as well as the seen surfaces tell them apart: by day its
+/// value may be published as its artificial part alone (docs/live.md). The plan removes it.
+fn warn_out_of_view_without_plan(flags: &[u8], has_plan: bool) {
+    let out = flags
+        .iter()
+        .filter(|f| *f & sensor_flags::OUT_OF_VIEW != 0)
+        .count();
+    if out > 0 && !has_plan {
+        tracing::warn!(
+            "{out} desk sensor(s) out of every camera's view and no room plan: their daylight is \
+             inferred from what the cameras see and may be published as not available by day; \
+             give the room's outline and windows with --room-plan (docs/formats.md)"
+        );
+    }
 }

@@ -42,7 +42,14 @@
 //!      and their reflection propagates in step 2, but no diffuse emitter explains them
 //!      (against Radiance under a clear sky, fitting them put 19 klx on a 1.7 klx desk);
 //!   4. the desk reads `gather_s · (b + Σ_k w_k β_k)` (its stored gather row over the exitance;
-//!      `β_k` the emitters' exitance with their interreflections).
+//!      `β_k` the emitters' exitance with their interreflections); its stated uncertainty
+//!      carries how well the seen surfaces place the emitters ([`emitters::placement_lx`]), and
+//!      a value whose uncertainty exceeds it is published as its artificial part alone, the
+//!      total and daylight not available ([`flags::DAYLIGHT_UNKNOWN`]).
+//!
+//! With a room plan's daylight coefficients and the frame's time, step 3 fits a CIE sky through
+//! the plan's windows instead ([`sky_fit`]); a window the camera sees is held at zero exitance
+//! there (the camera sees the ground through it, not the sky it lets in).
 //!
 //! **Held values.** A covered desk, a saturated window, a bad or stale frame: the desk keeps its
 //! last good daylight and gets the artificial part at the current dimming state (so with the
