@@ -125,20 +125,15 @@ impl<'a> DaylightCoefficients<'a> {
             self.window_area_m2.is_finite() && self.window_area_m2 >= 0.0,
             "daylight window area",
         )?;
-        let n = self
-            .seen_patch
-            .count(4)
-            .ok_or(ImageError::Inconsistent("daylight seen"))?;
-        let mut last: Option<u32> = None;
-        for r in 0..n {
-            let p = self.seen_patch.u32_at(r);
-            check((p as usize) < patches, "daylight seen patch out of range")?;
-            check(
-                last.is_none_or(|q| q < p),
+        let n = ascending_patches(
+            &self.seen_patch,
+            patches,
+            [
+                "daylight seen",
+                "daylight seen patch out of range",
                 "daylight seen patches not ascending",
-            )?;
-            last = Some(p);
-        }
+            ],
+        )?;
         let rows_ok = |b: &Bytes<'_>, rows: usize| -> Result<(), ImageError> {
             let want = rows.checked_mul(COLUMNS);
             check(
@@ -156,23 +151,15 @@ impl<'a> DaylightCoefficients<'a> {
         };
         rows_ok(&self.seen_lx, n)?;
         rows_ok(&self.sensor_lx, sensors)?;
-        let g = self
-            .glazing_seen
-            .count(4)
-            .ok_or(ImageError::Inconsistent("daylight glazing"))?;
-        let mut last: Option<u32> = None;
-        for r in 0..g {
-            let p = self.glazing_seen.u32_at(r);
-            check(
-                (p as usize) < patches,
+        ascending_patches(
+            &self.glazing_seen,
+            patches,
+            [
+                "daylight glazing",
                 "daylight glazing patch out of range",
-            )?;
-            check(
-                last.is_none_or(|q| q < p),
                 "daylight glazing patches not ascending",
-            )?;
-            last = Some(p);
-        }
+            ],
+        )?;
         Ok(())
     }
 
@@ -211,6 +198,24 @@ impl<'a> DaylightCoefficients<'a> {
     pub fn sensor_lx(&self, s: usize, j: usize) -> f64 {
         f16_bits_to_f64(self.sensor_lx.u16_at(s * COLUMNS + j))
     }
+}
+
+/// The count of a list of ascending u32 patch ids below `patches`, or the error named by
+/// `what` (length, range, order).
+fn ascending_patches(
+    b: &Bytes<'_>,
+    patches: usize,
+    what: [&'static str; 3],
+) -> Result<usize, ImageError> {
+    let n = b.count(4).ok_or(ImageError::Inconsistent(what[0]))?;
+    let mut last: Option<u32> = None;
+    for r in 0..n {
+        let p = b.u32_at(r);
+        check((p as usize) < patches, what[1])?;
+        check(last.is_none_or(|q| q < p), what[2])?;
+        last = Some(p);
+    }
+    Ok(n)
 }
 
 #[cfg(all(test, feature = "std"))]
