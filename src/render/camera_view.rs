@@ -122,6 +122,14 @@ fn draw_view(
 
 fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
     let zf = f64::from(z);
+    // the image's rectangle on the canvas: outlines are clipped to it and labels kept inside
+    // it (a desk half out of view would otherwise draw across the title)
+    let frame = (
+        f64::from(LEFT),
+        f64::from(TITLE_H),
+        f64::from(LEFT) + f64::from(cam.width) * zf,
+        f64::from(TITLE_H) + f64::from(cam.height) * zf,
+    );
     let to_px = |p: DVec3| {
         project(cam, p).map(|(u, v)| {
             (
@@ -145,7 +153,9 @@ fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
             for s in 0..steps {
                 let p = a.lerp(b, f64::from(s) / f64::from(steps));
                 let q = a.lerp(b, f64::from(s + 1) / f64::from(steps));
-                if let (Some(p), Some(q)) = (to_px(p), to_px(q)) {
+                if let (Some(p), Some(q)) = (to_px(p), to_px(q))
+                    && let Some((p, q)) = clip_segment(p, q, frame)
+                {
                     c.line(p, q, 2, WHITE);
                 }
             }
@@ -157,6 +167,9 @@ fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
         );
         if let Some((x, y)) = to_px(centre) {
             let n = d.label.len() as f64;
+            // the label's block inside the image (17 px a line, 10 px to spare)
+            let half = 0.5 * n * 17.0 + 2.0;
+            let y = y.clamp(frame.1 + half, (frame.3 - half).max(frame.1 + half));
             for (i, line) in d.label.iter().enumerate() {
                 let yy = y + (i as f64 - 0.5 * (n - 1.0)) * 17.0;
                 let mut l = Label::new(line.clone(), (x, yy), 14.0)
@@ -170,6 +183,42 @@ fn desk_overlay(c: &mut Canvas, cam: &Camera, desks: &[ViewDesk], z: u32) {
             }
         }
     }
+}
+
+/// The part of segment `p`-`q` inside the rectangle `(x0, y0, x1, y1)` (Liang and Barsky), or
+/// `None` when none of it is.
+fn clip_segment(
+    p: (f64, f64),
+    q: (f64, f64),
+    (x0, y0, x1, y1): (f64, f64, f64, f64),
+) -> Option<((f64, f64), (f64, f64))> {
+    let (dx, dy) = (q.0 - p.0, q.1 - p.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (den, num) in [
+        (-dx, p.0 - x0),
+        (dx, x1 - p.0),
+        (-dy, p.1 - y0),
+        (dy, y1 - p.1),
+    ] {
+        if den == 0.0 {
+            if num < 0.0 {
+                return None;
+            }
+        } else {
+            let t = num / den;
+            if den < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    (t0 <= t1).then(|| {
+        (
+            (p.0 + t0 * dx, p.1 + t0 * dy),
+            (p.0 + t1 * dx, p.1 + t1 * dy),
+        )
+    })
 }
 
 /// Colour of a pixel that sees no reflecting surface: a luminaire opening white, nothing grey.
@@ -336,4 +385,30 @@ pub fn report_png(c: &Commissioned, path: &Path) -> Result<(), RenderError> {
         0.0,
     );
     Ok(canvas.save_png(path)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::clip_segment;
+
+    #[test]
+    fn an_outline_is_clipped_to_the_image_never_across_the_title() {
+        let frame = (10.0, 40.0, 650.0, 520.0);
+        // a desk edge from inside the image up through the title: cut at the image's top
+        let (p, q) = clip_segment((70.0, 100.0), (70.0, 0.0), frame).expect("inside part");
+        assert_eq!((p, q), ((70.0, 100.0), (70.0, 40.0)));
+        // wholly inside: unchanged; wholly in the title: nothing
+        assert_eq!(
+            clip_segment((20.0, 50.0), (600.0, 500.0), frame),
+            Some(((20.0, 50.0), (600.0, 500.0)))
+        );
+        assert_eq!(clip_segment((20.0, 5.0), (600.0, 30.0), frame), None);
+        // a diagonal across a corner: both ends on the frame
+        let (p, q) = clip_segment((0.0, 30.0), (30.0, 60.0), frame).expect("corner");
+        assert!(
+            (p.0 - 10.0).abs() < 1e-12 && (p.1 - 40.0).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert_eq!(q, (30.0, 60.0));
+    }
 }
