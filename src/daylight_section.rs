@@ -22,7 +22,7 @@ use rayon::prelude::*;
 
 use crate::commission::{Commissioned, RoomBox};
 use crate::engine::daylight::{COLUMNS, DaylightRoom, DaylightSettings, Glazing, Window};
-use crate::engine::raycast::{Hit, RayCaster};
+use crate::engine::raycast::RayCaster;
 use crate::scene::plan::{OpeningKind, RoomPlan};
 use crate::sky::SkyFrame;
 use crate::solver::{self, CsrSystem, RhsState, Rows, Workspace};
@@ -46,9 +46,6 @@ const BOUNDARY_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions 
     tolerance: 1e-6,
     max_iterations: 10_000,
 };
-
-/// A window counts as seen when the camera sees at least this fraction of its sample points.
-const SEEN_WINDOW_FRACTION: f64 = 0.25;
 
 /// The section's data, owned.
 #[derive(Debug, Clone, PartialEq)]
@@ -101,46 +98,9 @@ pub fn plan_windows(room: &RoomBox) -> Vec<Window> {
         .collect()
 }
 
-/// Does the camera see window `w`: the fraction of a 5 × 5 grid of its points that project
-/// into the frame with nothing nearer than 15 cm in front of them.
-fn camera_sees(c: &Commissioned, caster: &RayCaster, w: &Window) -> bool {
-    let Some(cam) = c.scene.camera.as_ref() else {
-        return false;
-    };
-    let mut seen = 0;
-    let n = 5;
-    for k in 0..n * n {
-        let (u, v) = (
-            ((k % n) as f64 + 0.5) / n as f64,
-            ((k / n) as f64 + 0.5) / n as f64,
-        );
-        let q = w.corner_m + w.edge_u_m * u + w.edge_v_m * v;
-        let Some((px, py)) = cam.project_world(q) else {
-            continue;
-        };
-        if !(0.0..f64::from(cam.width)).contains(&px) || !(0.0..f64::from(cam.height)).contains(&py)
-        {
-            continue;
-        }
-        let d = q - cam.position_m;
-        let dist = d.length();
-        if dist <= 0.0 {
-            continue;
-        }
-        let t = match caster.closest(cam.position_m, d / dist) {
-            Hit::Front { t_m, .. } => t_m,
-            _ => f64::INFINITY,
-        };
-        if t >= dist - 0.15 {
-            seen += 1;
-        }
-    }
-    seen as f64 >= SEEN_WINDOW_FRACTION * (n * n) as f64
-}
-
-/// The section for a commissioned room with a plan, or why there is none (no site, no window
-/// the cameras do not see, no live section); the image must already hold its live section (its
-/// samples name the seen patches).
+/// The section for a commissioned room with a plan, or why there is none (no site, no window,
+/// no live section); the image must already hold its live section (its samples name the seen
+/// patches).
 pub fn build(
     c: &Commissioned,
     plan: &RoomPlan,
@@ -155,10 +115,6 @@ pub fn build(
     if windows.is_empty() {
         return Err("the room plan has no window".into());
     }
-    let seen_windows = windows
-        .iter()
-        .filter(|w| camera_sees(c, &caster, w))
-        .count();
     let frame = SkyFrame::new([site.north.x, site.north.y]).ok_or("site north")?;
     let sensors: Vec<(DVec3, DVec3)> = c
         .scene
@@ -183,12 +139,13 @@ pub fn build(
         .map_err(|e| e.to_string())?;
     let direct = (&direct.patch.values[..], &direct.sensor.values[..]);
     let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, direct)?;
-    let glazing_seen = glazing_among(c, &all_seen);
-    tracing::debug!(
-        "daylight coefficients: {} windows ({seen_windows} seen), {} seen glazing patches",
-        windows.len(),
-        glazing_seen.len()
-    );
+    // the seen patches on the plan's windows: the live estimator holds them at zero
+    let glazing = crate::live_section::glazing_patches(c).unwrap_or_default();
+    let glazing_seen: Vec<u32> = all_seen
+        .iter()
+        .copied()
+        .filter(|&p| glazing.get(p as usize).copied().unwrap_or(false))
+        .collect();
     Ok(DaylightSectionData {
         site: (
             site.latitude_deg,
@@ -202,21 +159,6 @@ pub fn build(
         sensor_lx,
         glazing_seen,
     })
-}
-
-/// The patches among `seen` (ascending) on the plan's windows (mesh groups `window_<k>`).
-fn glazing_among(c: &Commissioned, seen: &[u32]) -> Vec<u32> {
-    let groups = &c.scene.mesh.groups;
-    let p = &c.model.patches;
-    seen.iter()
-        .copied()
-        .filter(|&i| {
-            p.group
-                .get(i as usize)
-                .and_then(|&g| groups.get(g as usize))
-                .is_some_and(|g| g.starts_with("window_"))
-        })
-        .collect()
 }
 
 /// The boundary coefficients: the direct sky on the unseen patches reflected over them (seen

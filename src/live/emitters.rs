@@ -13,11 +13,12 @@ pub const RIDGE: f64 = 0.01;
 /// The robust non-negative fit of `y ≈ V x` (V: rows × k, row-major) with weights `w`, twice:
 /// the second time without the outliers of the first (their weight set to 0). A small ridge:
 /// a column the seen surfaces hardly see cannot be estimated from them (unregularised, one
-/// emitter group reached 2e7 lm/m² and put 27 klx on a desk). Returns (x, residuals).
-pub fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64>, Vec<f64>) {
+/// emitter group reached 2e7 lm/m² and put 27 klx on a desk).
+pub fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> RobustFit {
     let n_seen = y.len();
     let mut x = vec![0.0; k];
     let mut resid = vec![0.0; n_seen];
+    let mut gram = vec![0.0; k * k];
     for pass in 0..2 {
         if k > 0 {
             let mut g = vec![0.0; k * k];
@@ -39,6 +40,7 @@ pub fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64
             // (unregularised, one such group reached 2e7 lm/m² and put 27 klx on a desk)
             let mean_diag = (0..k).map(|a| g[a * k + a]).sum::<f64>() / k as f64;
             let ridge = RIDGE * mean_diag;
+            gram.clone_from(&g);
             for a in 0..k {
                 g[a * k + a] += ridge;
             }
@@ -61,7 +63,17 @@ pub fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64
             }
         }
     }
-    (x, resid)
+    RobustFit { x, resid, gram }
+}
+
+/// What [`robust_fit`] found.
+pub struct RobustFit {
+    /// The non-negative scales, one per column.
+    pub x: Vec<f64>,
+    /// The residual `y − V x` of every row (the outliers' too).
+    pub resid: Vec<f64>,
+    /// The last pass's normal matrix `Vᵀ W V` over the rows kept, without the ridge (k × k).
+    pub gram: Vec<f64>,
 }
 
 /// Per sensor, the standard uncertainty of the emitters' light at it from where the emitters
@@ -72,21 +84,13 @@ pub fn robust_fit(v: &[f64], k: usize, y: &[f64], w_use: &mut [f64]) -> (Vec<f64
 /// where its light is least known: near a desk out of view, a window there gives a wide
 /// spread; a room whose seen light the emitters explain with little residual, a narrow one.
 pub fn placement_lx(fit: &EmitterFit<'_>, sensors: usize) -> Vec<f64> {
-    let (v, g, k, y, w) = (fit.v, fit.g, fit.k, fit.y, fit.w);
+    let (g, k, w) = (fit.g, fit.k, fit.w);
     let zeros = vec![0.0; sensors];
-    let used: Vec<usize> = (0..y.len()).filter(|&r| w[r] > 0.0).collect();
-    if k == 0 || used.len() <= k {
+    let used: Vec<usize> = (0..w.len()).filter(|&r| w[r] > 0.0).collect();
+    if k == 0 || used.len() <= k || fit.gram.len() != k * k {
         return zeros;
     }
-    let mut gram = nalgebra::DMatrix::<f64>::zeros(k, k);
-    for &r in &used {
-        let vr = &v[r * k..(r + 1) * k];
-        for a in 0..k {
-            for b in 0..k {
-                gram[(a, b)] += w[r] * vr[a] * vr[b];
-            }
-        }
-    }
+    let mut gram = nalgebra::DMatrix::<f64>::from_row_slice(k, k, fit.gram);
     let chi2: f64 = used.iter().map(|&r| w[r] * fit.resid[r].powi(2)).sum();
     let sigma2 = chi2 / (used.len() - k) as f64;
     // numerical floor only (a column of zeros)
@@ -107,18 +111,16 @@ pub fn placement_lx(fit: &EmitterFit<'_>, sensors: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The emitters' fit: their light on the seen rows (`v`, rows × k) and at the sensors (`g`),
-/// the unexplained light fitted (`y`) and the rows' weights after the fit (`w`).
+/// The emitters' fit as [`placement_lx`] reads it: its normal matrix (from [`robust_fit`]),
+/// the emitters' light at the sensors (`g`), and the rows' residuals and weights.
 pub struct EmitterFit<'a> {
-    /// Each emitter's light on each seen row at unit exitance, rows × k, lx.
-    pub v: &'a [f64],
+    /// The fit's normal matrix without the ridge, k × k ([`RobustFit::gram`]).
+    pub gram: &'a [f64],
     /// Each emitter's light at each sensor at unit exitance, sensors × k, lx.
     pub g: &'a [f64],
     /// Emitters.
     pub k: usize,
-    /// The unexplained light fitted per seen row, lx.
-    pub y: &'a [f64],
-    /// Its residual after the fit, lx.
+    /// The residual per seen row after the fit, lx.
     pub resid: &'a [f64],
     /// The rows' weights after the fit (0: not used).
     pub w: &'a [f64],
@@ -140,17 +142,16 @@ mod tests {
         }
         let y: Vec<f64> = (0..n).map(|r| 2.0 * v[r * k] + noise(r)).collect();
         let mut w = vec![1.0; n];
-        let (x, resid) = robust_fit(&v, k, &y, &mut w);
+        let f = robust_fit(&v, k, &y, &mut w);
         let g = [0.0, 1.0];
         let fit = EmitterFit {
-            v: &v,
+            gram: &f.gram,
             g: &g,
             k,
-            y: &y,
-            resid: &resid,
+            resid: &f.resid,
             w: &w,
         };
-        (x[1], placement_lx(&fit, 1)[0])
+        (f.x[1], placement_lx(&fit, 1)[0])
     }
 
     #[test]
@@ -178,19 +179,17 @@ mod tests {
     #[test]
     fn too_few_rows_or_no_emitter_give_no_spread_never_nan() {
         let fit = EmitterFit {
-            v: &[1.0, 2.0],
+            gram: &[1.0, 2.0, 2.0, 4.0],
             g: &[1.0, 1.0],
             k: 2,
-            y: &[1.0],
             resid: &[0.5],
             w: &[1.0],
         };
         assert_eq!(placement_lx(&fit, 1), vec![0.0]);
         let none = EmitterFit {
-            v: &[],
+            gram: &[],
             g: &[],
             k: 0,
-            y: &[1.0, 2.0],
             resid: &[1.0, 2.0],
             w: &[1.0, 1.0],
         };

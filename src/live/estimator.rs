@@ -1569,7 +1569,7 @@ impl Live {
                 }
             }
         }
-        let (x, resid, w_use, chosen) = match bases {
+        let (x, resid, w_use, chosen, gram) = match bases {
             Some((sky, mut bases)) => {
                 // the fit over the seen rows whose coefficients the image stores
                 for (r, w) in w_use.iter_mut().enumerate() {
@@ -1579,12 +1579,12 @@ impl Live {
                 }
                 let (best, x, resid, w) = best_sky(&bases, &y, &w_use, d_seen);
                 let b = bases.swap_remove(best);
-                (x, resid, w, Some(b))
+                (x, resid, w, Some(b), Vec::new())
             }
             _ => {
                 let mut w = w_use;
-                let (x, resid) = robust_fit(&m.v_seen, k, &y, &mut w);
-                (x, resid, w, None)
+                let f = robust_fit(&m.v_seen, k, &y, &mut w);
+                (f.x, f.resid, w, None, f.gram)
             }
         };
         self.sky_type = chosen.as_ref().map_or(0, |b| b.sky_type);
@@ -1613,10 +1613,9 @@ impl Live {
         // tell them apart
         let placement_lx = if chosen.is_none() {
             let fit = EmitterFit {
-                v: v_basis,
+                gram: &gram,
                 g: g_basis,
                 k,
-                y: &y,
                 resid: &resid,
                 w: &w_use,
             };
@@ -1880,7 +1879,8 @@ fn best_sky(
     let mut best: Option<(f64, SkyFitResult)> = None;
     for (index, b) in bases.iter().enumerate() {
         let mut w = w0.to_vec();
-        let (x, resid) = robust_fit(&b.seen_lx, 1, y, &mut w);
+        let f = robust_fit(&b.seen_lx, 1, y, &mut w);
+        let (x, resid) = (f.x, f.resid);
         let (mut num, mut den) = (0.0, 0.0);
         for r in 0..y.len() {
             if w0[r] > 0.0 {

@@ -548,7 +548,7 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
 
 /// The patches of the room plan's windows (mesh groups `window_<k>` of
 /// [`crate::commission::Part::Window`]), or `None` when the room has none.
-fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
+pub fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
     let groups = &c.scene.mesh.groups;
     let is_window: Vec<bool> = groups.iter().map(|g| g.starts_with("window_")).collect();
     let p = &c.model.patches;
