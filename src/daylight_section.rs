@@ -140,7 +140,7 @@ pub fn build(
     let direct = (&direct.patch.values[..], &direct.sensor.values[..]);
     let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, direct)?;
     // the seen patches on the plan's windows: the live estimator holds them at zero
-    let glazing = crate::live_section::glazing_patches(c).unwrap_or_default();
+    let glazing = crate::commission::glazing_patches(c).unwrap_or_default();
     let glazing_seen: Vec<u32> = all_seen
         .iter()
         .copied()

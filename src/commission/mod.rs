@@ -725,6 +725,18 @@ impl<'a> Stage<'a> {
     }
 }
 
+/// The patches of the room plan's windows (mesh groups `window_<k>` of
+/// [`Part::Window`]), or `None` when the room has none.
+pub fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
+    let groups = &c.scene.mesh.groups;
+    let is_window: Vec<bool> = groups.iter().map(|g| g.starts_with("window_")).collect();
+    let p = &c.model.patches;
+    let mask: Vec<bool> = (0..p.len())
+        .map(|i| is_window.get(p.group[i] as usize).copied().unwrap_or(false))
+        .collect();
+    mask.iter().any(|&m| m).then_some(mask)
+}
+
 /// Builds the engine's mesh: one material per triangle with its reflectance.
 pub fn to_mesh(reco: &RecoMesh, tri_rho: &[f64]) -> Mesh {
     let mut groups: Vec<String> = Vec::new();

@@ -546,18 +546,6 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
         .collect()
 }
 
-/// The patches of the room plan's windows (mesh groups `window_<k>` of
-/// [`crate::commission::Part::Window`]), or `None` when the room has none.
-pub fn glazing_patches(c: &Commissioned) -> Option<Vec<bool>> {
-    let groups = &c.scene.mesh.groups;
-    let is_window: Vec<bool> = groups.iter().map(|g| g.starts_with("window_")).collect();
-    let p = &c.model.patches;
-    let mask: Vec<bool> = (0..p.len())
-        .map(|i| is_window.get(p.group[i] as usize).copied().unwrap_or(false))
-        .collect();
-    mask.iter().any(|&m| m).then_some(mask)
-}
-
 /// A commissioned node's camera and its luminance gain (cd/m² per unit).
 fn camera_and_gain(c: &Commissioned) -> Result<(&Camera, f64), LiveError> {
     let camera = c
@@ -589,7 +577,7 @@ pub fn from_capture(
     }
     let model = &c.model;
     let l_count = model.luminaires();
-    let glazing = glazing_patches(c);
+    let glazing = crate::commission::glazing_patches(c);
     let lay = layout(
         camera,
         model,
