@@ -35,8 +35,9 @@ impl Default for StoreSettings {
 /// A named set of engine and store settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum Preset {
-    /// For a weak processor or a quick look: coarse uniform patches, few rays, no
-    /// rectification, 8-bit form factors. Some per cent of error.
+    /// For a weak processor or a quick look: coarse 2 m patches refined like balanced's, 10
+    /// rays per patch, rectified, no final gather, 2 opening and 2 direct points, 8-bit form
+    /// factors. Under half a per cent on office_a (docs/tradeoffs.md).
     Fast,
     /// The defaults: adaptive 1 m patches, 300 rays, exact direct light and final gather,
     /// rectified, 16-bit form factors. At the noise of the Radiance truth on office_a.
@@ -68,24 +69,22 @@ impl Preset {
         let d = Settings::default();
         match self {
             Preset::Balanced => d,
+            // On the speed-accuracy curve (docs/performance.md, "At equal error against
+            // Radiance"): coarse 2 m patches refined where the light and detail ask for it, few
+            // rays per patch (rectification restores reciprocity), no final gather, and few
+            // opening and direct points: on office_a the cost is direct light on the patches and
+            // the gather, not the form factors.
             Preset::Fast => Settings {
                 patches: PatchSettings {
                     patch_size_m: 2.0,
-                    detail_ratio: 0.0,
-                    min_patch_m: PatchSettings::default().min_patch_m,
-                    light_ratio: 0.0,
+                    ..d.patches
                 },
-                rays: 100,
+                rays: 10,
                 sensor_rays: 3000,
-                final_gather_rays: 300,
+                final_gather_rays: 0,
                 ray_set: RaySetKind::Isocell,
-                opening_samples: 4,
+                opening_samples: 2,
                 patch_direct_points: 2,
-                rectify: false,
-                solve: SolveOptions {
-                    tolerance: 1e-6,
-                    ..d.solve
-                },
                 ..d
             },
             // Half-size patches: the later bounces converge with the patch size, not with rays
