@@ -15,6 +15,7 @@ pub mod room_surfaces;
 pub mod task_points;
 pub mod text;
 pub mod ugr;
+pub mod ugr_table;
 
 use std::path::Path;
 

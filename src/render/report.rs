@@ -261,6 +261,8 @@ pub struct Results {
     pub sensors: Vec<SensorRow>,
     /// UGR at a seated observer per desk (design state, new installation).
     pub ugr: UgrResult,
+    /// The standard UGR table (CIE 117 / CIE 190) of each luminaire type.
+    pub ugr_table: Vec<super::ugr_table::TypeTable>,
     /// Walls, ceiling and the cylindrical illuminance (design state, maintained).
     pub room_surfaces: Vec<RoomValue>,
     /// The EN 12464-1:2021 requirements of the activity, checked.
@@ -1080,6 +1082,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         states: state_results,
         sensors: sensor_rows(image),
         ugr,
+        ugr_table: super::ugr_table::tables(&room),
         room_surfaces,
         requirements,
         desks_pass,
@@ -1096,7 +1099,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     })
 }
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -1155,6 +1158,7 @@ pub fn html(r: &Report) -> String {
     html_states(&mut h, x);
     html_energy(&mut h, &x.energy);
     html_tables(&mut h, x);
+    super::ugr_table::html(&mut h, &x.ugr_table);
     html_tail(&mut h, x);
     h
 }
