@@ -7,6 +7,7 @@ pub mod camera_view;
 pub mod energy;
 pub mod glare;
 pub mod map;
+pub mod near_gather;
 pub mod placement;
 pub mod plot;
 pub mod report;

@@ -382,18 +382,10 @@ fn area_result(values: &[f64], mf: f64) -> Option<AreaResult> {
 /// point, on a desk top as in the air (a desk the model has no top for). Gathered, not
 /// interpolated over the desk's patches: a point beside a monitor sees the monitor's back
 /// where the patch's mean sees the room (room_02's points 2 cm behind a monitor read 56-69 %
-/// high interpolated; docs/report.md).
-fn plane_points(
-    field: &DenseField<'_>,
-    pts: &[DVec3],
-    basis_b: &[Vec<f64>],
-    rays: usize,
-) -> Readings {
-    let air: Vec<(DVec3, DVec3)> = pts
-        .iter()
-        .map(|p| (*p + DVec3::Z * 0.001, DVec3::Z))
-        .collect();
-    field.air_points(&air, basis_b, rays)
+/// high interpolated; docs/report.md). Hits close to a large patch take the exitance at the hit
+/// point, not the patch's mean ([`super::near_gather`]).
+fn plane_points(field: &DenseField<'_>, room: &Room, pts: &[DVec3], rays: usize) -> Readings {
+    super::near_gather::plane_readings(field, &room.patches, pts, &room.basis_b, rays)
 }
 
 struct DeskGrids {
@@ -499,7 +491,7 @@ fn desk_grids(
             .filter(|(_, c)| !**c)
             .map(|(p, _)| *p)
             .collect();
-        let task = plane_points(field, &pts, &room.basis_b, opts.air_rays);
+        let task = plane_points(field, room, &pts, opts.air_rays);
         let sg = en12464::immediate_surrounding_grid(
             rect,
             en12464::IMMEDIATE_SURROUNDING_BAND_M,
