@@ -4,6 +4,7 @@
 //! one small RGB canvas, a perceptual colour map and the embedded DejaVu Sans ([`text`]).
 
 pub mod camera_view;
+pub mod daylight_factor;
 pub mod energy;
 pub mod glare;
 pub mod map;

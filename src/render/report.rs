@@ -955,6 +955,7 @@ fn room_checks(
 /// grid (or, without one, the task areas' area-weighted mean), the daylight the image holds.
 fn energy_of(
     image: &Image<'_>,
+    room_model: &Room,
     plan: &Plan,
     luminaires: &[LuminaireRow],
     room: Option<&AreaResult>,
@@ -991,7 +992,7 @@ fn energy_of(
         floor_area_m2: plan.floor_area_m2,
         em,
         maintenance_factor: mf,
-        daylight_window_m2: image.daylight.map(|d| d.window_area_m2),
+        daylight: super::daylight_factor::of_image(image.daylight.as_ref(), room_model),
     })
 }
 
@@ -1053,7 +1054,15 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     let (ugr, room_surfaces, requirements) =
         room_checks(&field, &room, &plan, design, mf, opts, &desks);
     let (pass, fails_because) = requirements::verdict(&requirements);
-    let energy = energy_of(image, &plan, &luminaires, room_result.as_ref(), &desks, mf);
+    let energy = energy_of(
+        image,
+        &room,
+        &plan,
+        &luminaires,
+        room_result.as_ref(),
+        &desks,
+        mf,
+    );
     let results = Results {
         scene: room.section.scene_name.clone(),
         preset: room.section.preset.clone(),
@@ -1469,6 +1478,24 @@ fn html_energy(h: &mut String, e: &Energy) {
         );
     }
     h.push_str("</table>\n<p>LENI = (W<sub>L</sub> + W<sub>P</sub>)/A, W<sub>L</sub> = Σ P<sub>n</sub> F<sub>C</sub> (t<sub>D</sub> F<sub>O</sub> F<sub>D</sub> + t<sub>N</sub> F<sub>O</sub>)/1000.</p>\n");
+    if let Some(d) = &e.daylight {
+        let _ = writeln!(
+            h,
+            "<p>Daylight factors: {}.</p>\n<table id=\"daylight-factors\"><tr><th>sensor</th><th>desk</th><th>D (%)</th></tr>",
+            esc(d.scope)
+        );
+        for s in &d.sensors {
+            let desk = s
+                .desk
+                .map_or_else(|| "–".to_string(), |k| format!("desk {k}"));
+            let _ = writeln!(
+                h,
+                "<tr><td>S{}</td><td>{desk}</td><td>{:.2}</td></tr>",
+                s.sensor, s.d_pct
+            );
+        }
+        h.push_str("</table>\n");
+    }
 }
 
 /// The desk sensors, the surfaces and the luminaire schedule.

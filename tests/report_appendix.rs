@@ -1,5 +1,6 @@
-//! The UGR table appendix (CIE 117 / CIE 190, `src/render/ugr_table.rs`) against an independent
-//! computation: the per-observer module (`render::ugr`: 3-D luminaires turned as the room would
+//! The report's appendices and energy inputs: the daylight factors from a daylight section
+//! (`src/render/daylight_factor.rs`), and the UGR table appendix (CIE 117 / CIE 190,
+//! `src/render/ugr_table.rs`) against an independent computation: the per-observer module (`render::ugr`: 3-D luminaires turned as the room would
 //! have them, their intensity toward the eye through `Luminaire::intensity_toward_cd`, the
 //! opening's luminance and solid angle by `ugr::term`) on the explicit rectangular array of the
 //! standard conditions, with the table's background luminance.
@@ -176,4 +177,97 @@ fn office_a_report_has_the_ugr_table_appendix() {
     let html = report::html(&r);
     assert!(html.contains("id=\"ugr-table\""));
     assert_eq!(html.matches("class=\"ugr-table\"").count(), 1);
+}
+
+/// A room commissioned from office_a's capture with a room plan whose window the camera does not
+/// see, and a site: the image holds daylight coefficients, and the report gives each desk
+/// sensor's daylight factor under the CIE overcast sky. Checked against the test's own sum over
+/// the image's coefficients with the overcast sky written out here (`L = L_z (1 + 2 sin h)/3`,
+/// `E_out = 7π L_z / 9` in closed form, the ground `ρ_g E_out / π`): within 1.5 % (the report
+/// takes E_out as the Tregenza sum, 0.4 % from the closed form). F_D stays 1 with the reason.
+#[test]
+fn a_daylight_section_gives_each_desk_sensor_its_daylight_factor() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("room.json");
+    std::fs::write(
+        &plan,
+        r#"{
+  "format": "luxnode-room-plan/1",
+  "outline_m": [[0.0, 0.0], [6.0, 0.0], [6.0, 7.2], [0.0, 7.2]],
+  "floor_z_m": 0.0,
+  "ceiling_z_m": 3.0,
+  "site": {"latitude_deg": 47.4, "longitude_deg": 8.5, "north": [0.0, 1.0]},
+  "windows": [{"id": "window_1", "transmittance": 0.7,
+    "corners_m": [[1.0, 7.2, 0.9], [5.0, 7.2, 0.9], [5.0, 7.2, 2.4], [1.0, 7.2, 2.4]]}]
+}"#,
+    )
+    .unwrap();
+    let img = dir.path().join("office_a.img");
+    let s = office_a();
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .arg("commission")
+        .arg("--capture")
+        .arg(s.join("capture"))
+        .arg("--luminaires")
+        .arg(s.join("luminaires.json"))
+        .arg("--sensors")
+        .arg(s.join("sensors.json"))
+        .arg("--desks")
+        .arg(s.join("desks.json"))
+        .arg("--room-plan")
+        .arg(&plan)
+        .arg("--out")
+        .arg(&img)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("report");
+    let o = Command::new(env!("CARGO_BIN_EXE_luxnode"))
+        .args(["report", "--image"])
+        .arg(&img)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let bytes = std::fs::read(&img).unwrap();
+    let image = Image::parse(&bytes).unwrap();
+    let d = image.daylight.expect("a daylight section");
+    let day = &json["energy"]["daylight"];
+    assert!((day["latitude_deg"].as_f64().unwrap() - 47.4).abs() < 1e-9);
+    let sensors = day["sensors"].as_array().unwrap();
+    assert_eq!(sensors.len(), image.sensors());
+    // the overcast sky written out, patch by patch (Tregenza centres)
+    let e_out = 7.0 * std::f64::consts::PI / 9.0;
+    let lum: Vec<f64> = luxnode::sky::patches()
+        .map(|p| (1.0 + 2.0 * p.altitude_rad.sin()) / 3.0)
+        .collect();
+    let mut on_desks = 0;
+    for (k, row) in sensors.iter().enumerate() {
+        let e_in: f64 = (0..145).map(|j| d.sensor_lx(k, j) * lum[j]).sum::<f64>()
+            + d.sensor_lx(k, 145) * d.ground_rho * e_out / std::f64::consts::PI;
+        let want_pct = 100.0 * e_in / e_out;
+        let got = row["d_pct"].as_f64().unwrap();
+        assert!(want_pct > 0.0, "sensor {k}: no daylight");
+        assert!(
+            (got / want_pct - 1.0).abs() < 0.015,
+            "sensor {k}: {got} vs {want_pct}"
+        );
+        if !row["desk"].is_null() {
+            on_desks += 1;
+        }
+    }
+    assert!(on_desks > 0, "{day}");
+    let a = &json["energy"]["assumptions"];
+    assert_eq!(a["f_d"].as_f64(), Some(1.0));
+    let why = a["f_d_source"].as_str().unwrap();
+    assert!(
+        why.contains("not computed") && why.contains("daylight factor"),
+        "{why}"
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("id=\"daylight-factors\""));
 }
