@@ -263,7 +263,7 @@ fn direct_shares(
         })
         .collect();
     let total = cols.down_lm() + cols.up_lm;
-    if !(total > 0.0) || positions_m.is_empty() {
+    if total.is_nan() || total <= 0.0 || positions_m.is_empty() {
         return [0.0; 3];
     }
     let mut floor_lm = 0.0;
