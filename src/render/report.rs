@@ -1175,8 +1175,8 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}\
-@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}\
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}.ugr-table td,.ugr-table th{{padding:1px 5px;font-size:12px}}\
+@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}.ugr-table td,.ugr-table th{{font-size:8pt;padding:1px 3px}}\
 img{{max-width:100%;border:none}}#imgstatus{{display:none}}th{{background:#eee;-webkit-print-color-adjust:exact;print-color-adjust:exact}}\
 @page{{size:A4;margin:12mm}}}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)

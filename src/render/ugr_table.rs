@@ -508,7 +508,7 @@ pub fn html(h: &mut String, tables: &[TypeTable]) {
         "<h2 id=\"ugr-table\">Appendix: UGR tables (CIE 117 / CIE 190)</h2>\n<p>Uncorrected UGR \
 of each luminaire type in the standard conditions: observer at the middle of a wall, eye {H_M:.1} m \
 (H) below the luminaires, a regular array at spacing {SPACING_H}H filling a room of X × Y; \
-reflectances ceiling cavity / walls / floor cavity; background luminance from the walls' \
+reflectances ceiling cavity / walls / floor cavity in percent; background luminance from the walls' \
 indirect illuminance (three-surface room, exact form factors). Values for 1000 lm of luminaire \
 flux; add the flux correction for the installed luminaires. Spacing corrections: {SPACING_CORRECTIONS}.</p>"
     );
@@ -536,7 +536,14 @@ flux; add the flux correction for the installed luminaires. Spacing corrections:
         let refl: String = t
             .reflectances
             .iter()
-            .map(|r| format!("<th>{:.2}/{:.2}/{:.2}</th>", r[0], r[1], r[2]))
+            .map(|r| {
+                format!(
+                    "<th>{:.0}/{:.0}/{:.0}</th>",
+                    100.0 * r[0],
+                    100.0 * r[1],
+                    100.0 * r[2]
+                )
+            })
             .collect();
         let _ = writeln!(
             h,
