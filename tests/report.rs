@@ -1023,9 +1023,10 @@ fn room_02_report_truth() -> Vec<(u32, f64, f64, f64, bool)> {
 /// at exactly the report's points: bench/radiance/report_points.py). Targets: mean error ≤ 2 %,
 /// each desk's Ēm within 1 %, U0 within 0.02, covered flags exactly as the geometry says (no
 /// point of this room lies under an object: the monitors stand between grid rows). Measured
-/// (docs/report.md): mean error 0.6 %, worst point 12 %, Ēm within 0.6 %, U0 within 0.010 on
-/// desks 1-5 and 0.023 on desk 6 (its wall-side corner reads 3.5 % low): U0 guarded at 0.025,
-/// the target missed there by 0.003.
+/// (docs/report.md): mean error 0.48 %, worst point 8.7 %, Ēm within 0.4 %, U0 within 0.013 on
+/// every desk (desk 6, by the wall, 0.769 against 0.782: its wall-side row read 3.5 % low while
+/// the gather took the wall's exitance flat over its patches; render::near_gather evaluates
+/// near hits at the hit point).
 #[test]
 fn room_02_report_points_match_radiance() {
     let scene = Scene::load(
@@ -1068,7 +1069,11 @@ fn room_02_report_points_match_radiance() {
             100.0 * (em / tm - 1.0)
         );
         assert!((em / tm - 1.0).abs() <= 0.01, "desk {}", desk.id);
-        assert!((u0 - tu0).abs() <= 0.025, "desk {}", desk.id);
+        assert!(
+            (u0 - tu0).abs() <= 0.02,
+            "desk {}: U0 {u0:.3} vs {tu0:.3}",
+            desk.id
+        );
         assert!((desk.task.new.e_mean_lx - em).abs() < 1e-6 * em);
     }
     assert_eq!(k, truth.len());

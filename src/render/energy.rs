@@ -12,6 +12,7 @@
 
 use serde::Serialize;
 
+use super::daylight_factor::{DaylightSupply, F_D_NOT_COMPUTED};
 use crate::control::{DEFAULT_EFFICACY_LM_PER_W, DEFAULT_STANDBY_W};
 
 /// EN 15193-1's default annual daylight-time operating hours of an office, h.
@@ -83,6 +84,8 @@ pub struct Energy {
     pub flag: Option<String>,
     /// The factors.
     pub assumptions: Assumptions,
+    /// The desks' daylight factors from the image's daylight coefficients (null without them).
+    pub daylight: Option<DaylightSupply>,
 }
 
 /// What the energy figures are computed from.
@@ -97,17 +100,32 @@ pub struct EnergyInput<'a> {
     pub em: Option<(f64, String)>,
     /// Maintenance factor.
     pub maintenance_factor: f64,
-    /// The image holds daylight coefficients (their window area, m²).
-    pub daylight_window_m2: Option<f64>,
+    /// The daylight factors at the desk sensors, when the image holds daylight coefficients.
+    pub daylight: Option<DaylightSupply>,
 }
 
 /// The default office assumptions for a maintenance factor and the daylight known.
-pub fn office_assumptions(mf: f64, daylight_window_m2: Option<f64>) -> Assumptions {
-    let f_d_source = match daylight_window_m2 {
-        Some(a) => format!(
-            "the image holds daylight coefficients ({a:.2} m² of window) but no annual \
-             daylight supply is computed from them yet: F_D = 1 (no daylight saving counted)"
-        ),
+pub fn office_assumptions(mf: f64, daylight: Option<&DaylightSupply>) -> Assumptions {
+    let f_d_source = match daylight {
+        Some(d) => {
+            let (lo, hi) = d
+                .sensors
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
+                    (a.min(s.d_pct), b.max(s.d_pct))
+                });
+            let range = if d.sensors.is_empty() {
+                "no desk sensor".to_string()
+            } else {
+                format!("daylight factor {lo:.2}-{hi:.2} % at the desk sensors (a lower bound)")
+            };
+            format!(
+                "the image holds daylight coefficients ({:.2} m² of window, latitude {:.1}°): \
+                 {range}; F_D is not computed from it: {F_D_NOT_COMPUTED}. F_D = 1 (no daylight \
+                 saving counted)",
+                d.window_area_m2, d.latitude_deg
+            )
+        }
         None => "no daylight supply known: F_D = 1".into(),
     };
     Assumptions {
@@ -138,7 +156,7 @@ fn positive(v: f64) -> Option<f64> {
 
 /// The energy figures of an installation.
 pub fn energy(input: &EnergyInput<'_>) -> Energy {
-    let a = office_assumptions(input.maintenance_factor, input.daylight_window_m2);
+    let a = office_assumptions(input.maintenance_factor, input.daylight.as_ref());
     let installed_w: f64 = input.powers_w.iter().filter(|p| p.is_finite()).sum();
     let hours_h = a.t_d_h * a.f_o * a.f_d + a.t_n_h * a.f_o;
     let w_l_kwh = installed_w * a.f_c * hours_h / 1000.0;
@@ -178,6 +196,7 @@ pub fn energy(input: &EnergyInput<'_>) -> Energy {
             )
         }),
         assumptions: a,
+        daylight: input.daylight.clone(),
     }
 }
 
@@ -192,7 +211,7 @@ mod tests {
             floor_area_m2,
             em: Some((500.0, "room".into())),
             maintenance_factor: 0.8,
-            daylight_window_m2: None,
+            daylight: None,
         }
     }
 

@@ -4,9 +4,11 @@
 //! one small RGB canvas, a perceptual colour map and the embedded DejaVu Sans ([`text`]).
 
 pub mod camera_view;
+pub mod daylight_factor;
 pub mod energy;
 pub mod glare;
 pub mod map;
+pub mod near_gather;
 pub mod placement;
 pub mod plot;
 pub mod report;
@@ -15,6 +17,7 @@ pub mod room_surfaces;
 pub mod task_points;
 pub mod text;
 pub mod ugr;
+pub mod ugr_table;
 
 use std::path::Path;
 

@@ -261,6 +261,8 @@ pub struct Results {
     pub sensors: Vec<SensorRow>,
     /// UGR at a seated observer per desk (design state, new installation).
     pub ugr: UgrResult,
+    /// The standard UGR table (CIE 117 / CIE 190) of each luminaire type.
+    pub ugr_table: Vec<super::ugr_table::TypeTable>,
     /// Walls, ceiling and the cylindrical illuminance (design state, maintained).
     pub room_surfaces: Vec<RoomValue>,
     /// The EN 12464-1:2021 requirements of the activity, checked.
@@ -380,18 +382,10 @@ fn area_result(values: &[f64], mf: f64) -> Option<AreaResult> {
 /// point, on a desk top as in the air (a desk the model has no top for). Gathered, not
 /// interpolated over the desk's patches: a point beside a monitor sees the monitor's back
 /// where the patch's mean sees the room (room_02's points 2 cm behind a monitor read 56-69 %
-/// high interpolated; docs/report.md).
-fn plane_points(
-    field: &DenseField<'_>,
-    pts: &[DVec3],
-    basis_b: &[Vec<f64>],
-    rays: usize,
-) -> Readings {
-    let air: Vec<(DVec3, DVec3)> = pts
-        .iter()
-        .map(|p| (*p + DVec3::Z * 0.001, DVec3::Z))
-        .collect();
-    field.air_points(&air, basis_b, rays)
+/// high interpolated; docs/report.md). Hits close to a large patch take the exitance at the hit
+/// point, not the patch's mean ([`super::near_gather`]).
+fn plane_points(field: &DenseField<'_>, room: &Room, pts: &[DVec3], rays: usize) -> Readings {
+    super::near_gather::plane_readings(field, &room.patches, pts, &room.basis_b, rays)
 }
 
 struct DeskGrids {
@@ -497,7 +491,7 @@ fn desk_grids(
             .filter(|(_, c)| !**c)
             .map(|(p, _)| *p)
             .collect();
-        let task = plane_points(field, &pts, &room.basis_b, opts.air_rays);
+        let task = plane_points(field, room, &pts, opts.air_rays);
         let sg = en12464::immediate_surrounding_grid(
             rect,
             en12464::IMMEDIATE_SURROUNDING_BAND_M,
@@ -961,6 +955,7 @@ fn room_checks(
 /// grid (or, without one, the task areas' area-weighted mean), the daylight the image holds.
 fn energy_of(
     image: &Image<'_>,
+    room_model: &Room,
     plan: &Plan,
     luminaires: &[LuminaireRow],
     room: Option<&AreaResult>,
@@ -997,7 +992,7 @@ fn energy_of(
         floor_area_m2: plan.floor_area_m2,
         em,
         maintenance_factor: mf,
-        daylight_window_m2: image.daylight.map(|d| d.window_area_m2),
+        daylight: super::daylight_factor::of_image(image.daylight.as_ref(), room_model),
     })
 }
 
@@ -1059,7 +1054,15 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     let (ugr, room_surfaces, requirements) =
         room_checks(&field, &room, &plan, design, mf, opts, &desks);
     let (pass, fails_because) = requirements::verdict(&requirements);
-    let energy = energy_of(image, &plan, &luminaires, room_result.as_ref(), &desks, mf);
+    let energy = energy_of(
+        image,
+        &room,
+        &plan,
+        &luminaires,
+        room_result.as_ref(),
+        &desks,
+        mf,
+    );
     let results = Results {
         scene: room.section.scene_name.clone(),
         preset: room.section.preset.clone(),
@@ -1080,6 +1083,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         states: state_results,
         sensors: sensor_rows(image),
         ugr,
+        ugr_table: super::ugr_table::tables(&room),
         room_surfaces,
         requirements,
         desks_pass,
@@ -1096,7 +1100,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
     })
 }
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -1155,6 +1159,7 @@ pub fn html(r: &Report) -> String {
     html_states(&mut h, x);
     html_energy(&mut h, &x.energy);
     html_tables(&mut h, x);
+    super::ugr_table::html(&mut h, &x.ugr_table);
     html_tail(&mut h, x);
     h
 }
@@ -1170,8 +1175,8 @@ h1{{font-size:24px}}h2{{font-size:19px;border-bottom:1px solid #bbb;margin-top:1
 table{{border-collapse:collapse;margin:0.6em 0}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}\
 th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
 figure{{margin:1em 0}}img{{max-width:100%;border:1px solid #ddd}}figcaption{{color:#555}}\
-.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}\
-@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}\
+.ptgrid{{display:flex;flex-wrap:wrap;gap:0 2em}}.ptdesk{{display:grid;grid-template-columns:auto auto;gap:0 1em;align-items:start}}.ptdesk h3{{font-size:15px;grid-column:1/-1}}.pts td,.pts th{{padding:1px 6px}}tr.covered td{{color:#999;background:#eee;font-style:italic}}.pass{{color:#0a7a2a;font-weight:bold}}.fail{{color:#b00020;font-weight:bold}}.meta td{{text-align:left}}#requirements td{{text-align:left}}.ugr-table td,.ugr-table th{{padding:1px 5px;font-size:12px}}\
+@media print{{body{{margin:0;max-width:none;font-size:10pt}}h2{{break-after:avoid}}table,figure,.ptdesk{{break-inside:avoid}}.ugr-table td,.ugr-table th{{font-size:8pt;padding:1px 3px}}\
 img{{max-width:100%;border:none}}#imgstatus{{display:none}}th{{background:#eee;-webkit-print-color-adjust:exact;print-color-adjust:exact}}\
 @page{{size:A4;margin:12mm}}}}</style></head>\n<body data-images=\"pending\">\n",
         scene = esc(&x.scene)
@@ -1473,6 +1478,24 @@ fn html_energy(h: &mut String, e: &Energy) {
         );
     }
     h.push_str("</table>\n<p>LENI = (W<sub>L</sub> + W<sub>P</sub>)/A, W<sub>L</sub> = Σ P<sub>n</sub> F<sub>C</sub> (t<sub>D</sub> F<sub>O</sub> F<sub>D</sub> + t<sub>N</sub> F<sub>O</sub>)/1000.</p>\n");
+    if let Some(d) = &e.daylight {
+        let _ = writeln!(
+            h,
+            "<p>Daylight factors: {}.</p>\n<table id=\"daylight-factors\"><tr><th>sensor</th><th>desk</th><th>D (%)</th></tr>",
+            esc(d.scope)
+        );
+        for s in &d.sensors {
+            let desk = s
+                .desk
+                .map_or_else(|| "–".to_string(), |k| format!("desk {k}"));
+            let _ = writeln!(
+                h,
+                "<tr><td>S{}</td><td>{desk}</td><td>{:.2}</td></tr>",
+                s.sensor, s.d_pct
+            );
+        }
+        h.push_str("</table>\n");
+    }
 }
 
 /// The desk sensors, the surfaces and the luminaire schedule.
