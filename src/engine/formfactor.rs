@@ -17,6 +17,8 @@
 //!
 //! Rectification (physics.md §4): see [`rectify`]. Pairs that no ray connected stay exactly zero.
 
+use std::ops::Range;
+
 use glam::DVec3;
 use obvhs::ray::Ray;
 use rayon::prelude::*;
@@ -360,39 +362,214 @@ pub fn rectify(
 }
 
 /// Visits every entry `k` = (i, j) whose patches both take part, with the index `p` of the
-/// entry (j, i) when row j holds it (`None`: it does not).
+/// entry (j, i) when row j holds it (`None`: it does not). (The tests' whole-matrix walk.)
+#[cfg(test)]
+fn for_each_pair(
+    row_ptr: &[u32],
+    col: &[u32],
+    takes_part: &[bool],
+    pair: impl FnMut(usize, usize, usize, Option<usize>),
+) {
+    let n = row_ptr.len().saturating_sub(1);
+    walk_pairs(row_ptr, col, takes_part, (0..n, 0..n), pair);
+}
+
+/// Visits the entries `k` = (i, j) of rows i in `rows` with columns j in `cols` whose patches
+/// both take part, with the index `p` of the entry (j, i) when row j holds it (`None`: it does
+/// not).
 ///
 /// Without searching: rows are visited in order, so the entries (j, i) that row j holds for
 /// its partners i are met in increasing i, i.e. in the order of row j's sorted columns; one
 /// cursor per row walks them. O(nnz) with one step into row j per entry (a binary search per
 /// entry costs log(row length) cache misses once the matrix outgrows the cache).
-fn for_each_pair(
+fn walk_pairs(
     row_ptr: &[u32],
     col: &[u32],
     takes_part: &[bool],
+    (rows, cols): (Range<usize>, Range<usize>),
     mut pair: impl FnMut(usize, usize, usize, Option<usize>),
 ) {
-    let n = row_ptr.len().saturating_sub(1);
-    let mut cursor: Vec<u32> = row_ptr[..n].to_vec();
-    for i in (0..n).filter(|&i| takes_part[i]) {
-        for k in row_ptr[i] as usize..row_ptr[i + 1] as usize {
+    // the first entry of row r with a column ≥ c
+    let first_at_least = |r: usize, c: usize| -> usize {
+        let (a, b) = (row_ptr[r] as usize, row_ptr[r + 1] as usize);
+        a + col[a..b].partition_point(|&x| (x as usize) < c)
+    };
+    let mut cursor: Vec<u32> = cols
+        .clone()
+        .map(|j| first_at_least(j, rows.start) as u32)
+        .collect();
+    for i in rows.filter(|&i| takes_part[i]) {
+        for k in first_at_least(i, cols.start)..first_at_least(i, cols.end) {
             let j = col[k] as usize;
             if !takes_part[j] {
                 continue;
             }
             let end = row_ptr[j + 1] as usize;
-            let mut q = cursor[j] as usize;
+            let c = &mut cursor[j - cols.start];
+            let mut q = *c as usize;
             while q < end && (col[q] as usize) < i {
                 q += 1;
             }
-            cursor[j] = q as u32;
+            *c = q as u32;
             pair(i, j, k, (q < end && col[q] as usize == i).then_some(q));
         }
     }
 }
 
+/// Two disjoint runs of the values (rows of two row ranges), addressed by entry index.
+struct Vals<'a> {
+    lo: &'a mut [f64],
+    /// Entry index of `lo[0]`.
+    lo_at: usize,
+    hi: &'a mut [f64],
+    /// Entry index of `hi[0]` (every entry of `lo` is below it).
+    hi_at: usize,
+}
+
+impl Vals<'_> {
+    #[inline]
+    fn at(&mut self, k: usize) -> &mut f64 {
+        if k >= self.hi_at {
+            &mut self.hi[k - self.hi_at]
+        } else {
+            &mut self.lo[k - self.lo_at]
+        }
+    }
+}
+
+/// The pairs between patches of row ranges `a` and `b` (`a` below `b`, or the same range: the
+/// pairs within it), whose values `vals` holds: the ML exchange area of each pair in place
+/// (from the pair's lower row), and for an entry whose partner is missing, its own with 0 rays
+/// for the partner. Returns the missing entries as (row, column).
+fn exchange_block(
+    f: (&[u32], &[u32]),
+    takes_part: &[bool],
+    (area, n_rays): (&[f64], f64),
+    (a, b): (Range<usize>, Range<usize>),
+    mut vals: Vals<'_>,
+) -> Vec<(u32, u32)> {
+    let (row_ptr, col) = f;
+    let mut missing = Vec::new();
+    let mut pair = |i: usize, j: usize, k: usize, p: Option<usize>| match p {
+        Some(p) if j > i => {
+            let (f_ij, f_ji) = (*vals.at(k), *vals.at(p));
+            *vals.at(k) = ml_exchange_area(area[i], area[j], f_ij, f_ji, n_rays);
+            *vals.at(p) = ml_exchange_area(area[j], area[i], f_ji, f_ij, n_rays);
+        }
+        Some(_) => {}
+        None => {
+            let v = vals.at(k);
+            *v = ml_exchange_area(area[i], area[j], *v, 0.0, n_rays);
+            missing.push((j as u32, i as u32));
+        }
+    };
+    walk_pairs(row_ptr, col, takes_part, (a.clone(), b.clone()), &mut pair);
+    if a != b {
+        walk_pairs(row_ptr, col, takes_part, (b, a), &mut pair);
+    }
+    missing
+}
+
+/// Every pair's exchange area in place, on two threads: the rows are cut in four quarters of
+/// about equal entries, Q0 to Q3, and the pairs walked in three rounds of two blocks that share
+/// no row (within Q0 ∪ Q1 beside within Q2 ∪ Q3, Q0 × Q2 beside Q1 × Q3, Q0 × Q3 beside Q1 ×
+/// Q2), each pair in the one block that holds both its rows, so the values are those of one walk
+/// over the whole matrix. Returns the missing entries (row, column) and the quarters' first rows.
+fn exchange_pairs(
+    f: &mut Csr,
+    takes_part: &[bool],
+    area: &[f64],
+    n_rays: f64,
+) -> (Vec<Vec<(u32, u32)>>, [usize; 5]) {
+    let n = f.rows();
+    let nnz = f.nnz();
+    let Csr { row_ptr, col, val } = f;
+    let cut = |t: usize| {
+        row_ptr
+            .partition_point(|&r| (r as usize) < t * nnz / 4)
+            .min(n)
+    };
+    let q = [0, cut(1), cut(2), cut(3), n];
+    let e = q.map(|r| row_ptr[r] as usize);
+    let ctx = ((&row_ptr[..], &col[..]), takes_part, (area, n_rays));
+    let block = |a: Range<usize>, b: Range<usize>, vals: Vals<'_>| {
+        exchange_block(ctx.0, ctx.1, ctx.2, (a, b), vals)
+    };
+    let mut missing = Vec::with_capacity(6);
+    {
+        let (v01, v23) = val.split_at_mut(e[2]);
+        let (m0, m1) = rayon::join(
+            || {
+                block(
+                    q[0]..q[2],
+                    q[0]..q[2],
+                    Vals {
+                        lo: v01,
+                        lo_at: 0,
+                        hi: &mut [],
+                        hi_at: e[2],
+                    },
+                )
+            },
+            || {
+                block(
+                    q[2]..q[4],
+                    q[2]..q[4],
+                    Vals {
+                        lo: v23,
+                        lo_at: e[2],
+                        hi: &mut [],
+                        hi_at: e[4],
+                    },
+                )
+            },
+        );
+        missing.extend([m0, m1]);
+    }
+    for round in 0..2 {
+        let (v0, rest) = val.split_at_mut(e[1]);
+        let (v1, rest) = rest.split_at_mut(e[2] - e[1]);
+        let (v2, v3) = rest.split_at_mut(e[3] - e[2]);
+        // Q0 pairs with Q2 then Q3, Q1 with Q3 then Q2
+        let ((x, vx), (y, vy)) = if round == 0 {
+            ((2, v2), (3, v3))
+        } else {
+            ((3, v3), (2, v2))
+        };
+        let (m0, m1) = rayon::join(
+            || {
+                block(
+                    q[0]..q[1],
+                    q[x]..q[x + 1],
+                    Vals {
+                        lo: v0,
+                        lo_at: 0,
+                        hi: vx,
+                        hi_at: e[x],
+                    },
+                )
+            },
+            || {
+                block(
+                    q[1]..q[2],
+                    q[y]..q[y + 1],
+                    Vals {
+                        lo: v1,
+                        lo_at: e[1],
+                        hi: vy,
+                        hi_at: e[y],
+                    },
+                )
+            },
+        );
+        missing.extend([m0, m1]);
+    }
+    (missing, q)
+}
+
 /// Makes the pattern of `f` symmetric among taking-part patches and replaces the values of rows
-/// in play by exchange areas, m², in place and in one walk over the pairs: the ML common value
+/// in play by exchange areas, m², in place and in one walk over the pairs (on two threads:
+/// [`exchange_pairs`]): the ML common value
 /// of each pair ([`ml_exchange_area`] from the pair's two ray counts; a pair one of whose
 /// entries is missing counts 0 rays for it, and the entry is added with the same value),
 /// `A_i F_ij` for one-sided entries (toward a patch that takes no part). Rows not in play keep
@@ -401,7 +578,7 @@ fn for_each_pair(
 /// The ML value is symmetric in its two sides bit for bit (its sums and products only change
 /// operand order), so a missing entry (j, i) takes the value just written at (i, j). The
 /// missing entries are bucketed by row (counting sort, stable: each row's list comes out sorted,
-/// rows i being visited in order; 12 bytes per missing entry while they are placed); the arrays
+/// see below; 12 bytes per missing entry while they are placed); the arrays
 /// then grow by their number and each row, from the last back, is merged with its list from its
 /// end, so no entry is overwritten before it is read (a row only moves toward the end), each new
 /// entry's value read from its partner by a cursor per row ([`merge_back`]).
@@ -413,37 +590,30 @@ fn symmetric_exchange_areas(
     n_rays: f64,
 ) {
     let n = f.rows();
-    let mut missing: Vec<(u32, u32)> = Vec::new();
-    {
-        let Csr { row_ptr, col, val } = &mut *f;
-        for_each_pair(row_ptr, col, takes_part, |i, j, k, p| match p {
-            Some(p) if j > i => {
-                let (f_ij, f_ji) = (val[k], val[p]);
-                val[k] = ml_exchange_area(area[i], area[j], f_ij, f_ji, n_rays);
-                val[p] = ml_exchange_area(area[j], area[i], f_ji, f_ij, n_rays);
-            }
-            Some(_) => {}
-            None => {
-                val[k] = ml_exchange_area(area[i], area[j], val[k], 0.0, n_rays);
-                missing.push((j as u32, i as u32));
-            }
-        });
-    }
+    let (missing, q) = exchange_pairs(f, takes_part, area, n_rays);
     one_sided_exchange_areas(f, area, takes_part, in_play);
-    let mut start = vec![0u32; n + 1];
-    for &(j, _) in &missing {
-        start[j as usize + 1] += 1;
+    // counting sort on (row, quarter of the column): within one such bucket the entries come
+    // from one block, in increasing column, so each row's list comes out sorted
+    let key = |j: u32, i: u32| {
+        let i = i as usize;
+        4 * j as usize + usize::from(i >= q[1]) + usize::from(i >= q[2]) + usize::from(i >= q[3])
+    };
+    let mut start = vec![0u32; 4 * n + 1];
+    for &(j, i) in missing.iter().flatten() {
+        start[key(j, i) + 1] += 1;
     }
-    for k in 0..n {
+    for k in 0..4 * n {
         start[k + 1] += start[k];
     }
-    let mut extra = vec![0u32; missing.len()];
-    let mut fill = start[..n].to_vec();
-    for (j, i) in missing {
-        extra[fill[j as usize] as usize] = i;
-        fill[j as usize] += 1;
+    let mut extra = vec![0u32; start[4 * n] as usize];
+    let mut fill = start[..4 * n].to_vec();
+    for (j, i) in missing.into_iter().flatten() {
+        let b = &mut fill[key(j, i)];
+        extra[*b as usize] = i;
+        *b += 1;
     }
     drop(fill);
+    let start: Vec<u32> = start.into_iter().step_by(4).collect();
     let nnz = f.nnz() + extra.len();
     f.col.resize(nnz, 0);
     f.val.resize(nnz, 0.0);
