@@ -299,9 +299,11 @@ pub fn ml_exchange_area(a_i: f64, a_j: f64, f_ij: f64, f_ji: f64, n_rays: f64) -
 /// fewer than [`MIN_VISIBLE_FRACTION`] valid rays) have no partner; they scale with their row
 /// only.
 ///
-/// Cost: every step is O(nnz): the missing transposed entries and each entry's partner are
-/// found by one cursor per row (rows visited in order meet their partners in row order), the
-/// pattern grows in place by a backward merge per row, each closure pass is one sweep.
+/// Cost: every step is O(nnz): one walk over the pairs (on two threads) finds the missing
+/// transposed entries and each entry's partner by one cursor per row (rows visited in order meet
+/// their partners in row order) and sets the exchange areas, the pattern grows in place by a
+/// backward merge per row, each closure pass is one sweep, and one pass over rows (on two
+/// threads) applies the scaling and the guard and measures the errors.
 /// Memory: in place. The pattern's new entries (12 bytes each, plus 12 while they are
 /// placed) and a few bytes per patch beyond the CSR: the exchange areas replace the form factors
 /// in their own array, and an entry has a partner exactly when both of its patches take part
