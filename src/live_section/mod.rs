@@ -45,6 +45,13 @@ pub struct SectionOptions {
     /// 8 cm from a reference sensor and read it 18 % low; within it the fit's width narrows
     /// further at a shade's edge, [`window_sigma_m`]; docs/live.md).
     pub window_radius_m: f64,
+    /// A window with fewer than [`Self::window_min_pixels`] pixels within
+    /// [`Self::window_radius_m`] (a desk far across a fisheye's view, where one pixel spans
+    /// more than the window) widens to its nearest pixels, up to this radius, m; a desk whose
+    /// top no pixel sees within it is not measured.
+    pub window_max_radius_m: f64,
+    /// Pixels a window should hold before it stops widening.
+    pub window_min_pixels: usize,
     /// A window sample lies within this of the sensor's plane, m.
     pub window_plane_m: f64,
     /// Lowest reflectance of a sampled surface (darker surfaces amplify noise: π L / ρ).
@@ -63,6 +70,8 @@ impl Default for SectionOptions {
             stride: 0,
             budget_bytes: 600 * 1024,
             window_radius_m: 0.05,
+            window_max_radius_m: 0.10,
+            window_min_pixels: 4,
             window_plane_m: 0.03,
             min_rho: 0.02,
             emitter_cell_m: 1.5,
@@ -82,6 +91,14 @@ impl SectionOptions {
             return bad(format!(
                 "window radius {} m must be within 0.005..=1 m",
                 self.window_radius_m
+            ));
+        }
+        if !(self.window_max_radius_m.is_finite()
+            && (self.window_radius_m..=1.0).contains(&self.window_max_radius_m))
+        {
+            return bad(format!(
+                "largest window radius {} m must be within the window radius {} m and 1 m",
+                self.window_max_radius_m, self.window_radius_m
             ));
         }
         if !(self.window_plane_m.is_finite() && (0.001..=0.5).contains(&self.window_plane_m)) {
@@ -217,8 +234,11 @@ fn project(camera: &Camera, p: DVec3) -> Option<(f64, f64, f64)> {
 }
 
 /// The pixels of a sensor's window: surface points within `radius` of the sensor in its plane
-/// and within `plane_m` of the plane, on a patch facing the sensor's way. Empty when the camera
-/// does not see the sensor.
+/// and within `plane_m` of the plane, on a patch facing the sensor's way, as (pixel, x, y) in
+/// the plane. The radius is [`SectionOptions::window_radius_m`], widened to the
+/// [`SectionOptions::window_min_pixels`]-th nearest such point when fewer lie within it (up to
+/// [`SectionOptions::window_max_radius_m`]: a desk far across a wide lens, where one pixel spans
+/// more than the window). Empty when the camera does not see the sensor's plane there.
 fn window_pixels(
     camera: &Camera,
     hits: &[Option<PixelHit>],
@@ -231,7 +251,7 @@ fn window_pixels(
     };
     // pixels per metre at the sensor: f / z for a pinhole; a fisheye's is smaller than f / z
     // (for r = f θ: at most f θ / (D sin θ) < f / (D cos θ)), so this reach covers both
-    let reach_px = (o.window_radius_m * camera.fx.max(camera.fy) / z).ceil() + 2.0;
+    let reach_px = (o.window_max_radius_m * camera.fx.max(camera.fy) / z).ceil() + 2.0;
     let (w, h) = (f64::from(camera.width), f64::from(camera.height));
     let umin = (u0 - reach_px).floor().max(0.0);
     let umax = (u0 + reach_px).ceil().min(w - 1.0);
@@ -241,7 +261,7 @@ fn window_pixels(
         return Vec::new();
     }
     let n = sensor.normal;
-    let mut out = Vec::new();
+    let mut near: Vec<(f64, u32, f64, f64)> = Vec::new();
     for v in vmin as u32..=vmax as u32 {
         for u in umin as u32..=umax as u32 {
             let i = v * camera.width + u;
@@ -251,14 +271,26 @@ fn window_pixels(
             let d = hit.point - sensor.position_m;
             let along = d.dot(n);
             let inplane = d - n * along;
+            let r = inplane.length();
             if along.abs() <= o.window_plane_m
-                && inplane.length() <= o.window_radius_m
+                && r <= o.window_max_radius_m
                 && model.patches.normal[hit.patch as usize].dot(n) > 0.95
             {
-                out.push((i, inplane.x, inplane.y));
+                near.push((r, i, inplane.x, inplane.y));
             }
         }
     }
+    near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let kth = near
+        .get(o.window_min_pixels.saturating_sub(1))
+        .map_or(o.window_max_radius_m, |p| p.0);
+    let radius = kth.max(o.window_radius_m);
+    let mut out: Vec<(u32, f64, f64)> = near
+        .into_iter()
+        .filter(|p| p.0 <= radius)
+        .map(|(_, i, x, y)| (i, x, y))
+        .collect();
+    out.sort_by_key(|p| p.0);
     out
 }
 
@@ -466,7 +498,12 @@ fn calibrated_response(
                     Some((dx, dy, sum))
                 })
                 .collect();
-            let sigma_m = window_sigma_m(&all_on, w.len(), radius_m);
+            // a widened window's radius is its farthest pixel (as the estimator reads it)
+            let farthest = w
+                .iter()
+                .map(|&(_, dx, dy)| dx.hypot(dy))
+                .fold(0.0, f64::max);
+            let sigma_m = window_sigma_m(&all_on, w.len(), radius_m.max(farthest));
             (0..luminaires)
                 .map(|l| {
                     let pts: Vec<(f64, f64, f64)> = w
@@ -610,7 +647,7 @@ pub fn from_capture(
         .iter()
         .map(|(px, h)| (*px, h.patch as usize))
         .collect();
-    let response = calibrated_response(
+    let mut response = calibrated_response(
         &lay.window_px,
         |l, px| {
             let patch = *hit_of.get(&px)?;
@@ -621,6 +658,8 @@ pub fn from_capture(
         l_count,
         o.window_radius_m,
     );
+    let mut lay = lay;
+    drop_windows_that_miss_the_desk(c, &mut lay.windows, &mut response);
     let depth_mm = lay
         .samples
         .iter()
@@ -646,6 +685,38 @@ pub fn from_capture(
         patch_emitter: lay.patch_emitter,
         n_emitters: lay.n_emitters,
     })
+}
+
+/// Clears the window of a desk whose camera response is no reflectance error away from the
+/// model's ([`crate::live::desk_scale::camera_scale`] outside its range: the pixels are not the
+/// desk's light, say a widened window's far pixels on another object's top): the desk is then
+/// inferred, not measured from pixels that do not measure it.
+fn drop_windows_that_miss_the_desk(
+    c: &Commissioned,
+    windows: &mut [Vec<(u32, i16, i16)>],
+    response: &mut [Vec<f64>],
+) {
+    let model = &c.model;
+    for (s, (w, r)) in windows.iter_mut().zip(response.iter_mut()).enumerate() {
+        let Some(m) = model.response_lx.get(s) else {
+            continue;
+        };
+        let model_lx: f64 = m.iter().sum();
+        if w.is_empty() || model_lx <= 0.0 {
+            continue;
+        }
+        if crate::live::desk_scale::camera_scale(m, r).is_none() {
+            tracing::warn!(
+                "sensor {}: the camera's {} window pixels give {:.0} lx all on where the model \
+                 gives {model_lx:.0} lx: they do not measure the desk; it is inferred",
+                model.sensor_ids[s],
+                w.len(),
+                r.iter().sum::<f64>()
+            );
+            w.clear();
+            r.iter_mut().for_each(|v| *v = 0.0);
+        }
+    }
 }
 
 /// Each sensor's uncertainty parts per luminaire at 100 % (what commissioning inferred,
