@@ -10,7 +10,7 @@ use crate::store::Image;
 use super::emitters::{EmitterFit, placement_lx, robust_fit};
 use super::nnls::nnls_gram;
 use super::sky_fit::{SkyBasis, SkyCoefficients};
-use super::window::window_sigma_m;
+use super::window::{farthest_m, window_sigma_m};
 use super::{LiveError, flags};
 use crate::sky::UnixTime;
 
@@ -402,10 +402,7 @@ impl LiveModel {
                 // the residual's Gaussian weights: twice the commissioned fit's width (5 cm in
                 // the open, narrower by a shade's edge: window::window_sigma_m on the
                 // commissioned all-on irradiance; the window's radius is its farthest pixel)
-                let radius_m = entries
-                    .iter()
-                    .map(|&(_, dx, dy)| dx.hypot(dy))
-                    .fold(0.0, f64::max);
+                let radius_m = farthest_m(entries.iter().map(|&(_, dx, dy)| (dx, dy)));
                 let all_on: Vec<(f64, f64, f64)> = entries
                     .iter()
                     .map(|&(i, dx, dy)| {

@@ -46,6 +46,16 @@ pub fn plane_at_origin(points: &[(f64, f64, f64)], sigma_m: f64) -> Option<f64> 
     Some(if a.is_finite() { a } else { mean })
 }
 
+/// A window's radius as its pixels give it: the farthest pixel's in-plane distance from the
+/// sensor, m (0 for no pixels). Commissioning and live light read a widened window's width
+/// from it.
+pub fn farthest_m(offsets_m: impl IntoIterator<Item = (f64, f64)>) -> f64 {
+    offsets_m
+        .into_iter()
+        .map(|(dx, dy)| dx.hypot(dy))
+        .fold(0.0, f64::max)
+}
+
 /// Gaussian σ of a window's plane fit, as fractions of the window radius, widest first.
 pub const SIGMA_LADDER: [f64; 4] = [0.5, 0.35, 0.25, 0.175];
 /// Two widths whose fits at the sensor differ by more than this (relative) disagree: the

@@ -31,7 +31,7 @@ use crate::store::live::{CameraRecord, MAX_EMITTERS, NO_EMITTER, live_source};
 use crate::store::sensor_flags;
 
 use crate::live::LiveError;
-use crate::live::window::{plane_at_origin, window_sigma_m};
+use crate::live::window::{farthest_m, plane_at_origin, window_sigma_m};
 
 /// Knobs of the section.
 #[derive(Debug, Clone, PartialEq)]
@@ -499,10 +499,7 @@ fn calibrated_response(
                 })
                 .collect();
             // a widened window's radius is its farthest pixel (as the estimator reads it)
-            let farthest = w
-                .iter()
-                .map(|&(_, dx, dy)| dx.hypot(dy))
-                .fold(0.0, f64::max);
+            let farthest = farthest_m(w.iter().map(|&(_, dx, dy)| (dx, dy)));
             let sigma_m = window_sigma_m(&all_on, w.len(), radius_m.max(farthest));
             (0..luminaires)
                 .map(|l| {
@@ -615,7 +612,7 @@ pub fn from_capture(
     let model = &c.model;
     let l_count = model.luminaires();
     let glazing = crate::commission::glazing_patches(c);
-    let lay = layout(
+    let mut lay = layout(
         camera,
         model,
         &c.scene.sensors,
@@ -658,7 +655,6 @@ pub fn from_capture(
         l_count,
         o.window_radius_m,
     );
-    let mut lay = lay;
     drop_windows_that_miss_the_desk(c, &mut lay.windows, &mut response);
     let depth_mm = lay
         .samples
