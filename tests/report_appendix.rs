@@ -184,7 +184,8 @@ fn office_a_report_has_the_ugr_table_appendix() {
 /// sensor's daylight factor under the CIE overcast sky. Checked against the test's own sum over
 /// the image's coefficients with the overcast sky written out here (`L = L_z (1 + 2 sin h)/3`,
 /// `E_out = 7π L_z / 9` in closed form, the ground `ρ_g E_out / π`): within 1.5 % (the report
-/// takes E_out as the Tregenza sum, 0.4 % from the closed form). F_D stays 1 with the reason.
+/// takes E_out as the Tregenza sum, 0.4 % from the closed form). F_D is the node's control over
+/// a year from those factors, and LENI counts it.
 #[test]
 fn a_daylight_section_gives_each_desk_sensor_its_daylight_factor() {
     use std::process::Command;
@@ -262,12 +263,27 @@ fn a_daylight_section_gives_each_desk_sensor_its_daylight_factor() {
     }
     assert!(on_desks > 0, "{day}");
     let a = &json["energy"]["assumptions"];
-    assert_eq!(a["f_d"].as_f64(), Some(1.0));
+    // F_D from the node's control over a year (render::daylight_year's closed-form tests):
+    // office_a's 6 m² window at 47.4° N saves about a quarter over the daylight hours
+    let f_d = a["f_d"].as_f64().unwrap();
+    let year = &json["energy"]["daylight_year"];
+    let ratio = year["with_daylight_kwh"].as_f64().unwrap()
+        / year["without_daylight_kwh"].as_f64().unwrap();
+    assert!((f_d - ratio).abs() < 1e-12, "{f_d} vs {year}");
+    assert!((0.6..0.95).contains(&f_d), "{f_d}");
     let why = a["f_d_source"].as_str().unwrap();
     assert!(
-        why.contains("not computed") && why.contains("daylight factor"),
+        why.contains("daylight factor") && why.contains("overcast"),
         "{why}"
     );
+    // and LENI's W_L counts it: Σ P_n F_C (t_D F_O F_D + t_N F_O) / 1000
+    let e = &json["energy"];
+    let f = |k: &str| a[k].as_f64().unwrap();
+    let w_l = e["installed_w"].as_f64().unwrap()
+        * f("f_c")
+        * (f("t_d_h") * f("f_o") * f_d + f("t_n_h") * f("f_o"))
+        / 1000.0;
+    assert!((e["w_l_kwh"].as_f64().unwrap() / w_l - 1.0).abs() < 1e-9);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("id=\"daylight-factors\""));
 }

@@ -11,11 +11,10 @@
 //! factor, and any daylight saving computed from it errs toward less saving.
 //!
 //! **F_D.** EN 15193-1's daylight supply method turns D into the daylight dependency factor
-//! through its tables (the daylight availability classes, the supply factor `F_D,S = a + b ·
-//! latitude` per class and maintained illuminance, the control factor `F_D,C` per control
-//! type). Those coefficients are not among this build's sources (the standard is not held;
-//! no restatement of its tables was found to check them against), so F_D is not computed from
-//! D: the report keeps `F_D = 1` (no daylight saving counted) and says why ([`F_D_NOT_COMPUTED`]).
+//! through its tables (daylight availability classes, a supply factor per class and latitude, a
+//! control factor per control type). Those tables are not among this build's sources, so F_D is
+//! computed by the hourly route instead, from these daylight factors and the node's own
+//! controller over a year ([`super::daylight_year`]).
 
 use serde::Serialize;
 
@@ -23,9 +22,6 @@ use crate::image_geometry::Room;
 use crate::sky::{PATCH_COUNT, SkyModel, patches};
 use crate::store::DaylightCoefficients;
 use crate::store::daylight::COLUMNS;
-
-/// Why F_D is not computed from the daylight factor.
-pub const F_D_NOT_COMPUTED: &str = "EN 15193-1's daylight supply tables (the supply factor F_D,S = a + b·latitude per daylight availability class and maintained illuminance, the control factor F_D,C of automatic daylight-responsive dimming) are not among this build's sources, and a value from memory is not published";
 
 /// The CIE overcast sky (Moon and Spencer, the daylight factor's sky) as the section's columns:
 /// each Tregenza patch's luminance for a zenith luminance of 1 cd/m², and the ground's

@@ -12,7 +12,8 @@
 
 use serde::Serialize;
 
-use super::daylight_factor::{DaylightSupply, F_D_NOT_COMPUTED};
+use super::daylight_factor::DaylightSupply;
+use super::daylight_year::DaylightYear;
 use crate::control::{DEFAULT_EFFICACY_LM_PER_W, DEFAULT_STANDBY_W};
 
 /// EN 15193-1's default annual daylight-time operating hours of an office, h.
@@ -86,6 +87,9 @@ pub struct Energy {
     pub assumptions: Assumptions,
     /// The desks' daylight factors from the image's daylight coefficients (null without them).
     pub daylight: Option<DaylightSupply>,
+    /// The year of the node's daylight control `F_D` comes from (null without daylight
+    /// coefficients).
+    pub daylight_year: Option<DaylightYear>,
 }
 
 /// What the energy figures are computed from.
@@ -102,12 +106,18 @@ pub struct EnergyInput<'a> {
     pub maintenance_factor: f64,
     /// The daylight factors at the desk sensors, when the image holds daylight coefficients.
     pub daylight: Option<DaylightSupply>,
+    /// The node's daylight control over a year ([`super::daylight_year`]), when computed.
+    pub daylight_year: Option<DaylightYear>,
 }
 
 /// The default office assumptions for a maintenance factor and the daylight known.
-pub fn office_assumptions(mf: f64, daylight: Option<&DaylightSupply>) -> Assumptions {
-    let f_d_source = match daylight {
-        Some(d) => {
+pub fn office_assumptions(
+    mf: f64,
+    daylight: Option<&DaylightSupply>,
+    year: Option<&DaylightYear>,
+) -> Assumptions {
+    let (f_d, f_d_source) = match (daylight, year) {
+        (Some(d), Some(y)) => {
             let (lo, hi) = d
                 .sensors
                 .iter()
@@ -119,14 +129,30 @@ pub fn office_assumptions(mf: f64, daylight: Option<&DaylightSupply>) -> Assumpt
             } else {
                 format!("daylight factor {lo:.2}-{hi:.2} % at the desk sensors (a lower bound)")
             };
-            format!(
-                "the image holds daylight coefficients ({:.2} m² of window, latitude {:.1}°): \
-                 {range}; F_D is not computed from it: {F_D_NOT_COMPUTED}. F_D = 1 (no daylight \
-                 saving counted)",
-                d.window_area_m2, d.latitude_deg
+            (
+                y.f_d,
+                format!(
+                    "the node's daylight-responsive control ({:.2} m² of window, latitude \
+                     {:.1}°, {range}), computed {}; {:.0} of the {:.0} working hours in \
+                     daylight",
+                    d.window_area_m2,
+                    d.latitude_deg,
+                    y.method,
+                    y.daylight_hours_h,
+                    y.working_hours_h
+                ),
             )
         }
-        None => "no daylight supply known: F_D = 1".into(),
+        (Some(_), None) => (
+            1.0,
+            "the image holds daylight coefficients but the year of its control could not be \
+             computed: F_D = 1 (no daylight saving counted)"
+                .into(),
+        ),
+        (None, _) => (
+            1.0,
+            "no daylight supply known (no room plan windows in the image): F_D = 1".into(),
+        ),
     };
     Assumptions {
         t_d_h: OFFICE_T_D_H,
@@ -142,7 +168,7 @@ pub fn office_assumptions(mf: f64, daylight: Option<&DaylightSupply>) -> Assumpt
                      (automatic on / automatic off) in an office, absence factor F_A = 0.2 \
                      (so F_O = F_OC)"
             .into(),
-        f_d: 1.0,
+        f_d,
         f_d_source,
         standby_w_per_luminaire: DEFAULT_STANDBY_W,
         standby_h: YEAR_H - OFFICE_T_D_H - OFFICE_T_N_H,
@@ -156,7 +182,11 @@ fn positive(v: f64) -> Option<f64> {
 
 /// The energy figures of an installation.
 pub fn energy(input: &EnergyInput<'_>) -> Energy {
-    let a = office_assumptions(input.maintenance_factor, input.daylight.as_ref());
+    let a = office_assumptions(
+        input.maintenance_factor,
+        input.daylight.as_ref(),
+        input.daylight_year.as_ref(),
+    );
     let installed_w: f64 = input.powers_w.iter().filter(|p| p.is_finite()).sum();
     let hours_h = a.t_d_h * a.f_o * a.f_d + a.t_n_h * a.f_o;
     let w_l_kwh = installed_w * a.f_c * hours_h / 1000.0;
@@ -197,6 +227,7 @@ pub fn energy(input: &EnergyInput<'_>) -> Energy {
         }),
         assumptions: a,
         daylight: input.daylight.clone(),
+        daylight_year: input.daylight_year.clone(),
     }
 }
 
@@ -212,6 +243,7 @@ mod tests {
             em: Some((500.0, "room".into())),
             maintenance_factor: 0.8,
             daylight: None,
+            daylight_year: None,
         }
     }
 

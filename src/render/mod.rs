@@ -5,6 +5,7 @@
 
 pub mod camera_view;
 pub mod daylight_factor;
+pub mod daylight_year;
 pub mod energy;
 pub mod glare;
 pub mod map;

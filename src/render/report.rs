@@ -960,7 +960,7 @@ fn energy_of(
     luminaires: &[LuminaireRow],
     room: Option<&AreaResult>,
     desks: &[DeskResult],
-    mf: f64,
+    (mf, target_lx): (f64, f64),
 ) -> Energy {
     let powers_w: Vec<f64> = luminaires.iter().filter_map(|l| l.power_w).collect();
     let task = || {
@@ -986,14 +986,69 @@ fn energy_of(
             )
         })
         .or_else(task);
+    let daylight = super::daylight_factor::of_image(image.daylight.as_ref(), room_model);
+    let daylight_year = daylight
+        .as_ref()
+        .and_then(|d| daylight_year_of(image, d, target_lx));
     energy::energy(&EnergyInput {
         powers_w: &powers_w,
         power_assumed: luminaires.iter().any(|l| l.power_assumed),
         floor_area_m2: plan.floor_area_m2,
         em,
         maintenance_factor: mf,
-        daylight: super::daylight_factor::of_image(image.daylight.as_ref(), room_model),
+        daylight,
+        daylight_year,
     })
+}
+
+/// The node's daylight control over a year at the image's site, every desk sensor (every
+/// sensor when none lies on a desk) held at the activity's `Ēm` (`None` when the controller
+/// refuses the image's numbers).
+fn daylight_year_of(
+    image: &Image<'_>,
+    daylight: &super::daylight_factor::DaylightSupply,
+    target_lx: f64,
+) -> Option<super::daylight_year::DaylightYear> {
+    use crate::control::{LuminairePower, Plant, rating::rated_powers};
+    let site = image.daylight.as_ref()?;
+    let l = image.luminaires();
+    if daylight.sensors.len() != image.sensors() {
+        return None;
+    }
+    let on_desk: Vec<usize> = (0..daylight.sensors.len())
+        .filter(|&k| daylight.sensors[k].desk.is_some())
+        .collect();
+    let rows: Vec<usize> = if on_desk.is_empty() {
+        (0..daylight.sensors.len()).collect()
+    } else {
+        on_desk
+    };
+    let response: Vec<f64> = rows
+        .iter()
+        .flat_map(|&k| (0..l).map(move |j| image.response_lx(k, j)))
+        .collect();
+    let power: Vec<LuminairePower> = rated_powers(image)
+        .into_iter()
+        .map(LuminairePower::rated)
+        .collect();
+    let d: Vec<f64> = rows
+        .iter()
+        .map(|&k| daylight.sensors[k].d_pct / 100.0)
+        .collect();
+    super::daylight_year::daylight_dependency(&super::daylight_year::YearInput {
+        plant: Plant {
+            desks: rows.len(),
+            luminaires: l,
+            response_lx: &response,
+            power: &power,
+            curve: crate::dali::DimmingCurve::Logarithmic,
+        },
+        target_lx: &vec![target_lx; rows.len()],
+        daylight_factor: &d,
+        latitude_deg: site.latitude_deg,
+        longitude_deg: site.longitude_deg,
+    })
+    .ok()
 }
 
 /// Computes the report of an image: the states checked, the dense field, the desks' and the
@@ -1061,7 +1116,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         &luminaires,
         room_result.as_ref(),
         &desks,
-        mf,
+        (mf, opts.requirement.e_m_lx),
     );
     let results = Results {
         scene: room.section.scene_name.clone(),
