@@ -118,9 +118,12 @@ pub fn office_assumptions(
 ) -> Assumptions {
     let (f_d, f_d_source) = match (daylight, year) {
         (Some(d), Some(y)) => {
+            // the desk sensors the year holds at the target (every sensor when none is on a desk)
+            let any_desk = d.sensors.iter().any(|s| s.desk.is_some());
             let (lo, hi) = d
                 .sensors
                 .iter()
+                .filter(|s| s.desk.is_some() || !any_desk)
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
                     (a.min(s.d_pct), b.max(s.d_pct))
                 });
