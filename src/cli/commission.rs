@@ -54,9 +54,10 @@ pub struct Args {
     /// Close the room (inferred floor, walls, ceiling).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     closure: OnOff,
-    /// Reflectance of the inferred walls.
-    #[arg(long, value_name = "RHO", default_value_t = commission::ClosureOptions::default().wall_rho)]
-    wall_rho: f64,
+    /// Reflectance of the inferred walls [if absent: the seen walls' when the camera saw enough
+    /// wall, else 0.5]
+    #[arg(long, value_name = "RHO")]
+    wall_rho: Option<f64>,
     /// Reflectance of the inferred ceiling.
     #[arg(long, value_name = "RHO", default_value_t = commission::ClosureOptions::default().ceiling_rho)]
     ceiling_rho: f64,
@@ -193,7 +194,10 @@ impl Args {
             ReflectanceMethodArg::Median => ReflectanceMethod::Median,
             ReflectanceMethodArg::Sh => ReflectanceMethod::SphericalHarmonics,
         };
-        o.closure.wall_rho = self.wall_rho;
+        if let Some(rho) = self.wall_rho {
+            o.closure.wall_rho = rho;
+            o.closure.wall_rho_from_seen = false;
+        }
         o.closure.ceiling_rho = self.ceiling_rho;
         o.closure.ceiling_z_m = self.ceiling_height;
         o.closure.room_xy_m = self.room.map(|r| r.0);
@@ -415,13 +419,18 @@ fn print_report(c: &commission::Commissioned) -> Result<()> {
         );
     }
     println!(
-        "reflectances: gain {:.5} cd/m² per unit, {} pixels, floor {}, {} clamped",
+        "reflectances: gain {:.5} cd/m² per unit, {} pixels, floor {}, {} clamped{}",
         r.reflectance.gain_cd_m2_per_unit,
         r.reflectance.pixels_used,
         r.reflectance
             .floor_rho
             .map_or("-".into(), |v| format!("{v:.3}")),
-        r.reflectance.clamped
+        r.reflectance.clamped,
+        r.reflectance
+            .walls_rho
+            .map_or(String::new(), |(v, n)| format!(
+                ", unseen walls {v:.3} (the seen walls' {n} pixels)"
+            ))
     );
     if let Some(f) = &r.reflectance_fit {
         println!("{f}");

@@ -33,6 +33,9 @@ pub struct ClosureOptions {
     pub enabled: bool,
     /// Reflectance given to the walls.
     pub wall_rho: f64,
+    /// The walls nobody saw take the seen walls' reflectance instead of `wall_rho` when the
+    /// camera saw enough wall (`reflectance::MIN_SEEN_WALL_PIXELS`).
+    pub wall_rho_from_seen: bool,
     /// Reflectance given to the ceiling.
     pub ceiling_rho: f64,
     /// Room box in the world (x0, y0, x1, y1), m; None: inferred.
@@ -48,6 +51,7 @@ impl Default for ClosureOptions {
         Self {
             enabled: true,
             wall_rho: 0.5,
+            wall_rho_from_seen: true,
             ceiling_rho: 0.7,
             room_xy_m: None,
             ceiling_z_m: None,

@@ -863,6 +863,8 @@ fn with_readings(
     }
     let mut plain = o.clone();
     plain.readings.clear();
+    // the readings set the walls: both runs keep the default the fit is taken about
+    plain.closure.wall_rho_from_seen = false;
     let first = from_captures(
         captures,
         luminaires.clone(),
@@ -1470,6 +1472,7 @@ struct Estimator<'a> {
     start_rho: &'a [f64],
     floor_part: Option<Part>,
     tops_seen: Vec<Part>,
+    walls_seen: Vec<Part>,
     pass: Settings,
     o: &'a ReflectanceOptions,
 }
@@ -1483,7 +1486,7 @@ impl Estimator<'_> {
             self.reco,
             self.start_rho,
             self.floor_part,
-            &self.tops_seen,
+            (&self.tops_seen, &self.walls_seen),
             gain,
             &self.pass,
             self.o,
@@ -1550,6 +1553,7 @@ fn estimate_reflectances(
         start_rho,
         floor_part: meshed.floor_idx.map(|k| Part::Plane(k as u32)),
         tops_seen,
+        walls_seen: walls_seen(i, meshed),
         pass,
         o: &o.reflectance,
     };
@@ -1583,6 +1587,27 @@ fn estimate_reflectances(
     report.reflectance = e;
     st.done(report);
     Ok(Reflectances { tri_rho, reading })
+}
+
+/// The seen planes on the room's walls, whose reflectance the walls nobody saw take (none when
+/// the walls' reflectance is given: `--wall-rho`, the room plan's, a luxmeter refit's).
+fn walls_seen(i: &Inputs, meshed: &Meshed) -> Vec<Part> {
+    let given = !i.o.closure.wall_rho_from_seen
+        || i.o.room_plan.as_ref().is_some_and(|p| p.wall_rho.is_some());
+    let Some(room) = meshed.room.as_ref().filter(|_| !given) else {
+        return Vec::new();
+    };
+    meshed
+        .plane_at
+        .iter()
+        .enumerate()
+        .filter(|&(k, &(n, origin))| {
+            Some(k) != meshed.floor_idx
+                && n.z.abs() < 0.1
+                && !closure::is_thin_object(room, n, origin)
+        })
+        .map(|(k, _)| Part::Plane(k as u32))
+        .collect()
 }
 
 /// With [`Gain::Ambient`]: the sensor's gain straight from the frames, where it sees only what

@@ -131,7 +131,14 @@ pub struct Estimate {
     pub gain_cd_m2_per_unit: f64,
     /// Median reflectance of the floor plane's pixels (for the inferred floor).
     pub floor_rho: Option<f64>,
+    /// Median reflectance of the seen walls' pixels, when the walls nobody saw took it
+    /// ([`MIN_SEEN_WALL_PIXELS`] or more of them), and how many pixels.
+    pub walls_rho: Option<(f64, usize)>,
 }
+
+/// The walls nobody saw take the seen walls' reflectance from this many of their pixels on
+/// (a few hundred pixels: a strip of wall at the image's edge; fewer keep the default).
+pub const MIN_SEEN_WALL_PIXELS: usize = 200;
 
 fn median(v: &mut [f64]) -> Option<f64> {
     if v.is_empty() {
@@ -465,8 +472,10 @@ fn sh_pixels(
 /// Per-triangle reflectances for a gain, iterating with interreflections. `tri_rho` holds the
 /// starting values (unseen triangles keep theirs, except the inferred floor, which takes the
 /// seen floor's, thin objects' hidden faces, which take their seen face's, and inferred desk
-/// tops, which take the seen furniture tops' `tops_seen`). `floor_plane`: the part of the floor
-/// plane.
+/// tops, which take the seen furniture tops' `tops_seen`, and, when `walls_seen` names the
+/// seen planes on the room's walls and they hold [`MIN_SEEN_WALL_PIXELS`] pixels, the walls
+/// nobody saw, which take theirs: a room's walls are most often one paint). `floor_plane`: the
+/// part of the floor plane.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate(
     samples: &Samples,
@@ -474,7 +483,7 @@ pub fn estimate(
     reco: &RecoMesh,
     tri_rho_start: &[f64],
     floor_plane: Option<Part>,
-    tops_seen: &[Part],
+    (tops_seen, walls_seen): (&[Part], &[Part]),
     gain: f64,
     settings: &Settings,
     o: &ReflectanceOptions,
@@ -538,6 +547,15 @@ pub fn estimate(
             .copied()
             .collect();
         let desk_rho = median(&mut top_px);
+        let mut wall_px: Vec<f64> = walls_seen
+            .iter()
+            .filter_map(|p| by_part.get(p))
+            .flatten()
+            .copied()
+            .collect();
+        out.walls_rho = (wall_px.len() >= MIN_SEEN_WALL_PIXELS)
+            .then(|| median(&mut wall_px).map(|r| (r.clamp(o.rho_min, o.rho_max), wall_px.len())))
+            .flatten();
         let part_median: std::collections::HashMap<Part, f64> = by_part
             .into_iter()
             .map(|(k, mut v)| (k, median(&mut v).unwrap_or(global)))
@@ -559,6 +577,8 @@ pub fn estimate(
                 out.floor_rho.unwrap_or(global)
             } else if part == Part::DeskFill {
                 desk_rho.unwrap_or(tri_rho_start[t])
+            } else if part == Part::Wall {
+                out.walls_rho.map_or(tri_rho_start[t], |(r, _)| r)
             } else if let Part::HiddenFace(k) = part {
                 // the seen face's material
                 part_median.get(&Part::Plane(k)).copied().unwrap_or(global)
