@@ -1257,6 +1257,7 @@ fn the_pose_check_refuses_exactly_the_poses_that_do_not_fit() {
 /// 0.60 within 0.03, and the sensors' modelled light with every luminaire on is closer to the
 /// world's own (the sim engine on the true scene) than with the walls at the 0.5 default: mean
 /// |error| at most 0.7 of it (measured: walls 0.610 from 5478 pixels, 1.14 % against 2.25 %).
+#[cfg(feature = "sim")]
 #[test]
 fn the_unseen_walls_take_the_seen_walls_reflectance() {
     use luxnode::camera::{SequenceOptions, capture_sequence_with};
