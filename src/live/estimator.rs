@@ -827,6 +827,14 @@ const S_VALID: u8 = 1;
 const S_SATURATED: u8 = 2;
 const S_OCCLUDED: u8 = 4;
 const S_NO_DEPTH: u8 = 8;
+/// A valid sample lit mostly by light the luminaires do not give (a window's glass by day, a
+/// sun patch): more than [`OTHER_LIGHT_OVER_ARTIFICIAL`] times theirs.
+const S_OTHER_LIGHT: u8 = 16;
+/// See [`S_OTHER_LIGHT`]: a surface whose luminance the luminaires set at commissioning and
+/// something else sets now is a light source in this frame, not the room's texture, and its
+/// edges with its neighbours say nothing of the view (room_08's glazing, seen by a tilted node:
+/// dark at night, 80 klx by day).
+const OTHER_LIGHT_OVER_ARTIFICIAL: f64 = 3.0;
 
 impl Live {
     /// Live light over a model, all ageing factors 1.
@@ -1226,7 +1234,11 @@ impl Live {
                 state |= S_VALID;
                 c.used += 1;
                 let meas = g * f64::from(v) * self.model.pi_over_rho[i];
-                self.d[i] = meas - self.sample_artificial_lx(i, wa);
+                let art = self.sample_artificial_lx(i, wa);
+                self.d[i] = meas - art;
+                if self.d[i] > OTHER_LIGHT_OVER_ARTIFICIAL * art {
+                    state |= S_OTHER_LIGHT;
+                }
             }
             self.state[i] = state;
         }
@@ -1274,7 +1286,15 @@ impl Live {
             return Verdict::NotThisRoom;
         }
         match self.edge_agreement(frame) {
-            Some((agree, _)) if agree < EDGE_MIN_AGREEMENT => Verdict::NotThisRoom,
+            // a light source in this frame (a window's glass by day, seen by a tilted node)
+            // turns its edges: the edges between surfaces the luminaires light decide, when
+            // enough of them are left (noise leaves too few)
+            Some((agree, _)) if agree < EDGE_MIN_AGREEMENT => {
+                match self.edges_agreeing(frame, true) {
+                    Some((a, _)) if a >= EDGE_MIN_AGREEMENT => Verdict::Ok,
+                    _ => Verdict::NotThisRoom,
+                }
+            }
             _ => Verdict::Ok,
         }
     }
@@ -1285,10 +1305,22 @@ impl Live {
     /// centimetres apart and the surfaces' reflectance does not change, so a view of this
     /// room keeps its edges whatever the daylight; another view keeps half by chance.
     pub fn edge_agreement(&self, frame: &LiveFrame<'_>) -> Option<(f64, usize)> {
+        self.edges_agreeing(frame, false)
+    }
+
+    /// [`Self::edge_agreement`], leaving out the edges of samples lit mostly by other light
+    /// ([`S_OTHER_LIGHT`]) when `skip_other_light`.
+    fn edges_agreeing(
+        &self,
+        frame: &LiveFrame<'_>,
+        skip_other_light: bool,
+    ) -> Option<(f64, usize)> {
         let (mut agree, mut count) = (0usize, 0usize);
         for &(i, j, ln_ref) in &self.model.edges {
             let (i, j) = (i as usize, j as usize);
-            if self.state[i] & self.state[j] & S_VALID == 0 {
+            if self.state[i] & self.state[j] & S_VALID == 0
+                || (skip_other_light && (self.state[i] | self.state[j]) & S_OTHER_LIGHT != 0)
+            {
                 continue;
             }
             let (a, b) = (
