@@ -1181,3 +1181,51 @@ fn a_window_bright_by_day_in_view_is_not_another_room() {
         }
     }
 }
+
+/// Before the camera's first frame is taken (boot; a camera that never answered; every frame
+/// refused) the daylight is not known, day or night: every desk publishes its artificial light
+/// and the total and daylight as not available (NaN, flags not estimated and daylight unknown),
+/// never the model's light as the total with the daylight at 0 lx (issue 28 item 4).
+#[test]
+fn before_the_first_frame_the_daylight_is_not_known() {
+    let mut live = live_state();
+    for d in live.desks() {
+        assert!(d.total_lx.is_nan() && d.uncertainty_lx.is_nan(), "{d:?}");
+        assert_ne!(d.flags & flags::DAYLIGHT_UNKNOWN, 0, "{d:?}");
+    }
+    let n = rig().world.luminaire_ids().len();
+    let levels = vec![1.0; n];
+    let (w, h) = live.model().frame_size();
+    let dark = vec![0u16; (w * h) as usize];
+    // a dark frame (the lens covered) and no frame at all
+    live.update(&lf(w, h, &dark, 0.02, None, 1.0), &levels, 1.0)
+        .unwrap();
+    assert_eq!(live.report().unwrap().verdict, Verdict::Dark);
+    for step in 0..2 {
+        let desks = if step == 0 {
+            live.desks().to_vec()
+        } else {
+            live.no_frame(&levels, 2.0).unwrap().to_vec()
+        };
+        for d in &desks {
+            assert!(d.total_lx.is_nan() && d.daylight_lx.is_nan(), "{d:?}");
+            assert!(
+                d.artificial_lx.is_finite() && d.artificial_lx > 0.0,
+                "{d:?}"
+            );
+            let f = flags::DAYLIGHT_UNKNOWN | flags::NOT_ESTIMATED | flags::HELD;
+            assert_eq!(d.flags & f, f, "{d:?}");
+            assert_eq!(d.source, Source::Model);
+        }
+    }
+    // the first frame taken sets them
+    let f = frame(&levels, &WorldExtras::default());
+    update(&mut live, &f, &levels, 3.0);
+    for d in live.desks() {
+        assert!(
+            d.total_lx.is_finite() && d.uncertainty_lx.is_finite(),
+            "{d:?}"
+        );
+        assert_eq!(d.flags & flags::DAYLIGHT_UNKNOWN, 0, "{d:?}");
+    }
+}

@@ -842,15 +842,14 @@ impl Live {
         settings.validate()?;
         let (s, l, n) = (model.sensors(), model.luminaires(), model.samples());
         let desks = (0..s)
-            .map(|k| DeskLive {
-                id: model.ids[k],
-                total_lx: 0.0,
-                artificial_lx: 0.0,
-                daylight_lx: 0.0,
-                uncertainty_lx: 0.0,
-                source: Source::Model,
-                flags: flags::HELD,
-                frame_age_s: 0.0,
+            // nothing known before the first update: not available, never 0 ± 0
+            .map(|k| {
+                DeskLive::not_estimated(
+                    model.ids[k],
+                    Source::Model,
+                    flags::HELD | flags::DAYLIGHT_UNKNOWN,
+                    0.0,
+                )
             })
             .collect();
         let n_p = model.rho.len();
@@ -1021,18 +1020,31 @@ impl Live {
         Ok(&self.desks)
     }
 
-    /// Desk `s` from its held daylight (or none: the model alone).
+    /// Desk `s` from its held daylight; before any frame was taken, its artificial light
+    /// alone, the total and the daylight not available ([`flags::DAYLIGHT_UNKNOWN`]).
     fn hold(&mut self, s: usize, levels: &[f64], now_s: f64, f: u16) {
         let art = self.artificial(s, levels);
         let mut f = f | flags::HELD;
         if self.ageing_flag(s) {
             f |= flags::AGEING;
         }
-        let (daylight, age, unc, source) = match self.held[s].daylight {
-            Some((d, t, u)) => (d, (now_s - t).max(0.0), u, self.desks[s].source),
-            None => (0.0, 0.0, 0.0, Source::Model),
+        let Some((daylight, t, unc)) = self.held[s].daylight else {
+            // no frame taken yet: the luminaires' light is known, the daylight is not (it
+            // may be night or noon): published as not available, never as 0 lx
+            self.desks[s] = DeskLive {
+                id: self.model.ids[s],
+                total_lx: f64::NAN,
+                artificial_lx: finite_or(art, f64::NAN),
+                daylight_lx: f64::NAN,
+                uncertainty_lx: f64::NAN,
+                source: Source::Model,
+                flags: f | flags::NOT_ESTIMATED | flags::DAYLIGHT_UNKNOWN,
+                frame_age_s: 0.0,
+            };
+            return;
         };
-        let source = if source == Source::Model && self.held[s].daylight.is_some() {
+        let (age, source) = ((now_s - t).max(0.0), self.desks[s].source);
+        let source = if source == Source::Model {
             Source::Inferred
         } else {
             source

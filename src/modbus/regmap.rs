@@ -253,7 +253,9 @@ pub mod live_flags {
     /// With [`NOT_ESTIMATED`]: by day, the daylight at this desk is not bounded by what the
     /// cameras see (no room plan; light may enter through windows out of view), so the total
     /// and the daylight are not available; the artificial part is the model's. A room plan
-    /// with the windows (`--room-plan`) removes it.
+    /// with the windows (`--room-plan`) removes it. Also before the camera's first frame was
+    /// taken (boot, a camera that never answered, every frame refused): the daylight is not
+    /// known at all, day or night.
     pub const DAYLIGHT_UNKNOWN: u16 = 1 << 9;
 }
 
