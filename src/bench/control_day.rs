@@ -237,10 +237,7 @@ pub fn run(
     people: Option<&People>,
 ) -> Result<(Vec<DayRow>, DayTotals), DayError> {
     let (kd, l) = (image.sensors(), image.luminaires());
-    let response: Vec<f64> = (0..kd)
-        .flat_map(|k| (0..l).map(move |j| (k, j)))
-        .map(|(k, j)| image.response_lx(k, j))
-        .collect();
+    let response = image.response_rows_lx(0..kd);
     let plant = Plant {
         desks: kd,
         luminaires: l,

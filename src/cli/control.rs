@@ -105,10 +105,7 @@ pub fn run(a: &Args) -> Result<()> {
             p.min_arc
         );
     }
-    let response: Vec<f64> = (0..kd)
-        .flat_map(|k| (0..l).map(move |j| (k, j)))
-        .map(|(k, j)| image.response_lx(k, j))
-        .collect();
+    let response = image.response_rows_lx(0..kd);
     let curve = DimmingCurve::Logarithmic;
     let plant = Plant {
         desks: kd,

@@ -553,9 +553,10 @@ pub fn estimate(
             .flatten()
             .copied()
             .collect();
-        out.walls_rho = (wall_px.len() >= MIN_SEEN_WALL_PIXELS)
-            .then(|| median(&mut wall_px).map(|r| (r.clamp(o.rho_min, o.rho_max), wall_px.len())))
-            .flatten();
+        let walls_seen_px = wall_px.len();
+        out.walls_rho = median(&mut wall_px)
+            .filter(|_| walls_seen_px >= MIN_SEEN_WALL_PIXELS)
+            .map(|r| (r.clamp(o.rho_min, o.rho_max), walls_seen_px));
         let part_median: std::collections::HashMap<Part, f64> = by_part
             .into_iter()
             .map(|(k, mut v)| (k, median(&mut v).unwrap_or(global)))

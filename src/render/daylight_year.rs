@@ -107,7 +107,7 @@ pub fn daylight_dependency(input: &YearInput<'_>) -> Result<DaylightYear, Contro
     .report
     .power_w;
     let mut daylight_lx = vec![0.0; kd];
-    let (mut with_wh, mut without_wh, mut day_h, mut all_h) = (0.0, 0.0, 0.0, 0.0);
+    let (mut with_wh, mut day_h, mut all_h) = (0.0, 0.0, 0.0);
     for day in 0..DAYS {
         for hour in WORKING_HOURS.0..WORKING_HOURS.1 {
             all_h += 1.0;
@@ -130,9 +130,10 @@ pub fn daylight_dependency(input: &YearInput<'_>) -> Result<DaylightYear, Contro
                 },
             )?;
             with_wh += p.report.power_w;
-            without_wh += dark;
         }
     }
+    // without daylight every daylight hour draws the same plan's power
+    let without_wh = dark * day_h;
     Ok(DaylightYear {
         f_d: if without_wh > 0.0 {
             with_wh / without_wh

@@ -1023,10 +1023,7 @@ fn daylight_year_of(
     } else {
         on_desk
     };
-    let response: Vec<f64> = rows
-        .iter()
-        .flat_map(|&k| (0..l).map(move |j| image.response_lx(k, j)))
-        .collect();
+    let response = image.response_rows_lx(rows.iter().copied());
     let power: Vec<LuminairePower> = rated_powers(image)
         .into_iter()
         .map(LuminairePower::rated)

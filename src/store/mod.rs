@@ -538,6 +538,17 @@ impl<'a> Image<'a> {
         self.payload.response_lx.f64_at(s * self.luminaires() + l)
     }
 
+    /// The responses of these sensors, row-major `[row][luminaire]`, lx (the control's
+    /// `Plant::response_lx` over those desks).
+    #[cfg(feature = "std")]
+    pub fn response_rows_lx(&self, sensors: impl IntoIterator<Item = usize>) -> std::vec::Vec<f64> {
+        let l = self.luminaires();
+        sensors
+            .into_iter()
+            .flat_map(|s| (0..l).map(move |j| self.response_lx(s, j)))
+            .collect()
+    }
+
     /// The radiosity system of this image, for the solver.
     pub fn system(&self) -> ImageSystem<'_, 'a> {
         ImageSystem { image: self }
