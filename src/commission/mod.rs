@@ -1942,8 +1942,14 @@ pub fn from_captures(
         .zip(&scene.sensors)
         .map(|(out, s)| out && desks.is_none_or(|d| closure::on_a_desk(d, s.position_m)))
         .collect();
-    let occluder_lx =
-        uncertainty::unseen_occluder_lx(&model, &scene.sensors, &scene.luminaires, &out_of_view);
+    let occluder_lx = uncertainty::unseen_occluder_lx(
+        &model,
+        &scene.sensors,
+        &scene.luminaires,
+        desks.unwrap_or(&[]),
+        meshed.room.as_ref().map(|r| r.xy_m),
+        &out_of_view,
+    );
     match uncertainty::per_sensor(&model, &meshed.reco, &sigma, &occluder_lx) {
         Ok(u) => report.uncertainty = u,
         Err(e) => report
