@@ -563,8 +563,9 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
         let u = r["stated_rel_uncertainty"].as_f64().unwrap();
         let stated = live.model_rel_uncertainty(k).expect("stated");
         assert!((u - stated).abs() < 1e-9, "{u} {stated}");
-        // docs/commissioning.md: 4.9 % to 10.9 % on office_a's capture
-        assert!((0.04..=0.12).contains(&u), "{r}");
+        // docs/commissioning.md: 5.0 % to 12.5 % on office_a's capture (4.9 % to 10.9 % before
+        // its wall x = 0, at the seen extent, had its position in: sensors 1 and 8 by it)
+        assert!((0.04..=0.135).contains(&u), "{r}");
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<h2>Desk sensors</h2>"));

@@ -185,6 +185,32 @@ impl RoomBox {
 /// luminaire, m.
 pub const WALL_CLEARANCE_M: f64 = 0.3;
 
+/// The extent the luminaire grid gives a room, `[x0, y0, x1, y1]`: half the grid's spacing
+/// beyond its outer rows (at least [`WALL_CLEARANCE_M`]); `None` without luminaires.
+pub fn grid_extent_m(luminaires: &[Luminaire]) -> Option<[f64; 4]> {
+    let c = WALL_CLEARANCE_M;
+    let xs: Vec<f64> = luminaires.iter().map(|l| l.position_m.x).collect();
+    let ys: Vec<f64> = luminaires.iter().map(|l| l.position_m.y).collect();
+    let (hx, hy) = (half_spacing(xs), half_spacing(ys));
+    let (dx, dy) = (hx.or(hy).unwrap_or(0.0), hy.or(hx).unwrap_or(0.0));
+    let (dx, dy) = (dx.max(c), dy.max(c));
+    luminaires.iter().fold(None, |b: Option<[f64; 4]>, l| {
+        let p = l.position_m;
+        let [x0, y0, x1, y1] = b.unwrap_or([
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ]);
+        Some([
+            x0.min(p.x - dx),
+            y0.min(p.y - dy),
+            x1.max(p.x + dx),
+            y1.max(p.y + dy),
+        ])
+    })
+}
+
 /// Infers the room box.
 pub fn room_box(
     seen_m: &[DVec3],
@@ -225,14 +251,9 @@ pub fn room_box(
             add(s.position_m.x - c, s.position_m.y - c);
             add(s.position_m.x + c, s.position_m.y + c);
         }
-        let xs: Vec<f64> = luminaires.iter().map(|l| l.position_m.x).collect();
-        let ys: Vec<f64> = luminaires.iter().map(|l| l.position_m.y).collect();
-        let (hx, hy) = (half_spacing(xs.clone()), half_spacing(ys.clone()));
-        for l in luminaires {
-            let (dx, dy) = (hx.or(hy).unwrap_or(0.0), hy.or(hx).unwrap_or(0.0));
-            let (dx, dy) = (dx.max(c), dy.max(c));
-            add(l.position_m.x - dx, l.position_m.y - dy);
-            add(l.position_m.x + dx, l.position_m.y + dy);
+        if let Some([x0, y0, x1, y1]) = grid_extent_m(luminaires) {
+            add(x0, y0);
+            add(x1, y1);
         }
         b
     });

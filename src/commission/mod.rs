@@ -20,6 +20,7 @@ pub mod depth;
 pub mod grid;
 pub mod mesh;
 pub mod output;
+pub mod placement;
 pub mod planes;
 pub mod pose;
 pub mod refit;
@@ -610,6 +611,10 @@ pub struct Report {
     pub hidden_faces: usize,
     /// Desk top area nobody saw, modelled from desks.json and the desk sensors (closure), m².
     pub inferred_desk_m2: f64,
+    /// Without a plan, the sides of the inferred room box (x low, y low, x high, y high) whose
+    /// wall no camera saw and the luminaire grid did not place: their position is in every
+    /// desk's stated uncertainty ([`placement`]); `None` with a plan or a given box.
+    pub unseen_wall_sides: Option<[bool; 4]>,
     /// Reflectance estimate outcome.
     pub reflectance: Estimate,
     /// Patches of the final model.
@@ -1933,6 +1938,8 @@ pub fn from_captures(
     st.done(&mut report);
 
     let st = Stage::start("uncertainty", &i.progress);
+    let placement =
+        placement::wall_placement_lx(&i, &depths, &planes, &meshed, &refl, &model, &mut report);
     let sigma = o.uncertainty.with_plan(o.room_plan.as_ref());
     // an unseen monitor stands on a desk: a sensor out of view on a declared desk (on any,
     // without desks.json) may be behind one
@@ -1950,7 +1957,13 @@ pub fn from_captures(
         meshed.room.as_ref().map(|r| r.xy_m),
         &out_of_view,
     );
-    match uncertainty::per_sensor(&model, &meshed.reco, &sigma, &occluder_lx) {
+    match uncertainty::per_sensor(
+        &model,
+        &meshed.reco,
+        &sigma,
+        &occluder_lx,
+        placement.as_deref(),
+    ) {
         Ok(u) => report.uncertainty = u,
         Err(e) => report
             .warnings

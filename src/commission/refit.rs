@@ -359,6 +359,7 @@ mod tests {
             sensor_id: id,
             all_on_lx: lux,
             by_class_lx: [dw, dc, 0.0, 0.0, 0.0, 0.0],
+            wall_placement_lx: 0.0,
             unseen_occluder_lx: 0.0,
             rel: 0.0,
             by_luminaire: Vec::new(),

@@ -170,6 +170,11 @@ pub struct SensorUncertainty {
     /// Per class, the reading's change for one σ of its reflectance, lx (in
     /// [`Inferred::ALL`]'s order).
     pub by_class_lx: [f64; 6],
+    /// What one standard uncertainty of the unseen walls' position changes, lx (every luminaire
+    /// at 100 %; `super::placement`; 0 with a plan or every wall seen). Not in
+    /// [`Self::by_class_lx`], which holds the reflectances' alone; in [`Self::rel`] and, per
+    /// luminaire in quadrature with the walls' reflectance, in [`Self::by_luminaire`].
+    pub wall_placement_lx: f64,
     /// Out of every camera's view: what an object nobody saw could shade, lx
     /// ([`UNSEEN_OCCLUDER_SHARE`] of the largest luminaire's direct light at the desk); 0 in
     /// view.
@@ -316,16 +321,18 @@ impl SensorUncertainty {
     /// The largest source by name (a reflectance class or unseen occluders) and its share of
     /// the variance.
     pub fn largest_source(&self) -> (&'static str, f64) {
-        let total: f64 = self.by_class_lx.iter().map(|d| d * d).sum::<f64>()
-            + self.unseen_occluder_lx * self.unseen_occluder_lx;
+        let place_var = self.wall_placement_lx * self.wall_placement_lx;
+        let occl_var = self.unseen_occluder_lx * self.unseen_occluder_lx;
+        let total: f64 = self.by_class_lx.iter().map(|d| d * d).sum::<f64>() + occl_var + place_var;
         let (c, _) = self.dominant();
         let class_var = self.by_class_lx.iter().map(|d| d * d).fold(0.0, f64::max);
-        let occl_var = self.unseen_occluder_lx * self.unseen_occluder_lx;
         if total <= 0.0 {
             return (c.name(), 0.0);
         }
-        if occl_var > class_var {
+        if occl_var > class_var.max(place_var) {
             ("unseen occluders", occl_var / total)
+        } else if place_var > class_var {
+            ("unseen walls' position", place_var / total)
         } else {
             (c.name(), class_var / total)
         }
@@ -348,12 +355,14 @@ impl SensorUncertainty {
 }
 
 /// The stated uncertainty of every sensor of `model`, whose patches come from `reco`'s
-/// triangles (`model.patches.source_triangle`).
+/// triangles (`model.patches.source_triangle`); `wall_placement_lx` per sensor and luminaire:
+/// what one standard uncertainty of the unseen walls' position changes (`super::placement`).
 pub fn per_sensor(
     model: &Model,
     reco: &RecoMesh,
     o: &UncertaintyOptions,
     occluder_lx: &[Vec<f64>],
+    wall_placement_lx: Option<&[Vec<f64>]>,
 ) -> Result<Vec<SensorUncertainty>, EngineError> {
     o.check().map_err(EngineError::Settings)?;
     let lums = model.luminaires();
@@ -398,8 +407,32 @@ pub fn per_sensor(
             }
         }
     }
+    // the reflectances' part alone (the luxmeter refit's sensitivities, `super::refit`)
+    let by_class: Vec<[f64; 6]> = by_luminaire
+        .iter()
+        .map(|rows| {
+            let mut c = [0.0; 6];
+            for row in rows {
+                for (c, d) in c.iter_mut().zip(row) {
+                    *c += d;
+                }
+            }
+            c
+        })
+        .collect();
+    let mut placement = vec![0.0; model.sensors()];
     for (s, rows) in by_luminaire.iter_mut().enumerate() {
         for (l, row) in rows.iter_mut().enumerate() {
+            // where the walls nobody saw stand is the walls' too: in quadrature with their
+            // reflectance, luminaire by luminaire (`super::placement`)
+            let placed = wall_placement_lx
+                .and_then(|p| p.get(s))
+                .and_then(|r| r.get(l))
+                .copied()
+                .filter(|d| d.is_finite())
+                .unwrap_or(0.0);
+            placement[s] += placed;
+            row[0] = row[0].hypot(placed);
             row[6] = occluder_lx
                 .get(s)
                 .and_then(|o| o.get(l))
@@ -412,30 +445,36 @@ pub fn per_sensor(
         .iter()
         .zip(lux)
         .zip(by_luminaire)
-        .map(|((&sensor_id, all_on_lx), by_luminaire)| {
-            let mut by_class_lx = [0.0; 6];
-            for row in &by_luminaire {
-                for (c, d) in by_class_lx.iter_mut().zip(row) {
-                    *c += d;
+        .zip(by_class.into_iter().zip(placement))
+        .map(
+            |(((&sensor_id, all_on_lx), by_luminaire), (by_class_lx, wall_placement_lx))| {
+                // the stated variance from the parts the run-time kernel reads: the walls' with
+                // their placement, luminaire by luminaire
+                let mut parts = [0.0; 6];
+                for row in &by_luminaire {
+                    for (c, d) in parts.iter_mut().zip(row) {
+                        *c += d;
+                    }
                 }
-            }
-            let unseen_occluder_lx = by_luminaire.iter().map(|r| r[6]).fold(0.0, f64::max);
-            let var: f64 = by_class_lx.iter().map(|d| d * d).sum::<f64>()
-                + unseen_occluder_lx * unseen_occluder_lx;
-            let rel = if all_on_lx > 0.0 {
-                var.sqrt() / all_on_lx
-            } else {
-                0.0
-            };
-            SensorUncertainty {
-                sensor_id,
-                all_on_lx,
-                by_class_lx,
-                unseen_occluder_lx,
-                rel,
-                by_luminaire,
-            }
-        })
+                let unseen_occluder_lx = by_luminaire.iter().map(|r| r[6]).fold(0.0, f64::max);
+                let var: f64 = parts.iter().map(|d| d * d).sum::<f64>()
+                    + unseen_occluder_lx * unseen_occluder_lx;
+                let rel = if all_on_lx > 0.0 {
+                    var.sqrt() / all_on_lx
+                } else {
+                    0.0
+                };
+                SensorUncertainty {
+                    sensor_id,
+                    all_on_lx,
+                    by_class_lx,
+                    wall_placement_lx,
+                    unseen_occluder_lx,
+                    rel,
+                    by_luminaire,
+                }
+            },
+        )
         .collect())
 }
 
