@@ -41,7 +41,8 @@ pub const GRID_SIDE_TOLERANCE_M: f64 = 0.02;
 pub const SEEN_WALL_MIN_POINTS: usize = 30;
 /// ... within this distance of it, m...
 pub const SEEN_WALL_TOLERANCE_M: f64 = 0.2;
-/// ... this far above the floor or more (desks and cabinets below; the wall above them), m.
+/// ... this far above the floor or more (the wall, or furniture against it; not the floor's own
+/// points by the wall), m.
 pub const SEEN_WALL_MIN_HEIGHT_M: f64 = 0.2;
 
 /// Per side of the box (x low, y low, x high, y high, as [`RoomBox::xy_m`]), whether the
@@ -233,7 +234,7 @@ mod tests {
     }
 
     #[test]
-    fn a_side_is_seen_where_points_stand_on_its_wall_above_the_furniture() {
+    fn a_side_is_seen_where_points_stand_on_it_above_the_floor() {
         let r = room();
         // 40 points on the wall x = 6 between 1.3 and 2.5 m; 40 on the floor by the wall y = 4
         let mut pts: Vec<DVec3> = (0..40)

@@ -270,7 +270,7 @@ pub fn occluder_elevation_limit_rad(
     let (tx, sx) = exit(sensor_m.x, dir.x, d.x_m[0], d.x_m[1]);
     let (ty, sy) = exit(sensor_m.y, dir.y, d.y_m[0], d.y_m[1]);
     let (t, side) = if tx <= ty { (tx, sx) } else { (ty, 2 + sy) };
-    if !(t.is_finite() && t >= 0.0) || !back[side] {
+    if !(t.is_finite() && t >= 0.0 && back[side]) {
         return base;
     }
     base.max(EDGE_OCCLUDER_HEIGHT_M.atan2(t))
