@@ -188,27 +188,18 @@ pub const WALL_CLEARANCE_M: f64 = 0.3;
 /// The extent the luminaire grid gives a room, `[x0, y0, x1, y1]`: half the grid's spacing
 /// beyond its outer rows (at least [`WALL_CLEARANCE_M`]); `None` without luminaires.
 pub fn grid_extent_m(luminaires: &[Luminaire]) -> Option<[f64; 4]> {
+    if luminaires.is_empty() {
+        return None;
+    }
     let c = WALL_CLEARANCE_M;
     let xs: Vec<f64> = luminaires.iter().map(|l| l.position_m.x).collect();
     let ys: Vec<f64> = luminaires.iter().map(|l| l.position_m.y).collect();
-    let (hx, hy) = (half_spacing(xs), half_spacing(ys));
-    let (dx, dy) = (hx.or(hy).unwrap_or(0.0), hy.or(hx).unwrap_or(0.0));
-    let (dx, dy) = (dx.max(c), dy.max(c));
-    luminaires.iter().fold(None, |b: Option<[f64; 4]>, l| {
-        let p = l.position_m;
-        let [x0, y0, x1, y1] = b.unwrap_or([
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ]);
-        Some([
-            x0.min(p.x - dx),
-            y0.min(p.y - dy),
-            x1.max(p.x + dx),
-            y1.max(p.y + dy),
-        ])
-    })
+    let (hx, hy) = (half_spacing(xs.clone()), half_spacing(ys.clone()));
+    let dx = hx.or(hy).unwrap_or(0.0).max(c);
+    let dy = hy.or(hx).unwrap_or(0.0).max(c);
+    let lo = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    Some([lo(&xs) - dx, lo(&ys) - dy, hi(&xs) + dx, hi(&ys) + dy])
 }
 
 /// Infers the room box.

@@ -1084,6 +1084,16 @@ struct NodePlanes {
     found: Vec<Vec<Plane>>,
 }
 
+impl NodePlanes {
+    /// Every node's seen points (the grids' cells with a point), m.
+    fn seen_points(&self) -> Vec<DVec3> {
+        self.grids
+            .iter()
+            .flat_map(|g| g.points_m.iter().flatten().copied())
+            .collect()
+    }
+}
+
 /// Stage "depth": each node's depth frames fused into one cleaned depth map.
 fn fuse_depths(i: &Inputs) -> Result<Vec<DepthMap>, CommissionError> {
     i.captures
@@ -1213,11 +1223,7 @@ fn mesh_room(
     planes: &NodePlanes,
     report: &mut Report,
 ) -> Result<Meshed, CommissionError> {
-    let seen_pts: Vec<DVec3> = planes
-        .grids
-        .iter()
-        .flat_map(|g| g.points_m.iter().flatten().copied())
-        .collect();
+    let seen_pts = planes.seen_points();
     let floor = find_floor(planes, &seen_pts, &mut report.warnings);
     let room = find_room(i, &seen_pts, &floor, &mut report.warnings)?;
     let NodeMeshes {

@@ -18,7 +18,7 @@ use super::closure::RoomBox;
 use super::mesh::{Part, RecoMesh};
 use super::{
     CommissionError, Inputs, Meshed, NodePlanes, Progress, Reflectances, Report, close_room,
-    final_model, mesh_room,
+    final_model, mesh_room, start_rho,
 };
 use crate::commission::depth::DepthMap;
 use crate::engine::Model;
@@ -116,12 +116,7 @@ pub(super) fn wall_placement_lx(
         return None;
     }
     let room = meshed.room.as_ref()?;
-    let seen_pts: Vec<DVec3> = planes
-        .grids
-        .iter()
-        .flat_map(|g| g.points_m.iter().flatten().copied())
-        .collect();
-    let seen = seen_sides(room, &seen_pts);
+    let seen = seen_sides(room, &planes.seen_points());
     let sigma = side_sigma_m(room.xy_m, seen, super::closure::grid_extent_m(i.luminaires));
     report.unseen_wall_sides = Some(sigma.map(|s| s > 0.0));
     let grown = grown_box(room.xy_m, sigma)?;
@@ -138,7 +133,8 @@ pub(super) fn wall_placement_lx(
     let moved = (|| -> Result<Model, CommissionError> {
         let mut meshed2 = mesh_room(&i2, depths, planes, &mut scratch)?;
         close_room(&i2, &mut meshed2, &mut scratch)?;
-        let tri_rho = carried_rho(&meshed.reco, &refl.tri_rho, &meshed2.reco);
+        let defaults = start_rho(&meshed2.reco, &o2, meshed2.room.as_ref());
+        let tri_rho = carried_rho(&meshed.reco, &refl.tri_rho, &meshed2.reco, &defaults);
         let refl2 = Reflectances {
             tri_rho,
             reading: None,
@@ -167,9 +163,10 @@ pub(super) fn wall_placement_lx(
 
 /// Reflectances for `to`'s triangles from `from`'s: a triangle at the same place (its centroid
 /// within a millimetre) keeps its own; any other takes the median of `from`'s triangles of its
-/// part (the floor fill, the closure's walls and ceiling, a seen plane meshed anew), or of its
-/// kind of part.
-fn carried_rho(from: &RecoMesh, rho: &[f64], to: &RecoMesh) -> Vec<f64> {
+/// part (the floor fill, the closure's walls and ceiling, a seen plane meshed anew), or its
+/// start value `defaults` (a part `from` lacks).
+fn carried_rho(from: &RecoMesh, rho: &[f64], to: &RecoMesh, defaults: &[f64]) -> Vec<f64> {
+    use std::collections::HashMap;
     let key = |m: &RecoMesh, t: usize| -> [i64; 3] {
         let c = m.tris[t]
             .iter()
@@ -178,49 +175,26 @@ fn carried_rho(from: &RecoMesh, rho: &[f64], to: &RecoMesh) -> Vec<f64> {
             / 3.0;
         [c.x, c.y, c.z].map(|x| (x * 1000.0).round() as i64)
     };
-    let mut at: std::collections::HashMap<[i64; 3], f64> = std::collections::HashMap::new();
-    let mut by_part: std::collections::HashMap<Part, Vec<f64>> = std::collections::HashMap::new();
-    let mut by_kind: std::collections::HashMap<core::mem::Discriminant<Part>, Vec<f64>> =
-        std::collections::HashMap::new();
+    let mut at: HashMap<[i64; 3], f64> = HashMap::new();
+    let mut by_part: HashMap<Part, Vec<f64>> = HashMap::new();
     for (t, &r) in rho.iter().enumerate().take(from.tris.len()) {
         at.insert(key(from, t), r);
         by_part.entry(from.part[t]).or_default().push(r);
-        by_kind
-            .entry(core::mem::discriminant(&from.part[t]))
-            .or_default()
-            .push(r);
     }
-    let median = |v: &mut Vec<f64>| -> Option<f64> {
-        if v.is_empty() {
-            return None;
-        }
-        v.sort_by(f64::total_cmp);
-        Some(v[v.len() / 2])
-    };
-    let mut part_median: std::collections::HashMap<Part, f64> = by_part
-        .iter_mut()
-        .filter_map(|(p, v)| median(v).map(|m| (*p, m)))
-        .collect();
-    let kind_median: std::collections::HashMap<core::mem::Discriminant<Part>, f64> = by_kind
-        .iter_mut()
-        .filter_map(|(p, v)| median(v).map(|m| (*p, m)))
+    let part_median: HashMap<Part, f64> = by_part
+        .into_iter()
+        .map(|(p, mut v)| {
+            v.sort_by(f64::total_cmp);
+            (p, v[v.len() / 2])
+        })
         .collect();
     (0..to.tris.len())
         .map(|t| {
-            let p = to.part[t];
             at.get(&key(to, t))
+                .or_else(|| part_median.get(&to.part[t]))
                 .copied()
-                .or_else(|| part_median.get(&p).copied())
-                .or_else(|| kind_median.get(&core::mem::discriminant(&p)).copied())
-                .unwrap_or_else(|| {
-                    let r = match p {
-                        Part::Opening(_) => 0.0,
-                        Part::Window(_) => super::mesh::GLAZING_RHO,
-                        _ => 0.5,
-                    };
-                    part_median.insert(p, r);
-                    r
-                })
+                .or_else(|| defaults.get(t).copied())
+                .unwrap_or(0.0)
         })
         .collect()
 }

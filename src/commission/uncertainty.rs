@@ -233,10 +233,7 @@ pub fn back_edges(
         })
     };
     core::array::from_fn(|side| {
-        wall(side)
-            || desks
-                .iter()
-                .any(|o| !core::ptr::eq(o, desk) && faces(side, o))
+        wall(side) || desks.iter().any(|o| o.id != desk.id && faces(side, o))
     })
 }
 
