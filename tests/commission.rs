@@ -1127,9 +1127,16 @@ fn a_shade_the_mesh_lost_is_calibrated_from_the_one_luminaire_frames() {
                 .replaced_luminaire_ids
                 .contains(&clean[0].model.luminaire_ids[k])
         {
-            assert_eq!(a, b, "luminaire {k} changed");
+            // the others keep the model's light, at most weighed toward the camera's scale
+            // alike (a desk that took the desks' common reflectance)
+            assert!(
+                (a / b - at.scaled).abs() < 1e-9,
+                "luminaire {k} changed: {a} for {b}, scaled {}",
+                at.scaled
+            );
         }
     }
+    assert!((at.scaled - 1.0).abs() < 0.05, "{at:?}");
     // the image the node serves holds it (its response is re-derived from the stored direct,
     // first-bounce and gathered parts)
     let bytes =

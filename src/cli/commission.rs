@@ -567,19 +567,33 @@ fn print_calibration(done: &[luxnode::live_section::calibrate::DeskCalibration])
     if done.is_empty() {
         return;
     }
-    println!("sensor,node,camera_scale,calibrated_luminaires,model_all_on_lx,calibrated_all_on_lx");
+    println!(
+        "sensor,node,camera_scale,calibrated_luminaires,scaled,model_all_on_lx,\
+         calibrated_all_on_lx,desk_rho,desk_rho_taken"
+    );
     for d in done {
         let ids: Vec<String> = d
             .replaced_luminaire_ids
             .iter()
             .map(u32::to_string)
             .collect();
+        // the desk top's own reflectance, and the desks' common one when it took it
+        let (own, taken) = d
+            .desk_rho
+            .as_ref()
+            .map_or((String::new(), String::new()), |r| {
+                (
+                    format!("{:.3}", r.local),
+                    r.taken.map_or(String::new(), |t| format!("{t:.3}")),
+                )
+            });
         println!(
-            "{},{},{:.3},{},{:.0},{:.0}",
+            "{},{},{:.3},{},{:.3},{:.0},{:.0},{own},{taken}",
             d.sensor_id,
             d.node,
             d.scale,
             ids.join(";"),
+            d.scaled,
             d.model_all_on_lx,
             d.calibrated_all_on_lx
         );

@@ -84,13 +84,35 @@ pub struct Calibrated {
     pub replaced: Vec<bool>,
     /// The camera's scale at the desk ([`camera_scale`]).
     pub scale: f64,
+    /// The factor every luminaire's light took toward the camera's scale ([`weigh_scale`]; 1
+    /// when the model's scale stands).
+    pub scaled: f64,
 }
 
 impl Calibrated {
-    /// Whether any luminaire's light was replaced.
+    /// Whether any luminaire's light changed.
     pub fn any(&self) -> bool {
-        self.replaced.iter().any(|r| *r)
+        self.replaced.iter().any(|r| *r) || self.scaled != 1.0
     }
+}
+
+/// Weighs the model's scale at a desk against the camera's, by their stated relative standard
+/// uncertainties: the response takes `k^w`, `w = u_m² / (u_m² + u_c²)` (the inverse-variance
+/// mean of the two logarithms). Only where the camera's scale is its own measurement: the desk's
+/// reflectance did not come from the model's light there ([`crate::live_section::desk_rho`]).
+/// Uncertainties that are not finite and positive leave the model's scale.
+pub fn weigh_scale(cal: &mut Calibrated, model_rel_u: f64, camera_rel_u: f64) {
+    let ok = |u: f64| u.is_finite() && u > 0.0;
+    if !(ok(model_rel_u) && ok(camera_rel_u)) {
+        return;
+    }
+    let (vm, vc) = (model_rel_u * model_rel_u, camera_rel_u * camera_rel_u);
+    let factor = cal.scale.powf(vm / (vm + vc));
+    if !factor.is_finite() {
+        return;
+    }
+    cal.response_lx.iter_mut().for_each(|r| *r *= factor);
+    cal.scaled = factor;
 }
 
 /// The desk's calibrated response, or `None` when the camera's scale is not defined there
@@ -115,6 +137,7 @@ pub fn calibrate(model_lx: &[f64], camera_lx: &[f64]) -> Option<Calibrated> {
         response_lx,
         replaced,
         scale: k,
+        scaled: 1.0,
     })
 }
 
@@ -146,6 +169,31 @@ mod tests {
         // the camera's light at its scale where it disagrees, the model's elsewhere
         let want = 261.0 + 95.0 + 12.0 + (129.0 + 64.0) / cal.scale + 12.0;
         assert!((total - want).abs() < 1e-9, "{total} {want}");
+    }
+
+    #[test]
+    fn the_scales_weigh_by_their_uncertainties() {
+        // room_04's desk 1 with the desks' common reflectance: the camera 11.2 % below the model
+        // everywhere; the model stated to 6.8 %, the camera to 4 %
+        let m = [300.0, 200.0, 173.0];
+        let c: Vec<f64> = m.iter().map(|x| 0.888 * x).collect();
+        let mut cal = calibrate(&m, &c).expect("defined");
+        weigh_scale(&mut cal, 0.068, 0.04);
+        let w = 0.068f64.powi(2) / (0.068f64.powi(2) + 0.04f64.powi(2));
+        assert!((cal.scaled - 0.888f64.powf(w)).abs() < 1e-12);
+        assert!(cal.any());
+        for (r, m) in cal.response_lx.iter().zip(m) {
+            assert!((r / m - cal.scaled).abs() < 1e-12);
+        }
+        // equal uncertainties: the geometric mean
+        let mut cal = calibrate(&m, &c).expect("defined");
+        weigh_scale(&mut cal, 0.04, 0.04);
+        assert!((cal.scaled - 0.888f64.sqrt()).abs() < 1e-12);
+        // no stated model uncertainty: the model's scale stands
+        let mut cal = calibrate(&m, &c).expect("defined");
+        weigh_scale(&mut cal, f64::NAN, 0.04);
+        assert_eq!(cal.scaled, 1.0);
+        assert_eq!(cal.response_lx, m);
     }
 
     #[test]

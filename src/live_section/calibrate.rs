@@ -27,10 +27,16 @@ pub struct DeskCalibration {
     pub scale: f64,
     /// The luminaires (ids) whose light at the desk now comes from the camera.
     pub replaced_luminaire_ids: Vec<u32>,
+    /// The factor every luminaire's light took toward the camera's scale (1: the model's scale
+    /// stands; [`desk_scale::weigh_scale`]).
+    pub scaled: f64,
     /// The model's light with every luminaire at 100 % before and after, lx.
     pub model_all_on_lx: f64,
     /// See [`Self::model_all_on_lx`].
     pub calibrated_all_on_lx: f64,
+    /// The desk top's reflectance in that node's view: its own estimate, and the desks' common
+    /// one when it took it ([`super::desk_rho`]); `None` when the sensor stands on no furniture.
+    pub desk_rho: Option<super::desk_rho::DeskRho>,
 }
 
 /// Each sensor's camera-measured response per luminaire at 100 % in one node's view, with the
@@ -82,6 +88,12 @@ pub(crate) fn camera_rows(
 /// frames that do not match) is skipped with a warning: its desks keep the model.
 pub fn calibrate_desks(nodes: &mut [Commissioned], captures: &[Capture]) -> Vec<DeskCalibration> {
     let o = SectionOptions::default();
+    // the camera measures each desk through its top's reflectance: the desks' common one first
+    let desk_rho: Vec<super::desk_rho::DeskRho> = nodes
+        .iter_mut()
+        .enumerate()
+        .flat_map(|(i, c)| super::desk_rho::share(c, i, &o))
+        .collect();
     let rows: Vec<Vec<(usize, Vec<f64>)>> = nodes
         .iter()
         .zip(captures)
@@ -115,10 +127,27 @@ pub fn calibrate_desks(nodes: &mut [Commissioned], captures: &[Capture]) -> Vec<
         let Some((i, _, camera)) = best else {
             continue;
         };
-        let Some(cal) = desk_scale::calibrate(&nodes[i].model.response_lx[s], camera) else {
+        let Some(mut cal) = desk_scale::calibrate(&nodes[i].model.response_lx[s], camera) else {
             continue;
         };
-        done.push(record(&nodes[i], s, i, &cal));
+        let id = nodes[i].model.sensor_ids[s];
+        let rho = desk_rho
+            .iter()
+            .find(|d| d.node == i && d.sensor_id == id)
+            .cloned();
+        // with the desks' common reflectance the camera's scale is a measurement of its own
+        if rho.as_ref().is_some_and(|d| d.taken.is_some()) {
+            let u = nodes[i]
+                .report
+                .uncertainty
+                .iter()
+                .find(|u| u.sensor_id == id)
+                .map_or(f64::NAN, |u| u.rel);
+            desk_scale::weigh_scale(&mut cal, u, super::CALIBRATED_MIN_REL);
+        }
+        let mut r = record(&nodes[i], s, i, &cal);
+        r.desk_rho = rho;
+        done.push(r);
         if cal.any() {
             apply(nodes, s, &cal);
         }
@@ -145,7 +174,7 @@ fn apply(nodes: &mut [Commissioned], s: usize, cal: &Calibrated) {
             else {
                 continue;
             };
-            if *replaced {
+            if *replaced || cal.scaled != 1.0 {
                 *d += c - *r;
                 if *d < 0.0 {
                     // less than the model's interreflections alone: the shade takes some too
@@ -174,8 +203,10 @@ fn record(c: &Commissioned, s: usize, node: usize, cal: &Calibrated) -> DeskCali
             .filter(|(_, r)| **r)
             .map(|(id, _)| *id)
             .collect(),
+        scaled: cal.scaled,
         model_all_on_lx: model.response_lx[s].iter().sum(),
         calibrated_all_on_lx: cal.response_lx.iter().sum(),
+        desk_rho: None,
     }
 }
 

@@ -15,6 +15,7 @@
 //!   light, as the simulated camera renders it.
 
 pub mod calibrate;
+pub mod desk_rho;
 
 use crate::live::DISAGREEMENT_TO_SIGMA;
 use glam::DVec3;
