@@ -14,6 +14,7 @@ use crate::scene::{Camera, Desk, Luminaire, Scene};
 use crate::solver::{self, SolveOptions};
 use crate::store::geometry::{
     CameraRecord, DeskRecord, GeometrySection, LuminaireRecord, PhotometryRecord, SensorRecord,
+    UnseenWallRecord,
 };
 use crate::store::{Image, ImageError};
 
@@ -26,6 +27,29 @@ pub struct CommissionRecord {
     pub maintenance_factor: f64,
     /// When, seconds since 1970 (UTC).
     pub commissioned_unix_s: u64,
+    /// The walls it placed without seeing them ([`unseen_walls_of`]).
+    pub unseen_walls: Vec<UnseenWallRecord>,
+}
+
+/// The sides of a commissioning's room box that no camera saw and the luminaire grid did not
+/// place (`commission::Report::unseen_wall_sides`), where they were put.
+pub fn unseen_walls_of(report: &crate::commission::Report) -> Vec<UnseenWallRecord> {
+    let (Some(sides), Some(room)) = (report.unseen_wall_sides, report.room.as_ref()) else {
+        return Vec::new();
+    };
+    // RoomBox::xy_m is x0, y0, x1, y1
+    const NAMES: [&str; 4] = ["x low", "y low", "x high", "y high"];
+    NAMES
+        .iter()
+        .zip(sides)
+        .zip(room.xy_m)
+        .filter(|((_, unseen), _)| *unseen)
+        .map(|((name, _), at_m)| UnseenWallRecord {
+            side: (*name).into(),
+            at_m,
+            moved_m: crate::commission::placement::UNSEEN_WALL_POSITION_SIGMA_M,
+        })
+        .collect()
 }
 
 impl Default for CommissionRecord {
@@ -36,6 +60,7 @@ impl Default for CommissionRecord {
             commissioned_unix_s: std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
                 .map_or(0, |d| d.as_secs()),
+            unseen_walls: Vec::new(),
         }
     }
 }
@@ -163,6 +188,7 @@ pub fn section_of(scene: &Scene, model: &Model, record: &CommissionRecord) -> Ge
             .collect(),
         luminaires,
         photometries,
+        unseen_walls: record.unseen_walls.clone(),
     }
 }
 

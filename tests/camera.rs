@@ -1825,7 +1825,7 @@ mod fisheye {
 
     #[test]
     fn the_image_geometry_section_carries_the_lens_and_reads_old_sections() {
-        use luxnode::store::geometry::{CameraRecord, GeometrySection};
+        use luxnode::store::geometry::{CameraRecord, GeometrySection, UnseenWallRecord};
         let k = [0.03, -0.008, 0.0005, 0.0];
         let section = GeometrySection {
             scene_name: "s".into(),
@@ -1847,14 +1847,25 @@ mod fisheye {
             sensors: Vec::new(),
             luminaires: Vec::new(),
             photometries: Vec::new(),
+            unseen_walls: vec![UnseenWallRecord {
+                side: "x low".into(),
+                at_m: -0.11,
+                moved_m: 0.5,
+            }],
         };
         let framed = section.encode().unwrap();
         let back = GeometrySection::decode(&framed[10..]).unwrap();
         assert_eq!(back, section);
-        // a section of a build before the extension: the camera is a pinhole
+        // a section of a build before the extensions: the camera is a pinhole, no wall unseen
         let old = postcard::to_stdvec(&section).unwrap();
         let back = GeometrySection::decode(&old).unwrap();
         assert_eq!(back.camera.unwrap().lens_k, None);
+        assert!(back.unseen_walls.is_empty());
+        // a wall placed at a position that is not a number is a corrupt section
+        let mut bad = section.clone();
+        bad.unseen_walls[0].at_m = f64::NAN;
+        let framed = bad.encode().unwrap();
+        assert!(GeometrySection::decode(&framed[10..]).is_err());
     }
 
     #[test]

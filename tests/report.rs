@@ -567,6 +567,18 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
         // its wall x = 0, at the seen extent, had its position in: sensors 1 and 8 by it)
         assert!((0.04..=0.135).contains(&u), "{r}");
     }
+    for (k, r) in rows.iter().enumerate() {
+        let calibrated = image.sensor_flags(k) & luxnode::store::sensor_flags::CALIBRATED != 0;
+        assert_eq!(r["calibrated"].as_bool(), Some(calibrated), "{r}");
+    }
+    // office_a's wall x = 0: no camera sees it and the luminaire grid does not place it
+    // (docs/commissioning.md, "Walls nobody saw: their position"); the engineer is told where
+    // it was put
+    let walls = json["unseen_walls"].as_array().expect("unseen_walls");
+    assert_eq!(walls.len(), 1, "{walls:?}");
+    assert_eq!(walls[0]["side"], "x low");
+    let at_m = walls[0]["at_m"].as_f64().expect("at_m");
+    assert!((-0.3..=0.1).contains(&at_m), "{at_m}");
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("<h2>Desk sensors</h2>"));
     assert!(
@@ -574,6 +586,12 @@ fn a_room_commissioned_from_its_cameras_gets_a_report_with_each_desks_uncertaint
         "sensor 1, on the floor"
     );
     assert_eq!(html.matches("± ").count(), 8);
+    assert!(
+        html.contains(&format!(
+            "Walls no camera saw and the luminaire grid did not place: x low (x = {at_m:.2} m)"
+        )),
+        "the unseen wall in the report"
+    );
 }
 
 /// The report of the desk with a box on it (tests/common), a point source over a black room,

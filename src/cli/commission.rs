@@ -491,6 +491,7 @@ fn write_images(
                     &luxnode::image_geometry::CommissionRecord {
                         preset: a.engine.preset.name().into(),
                         maintenance_factor: a.maintenance_factor,
+                        unseen_walls: luxnode::image_geometry::unseen_walls_of(&node.report),
                         ..Default::default()
                     },
                 )

@@ -342,7 +342,9 @@ impl CameraSource {
         let mut options = self.image.clone();
         options.scene_name = format!("{} (commissioned from cameras)", c.scene.name);
         options.sensor_flags = c.sensor_flags.clone();
-        options.geometry = Some(self.report.section(&c.scene, &c.model));
+        let mut section = self.report.section(&c.scene, &c.model);
+        section.unseen_walls = crate::image_geometry::unseen_walls_of(&c.report);
+        options.geometry = Some(section);
         let image = crate::image_build::build_to_fit(
             &c.model,
             &options,

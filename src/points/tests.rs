@@ -37,6 +37,7 @@ fn section(sensors: &[(u32, [f64; 3])]) -> GeometrySection {
             .collect(),
         luminaires: vec![],
         photometries: vec![],
+        unseen_walls: vec![],
     }
 }
 

@@ -215,6 +215,9 @@ pub struct SensorRow {
     pub in_view: bool,
     /// Its surroundings were partly inferred (commissioning's flag).
     pub estimated: bool,
+    /// Its modelled light was calibrated by the camera's one-luminaire frames (a shade the mesh
+    /// lost, the desks' common reflectance; commissioning's flag).
+    pub calibrated: bool,
     /// The stated relative standard uncertainty of its modelled light from what commissioning
     /// inferred (the image's live section; none for a CAD model).
     pub stated_rel_uncertainty: Option<f64>,
@@ -259,6 +262,8 @@ pub struct Results {
     pub states: Vec<StateResult>,
     /// The desk sensors.
     pub sensors: Vec<SensorRow>,
+    /// The walls commissioning placed without seeing them (none for a CAD model).
+    pub unseen_walls: Vec<crate::store::geometry::UnseenWallRecord>,
     /// UGR at a seated observer per desk (design state, new installation).
     pub ugr: UgrResult,
     /// The standard UGR table (CIE 117 / CIE 190) of each luminaire type.
@@ -677,6 +682,7 @@ fn sensor_rows(image: &Image<'_>) -> Vec<SensorRow> {
                     .map_or_else(|| format!("S{}", image.sensor_id(k)), |p| p.name.clone()),
                 in_view: f & crate::store::sensor_flags::OUT_OF_VIEW == 0,
                 estimated: f & crate::store::sensor_flags::ESTIMATED != 0,
+                calibrated: f & crate::store::sensor_flags::CALIBRATED != 0,
                 stated_rel_uncertainty: image.model_rel_uncertainty(k),
             }
         })
@@ -1134,6 +1140,7 @@ pub fn compute(image: &Image<'_>, opts: &ReportOptions) -> Result<Report, Report
         desks,
         states: state_results,
         sensors: sensor_rows(image),
+        unseen_walls: room.section.unseen_walls.clone(),
         ugr,
         ugr_table: super::ugr_table::tables(&room),
         room_surfaces,
@@ -1552,13 +1559,19 @@ fn html_energy(h: &mut String, e: &Energy) {
 
 /// The desk sensors, the surfaces and the luminaire schedule.
 fn html_tables(h: &mut String, x: &Results) {
-    h.push_str("</table>\n<h2>Desk sensors</h2>\n<p>Where each desk sensor's value comes from, and its stated relative standard uncertainty: what the surfaces commissioning inferred (walls and ceiling nobody saw, floor out of view, desk tops, hidden faces) can do to its modelled light (first-order, at the all-on state). A model from a CAD scene states none.</p>\n<table><tr><th>sensor</th><th>camera</th><th>surroundings</th><th>stated uncertainty</th></tr>\n");
+    h.push_str("</table>\n<h2>Desk sensors</h2>\n<p>Where each desk sensor's value comes from, and its stated relative standard uncertainty: what the surfaces commissioning inferred (walls and ceiling nobody saw, floor out of view, desk tops, hidden faces) can do to its modelled light (first-order, at the all-on state). A model from a CAD scene states none.</p>\n\n");
+    html_unseen_walls(h, x);
+    h.push_str("<table><tr><th>sensor</th><th>camera</th><th>surroundings</th><th>stated uncertainty</th></tr>\n");
     for r in &x.sensors {
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&r.name),
-            if r.in_view { "in view" } else { "out of view" },
+            match (r.in_view, r.calibrated) {
+                (true, true) => "in view, model calibrated by its frames",
+                (true, false) => "in view",
+                (false, _) => "out of view",
+            },
             if r.estimated {
                 "partly inferred"
             } else {
@@ -1608,6 +1621,31 @@ fn html_tables(h: &mut String, x: &Results) {
         "<tr><th>total</th><td></td><td></td><td></td><td>{:.0}</td><td>{}</td><td></td><td></td><td></td></tr></table>",
         x.totals.0,
         x.totals.1.map_or("–".into(), |w| format!("{w:.1}"))
+    );
+}
+
+/// The walls commissioning placed without seeing them, if any: the engineer's to confirm (a room
+/// plan gives them).
+fn html_unseen_walls(h: &mut String, x: &Results) {
+    if x.unseen_walls.is_empty() {
+        return;
+    }
+    let sides: Vec<String> = x
+        .unseen_walls
+        .iter()
+        .map(|w| {
+            let axis = if w.side.starts_with('x') { 'x' } else { 'y' };
+            format!("{} ({axis} = {:.2} m)", esc(&w.side), w.at_m)
+        })
+        .collect();
+    let moved = x.unseen_walls.iter().map(|w| w.moved_m).fold(0.0, f64::max);
+    let _ = writeln!(
+        h,
+        "<p class=\"unseen-walls\">Walls no camera saw and the luminaire grid did not place: {}. \
+         Commissioning put them at the seen floor's edge or behind the sensors; what moving them \
+         {moved:.2} m farther out does to each desk is in its stated uncertainty. Confirm them on \
+         site, or give the room plan (<code>--room-plan</code>).</p>",
+        sides.join(", ")
     );
 }
 

@@ -15,8 +15,9 @@
 //! [`SectionExtension`]: a build that does not know them stops reading at the end of the
 //! section (postcard ignores trailing bytes); this one reads a section without them as before.
 //! The first extension is the camera's lens (a fisheye's Kannala-Brandt coefficients); the
-//! second ([`LampExtension`], after the first) the lamps' colour rendering per photometry. Each
-//! is read when bytes remain after the one before.
+//! second ([`LampExtension`], after the first) the lamps' colour rendering per photometry; the
+//! third ([`InferredExtension`]) the walls commissioning placed without seeing them. Each is read
+//! when bytes remain after the one before.
 
 use serde::{Deserialize, Serialize};
 
@@ -53,6 +54,26 @@ pub struct LampExtension {
     /// Per photometry: the colour rendering field as the file states it, and the least Ra it
     /// means (`None`: not stated).
     pub colour_rendering: Vec<(String, Option<f64>)>,
+}
+
+/// The third extension: what commissioning placed without seeing it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct InferredExtension {
+    /// See [`GeometrySection::unseen_walls`].
+    pub unseen_walls: Vec<UnseenWallRecord>,
+}
+
+/// A side of the room box that no camera saw and the luminaire grid did not place: commissioning
+/// put it at the seen floor's extent (or behind the sensors), and its position's uncertainty is
+/// in every desk's stated uncertainty.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UnseenWallRecord {
+    /// Which side: `x low`, `y low`, `x high` or `y high`.
+    pub side: String,
+    /// Where it was put: its x or y, m.
+    pub at_m: f64,
+    /// How much farther out it was moved to state its position's uncertainty, m.
+    pub moved_m: f64,
 }
 
 /// A desk top.
@@ -158,6 +179,10 @@ pub struct GeometrySection {
     pub luminaires: Vec<LuminaireRecord>,
     /// Distinct intensity distributions.
     pub photometries: Vec<PhotometryRecord>,
+    /// The walls commissioning placed without seeing them (carried in the
+    /// [`InferredExtension`]; empty in images from before it and in CAD models).
+    #[serde(skip)]
+    pub unseen_walls: Vec<UnseenWallRecord>,
 }
 
 impl GeometrySection {
@@ -176,6 +201,10 @@ impl GeometrySection {
                 .collect(),
         };
         body.extend_from_slice(&postcard::to_stdvec(&lamps)?);
+        let inferred = InferredExtension {
+            unseen_walls: self.unseen_walls.clone(),
+        };
+        body.extend_from_slice(&postcard::to_stdvec(&inferred)?);
         let mut out = Vec::with_capacity(SECTION_FRAME_LEN + body.len());
         out.extend_from_slice(&SECTION_MAGIC);
         out.extend_from_slice(&SECTION_VERSION.to_le_bytes());
@@ -199,7 +228,8 @@ impl GeometrySection {
         if rest.is_empty() {
             return Ok(section);
         }
-        let lamps: LampExtension = postcard::from_bytes(rest).map_err(|_| ImageError::Decode)?;
+        let (lamps, rest): (LampExtension, &[u8]) =
+            postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
         if lamps.colour_rendering.len() != section.photometries.len() {
             return Err(ImageError::Decode);
         }
@@ -207,6 +237,19 @@ impl GeometrySection {
             p.colour_rendering = stated;
             p.ra_min = ra;
         }
+        if rest.is_empty() {
+            return Ok(section);
+        }
+        let inferred: InferredExtension =
+            postcard::from_bytes(rest).map_err(|_| ImageError::Decode)?;
+        if inferred
+            .unseen_walls
+            .iter()
+            .any(|w| !(w.at_m.is_finite() && w.moved_m.is_finite()))
+        {
+            return Err(ImageError::Decode);
+        }
+        section.unseen_walls = inferred.unseen_walls;
         Ok(section)
     }
 }
