@@ -140,7 +140,8 @@ pub struct Estimate {
 /// (a few hundred pixels: a strip of wall at the image's edge; fewer keep the default).
 pub const MIN_SEEN_WALL_PIXELS: usize = 200;
 
-fn median(v: &mut [f64]) -> Option<f64> {
+/// The median of `v` (reordered), `None` when empty.
+pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
     if v.is_empty() {
         return None;
     }

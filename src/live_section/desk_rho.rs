@@ -27,6 +27,8 @@
 //! on it); the camera's measurement at the desk is, and where it then disagrees with the model
 //! the desk's stated uncertainty widens ([`super::widened_uncertainty`]).
 
+use std::collections::BTreeMap;
+
 use super::{PixelHit, SectionOptions, cast_all, window_pixels};
 use crate::commission::Commissioned;
 use crate::commission::closure::DESK_SENSOR_MIN_HEIGHT_M;
@@ -93,23 +95,23 @@ pub fn class_of(desks: &[(f64, f64)]) -> Option<(f64, Vec<bool>)> {
     Some((median(&kept)?.exp(), member))
 }
 
+/// The median of the finite values of `v`.
 fn median(v: &[f64]) -> Option<f64> {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if s.is_empty() {
-        return None;
-    }
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    Some(if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    })
+    let mut finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    crate::commission::reflectance::median(&mut finite)
 }
 
-/// Gives the desk tops of one node's model that agree with the class its reflectance (see the
-/// module docs); returns each desk sensor it sees on furniture with what was done.
-pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Vec<DeskRho> {
+/// A desk sensor's window in one node's view: the patches under its pixels, their median
+/// reflectance and the desk's stated relative uncertainty of the model.
+struct DeskWindow {
+    sensor: usize,
+    patches: Vec<u32>,
+    local: f64,
+    u_rel: f64,
+}
+
+/// The windows of the desk sensors a node sees on furniture (facing up).
+fn desk_windows(c: &Commissioned, o: &SectionOptions) -> Vec<DeskWindow> {
     let Some(camera) = c.scene.camera.as_ref() else {
         return Vec::new();
     };
@@ -117,8 +119,7 @@ pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Ve
     let caster = RayCaster::new(&model.patches);
     let hits: Vec<Option<PixelHit>> = cast_all(camera, model, &caster, o.min_rho);
     let floor_m = c.report.room.as_ref().map_or(0.0, |r| r.floor_z_m);
-    // (sensor index, window patches, local ρ, stated relative uncertainty)
-    let mut desks: Vec<(usize, Vec<u32>, f64, f64)> = Vec::new();
+    let mut out = Vec::new();
     for (s, sensor) in c.scene.sensors.iter().enumerate() {
         let seen = c
             .sensor_flags
@@ -138,30 +139,40 @@ pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Ve
             .iter()
             .map(|&p| model.patches.rho[p as usize])
             .collect();
-        let u = c
+        let u_rel = c
             .report
             .uncertainty
             .iter()
             .find(|u| u.sensor_id == sensor.id)
             .map_or(f64::NAN, |u| u.rel);
         if let Some(local) = median(&rhos) {
-            desks.push((s, patches, local, u));
+            out.push(DeskWindow {
+                sensor: s,
+                patches,
+                local,
+                u_rel,
+            });
         }
     }
-    let estimates: Vec<(f64, f64)> = desks.iter().map(|d| (d.2, d.3)).collect();
+    out
+}
+
+/// Gives the desk tops of one node's model that agree with the class its reflectance (see the
+/// module docs); returns each desk sensor it sees on furniture with what was done.
+pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Vec<DeskRho> {
+    let desks = desk_windows(c, o);
+    let estimates: Vec<(f64, f64)> = desks.iter().map(|d| (d.local, d.u_rel)).collect();
     let class = class_of(&estimates);
     // each patch's factors' logarithms, summed, and their count
-    let mut factor_ln: std::collections::HashMap<u32, (f64, u32)> = Default::default();
+    let mut factor_ln: BTreeMap<u32, (f64, u32)> = BTreeMap::new();
     let mut out = Vec::with_capacity(desks.len());
-    for (k, (s, patches, local, _)) in desks.iter().enumerate() {
+    for (k, d) in desks.iter().enumerate() {
         let taken = class
             .as_ref()
             .and_then(|(rho_c, member)| member[k].then_some(*rho_c));
         if let Some(rho_c) = taken {
-            let f = (rho_c / local).ln();
-            let mut unique = patches.clone();
-            unique.sort_unstable();
-            unique.dedup();
+            let f = (rho_c / d.local).ln();
+            let unique: std::collections::BTreeSet<u32> = d.patches.iter().copied().collect();
             for p in unique {
                 let e = factor_ln.entry(p).or_insert((0.0, 0));
                 e.0 += f;
@@ -169,9 +180,9 @@ pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Ve
             }
         }
         out.push(DeskRho {
-            sensor_id: c.scene.sensors[*s].id,
+            sensor_id: c.scene.sensors[d.sensor].id,
             node,
-            local: *local,
+            local: d.local,
             taken,
         });
     }
