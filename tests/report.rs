@@ -190,7 +190,8 @@ fn geometry_section_round_trips_and_old_images_still_parse() {
     assert!(room.camera.is_some());
     // the lamps' colour rendering (luminaire.ldt's lamp set: "1B", Ra 80-89), in the second
     // extension; a section of the build before it (no such extension: its 13 bytes, length
-    // 1, "1B" with its length, Some(80.0), cut off) still decodes, Ra not known
+    // 1, "1B" with its length, Some(80.0), cut off, and the third's one byte after it) still
+    // decodes, Ra not known
     let p = &room.section.photometries;
     assert_eq!(p.len(), 1);
     assert_eq!(
@@ -198,13 +199,19 @@ fn geometry_section_round_trips_and_old_images_still_parse() {
         ("1B", Some(80.0))
     );
     let body = image.geometry_bytes().unwrap();
+    // the third extension of a CAD model: no unseen walls, an empty list (one byte); a section
+    // of the build before it decodes the same
+    assert!(room.section.unseen_walls.is_empty());
+    let before_third =
+        luxnode::store::geometry::GeometrySection::decode(&body[..body.len() - 1]).unwrap();
+    assert_eq!(before_third, room.section);
     let older =
-        luxnode::store::geometry::GeometrySection::decode(&body[..body.len() - 13]).unwrap();
+        luxnode::store::geometry::GeometrySection::decode(&body[..body.len() - 14]).unwrap();
     assert_eq!(older.photometries[0].ra_min, None);
     assert_eq!(older.photometries[0].colour_rendering, "");
     assert_eq!(older.camera, room.section.camera);
     assert!(
-        luxnode::store::geometry::GeometrySection::decode(&body[..body.len() - 5]).is_err(),
+        luxnode::store::geometry::GeometrySection::decode(&body[..body.len() - 6]).is_err(),
         "a cut extension is an error"
     );
     // total exitance of luminaire 1's basis within the 16-bit storage of the direct terms
