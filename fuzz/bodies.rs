@@ -84,6 +84,7 @@ pub fn modbus_rtu(data: &[u8]) {
         sensor_flags: vec![0, 1],
         model_rel_uncertainty: vec![0.05, f64::NAN],
         uncertainty_parts_lx: Vec::new(),
+        occluder_groups: Vec::new(),
         generation: 1,
         luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0); 2],
         point_names: Vec::new(),

@@ -558,6 +558,9 @@ pub struct LiveSectionData {
     /// The parts of each sensor's modelled-light uncertainty per luminaire at 100 %, lx:
     /// `[sensor][luminaire]` ([`crate::runtime::UNCERTAINTY_PARTS`] each); empty: not stated.
     pub model_uncertainty_parts_lx: Vec<Vec<[f64; crate::runtime::UNCERTAINTY_PARTS]>>,
+    /// Each sensor's occluder group per luminaire (`[sensor][luminaire]`,
+    /// [`crate::store::live::OCCLUDER_GROUPS`]); empty: every luminaire alone.
+    pub model_occluder_groups: Vec<Vec<u8>>,
     /// Candidate emitter group per patch ([`crate::store::live::NO_EMITTER`]: none).
     pub patch_emitter: Vec<u8>,
     /// Number of emitter groups.
@@ -578,6 +581,7 @@ impl LiveSectionData {
             + 8 * self.sensor_response_lx.len() * l
             + 2 * self.model_rel_uncertainty.len()
             + 4 * crate::runtime::UNCERTAINTY_PARTS * self.model_uncertainty_parts_lx.len() * l
+            + self.model_occluder_groups.len() * l
             + self.patch_emitter.len()
     }
 }
@@ -654,13 +658,47 @@ pub fn encode_live(d: &LiveSectionData) -> Result<Vec<u8>, BuildError> {
         patch_emitter: Bytes(&d.patch_emitter),
         n_emitters: d.n_emitters,
         sensor_uncertainty_parts_lx: Bytes(&[]),
+        sensor_occluder_group: Bytes(&[]),
     };
     let parts = uncertainty_parts_bytes(d, l)?;
+    let groups = occluder_group_bytes(d, l)?;
     let mut body = postcard::to_stdvec(&live).map_err(|e| BuildError::Serialise(e.to_string()))?;
-    let tail =
-        postcard::to_stdvec(&Bytes(&parts)).map_err(|e| BuildError::Serialise(e.to_string()))?;
-    body.extend_from_slice(&tail);
+    for tail in [&parts, &groups] {
+        let tail =
+            postcard::to_stdvec(&Bytes(tail)).map_err(|e| BuildError::Serialise(e.to_string()))?;
+        body.extend_from_slice(&tail);
+    }
     Ok(body)
+}
+
+/// The live section's occluder groups, u8 `[sensor][luminaire]` (empty: every luminaire alone),
+/// checked against the section's sensors, `l` luminaires and its uncertainty parts (groups
+/// without parts group nothing).
+fn occluder_group_bytes(d: &LiveSectionData, l: usize) -> Result<Vec<u8>, BuildError> {
+    let groups = &d.model_occluder_groups;
+    if groups.is_empty() {
+        return Ok(Vec::new());
+    }
+    if d.model_uncertainty_parts_lx.is_empty()
+        || groups.len() != d.windows.len()
+        || groups.iter().any(|r| r.len() != l)
+    {
+        return Err(BuildError::Limits(format!(
+            "live section: occluder groups for {} sensors and {:?} luminaires, the section has \
+             {} sensors, {l} luminaires and {} rows of uncertainty parts",
+            groups.len(),
+            groups.first().map(Vec::len),
+            d.windows.len(),
+            d.model_uncertainty_parts_lx.len()
+        )));
+    }
+    let max = crate::store::live::OCCLUDER_GROUPS;
+    if let Some(g) = groups.iter().flatten().find(|g| **g > max) {
+        return Err(BuildError::Limits(format!(
+            "live section: occluder group {g} (at most {max})"
+        )));
+    }
+    Ok(groups.iter().flatten().copied().collect())
 }
 
 /// The live section's uncertainty parts, f32 LE `[sensor][luminaire][part]` (empty when not

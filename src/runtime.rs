@@ -40,32 +40,50 @@ pub enum RuntimeError {
     NonFinite,
 }
 
-pub use crate::store::live::UNCERTAINTY_PARTS;
+pub use crate::store::live::{OCCLUDER_GROUPS, UNCERTAINTY_PARTS};
 
 /// The standard uncertainty of a desk's modelled light in a dimming state, lx, from its parts
-/// per luminaire at 100 % (`part(l, k)`, `k` < [`UNCERTAINTY_PARTS`]) and the levels (in
-/// [0, 1]): `√(Σ_c (Σ_l x_l Δ_lc)² + (max_l x_l o_l)²)`. Each reflectance class is shared by
-/// every luminaire (their changes add before squaring; the light is linear in the emission), the
-/// classes are independent of each other, and an unseen object shades one luminaire.
-pub fn state_uncertainty_lx(part: impl Fn(usize, usize) -> f64, levels: &[f64]) -> f64 {
-    uncertainty_at(&part, |l| levels[l], levels.len())
+/// per luminaire at 100 % (`part(l, k)`, `k` < [`UNCERTAINTY_PARTS`]), its luminaires' occluder
+/// groups (`group(l)`, 0 to [`OCCLUDER_GROUPS`]) and the levels (in [0, 1]):
+/// `√(Σ_c (Σ_l x_l Δ_lc)² + o²)`. Each reflectance class is shared by every luminaire (their
+/// changes add before squaring; the light is linear in the emission) and the classes are
+/// independent of each other. An unseen object shades one luminaire (group 0) or, standing at
+/// a back edge of the desk, every luminaire of its edge's group together:
+/// `o = max(max_{g(l)=0} x_l o_l, max_{g≥1} Σ_{g(l)=g} x_l o_l)`.
+pub fn state_uncertainty_lx(
+    part: impl Fn(usize, usize) -> f64,
+    group: impl Fn(usize) -> u8,
+    levels: &[f64],
+) -> f64 {
+    uncertainty_at(&part, &group, |l| levels[l], levels.len())
 }
 
-fn uncertainty_at(part: &impl Fn(usize, usize) -> f64, x: impl Fn(usize) -> f64, n: usize) -> f64 {
+fn uncertainty_at(
+    part: &impl Fn(usize, usize) -> f64,
+    group: &impl Fn(usize) -> u8,
+    x: impl Fn(usize) -> f64,
+    n: usize,
+) -> f64 {
     let mut var = 0.0;
     for c in 0..UNCERTAINTY_PARTS - 1 {
         let d: f64 = (0..n).map(|l| x(l) * part(l, c)).sum();
         var += d * d;
     }
-    let occluder = (0..n)
-        .map(|l| x(l) * part(l, UNCERTAINTY_PARTS - 1))
+    let shaded = |l: usize| x(l) * part(l, UNCERTAINTY_PARTS - 1);
+    let alone = (0..n)
+        .filter(|&l| group(l) == 0)
+        .map(shaded)
         .fold(0.0, f64::max);
+    let occluder = (1..=OCCLUDER_GROUPS)
+        .map(|g| (0..n).filter(|&l| group(l) == g).map(shaded).sum::<f64>())
+        .fold(alone, f64::max);
     libm::sqrt(var + occluder * occluder)
 }
 
 /// A desk's stated relative uncertainty of its modelled light in a dimming state (`levels`),
 /// from the one stated with every luminaire on (`stated_all_on`, NaN: not stated), its
-/// uncertainty parts per luminaire ([`state_uncertainty_lx`]'s `part`) and its response per
+/// uncertainty parts per luminaire and their occluder groups ([`state_uncertainty_lx`]'s `part`
+/// and `group`) and its response per
 /// luminaire at 100 % (`response(l)`, lx). With one or two luminaires on, a desk's light is
 /// more interreflected than with all (farther luminaires reach it through the ceiling and the
 /// walls), so the reflectances weigh more: `u(x) / E(x)`. Where the all-on statement was
@@ -74,6 +92,7 @@ fn uncertainty_at(part: &impl Fn(usize, usize) -> f64, x: impl Fn(usize) -> f64,
 pub fn state_rel_uncertainty(
     stated_all_on: f64,
     part: impl Fn(usize, usize) -> f64,
+    group: impl Fn(usize) -> u8,
     response: impl Fn(usize) -> f64,
     levels: &[f64],
 ) -> f64 {
@@ -83,8 +102,8 @@ pub fn state_rel_uncertainty(
     if !(stated_all_on.is_finite() && lit > 0.0 && all > 0.0) {
         return stated_all_on;
     }
-    let at = uncertainty_at(&part, |l| levels[l], n) / lit;
-    let parts_all_on = uncertainty_at(&part, |_| 1.0, n) / all;
+    let at = uncertainty_at(&part, &group, |l| levels[l], n) / lit;
+    let parts_all_on = uncertainty_at(&part, &group, |_| 1.0, n) / all;
     // the all-on statement above its parts (beyond the f32 parts' rounding) was widened
     if stated_all_on > 1.01 * parts_all_on + 1e-4 {
         at.max(stated_all_on)
@@ -94,12 +113,14 @@ pub fn state_rel_uncertainty(
 }
 
 /// [`state_rel_uncertainty`] over one desk's flat rows: `parts` its uncertainty parts
-/// (`[luminaire][part]`, [`UNCERTAINTY_PARTS`] each) and `response` its response per luminaire,
-/// lx, both for `levels.len()` luminaires; rows of another length (no parts stored) give the
-/// all-on statement.
+/// (`[luminaire][part]`, [`UNCERTAINTY_PARTS`] each), `groups` its occluder groups (one per
+/// luminaire; empty: every luminaire alone) and `response` its response per luminaire, lx, for
+/// `levels.len()` luminaires; rows of another length (no parts stored) give the all-on
+/// statement.
 pub fn state_rel_uncertainty_of_rows(
     stated_all_on: f64,
     parts: &[f64],
+    groups: &[u8],
     response: &[f64],
     levels: &[f64],
 ) -> f64 {
@@ -110,6 +131,7 @@ pub fn state_rel_uncertainty_of_rows(
     state_rel_uncertainty(
         stated_all_on,
         |j, c| parts[j * UNCERTAINTY_PARTS + c],
+        |j| groups.get(j).copied().unwrap_or(0),
         |j| response[j],
         levels,
     )
@@ -129,6 +151,7 @@ pub fn model_rel_uncertainty_at(image: &Image<'_>, k: usize, levels: &[f64]) -> 
     Some(state_rel_uncertainty(
         stated,
         part,
+        |j| live.occluder_group(k, j, l),
         |j| image.response_lx(k, j),
         levels,
     ))
@@ -348,51 +371,101 @@ mod tests {
         [1000.0, 100.0][l]
     }
 
+    fn alone(_: usize) -> u8 {
+        0
+    }
+
     #[test]
     fn the_uncertainty_of_a_state_in_closed_form() {
         // all on: √(20² + 40²) = 44.72 lx; near only: √(10² + 40²); far only: √(10² + 5²)
         let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
         assert!(close(
-            state_uncertainty_lx(part, &[1.0, 1.0]),
+            state_uncertainty_lx(part, alone, &[1.0, 1.0]),
             20f64.hypot(40.0)
         ));
         assert!(close(
-            state_uncertainty_lx(part, &[1.0, 0.0]),
+            state_uncertainty_lx(part, alone, &[1.0, 0.0]),
             10f64.hypot(40.0)
         ));
         assert!(close(
-            state_uncertainty_lx(part, &[0.0, 1.0]),
+            state_uncertainty_lx(part, alone, &[0.0, 1.0]),
             10f64.hypot(5.0)
         ));
         // half the far one: the class adds linearly, the occluder takes the largest
         assert!(close(
-            state_uncertainty_lx(part, &[0.0, 0.5]),
+            state_uncertainty_lx(part, alone, &[0.0, 0.5]),
             5f64.hypot(2.5)
         ));
-        assert!(close(state_uncertainty_lx(part, &[0.0, 0.0]), 0.0));
+        assert!(close(state_uncertainty_lx(part, alone, &[0.0, 0.0]), 0.0));
+    }
+
+    #[test]
+    fn one_object_at_a_back_edge_shades_its_group_together() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // both luminaires behind the same back edge (group 2): their parts add, 40 + 5
+        let edge = |_: usize| 2u8;
+        assert!(close(
+            state_uncertainty_lx(part, edge, &[1.0, 1.0]),
+            20f64.hypot(45.0)
+        ));
+        // one of them lit: its part alone
+        assert!(close(
+            state_uncertainty_lx(part, edge, &[0.0, 1.0]),
+            10f64.hypot(5.0)
+        ));
+        assert!(close(
+            state_uncertainty_lx(part, edge, &[0.5, 1.0]),
+            15f64.hypot(25.0)
+        ));
+        // behind different edges, or one alone: the larger of them
+        let apart = |l: usize| [1u8, 3][l];
+        assert!(close(
+            state_uncertainty_lx(part, apart, &[1.0, 1.0]),
+            20f64.hypot(40.0)
+        ));
+        let mixed = |l: usize| [0u8, 4][l];
+        assert!(close(
+            state_uncertainty_lx(part, mixed, &[1.0, 1.0]),
+            20f64.hypot(40.0)
+        ));
+        // the flat rows read the same groups (empty: alone)
+        let parts: Vec<f64> = (0..2)
+            .flat_map(|l| (0..UNCERTAINTY_PARTS).map(move |c| part(l, c)))
+            .collect();
+        let resp = [1000.0, 100.0];
+        let stated = 20f64.hypot(45.0) / 1100.0;
+        let grouped = state_rel_uncertainty_of_rows(stated, &parts, &[2, 2], &resp, &[1.0, 1.0]);
+        assert!(close(grouped, stated));
+        let single = state_rel_uncertainty_of_rows(stated, &parts, &[], &resp, &[1.0, 1.0]);
+        // the all-on statement (45 lx of occluder) is above the ungrouped parts' 40: it stays
+        assert!(close(single, stated));
+        let lone = state_rel_uncertainty_of_rows(stated, &parts, &[], &resp, &[1.0, 0.0]);
+        assert!(close(lone, stated.max(10f64.hypot(40.0) / 1000.0)));
     }
 
     #[test]
     fn a_state_lit_through_the_ceiling_states_more_and_a_widened_statement_stays_the_floor() {
         let all_on = 20f64.hypot(40.0) / 1100.0;
         // stated as the parts give it: each state its own
-        let near = state_rel_uncertainty(all_on, part, response, &[1.0, 0.0]);
-        let far = state_rel_uncertainty(all_on, part, response, &[0.0, 1.0]);
-        let all = state_rel_uncertainty(all_on, part, response, &[1.0, 1.0]);
+        let near = state_rel_uncertainty(all_on, part, alone, response, &[1.0, 0.0]);
+        let far = state_rel_uncertainty(all_on, part, alone, response, &[0.0, 1.0]);
+        let all = state_rel_uncertainty(all_on, part, alone, response, &[1.0, 1.0]);
         assert!((all - all_on).abs() < 1e-12);
         assert!((near - 10f64.hypot(40.0) / 1000.0).abs() < 1e-12);
         assert!((far - 10f64.hypot(5.0) / 100.0).abs() < 1e-12);
         assert!(far > 2.5 * all);
         // widened at commissioning to 10 % (the camera disagreed): never below it
         assert_eq!(
-            state_rel_uncertainty(0.10, part, response, &[1.0, 0.0]),
+            state_rel_uncertainty(0.10, part, alone, response, &[1.0, 0.0]),
             0.10
         );
-        assert!((state_rel_uncertainty(0.10, part, response, &[0.0, 1.0]) - far).abs() < 1e-12);
+        assert!(
+            (state_rel_uncertainty(0.10, part, alone, response, &[0.0, 1.0]) - far).abs() < 1e-12
+        );
         // not stated, or no light: the all-on statement as it is
-        assert!(state_rel_uncertainty(f64::NAN, part, response, &[0.0, 1.0]).is_nan());
+        assert!(state_rel_uncertainty(f64::NAN, part, alone, response, &[0.0, 1.0]).is_nan());
         assert_eq!(
-            state_rel_uncertainty(0.04, part, response, &[0.0, 0.0]),
+            state_rel_uncertainty(0.04, part, alone, response, &[0.0, 0.0]),
             0.04
         );
     }

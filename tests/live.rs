@@ -131,13 +131,71 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
             "{at} vs {stated}"
         );
     }
-    // a version-2 section (before the parts: the same body without its last byte string, here
-    // empty) still parses, and states the all-on uncertainty for every state
+    // every desk's occluder groups travel with the parts (version 4): here every luminaire behind
+    // the same back edge, group 2
+    let (l_n, s_n) = (image.luminaires(), image.sensors());
+    let mut grouped = rig().section.clone();
+    grouped.model_occluder_groups = vec![vec![2; l_n]; s_n];
+    let g_img = with_live(&old, Some(&grouped)).unwrap();
+    let gi = Image::parse(&g_img).unwrap();
+    let gl = gi.live.as_ref().expect("a version-4 live section");
+    assert_eq!(gl.occluder_group(s_n - 1, l_n - 1, l_n), 2);
+    // the rig's desks: every luminaire alone (none behind an unseen monitor)
+    assert!((0..s_n).all(|k| (0..l_n).all(|j| live.occluder_group(k, j, l_n) == 0)));
+    // a group beyond the four edges is refused when built, and when read
+    grouped.model_occluder_groups[0][0] = 5;
+    assert!(with_live(&old, Some(&grouped)).is_err());
+    let mut v3 = rig().section.clone();
+    v3.model_occluder_groups.clear();
+    let mut body = luxnode::image_build::encode_live(&v3).unwrap();
+    assert_eq!(
+        body.pop(),
+        Some(0),
+        "no groups: an empty byte string, one zero byte"
+    );
+    let mut five = body.clone();
+    five.extend_from_slice(&[(s_n * l_n) as u8]);
+    five.resize(five.len() + s_n * l_n, 5);
+    assert!(s_n * l_n < 128, "one postcard length byte");
+    assert!(
+        luxnode::image_build::with_section(
+            &old,
+            luxnode::store::LIVE_MAGIC,
+            luxnode::store::live::LIVE_VERSION,
+            Some(&five),
+        )
+        .is_err()
+    );
+    // a version-3 section (before the groups: the same body without its last byte string)
+    // still parses, every luminaire alone
+    assert_eq!(body[0], 4, "the body's first field is its version");
+    body[0] = 3;
+    let three = luxnode::image_build::with_section(
+        &old,
+        luxnode::store::LIVE_MAGIC,
+        luxnode::store::live::LIVE_VERSION_WITHOUT_GROUPS,
+        Some(&body),
+    )
+    .unwrap();
+    let i3 = Image::parse(&three).unwrap();
+    let l3 = i3.live.as_ref().expect("a version-3 live section is read");
+    assert!(l3.has_uncertainty_parts());
+    assert_eq!(l3.occluder_group(0, 0, l_n), 0);
+    for k in 0..s_n {
+        assert_eq!(
+            luxnode::runtime::model_rel_uncertainty_at(&i3, k, &all_on),
+            luxnode::runtime::model_rel_uncertainty_at(&image, k, &all_on)
+        );
+    }
+    // a version-2 section (before the parts: the same body without its last two byte strings,
+    // here empty) still parses, and states the all-on uncertainty for every state
     let mut v2 = rig().section.clone();
     v2.model_uncertainty_parts_lx.clear();
+    v2.model_occluder_groups.clear();
     let mut body = luxnode::image_build::encode_live(&v2).unwrap();
     assert_eq!(body.pop(), Some(0), "an empty byte string is one zero byte");
-    // a version-3 section without its parts' byte string is not a section
+    assert_eq!(body.pop(), Some(0));
+    // a version-4 section without its parts' and groups' byte strings is not a section
     assert!(
         luxnode::image_build::with_section(
             &old,
@@ -147,8 +205,6 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
         )
         .is_err()
     );
-    // the body's first field is its version (postcard: one byte for a small u16)
-    assert_eq!(body[0], 3);
     body[0] = 2;
     let two = luxnode::image_build::with_section(
         &old,

@@ -182,10 +182,12 @@ fn the_open_plan_zone_by_one_and_two_nodes_pinhole_and_fisheye() {
                 st.dominant().0.name(),
                 100.0 * st.dominant().1
             );
-            // measured 4.9-15.0 % (the out-of-view sensors: unseen occluders, the unseen
-            // walls' reflectance and position)
+            // measured 4.1-18.1 % (the out-of-view sensors: unseen occluders, the unseen
+            // walls' reflectance and position; sensors 5-7 stand by back edges where one unseen
+            // monitor could shade two luminaires together: 12.7-14.6 % before the occluder
+            // groups, docs/generalization.md, tenth measurement)
             assert!(
-                (0.01..=0.16).contains(&st.rel) && e.error() <= st.rel,
+                (0.01..=0.20).contains(&st.rel) && e.error() <= st.rel,
                 "{name}, sensor {}: {:.2} % against a stated {:.2} %",
                 e.sensor,
                 100.0 * e.error(),

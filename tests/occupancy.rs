@@ -261,6 +261,7 @@ mod daemon {
             sensor_flags: vec![0; 4],
             model_rel_uncertainty: vec![f64::NAN; 4],
             uncertainty_parts_lx: Vec::new(),
+            occluder_groups: Vec::new(),
             generation: 1,
             luminaire_power: vec![luxnode::control::rating::RatedPower::assumed(3000.0)],
             point_names: Vec::new(),

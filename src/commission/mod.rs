@@ -1955,7 +1955,7 @@ pub fn from_captures(
         .zip(&scene.sensors)
         .map(|(out, s)| out && desks.is_none_or(|d| closure::on_a_desk(d, s.position_m)))
         .collect();
-    let occluder_lx = uncertainty::unseen_occluder_lx(
+    let occluders = uncertainty::unseen_occluder_lx(
         &model,
         &scene.sensors,
         &scene.luminaires,
@@ -1967,7 +1967,7 @@ pub fn from_captures(
         &model,
         &meshed.reco,
         &sigma,
-        &occluder_lx,
+        &occluders,
         placement.as_deref(),
     ) {
         Ok(u) => report.uncertainty = u,

@@ -363,6 +363,7 @@ mod tests {
             unseen_occluder_lx: 0.0,
             rel: 0.0,
             by_luminaire: Vec::new(),
+            occluder_group: Vec::new(),
         }
     }
 

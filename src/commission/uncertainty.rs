@@ -176,8 +176,8 @@ pub struct SensorUncertainty {
     /// luminaire in quadrature with the walls' reflectance, in [`Self::by_luminaire`].
     pub wall_placement_lx: f64,
     /// Out of every camera's view: what an object nobody saw could shade, lx
-    /// ([`UNSEEN_OCCLUDER_SHARE`] of the largest luminaire's direct light at the desk); 0 in
-    /// view.
+    /// ([`UNSEEN_OCCLUDER_SHARE`] of the largest luminaire's direct light at the desk, or of a
+    /// back edge's group of luminaires together); 0 in view.
     pub unseen_occluder_lx: f64,
     /// The relative standard uncertainty, `√(Σ Δ² + occluder²) / E`.
     pub rel: f64,
@@ -186,6 +186,9 @@ pub struct SensorUncertainty {
     /// (the largest over the lit luminaires is [`Self::unseen_occluder_lx`]'s counterpart in a
     /// dimming state). What `crate::runtime::state_rel_uncertainty` states per dimming state.
     pub by_luminaire: Vec<[f64; 7]>,
+    /// Per luminaire, its occluder group ([`Occluders::group`]): the luminaires of one group
+    /// are shaded together by one object at a back edge of the desk.
+    pub occluder_group: Vec<u8>,
 }
 
 /// At a desk no camera sees, an unseen object (a monitor, a cabinet, a partition) may stand
@@ -201,6 +204,10 @@ pub const UNSEEN_OCCLUDER_ELEVATION_RAD: f64 = core::f64::consts::FRAC_PI_4;
 /// The height above the desk top of what stands at a desk's back edge (a monitor on its foot,
 /// a desk screen; the common 24-27" monitors: 0.40-0.50 m), m.
 pub const EDGE_OCCLUDER_HEIGHT_M: f64 = 0.45;
+
+/// The width of that monitor, m (a 24-27" screen): the luminaires it shades together leave the
+/// desk through its back edge within this of each other ([`edge_groups`]).
+pub const EDGE_OCCLUDER_WIDTH_M: f64 = 0.6;
 /// A desk edge within this distance of another desk's edge, or of the room's boundary, is a
 /// back edge (an island's shared edge, a desk's wall side), m.
 pub const BACK_EDGE_GAP_M: f64 = 0.3;
@@ -250,9 +257,19 @@ pub fn occluder_elevation_limit_rad(
     desk: Option<(&crate::scene::Desk, [bool; 4])>,
 ) -> f64 {
     let base = UNSEEN_OCCLUDER_ELEVATION_RAD;
-    let Some((d, back)) = desk else {
-        return base;
-    };
+    back_edge_toward(sensor_m, toward_xy, desk)
+        .map_or(base, |(_, t)| base.max(EDGE_OCCLUDER_HEIGHT_M.atan2(t)))
+}
+
+/// The back edge of the sensor's desk that a direction leaves it through (x low, x high, y low,
+/// y high: 0 to 3) and the horizontal distance to it, m; `None` through a front or free edge, or
+/// off any desk.
+fn back_edge_toward(
+    sensor_m: DVec3,
+    toward_xy: DVec2,
+    desk: Option<(&crate::scene::Desk, [bool; 4])>,
+) -> Option<(usize, f64)> {
+    let (d, back) = desk?;
     let dir = toward_xy.normalize_or_zero();
     // the ray's exit from the desk's rectangle through each pair of sides, m
     let exit = |p: f64, v: f64, lo: f64, hi: f64| -> (f64, usize) {
@@ -267,18 +284,26 @@ pub fn occluder_elevation_limit_rad(
     let (tx, sx) = exit(sensor_m.x, dir.x, d.x_m[0], d.x_m[1]);
     let (ty, sy) = exit(sensor_m.y, dir.y, d.y_m[0], d.y_m[1]);
     let (t, side) = if tx <= ty { (tx, sx) } else { (ty, 2 + sy) };
-    if !(t.is_finite() && t >= 0.0 && back[side]) {
-        return base;
-    }
-    base.max(EDGE_OCCLUDER_HEIGHT_M.atan2(t))
+    (t.is_finite() && t >= 0.0 && back[side]).then_some((side, t))
 }
 
-/// Per sensor and luminaire, what an unseen object could shade of its direct light at 100 %,
-/// lx ([`UNSEEN_OCCLUDER_SHARE`] of it for a luminaire below the sensor's
-/// [`occluder_elevation_limit_rad`] toward it, 0 above); all 0 where `out_of_view` is false (a
-/// sensor some camera sees, or not on a desk, where monitors stand). `desks`: the declared
-/// desks (a sensor on one of them takes its back edges, with the room's extent `room_xy_m`).
-/// A desk's occluder uncertainty is the largest over its luminaires.
+/// Per sensor and luminaire, what an unseen object could shade of its direct light at 100 %.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Occluders {
+    /// `[sensor][luminaire]`, lx ([`UNSEEN_OCCLUDER_SHARE`] of the luminaire's direct light
+    /// below the sensor's [`occluder_elevation_limit_rad`] toward it, 0 above).
+    pub lx: Vec<Vec<f64>>,
+    /// `[sensor][luminaire]`: 0, an object shades that luminaire alone; otherwise the group of
+    /// luminaires toward a back edge of the sensor's desk that one monitor along it could shade
+    /// together ([`edge_groups`]; issue 28: room_08's island desk 3, whose neighbour's monitor
+    /// hides two luminaires at once).
+    pub group: Vec<Vec<u8>>,
+}
+
+/// What an unseen object could shade at each sensor ([`Occluders`]); all 0 where `out_of_view`
+/// is false (a sensor some camera sees, or not on a desk, where monitors stand). `desks`: the
+/// declared desks (a sensor on one of them takes its back edges, with the room's extent
+/// `room_xy_m`).
 pub fn unseen_occluder_lx(
     model: &Model,
     sensors: &[crate::scene::Sensor],
@@ -286,8 +311,8 @@ pub fn unseen_occluder_lx(
     desks: &[crate::scene::Desk],
     room_xy_m: Option<[f64; 4]>,
     out_of_view: &[bool],
-) -> Vec<Vec<f64>> {
-    sensors
+) -> Occluders {
+    let rows: Vec<Vec<(f64, u8)>> = sensors
         .iter()
         .enumerate()
         .map(|(s, sensor)| {
@@ -297,7 +322,9 @@ pub fn unseen_occluder_lx(
                 .iter()
                 .find(|d| super::closure::on_a_desk(core::slice::from_ref(*d), sensor.position_m))
                 .map(|d| (d, back_edges(d, desks, room_xy_m)));
-            luminaires
+            // per luminaire: what an object could shade, and where along a back edge it would
+            // stand (side, m along the edge)
+            let shaded: Vec<(f64, Option<(usize, f64)>)> = luminaires
                 .iter()
                 .enumerate()
                 .map(|(j, l)| {
@@ -305,13 +332,75 @@ pub fn unseen_occluder_lx(
                     let limit = occluder_elevation_limit_rad(sensor.position_m, d.truncate(), desk);
                     let low = d.z.atan2(d.truncate().length()) < limit;
                     if seen || !low {
-                        return 0.0;
+                        return (0.0, None);
                     }
-                    row.and_then(|r| r.get(j)).copied().unwrap_or(0.0) * UNSEEN_OCCLUDER_SHARE
+                    let dir = d.truncate().normalize_or_zero();
+                    let at =
+                        back_edge_toward(sensor.position_m, d.truncate(), desk).map(|(side, t)| {
+                            let p = sensor.position_m.truncate() + dir * t;
+                            (side, if side < 2 { p.y } else { p.x })
+                        });
+                    let lx = row.and_then(|r| r.get(j)).copied().unwrap_or(0.0);
+                    (lx * UNSEEN_OCCLUDER_SHARE, at)
                 })
+                .collect();
+            let group = edge_groups(&shaded);
+            shaded
+                .iter()
+                .zip(group)
+                .map(|((lx, _), g)| (*lx, g))
                 .collect()
         })
-        .collect()
+        .collect();
+    Occluders {
+        lx: rows
+            .iter()
+            .map(|r| r.iter().map(|v| v.0).collect())
+            .collect(),
+        group: rows
+            .iter()
+            .map(|r| r.iter().map(|v| v.1).collect())
+            .collect(),
+    }
+}
+
+/// The luminaires one monitor along a back edge could shade together: per edge, the window of
+/// [`EDGE_OCCLUDER_WIDTH_M`] along it (where each luminaire's direction leaves the desk) that
+/// holds the most shadable light becomes a group, then the next among the rest, and so on; a
+/// luminaire alone in its window stays alone (group 0). Groups are numbered from 1 up to
+/// [`crate::store::live::OCCLUDER_GROUPS`] (any beyond stay alone).
+fn edge_groups(shaded: &[(f64, Option<(usize, f64)>)]) -> Vec<u8> {
+    let mut group = vec![0u8; shaded.len()];
+    let mut next = 1u8;
+    for side in 0..4 {
+        // (along the edge, m; shadable light, lx; luminaire) on this edge, by position
+        let mut left: Vec<(f64, f64, usize)> = shaded
+            .iter()
+            .enumerate()
+            .filter_map(|(l, (lx, at))| at.filter(|a| a.0 == side).map(|a| (a.1, *lx, l)))
+            .collect();
+        left.sort_by(|a, b| a.0.total_cmp(&b.0));
+        while left.len() >= 2 && next <= crate::store::live::OCCLUDER_GROUPS {
+            // the window starting at each luminaire; the one that holds the most
+            let best = (0..left.len())
+                .map(|i| {
+                    let end = left[i..]
+                        .iter()
+                        .take_while(|m| m.0 - left[i].0 <= EDGE_OCCLUDER_WIDTH_M)
+                        .count();
+                    (i, end, left[i..i + end].iter().map(|m| m.1).sum::<f64>())
+                })
+                .max_by(|a, b| a.2.total_cmp(&b.2));
+            let Some((i, end, _)) = best.filter(|b| b.1 >= 2) else {
+                break;
+            };
+            for m in left.drain(i..i + end) {
+                group[m.2] = next;
+            }
+            next += 1;
+        }
+    }
+    group
 }
 
 impl SensorUncertainty {
@@ -358,7 +447,7 @@ pub fn per_sensor(
     model: &Model,
     reco: &RecoMesh,
     o: &UncertaintyOptions,
-    occluder_lx: &[Vec<f64>],
+    occluders: &Occluders,
     wall_placement_lx: Option<&[Vec<f64>]>,
 ) -> Result<Vec<SensorUncertainty>, EngineError> {
     o.check().map_err(EngineError::Settings)?;
@@ -430,7 +519,8 @@ pub fn per_sensor(
                 .unwrap_or(0.0);
             placement[s] += placed;
             row[0] = row[0].hypot(placed);
-            row[6] = occluder_lx
+            row[6] = occluders
+                .lx
                 .get(s)
                 .and_then(|o| o.get(l))
                 .copied()
@@ -440,24 +530,31 @@ pub fn per_sensor(
     Ok(model
         .sensor_ids
         .iter()
+        .enumerate()
         .zip(lux)
         .zip(by_luminaire)
         .zip(by_class.into_iter().zip(placement))
         .map(
-            |(((&sensor_id, all_on_lx), by_luminaire), (by_class_lx, wall_placement_lx))| {
-                // the stated variance from the parts the run-time kernel reads: the walls' with
-                // their placement, luminaire by luminaire
-                let mut parts = [0.0; 6];
-                for row in &by_luminaire {
-                    for (c, d) in parts.iter_mut().zip(row) {
-                        *c += d;
-                    }
-                }
-                let unseen_occluder_lx = by_luminaire.iter().map(|r| r[6]).fold(0.0, f64::max);
-                let var: f64 = parts.iter().map(|d| d * d).sum::<f64>()
-                    + unseen_occluder_lx * unseen_occluder_lx;
+            |((((s, &sensor_id), all_on_lx), by_luminaire), (by_class_lx, wall_placement_lx))| {
+                let occluder_group = occluders
+                    .group
+                    .get(s)
+                    .cloned()
+                    .unwrap_or_else(|| vec![0; lums]);
+                let group = |l: usize| occluder_group.get(l).copied().unwrap_or(0);
+                let part = |l: usize, c: usize| by_luminaire[l][c];
+                // the stated uncertainty as the run-time kernel states it with every luminaire
+                // on: the walls' with their placement, luminaire by luminaire, and the occluder
+                // of the largest group
+                let ones = vec![1.0; lums];
+                let all_on_u = crate::runtime::state_uncertainty_lx(part, group, &ones);
+                let zero_occluder = |l: usize, c: usize| if c == 6 { 0.0 } else { part(l, c) };
+                let classes_u = crate::runtime::state_uncertainty_lx(zero_occluder, group, &ones);
+                let unseen_occluder_lx = (all_on_u * all_on_u - classes_u * classes_u)
+                    .max(0.0)
+                    .sqrt();
                 let rel = if all_on_lx > 0.0 {
-                    var.sqrt() / all_on_lx
+                    all_on_u / all_on_lx
                 } else {
                     0.0
                 };
@@ -469,6 +566,7 @@ pub fn per_sensor(
                     unseen_occluder_lx,
                     rel,
                     by_luminaire,
+                    occluder_group,
                 }
             },
         )
@@ -535,6 +633,55 @@ mod tests {
         // above the 45° of furniture anywhere on the desk
         let elev = (3.057f64 - 0.751).atan2(dir.length());
         assert!(elev > UNSEEN_OCCLUDER_ELEVATION_RAD && elev < diag);
+    }
+
+    #[test]
+    fn a_monitors_width_along_the_edge_makes_a_group() {
+        // room_08's desk 3: luminaires 6, 7 and 8 leave the desk through its y-high edge at
+        // x = 5.29, 5.63 and 5.97 m (0.68 m apart at most), luminaire 1 through no back edge
+        let on = |x: f64| Some((3usize, x));
+        let rows = |lx: [f64; 3]| {
+            vec![
+                (20.0, None),
+                (lx[0], on(5.29)),
+                (lx[1], on(5.63)),
+                (lx[2], on(5.97)),
+            ]
+        };
+        // 6 + 7 hold more than 7 + 8: they are the group, 8 stays alone
+        assert_eq!(edge_groups(&rows([30.0, 50.0, 25.0])), [0, 1, 1, 0]);
+        // 7 + 8 hold more
+        assert_eq!(edge_groups(&rows([10.0, 50.0, 45.0])), [0, 0, 1, 1]);
+        // another edge's luminaires make groups of their own
+        let mut two = rows([30.0, 50.0, 25.0]);
+        two.push((5.0, Some((0, 3.0))));
+        two.push((6.0, Some((0, 3.4))));
+        assert_eq!(
+            edge_groups(&two),
+            [0, 2, 2, 0, 1, 1],
+            "numbered edge by edge"
+        );
+        // nothing behind an edge, or one luminaire there: every luminaire alone
+        assert_eq!(edge_groups(&[(1.0, None), (2.0, on(1.0))]), [0, 0]);
+    }
+
+    #[test]
+    fn luminaires_toward_one_back_edge_are_one_group() {
+        // room_08's desk 3 (sensor at y = 3.229, 0.271 m from the shared edge y = 3.5): two
+        // luminaires behind the neighbour's monitor leave through the same back edge (y high,
+        // side 3), one in front through the front edge, one to the side through a free edge
+        let d = island();
+        let back = Some((&d[0], back_edges(&d[0], &d, None)));
+        let s = DVec3::new(5.525, 3.229, 0.751);
+        for toward in [DVec2::new(-0.6, 1.0), DVec2::new(0.8, 1.0)] {
+            let (side, t) = back_edge_toward(s, toward, back).expect("through the back edge");
+            assert_eq!(side, 3);
+            // the distance along the direction to y = 3.5
+            assert!((t - 0.271 * toward.length() / toward.y).abs() < 1e-9, "{t}");
+        }
+        assert_eq!(back_edge_toward(s, DVec2::new(0.0, -1.0), back), None);
+        assert_eq!(back_edge_toward(s, DVec2::new(-1.0, 0.0), back), None);
+        assert_eq!(back_edge_toward(s, DVec2::new(0.0, 1.0), None), None);
     }
 
     #[test]

@@ -150,6 +150,7 @@ mod tests {
             sensor_flags: vec![0],
             model_rel_uncertainty: vec![f64::NAN],
             uncertainty_parts_lx: Vec::new(),
+            occluder_groups: Vec::new(),
             generation: 1,
             luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0)],
             point_names: Vec::new(),

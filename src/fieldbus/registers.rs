@@ -134,6 +134,7 @@ mod tests {
             sensor_flags: vec![0, sensor_flags::OUT_OF_VIEW],
             model_rel_uncertainty: vec![0.03, f64::NAN],
             uncertainty_parts_lx: Vec::new(),
+            occluder_groups: Vec::new(),
             generation: 5,
             luminaire_power: vec![crate::control::rating::RatedPower::assumed(1200.0); 3],
             point_names: Vec::new(),

@@ -335,6 +335,8 @@ pub struct LiveModel {
     // per sensor and luminaire, the model uncertainty's parts ([`crate::runtime::UNCERTAINTY_PARTS`]
     // each; empty: the all-on statement holds for every state)
     model_parts: Vec<f64>,
+    // per sensor and luminaire, its occluder group (empty: every luminaire alone)
+    model_groups: Vec<u8>,
     /// Per sensor, the model's disagreement with the camera at all on (0 out of view).
     disagreement: Vec<f64>,
     windows: Vec<Window>,
@@ -463,6 +465,7 @@ impl LiveModel {
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
             model_parts: live.uncertainty_parts_vec(),
+            model_groups: live.occluder_groups_vec(),
             disagreement: Vec::new(),
             windows,
             k: k_em,
@@ -523,8 +526,9 @@ impl LiveModel {
             .model_parts
             .get(s * l * p..(s + 1) * l * p)
             .unwrap_or(&[]);
+        let groups = self.model_groups.get(s * l..(s + 1) * l).unwrap_or(&[]);
         let response = self.response.get(s * l..(s + 1) * l).unwrap_or(&[]);
-        crate::runtime::state_rel_uncertainty_of_rows(stated, parts, response, levels)
+        crate::runtime::state_rel_uncertainty_of_rows(stated, parts, groups, response, levels)
     }
 
     /// The boundary basis: unit emission of each group, seen patches' exitance held at 0 (it is

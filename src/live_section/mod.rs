@@ -679,6 +679,7 @@ pub fn from_capture(
         sensor_response_lx: response,
         model_rel_uncertainty,
         model_uncertainty_parts_lx: uncertainty_parts(c),
+        model_occluder_groups: occluder_groups(c),
         patch_emitter: lay.patch_emitter,
         n_emitters: lay.n_emitters,
     })
@@ -731,6 +732,29 @@ fn uncertainty_parts(c: &Commissioned) -> Vec<Vec<[f64; crate::runtime::UNCERTAI
                 .find(|u| u.sensor_id == *id)
                 .filter(|u| u.by_luminaire.len() == model.luminaires())
                 .map(|u| u.by_luminaire.clone())
+        })
+        .collect();
+    rows.unwrap_or_default()
+}
+
+/// Each sensor's occluder group per luminaire ([`crate::commission::uncertainty::Occluders`]), in
+/// the model's sensor order, when every sensor has its parts ([`uncertainty_parts`]); empty
+/// otherwise (every luminaire alone).
+fn occluder_groups(c: &Commissioned) -> Vec<Vec<u8>> {
+    let model = &c.model;
+    if uncertainty_parts(c).is_empty() {
+        return Vec::new();
+    }
+    let rows: Option<Vec<_>> = model
+        .sensor_ids
+        .iter()
+        .map(|id| {
+            c.report
+                .uncertainty
+                .iter()
+                .find(|u| u.sensor_id == *id)
+                .filter(|u| u.occluder_group.len() == model.luminaires())
+                .map(|u| u.occluder_group.clone())
         })
         .collect();
     rows.unwrap_or_default()
@@ -847,6 +871,7 @@ pub fn from_model(
             artificial_lx: artificial,
             model_rel_uncertainty: vec![f64::NAN; model.sensors()],
             model_uncertainty_parts_lx: Vec::new(),
+            model_occluder_groups: Vec::new(),
             windows: lay.windows,
             sensor_response_lx: response,
             patch_emitter: lay.patch_emitter,

@@ -51,6 +51,9 @@ pub struct NodeModel {
     /// (`[sensor][luminaire][part]`, [`crate::runtime::UNCERTAINTY_PARTS`] parts; empty: the
     /// all-on statement holds for every state).
     pub uncertainty_parts_lx: Vec<f64>,
+    /// Per sensor and luminaire, its occluder group (`[sensor][luminaire]`,
+    /// [`crate::runtime::OCCLUDER_GROUPS`]; empty: every luminaire alone).
+    pub occluder_groups: Vec<u8>,
     /// Image generation (from the A/B slots; 0 for a plain file).
     pub generation: u64,
     /// Rated input power per luminaire (the power model's default, [`RatedPower`]).
@@ -119,6 +122,10 @@ impl NodeModel {
                 .live
                 .as_ref()
                 .map_or_else(Vec::new, |live| live.uncertainty_parts_vec()),
+            occluder_groups: image
+                .live
+                .as_ref()
+                .map_or_else(Vec::new, |live| live.occluder_groups_vec()),
             generation,
             luminaire_power: crate::control::rating::rated_powers_in(image, section.as_ref()),
             point_names: crate::points::points_in(&sensor_ids, section.as_ref())
@@ -143,6 +150,7 @@ impl NodeModel {
         crate::runtime::state_rel_uncertainty_of_rows(
             stated,
             row(&self.uncertainty_parts_lx, k, l * p),
+            self.occluder_groups.get(k * l..(k + 1) * l).unwrap_or(&[]),
             row(&self.response_lx, k, l),
             levels,
         )
@@ -1033,6 +1041,7 @@ mod tests {
             sensor_flags: vec![0, 0],
             model_rel_uncertainty: vec![f64::NAN; 2],
             uncertainty_parts_lx: Vec::new(),
+            occluder_groups: Vec::new(),
             generation: 1,
             luminaire_power: vec![RatedPower::assumed(1000.0); 2],
             point_names: Vec::new(),

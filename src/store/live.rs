@@ -37,7 +37,10 @@
 //! `crate::commission::uncertainty`; [`NOT_STATED`] for a CAD model) with, from version 3, its
 //! parts per luminaire at 100 % (`sensor_uncertainty_parts_lx`, f32, six reflectance classes and an
 //! unseen occluder: 28 bytes per sensor and luminaire), from which any dimming state's uncertainty
-//! follows (the run-time kernel's `state_rel_uncertainty`). Per patch: the group it belongs to as a
+//! follows (the run-time kernel's `state_rel_uncertainty`), and, from version 4, which of a
+//! sensor's luminaires one unseen object shades together (`sensor_occluder_group`, one byte per
+//! sensor and luminaire: 0 alone, 1 to [`OCCLUDER_GROUPS`] the luminaires one monitor at a
+//! back edge of the desk could shade together). Per patch: the group it belongs to as a
 //! candidate *unknown emitter* (daylight through a window, any unmodelled light: walls, floor
 //! and other surfaces the camera does not see, grouped by plane and position), or
 //! [`NO_EMITTER`].
@@ -57,6 +60,10 @@ const MAX_LUX_F32: f32 = super::MAX_LUX as f32;
 /// (`crate::commission::uncertainty::Inferred`), then what an unseen object could shade of that
 /// luminaire's direct light.
 pub const UNCERTAINTY_PARTS: usize = 7;
+/// Occluder groups of a sensor's luminaires in `sensor_occluder_group`: 0, an unseen object
+/// shades that luminaire alone; `1..=OCCLUDER_GROUPS`, one object at a back edge of the desk
+/// shades every luminaire of the group together (their parts add).
+pub const OCCLUDER_GROUPS: u8 = 32;
 /// A sensor's stated uncertainty that is not stated.
 pub const NOT_STATED: u16 = u16::MAX;
 /// The largest stated uncertainty, 0.01 % units (100 %).
@@ -67,7 +74,10 @@ pub const LIVE_MAGIC: [u8; 4] = *b"LXLV";
 /// The largest camera side a live section may give, pixels (the frames the node allocates).
 pub const MAX_SIDE_PX: u16 = 4096;
 /// Version of the live section's layout.
-pub const LIVE_VERSION: u16 = 3;
+pub const LIVE_VERSION: u16 = 4;
+/// The live section with the uncertainty's parts per luminaire but not their occluder groups
+/// (read with every luminaire alone).
+pub const LIVE_VERSION_WITHOUT_GROUPS: u16 = 3;
 /// The oldest live section this build reads: version 2, without the uncertainty's parts per
 /// luminaire (its sensors' model uncertainty is then stated at every luminaire on).
 pub const LIVE_VERSION_WITHOUT_PARTS: u16 = 2;
@@ -113,7 +123,7 @@ pub struct CameraRecord {
 
 /// The live section (version [`LIVE_VERSION`]; version 1 lacked
 /// `sensor_model_uncertainty` and is skipped; version 2 lacks `sensor_uncertainty_parts_lx` and
-/// is read without it).
+/// is read without it; version 3 lacks `sensor_occluder_group` and is read without it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LiveV1<'a> {
     /// [`LIVE_VERSION`].
@@ -170,6 +180,11 @@ pub struct LiveV1<'a> {
     /// after the fields above (so a version-2 body is a version-3 body without it).
     #[serde(skip)]
     pub sensor_uncertainty_parts_lx: Bytes<'a>,
+    /// Each sensor's occluder group per luminaire, u8 `[sensor][luminaire]` (0 to
+    /// [`OCCLUDER_GROUPS`]). Empty: every luminaire alone (a version-3 section, a CAD model).
+    /// Version 4 appends it after the parts as one more postcard byte string.
+    #[serde(skip)]
+    pub sensor_occluder_group: Bytes<'a>,
 }
 
 impl<'a> LiveV1<'a> {
@@ -184,10 +199,18 @@ impl<'a> LiveV1<'a> {
     ) -> Result<Self, ImageError> {
         let (mut live, rest): (LiveV1<'a>, _) =
             postcard::take_from_bytes(body).map_err(|_| ImageError::Decode)?;
-        let rest = if version >= LIVE_VERSION {
+        let rest = if version >= LIVE_VERSION_WITHOUT_GROUPS {
             let (parts, rest): (Bytes<'a>, _) =
                 postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
             live.sensor_uncertainty_parts_lx = parts;
+            rest
+        } else {
+            rest
+        };
+        let rest = if version >= LIVE_VERSION {
+            let (groups, rest): (Bytes<'a>, _) =
+                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+            live.sensor_occluder_group = groups;
             rest
         } else {
             rest
@@ -299,6 +322,16 @@ impl<'a> LiveV1<'a> {
                 "live sensor uncertainty parts",
             )?;
         }
+        let groups = self.sensor_occluder_group.0;
+        check(
+            groups.is_empty()
+                || (parts == Some(s * l * UNCERTAINTY_PARTS) && groups.len() == s * l),
+            "live sensor occluder groups",
+        )?;
+        check(
+            groups.iter().all(|&g| g <= OCCLUDER_GROUPS),
+            "live sensor occluder group",
+        )?;
         check(
             self.patch_emitter.count(1) == Some(patches),
             "live patch emitters",
@@ -388,6 +421,22 @@ impl<'a> LiveV1<'a> {
             return 0.0;
         }
         f64::from(self.sensor_uncertainty_parts_lx.f32_at(i))
+    }
+
+    /// The occluder group of sensor `s`'s luminaire `l` (for `luminaires` luminaires): 0 alone,
+    /// `1..=OCCLUDER_GROUPS` shaded together with the group's others; 0 without groups.
+    pub fn occluder_group(&self, s: usize, l: usize, luminaires: usize) -> u8 {
+        self.sensor_occluder_group
+            .0
+            .get(s * luminaires + l)
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// Every sensor's occluder groups, copied out flat (`[sensor][luminaire]`); empty without.
+    #[cfg(feature = "std")]
+    pub fn occluder_groups_vec(&self) -> std::vec::Vec<u8> {
+        self.sensor_occluder_group.0.to_vec()
     }
 
     /// Every sensor's uncertainty parts, copied out flat (`[sensor][luminaire][part]`, the

@@ -67,6 +67,7 @@ pub fn sample_node() -> Node {
         sensor_flags: vec![0; 4],
         model_rel_uncertainty: vec![0.03, f64::NAN, 0.1, 0.1],
         uncertainty_parts_lx: Vec::new(),
+        occluder_groups: Vec::new(),
         generation: 3,
         luminaire_power: vec![crate::control::rating::RatedPower::assumed(1000.0); 3],
         point_names: Vec::new(),
