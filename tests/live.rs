@@ -142,8 +142,9 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     assert_eq!(gl.occluder_group(s_n - 1, l_n - 1, l_n), 2);
     // the rig's desks: every luminaire alone (none behind an unseen monitor)
     assert!((0..s_n).all(|k| (0..l_n).all(|j| live.occluder_group(k, j, l_n) == 0)));
-    // a group beyond the four edges is refused when built, and when read
-    grouped.model_occluder_groups[0][0] = 5;
+    // a group beyond the format's is refused when built, and when read
+    let beyond = luxnode::store::live::OCCLUDER_GROUPS + 1;
+    grouped.model_occluder_groups[0][0] = beyond;
     assert!(with_live(&old, Some(&grouped)).is_err());
     let mut v3 = rig().section.clone();
     v3.model_occluder_groups.clear();
@@ -155,7 +156,7 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     );
     let mut five = body.clone();
     five.extend_from_slice(&[(s_n * l_n) as u8]);
-    five.resize(five.len() + s_n * l_n, 5);
+    five.resize(five.len() + s_n * l_n, beyond);
     assert!(s_n * l_n < 128, "one postcard length byte");
     assert!(
         luxnode::image_build::with_section(
