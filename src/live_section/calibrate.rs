@@ -127,32 +127,46 @@ pub fn calibrate_desks(nodes: &mut [Commissioned], captures: &[Capture]) -> Vec<
         let Some((i, _, camera)) = best else {
             continue;
         };
-        let Some(mut cal) = desk_scale::calibrate(&nodes[i].model.response_lx[s], camera) else {
+        let Some((r, cal)) = calibrate_one(&nodes[i], s, i, camera, &desk_rho) else {
             continue;
         };
-        let id = nodes[i].model.sensor_ids[s];
-        let rho = desk_rho
-            .iter()
-            .find(|d| d.node == i && d.sensor_id == id)
-            .cloned();
-        // with the desks' common reflectance the camera's scale is a measurement of its own
-        if rho.as_ref().is_some_and(|d| d.taken.is_some()) {
-            let u = nodes[i]
-                .report
-                .uncertainty
-                .iter()
-                .find(|u| u.sensor_id == id)
-                .map_or(f64::NAN, |u| u.rel);
-            desk_scale::weigh_scale(&mut cal, u, super::CALIBRATED_MIN_REL);
-        }
-        let mut r = record(&nodes[i], s, i, &cal);
-        r.desk_rho = rho;
         done.push(r);
         if cal.any() {
             apply(nodes, s, &cal);
         }
     }
     done
+}
+
+/// Sensor `s`'s calibration by node `i`'s camera rows (see the module docs): the shades the mesh
+/// lost, then, where the desk took the desks' common reflectance, the model's scale weighed
+/// against the camera's; `None` when the rows give no camera scale.
+fn calibrate_one(
+    c: &Commissioned,
+    s: usize,
+    i: usize,
+    camera: &[f64],
+    desk_rho: &[super::desk_rho::DeskRho],
+) -> Option<(DeskCalibration, Calibrated)> {
+    let mut cal = desk_scale::calibrate(&c.model.response_lx[s], camera)?;
+    let id = c.model.sensor_ids[s];
+    let rho = desk_rho
+        .iter()
+        .find(|d| d.node == i && d.sensor_id == id)
+        .cloned();
+    // with the desks' common reflectance the camera's scale is a measurement of its own
+    if rho.as_ref().is_some_and(|d| d.taken.is_some()) {
+        let u = c
+            .report
+            .uncertainty
+            .iter()
+            .find(|u| u.sensor_id == id)
+            .map_or(f64::NAN, |u| u.rel);
+        desk_scale::weigh_scale(&mut cal, u, super::CALIBRATED_MIN_REL);
+    }
+    let mut r = record(c, s, i, &cal);
+    r.desk_rho = rho;
+    Some((r, cal))
 }
 
 /// The camera's light in every node's model for the luminaires it replaced at sensor `s`: the
