@@ -74,9 +74,16 @@ fn uncertainty_at(
         .filter(|&l| group(l) == 0)
         .map(shaded)
         .fold(0.0, f64::max);
-    let occluder = (1..=OCCLUDER_GROUPS)
-        .map(|g| (0..n).filter(|&l| group(l) == g).map(shaded).sum::<f64>())
-        .fold(alone, f64::max);
+    // each group once, from its first luminaire (none in an image without groups)
+    let mut occluder = alone;
+    for l in 0..n {
+        let g = group(l);
+        if g == 0 || (0..l).any(|k| group(k) == g) {
+            continue;
+        }
+        let sum: f64 = (l..n).filter(|&k| group(k) == g).map(shaded).sum();
+        occluder = occluder.max(sum);
+    }
     libm::sqrt(var + occluder * occluder)
 }
 

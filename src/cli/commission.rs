@@ -417,14 +417,9 @@ fn print_report(c: &commission::Commissioned) -> Result<()> {
             room.floor_z_m,
             room.ceiling_z_m
         );
-        if let Some(unseen) = r.unseen_wall_sides.filter(|u| u.iter().any(|x| *x)) {
-            let names = ["x low", "y low", "x high", "y high"];
-            let sides: Vec<&str> = names
-                .iter()
-                .zip(unseen)
-                .filter(|(_, u)| *u)
-                .map(|(n, _)| *n)
-                .collect();
+        let unseen = luxnode::image_geometry::unseen_walls_of(r);
+        if !unseen.is_empty() {
+            let sides: Vec<&str> = unseen.iter().map(|w| w.side.as_str()).collect();
             println!(
                 "walls nobody saw nor the luminaire grid placed: {} (at the seen extent or \
                  behind the sensors; their position, {} m farther out, is in each desk's stated \

@@ -641,6 +641,16 @@ impl Report {
     pub fn total(&self) -> Duration {
         self.timings.iter().map(|t| t.1).sum()
     }
+
+    /// The stated uncertainty of the desk sensor `sensor_id`, if commissioning stated one.
+    pub fn uncertainty_of(&self, sensor_id: u32) -> Option<&uncertainty::SensorUncertainty> {
+        self.uncertainty.iter().find(|u| u.sensor_id == sensor_id)
+    }
+
+    /// Its relative standard uncertainty ([`Self::uncertainty_of`]), NaN when not stated.
+    pub fn stated_rel(&self, sensor_id: u32) -> f64 {
+        self.uncertainty_of(sensor_id).map_or(f64::NAN, |u| u.rel)
+    }
 }
 
 /// The result: the reconstructed scene, its model and what was done.

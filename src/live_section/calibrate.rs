@@ -156,12 +156,7 @@ fn calibrate_one(
         .cloned();
     // with the desks' common reflectance the camera's scale is a measurement of its own
     if rho.as_ref().is_some_and(|d| d.taken.is_some()) {
-        let u = c
-            .report
-            .uncertainty
-            .iter()
-            .find(|u| u.sensor_id == id)
-            .map_or(f64::NAN, |u| u.rel);
+        let u = c.report.stated_rel(id);
         desk_scale::weigh_scale(&mut cal, u, super::CALIBRATED_MIN_REL);
     }
     let mut r = record(c, s, i, &cal);

@@ -139,12 +139,7 @@ fn desk_windows(c: &Commissioned, o: &SectionOptions) -> Vec<DeskWindow> {
             .iter()
             .map(|&p| model.patches.rho[p as usize])
             .collect();
-        let u_rel = c
-            .report
-            .uncertainty
-            .iter()
-            .find(|u| u.sensor_id == sensor.id)
-            .map_or(f64::NAN, |u| u.rel);
+        let u_rel = c.report.stated_rel(sensor.id);
         if let Some(local) = median(&rhos) {
             out.push(DeskWindow {
                 sensor: s,

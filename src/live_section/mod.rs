@@ -532,12 +532,7 @@ fn widened_uncertainty(c: &Commissioned, camera_lx: &[Vec<f64>]) -> Vec<f64> {
     (0..model.sensors())
         .map(|s| {
             let id = model.sensor_ids[s];
-            let u = c
-                .report
-                .uncertainty
-                .iter()
-                .find(|u| u.sensor_id == id)
-                .map_or(f64::NAN, |u| u.rel);
+            let u = c.report.stated_rel(id);
             let row = camera_lx.get(s).map_or(&[][..], |r| &r[..]);
             let cam: f64 = row.iter().sum();
             // the model as it was before the cameras calibrated it: how far it was off says how
@@ -721,40 +716,35 @@ fn drop_windows_that_miss_the_desk(
 /// `crate::commission::uncertainty`), in the model's sensor order; empty when a sensor has none
 /// (then no dimming state is stated per luminaire).
 fn uncertainty_parts(c: &Commissioned) -> Vec<Vec<[f64; crate::runtime::UNCERTAINTY_PARTS]>> {
-    let model = &c.model;
-    let rows: Option<Vec<_>> = model
-        .sensor_ids
-        .iter()
-        .map(|id| {
-            c.report
-                .uncertainty
-                .iter()
-                .find(|u| u.sensor_id == *id)
-                .filter(|u| u.by_luminaire.len() == model.luminaires())
-                .map(|u| u.by_luminaire.clone())
-        })
-        .collect();
-    rows.unwrap_or_default()
+    per_luminaire_rows(c, |u| &u.by_luminaire)
 }
 
 /// Each sensor's occluder group per luminaire ([`crate::commission::uncertainty::Occluders`]), in
 /// the model's sensor order, when every sensor has its parts ([`uncertainty_parts`]); empty
 /// otherwise (every luminaire alone).
 fn occluder_groups(c: &Commissioned) -> Vec<Vec<u8>> {
-    let model = &c.model;
     if uncertainty_parts(c).is_empty() {
         return Vec::new();
     }
-    let rows: Option<Vec<_>> = model
+    per_luminaire_rows(c, |u| &u.occluder_group)
+}
+
+/// One row per luminaire of every sensor's stated uncertainty (`row` picks it), in the model's
+/// sensor order; empty when a sensor has none or a row of another length.
+fn per_luminaire_rows<T: Clone>(
+    c: &Commissioned,
+    row: impl Fn(&crate::commission::uncertainty::SensorUncertainty) -> &Vec<T>,
+) -> Vec<Vec<T>> {
+    let model = &c.model;
+    let rows: Option<Vec<Vec<T>>> = model
         .sensor_ids
         .iter()
         .map(|id| {
             c.report
-                .uncertainty
-                .iter()
-                .find(|u| u.sensor_id == *id)
-                .filter(|u| u.occluder_group.len() == model.luminaires())
-                .map(|u| u.occluder_group.clone())
+                .uncertainty_of(*id)
+                .map(&row)
+                .filter(|r| r.len() == model.luminaires())
+                .cloned()
         })
         .collect();
     rows.unwrap_or_default()
