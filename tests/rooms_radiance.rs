@@ -308,7 +308,7 @@ fn room_04s_desks_by_an_unseen_window_band_take_the_desks_reflectance() {
     let (live, _) = luxnode(&[
         "live".into(),
         "--image".into(),
-        p(img),
+        p(img.clone()),
         "--frame".into(),
         p(data("room_04").join("live/node_a_night.png")),
         "--depth".into(),
@@ -317,14 +317,43 @@ fn room_04s_desks_by_an_unseen_window_band_take_the_desks_reflectance() {
         "254,254,254,254,254,254,254".into(),
     ]);
     let truth = truth("room_04");
+    // the model's every-luminaire state (scenario 1), what the dimming-state registers publish
+    let (sim, _) = luxnode(&[
+        "simulate".into(),
+        "--image".into(),
+        p(img.to_path_buf()),
+        "--states".into(),
+        p(room("room_04").join("states.csv")),
+        "--format".into(),
+        "csv".into(),
+    ]);
+    let all_on: HashMap<u32, f64> = sim
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[0] == "1")
+        .map(|f| (f[1].parse().expect("id"), f[2].parse().expect("lux")))
+        .collect();
     for l in live.lines().skip(1) {
         let f: Vec<&str> = l.split(',').collect();
         let s: u32 = f[0].parse().expect("id");
         let total: f64 = f[1].parse().expect("lux");
-        let e = (total / truth[&(1, s)].0 - 1.0).abs();
-        // measured: desks 1 and 2 at 0.9 and 1.4 %, the others 0.2-0.6 % (the bench's rows)
+        // live light and the per-state registers agree at night (measured within 0.5 %: the
+        // frame's noise in the extraneous light)
+        let m = all_on[&s];
         assert!(
-            e <= 0.03,
+            (total / m - 1.0).abs() <= 0.01,
+            "desk {s}: live {total:.0} lx, model {m:.0} lx"
+        );
+        let e = (total / truth[&(1, s)].0 - 1.0).abs();
+        // at night the frame adds nothing to a calibrated desk's commissioned response: desks 1
+        // and 2 carry the model's error there (measured 2.1 and 6.5 %; the camera's own rows
+        // were at 0.9 and 1.4 %, but over the bench's 200 in-view values taking the response
+        // leaves 14 over 3 % where the camera's rows left 31: docs/generalization.md, eleventh
+        // measurement); the others 0.4-1.2 %
+        let bound = if s <= 2 { 0.085 } else { 0.03 };
+        assert!(
+            e <= bound,
             "desk {s}: {total:.0} lx for {:.0}",
             truth[&(1, s)].0
         );

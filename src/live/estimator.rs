@@ -331,6 +331,9 @@ pub struct LiveModel {
     // sensors
     response: Vec<f64>,
     calibrated: Vec<f64>,
+    // per sensor: commissioning calibrated its response by the camera (the image's
+    // `sensor_flags::CALIBRATED`)
+    response_calibrated: Vec<bool>,
     model_rel: Vec<f64>,
     // per sensor and luminaire, the model uncertainty's parts ([`crate::runtime::UNCERTAINTY_PARTS`]
     // each; empty: the all-on statement holds for every state)
@@ -461,6 +464,9 @@ impl LiveModel {
             gather,
             response,
             calibrated,
+            response_calibrated: (0..s)
+                .map(|k| image.sensor_flags(k) & crate::store::sensor_flags::CALIBRATED != 0)
+                .collect(),
             model_rel: (0..s)
                 .map(|k| live.model_rel_uncertainty(k).unwrap_or(f64::NAN))
                 .collect(),
@@ -500,6 +506,30 @@ impl LiveModel {
         }
         let row = |v: &[f64]| v.get(s * l..(s + 1) * l).map_or(0.0, |r| r.iter().sum());
         model_camera_disagreement(row(&self.response), row(&self.calibrated)).unwrap_or(0.0)
+    }
+
+    /// In-view desk `s`'s extraneous light per valid window sample, with its weight: each
+    /// sample's `D(p)` as a share of its own luminaires' light at 100 % `A₁₀₀(p)`, put at the
+    /// desk's camera row at 100 % (`Ẽ₁₀₀ D(p) / A₁₀₀(p)`).
+    ///
+    /// `D(p)` and `A₁₀₀(p)` both go through the pixel's patch reflectance; their ratio does not.
+    /// A window whose patch mixes the desk top with a darker monitor (room_03's desk 7: patch
+    /// 0.326, desk 0.40) has its luminaires' light right in the plane fit `Ẽ` and its
+    /// extraneous light 23 % high in the median of `D`; as a share it is not. Samples the
+    /// luminaires do not light are left out; without a camera row or any lit sample the
+    /// samples' own `D(p)` is taken.
+    fn extraneous_at_desk(&self, s: usize, samples: &[Sample]) -> Vec<(f64, f64)> {
+        let l = self.luminaires;
+        let e100: f64 = self
+            .calibrated
+            .get(s * l..(s + 1) * l)
+            .map_or(0.0, |r| r.iter().sum());
+        extraneous_shares(e100, samples).unwrap_or_else(|| {
+            samples
+                .iter()
+                .map(|p| (p.extraneous_lx, p.weight))
+                .collect()
+        })
     }
 
     /// Sensor `s`'s stated relative uncertainty of its modelled light (commissioning's, from
@@ -700,6 +730,21 @@ fn weighted_median(v: &mut [(f64, f64)]) -> Option<f64> {
         }
     }
     v.last().map(|x| x.0)
+}
+
+/// Each sample's extraneous light as a share of its own luminaires' light at 100 %, put at a
+/// desk's `all_on_lx` (with the sample's weight); `None` without a positive `all_on_lx` or a
+/// sample the luminaires light ([`LiveModel::extraneous_at_desk`]).
+fn extraneous_shares(all_on_lx: f64, samples: &[Sample]) -> Option<Vec<(f64, f64)>> {
+    if !(all_on_lx > 0.0 && all_on_lx.is_finite()) {
+        return None;
+    }
+    let shares: Vec<(f64, f64)> = samples
+        .iter()
+        .filter(|p| p.all_on_lx > 0.0 && p.all_on_lx.is_finite())
+        .map(|p| (all_on_lx * p.extraneous_lx / p.all_on_lx, p.weight))
+        .collect();
+    (!shares.is_empty()).then_some(shares)
 }
 
 /// Per-desk memory between frames.
@@ -978,14 +1023,23 @@ impl Live {
         Ok(())
     }
 
-    /// The model's artificial light at desk `s`: the camera-calibrated response where the camera
-    /// sees the desk, the radiosity response elsewhere.
+    /// The model's artificial light at desk `s`: its commissioned response at these levels,
+    /// or at an in-view desk whose response commissioning did not calibrate, the camera's
+    /// stored row.
+    ///
+    /// A calibrated response is already the camera weighed against the model (commissioning,
+    /// [`crate::live::desk_scale`]); the frame's samples then measure only the light the
+    /// luminaires do not give. Taking the camera's row there repeated, every frame, the
+    /// camera's own error that commissioning had weighed away: on the generalization bench,
+    /// in-view desks over 3 % at night went from 31 to 12 of 200 (docs/generalization.md,
+    /// eleventh measurement).
     fn artificial(&self, s: usize, levels: &[f64]) -> f64 {
         let l = self.model.luminaires;
-        let row = if self.model.in_view(s) {
-            &self.model.calibrated[s * l..(s + 1) * l]
+        let m = &self.model;
+        let row = if m.in_view(s) && !m.response_calibrated.get(s).copied().unwrap_or(false) {
+            &m.calibrated[s * l..(s + 1) * l]
         } else {
-            &self.model.response[s * l..(s + 1) * l]
+            &m.response[s * l..(s + 1) * l]
         };
         row.iter()
             .zip(levels)
@@ -1435,11 +1489,12 @@ impl Live {
             return self.inferred(art, day, unc, f);
         }
         // the weighted median residual of the window; spread for the uncertainty
-        let mut v2 = w.values.clone();
+        let values = self.model.extraneous_at_desk(s, &w.values);
+        let mut v2 = values.clone();
         let dm = weighted_median(&mut v2).unwrap_or(0.0);
-        let mut dev: Vec<f64> = w.values.iter().map(|(x, _)| (x - dm).abs()).collect();
+        let mut dev: Vec<f64> = values.iter().map(|(x, _)| (x - dm).abs()).collect();
         let mad = median(&mut dev).unwrap_or(0.0) * 1.4826;
-        let n_eff = w.values.len() as f64;
+        let n_eff = values.len() as f64;
         let total = art + dm;
         let day = dm.max(0.0);
         // the measurement's own spread, and at least what its disagreement with the model says
@@ -1477,7 +1532,7 @@ impl Live {
         let (m, l) = (&self.model, self.model.luminaires);
         let w = &m.windows[s];
         let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
-        let mut values: Vec<(f64, f64)> = Vec::with_capacity(w.sample.len());
+        let mut values: Vec<Sample> = Vec::with_capacity(w.sample.len());
         for (&i, &wt) in w.sample.iter().zip(&w.weight) {
             let i = i as usize;
             let stt = self.state[i];
@@ -1493,7 +1548,15 @@ impl Live {
                 if self.d[i] < -(0.3 * art + 5.0) {
                     n_dark += 1;
                 }
-                values.push((self.d[i], wt));
+                let all_on: f64 = m.art[i * l..(i + 1) * l]
+                    .iter()
+                    .map(|e| f64::from(*e))
+                    .sum();
+                values.push(Sample {
+                    extraneous_lx: self.d[i],
+                    all_on_lx: all_on,
+                    weight: wt,
+                });
             }
         }
         let total_w = w.sample.len() as f64;
@@ -1889,8 +1952,20 @@ struct WindowState {
     covered: bool,
     saturated: bool,
     changed: bool,
-    /// (extraneous light, weight) of the valid samples.
-    values: Vec<(f64, f64)>,
+    /// The valid samples.
+    values: Vec<Sample>,
+}
+
+/// One valid sample of a desk's window in a frame.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    /// Its extraneous light `D(p)`, lx (in the camera's units: through the pixel's patch
+    /// reflectance).
+    extraneous_lx: f64,
+    /// Its luminaires' light at 100 % `Σ_l E_l(p)`, lx (through the same reflectance).
+    all_on_lx: f64,
+    /// Its Gaussian weight in the window.
+    weight: f64,
 }
 
 enum Action {
@@ -1942,5 +2017,50 @@ fn best_sky(
     match best {
         Some((_, f)) => (f.index, f.x, f.resid, f.w),
         None => (0, vec![0.0], vec![0.0; y.len()], w0.to_vec()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// room_03's desk 7: a window whose patch (reflectance 0.326) mixes the desk top (0.40)
+    /// with a monitor (0.10). Both the frame's and the luminaires' light go through the patch's
+    /// reflectance, so each sample's extraneous light read as `D = π L / ρ_patch` is off by
+    /// `ρ_true / ρ_patch` (the desk's samples 23 % high), while its share of the sample's own
+    /// luminaire light is exact.
+    #[test]
+    fn a_window_mixing_two_reflectances_measures_the_daylight_as_a_share() {
+        let (rho_patch, e_art_lx, e_day_lx) = (0.326, 700.0, 250.0);
+        let samples: Vec<Sample> = [0.40, 0.40, 0.40, 0.10, 0.10]
+            .iter()
+            .map(|rho| {
+                // what the camera reads through the patch's reflectance
+                let through = |e: f64| e * rho / rho_patch;
+                Sample {
+                    extraneous_lx: through(e_day_lx),
+                    all_on_lx: through(e_art_lx),
+                    weight: 1.0,
+                }
+            })
+            .collect();
+        let mut plain: Vec<(f64, f64)> = samples
+            .iter()
+            .map(|p| (p.extraneous_lx, p.weight))
+            .collect();
+        let d_plain = weighted_median(&mut plain).expect("samples");
+        assert!((d_plain / e_day_lx - 0.40 / 0.326).abs() < 1e-12);
+        let mut shares = extraneous_shares(e_art_lx, &samples).expect("lit samples");
+        let d = weighted_median(&mut shares).expect("samples");
+        assert!((d - e_day_lx).abs() < 1e-9, "{d}");
+        // unlit samples are left out; nothing lit, or no desk light, gives none
+        let dark = Sample {
+            extraneous_lx: 10.0,
+            all_on_lx: 0.0,
+            weight: 1.0,
+        };
+        assert_eq!(extraneous_shares(e_art_lx, &[dark]), None);
+        assert_eq!(extraneous_shares(0.0, &samples), None);
+        assert_eq!(extraneous_shares(f64::NAN, &samples), None);
     }
 }

@@ -23,10 +23,12 @@
 //!
 //! * **A desk the camera sees** (its window has samples): `D̂` = the weighted median of `D` over
 //!   the window (Gaussian weights of twice the fit's σ: 5 cm in the open); artificial
-//!   `Â = Σ_l x_l a_l Ẽ_l` with `Ẽ_l` the desk's camera-calibrated response (the plane fit of
-//!   `E_l` over the window at the sensor, stored at commissioning, with σ chosen per desk by
-//!   [`window::window_sigma_m`]: 2.5 cm in the open, narrower at a shade's edge);
-//!   **total = Â + D̂** (*measured*). Daylight = max(D̂, 0); a negative
+//!   `Â = Σ_l x_l a_l R_l` with `R_l` the desk's commissioned response, which at an in-view desk
+//!   is the model calibrated by the camera's row `Ẽ_l` (the plane fit of `E_l` over the window
+//!   at the sensor, with σ chosen per desk by [`window::window_sigma_m`]: 2.5 cm in the open,
+//!   narrower at a shade's edge; [`desk_scale`] weighs the two); **total = Â + D̂**
+//!   (*measured*). `Ẽ_l` itself stays in the image: its disagreement with `R_l` widens the
+//!   desk's stated uncertainty. Daylight = max(D̂, 0); a negative
 //!   residual (the luminaires give less than the model says) counts against the artificial part.
 //! * **A desk the camera does not see**, or a covered one with nothing measured before:
 //!   artificial = the radiosity model `Σ_l x_l a_l R_l`; daylight **inferred**:
