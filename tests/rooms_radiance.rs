@@ -113,8 +113,9 @@ struct Coverage {
 
 /// Per desk sensor: Σ|model − truth| / Σ truth over every state of states.csv (the bench's
 /// error), and how the stated uncertainties held.
-fn model_errors(name: &str, img: &Path, commission_out: &str) -> (HashMap<u32, f64>, Coverage) {
-    let (out, _) = luxnode(&[
+/// `luxnode simulate` of an image over the room's states.csv: `scenario_id,sensor_id,lux,...`.
+fn simulate(name: &str, img: &Path) -> String {
+    luxnode(&[
         "simulate".into(),
         "--image".into(),
         p(img.to_path_buf()),
@@ -122,7 +123,12 @@ fn model_errors(name: &str, img: &Path, commission_out: &str) -> (HashMap<u32, f
         p(room(name).join("states.csv")),
         "--format".into(),
         "csv".into(),
-    ]);
+    ])
+    .0
+}
+
+fn model_errors(name: &str, img: &Path, commission_out: &str) -> (HashMap<u32, f64>, Coverage) {
+    let out = simulate(name, img);
     let u: HashMap<u32, f64> = table(commission_out, "sensor,stated_uncertainty_pct")
         .iter()
         .map(|r| {
@@ -318,16 +324,7 @@ fn room_04s_desks_by_an_unseen_window_band_take_the_desks_reflectance() {
     ]);
     let truth = truth("room_04");
     // the model's every-luminaire state (scenario 1), what the dimming-state registers publish
-    let (sim, _) = luxnode(&[
-        "simulate".into(),
-        "--image".into(),
-        p(img.to_path_buf()),
-        "--states".into(),
-        p(room("room_04").join("states.csv")),
-        "--format".into(),
-        "csv".into(),
-    ]);
-    let all_on: HashMap<u32, f64> = sim
+    let all_on: HashMap<u32, f64> = simulate("room_04", &img)
         .lines()
         .skip(1)
         .map(|l| l.split(',').collect::<Vec<_>>())
