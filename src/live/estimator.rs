@@ -732,23 +732,16 @@ fn weighted_median(v: &mut [(f64, f64)]) -> Option<f64> {
     v.last().map(|x| x.0)
 }
 
-/// A window sample whose luminaires give it less than this share of the desk's light at 100 %
-/// is left out of the extraneous light's shares: its share would multiply its own noise (the
-/// frame's quantisation, the capture's) by more than the inverse.
-pub const SHARE_MIN_LIGHT: f64 = 0.1;
-
 /// Each sample's extraneous light as a share of its own luminaires' light at 100 %, put at a
 /// desk's `all_on_lx` (with the sample's weight); `None` without a positive `all_on_lx` or a
-/// sample the luminaires light at [`SHARE_MIN_LIGHT`] of it
-/// ([`LiveModel::extraneous_at_desk`]).
+/// sample the luminaires light ([`LiveModel::extraneous_at_desk`]).
 fn extraneous_shares(all_on_lx: f64, samples: &[Sample]) -> Option<Vec<(f64, f64)>> {
     if !(all_on_lx > 0.0 && all_on_lx.is_finite()) {
         return None;
     }
-    let floor_lx = SHARE_MIN_LIGHT * all_on_lx;
     let shares: Vec<(f64, f64)> = samples
         .iter()
-        .filter(|p| p.all_on_lx >= floor_lx && p.all_on_lx.is_finite())
+        .filter(|p| p.all_on_lx > 0.0 && p.all_on_lx.is_finite())
         .map(|p| (all_on_lx * p.extraneous_lx / p.all_on_lx, p.weight))
         .collect();
     (!shares.is_empty()).then_some(shares)
@@ -2060,22 +2053,13 @@ mod tests {
         let mut shares = extraneous_shares(e_art_lx, &samples).expect("lit samples");
         let d = weighted_median(&mut shares).expect("samples");
         assert!((d - e_day_lx).abs() < 1e-9, "{d}");
-        // unlit samples are left out, and so are the barely lit (a 1 lx sample's 10 lx of
-        // noise would read 7000 lx); nothing lit, or no desk light, gives none
+        // unlit samples are left out; nothing lit, or no desk light, gives none
         let dark = Sample {
             extraneous_lx: 10.0,
             all_on_lx: 0.0,
             weight: 1.0,
         };
-        let dim = Sample {
-            all_on_lx: 1.0,
-            ..dark
-        };
-        assert_eq!(extraneous_shares(e_art_lx, &[dark, dim]), None);
-        let mut with_dim = samples.clone();
-        with_dim.extend([dim, dim, dim, dim]);
-        let shares = extraneous_shares(e_art_lx, &with_dim).expect("lit samples");
-        assert_eq!(shares.len(), samples.len());
+        assert_eq!(extraneous_shares(e_art_lx, &[dark]), None);
         assert_eq!(extraneous_shares(0.0, &samples), None);
         assert_eq!(extraneous_shares(f64::NAN, &samples), None);
     }
