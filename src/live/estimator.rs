@@ -1039,7 +1039,7 @@ impl Live {
     /// [`crate::live::desk_scale`]); the frame's samples then measure only the light the
     /// luminaires do not give. Taking the camera's row there repeated, every frame, the
     /// camera's own error that commissioning had weighed away: on the generalization bench,
-    /// in-view desks over 3 % at night went from 31 to 12 of 200 (docs/generalization.md,
+    /// in-view desks over 3 % at night went from 31 to 14 of 200 (docs/generalization.md,
     /// eleventh measurement).
     fn artificial(&self, s: usize, levels: &[f64]) -> f64 {
         let l = self.model.luminaires;
