@@ -382,28 +382,24 @@ mod tests {
         0
     }
 
+    /// `state_uncertainty_lx` of these groups at these levels against its closed form.
+    fn assert_state(groups: fn(usize) -> u8, levels: &[f64], want_lx: f64) {
+        let got = state_uncertainty_lx(part, groups, levels);
+        assert!(
+            (got - want_lx).abs() < 1e-9,
+            "{levels:?}: {got} for {want_lx}"
+        );
+    }
+
     #[test]
     fn the_uncertainty_of_a_state_in_closed_form() {
         // all on: √(20² + 40²) = 44.72 lx; near only: √(10² + 40²); far only: √(10² + 5²)
-        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
-        assert!(close(
-            state_uncertainty_lx(part, alone, &[1.0, 1.0]),
-            20f64.hypot(40.0)
-        ));
-        assert!(close(
-            state_uncertainty_lx(part, alone, &[1.0, 0.0]),
-            10f64.hypot(40.0)
-        ));
-        assert!(close(
-            state_uncertainty_lx(part, alone, &[0.0, 1.0]),
-            10f64.hypot(5.0)
-        ));
+        assert_state(alone, &[1.0, 1.0], 20f64.hypot(40.0));
+        assert_state(alone, &[1.0, 0.0], 10f64.hypot(40.0));
+        assert_state(alone, &[0.0, 1.0], 10f64.hypot(5.0));
         // half the far one: the class adds linearly, the occluder takes the largest
-        assert!(close(
-            state_uncertainty_lx(part, alone, &[0.0, 0.5]),
-            5f64.hypot(2.5)
-        ));
-        assert!(close(state_uncertainty_lx(part, alone, &[0.0, 0.0]), 0.0));
+        assert_state(alone, &[0.0, 0.5], 5f64.hypot(2.5));
+        assert_state(alone, &[0.0, 0.0], 0.0);
     }
 
     #[test]
@@ -411,30 +407,15 @@ mod tests {
         let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
         // both luminaires behind the same back edge (group 2): their parts add, 40 + 5
         let edge = |_: usize| 2u8;
-        assert!(close(
-            state_uncertainty_lx(part, edge, &[1.0, 1.0]),
-            20f64.hypot(45.0)
-        ));
+        assert_state(edge, &[1.0, 1.0], 20f64.hypot(45.0));
         // one of them lit: its part alone
-        assert!(close(
-            state_uncertainty_lx(part, edge, &[0.0, 1.0]),
-            10f64.hypot(5.0)
-        ));
-        assert!(close(
-            state_uncertainty_lx(part, edge, &[0.5, 1.0]),
-            15f64.hypot(25.0)
-        ));
+        assert_state(edge, &[0.0, 1.0], 10f64.hypot(5.0));
+        assert_state(edge, &[0.5, 1.0], 15f64.hypot(25.0));
         // behind different edges, or one alone: the larger of them
         let apart = |l: usize| [1u8, 3][l];
-        assert!(close(
-            state_uncertainty_lx(part, apart, &[1.0, 1.0]),
-            20f64.hypot(40.0)
-        ));
+        assert_state(apart, &[1.0, 1.0], 20f64.hypot(40.0));
         let mixed = |l: usize| [0u8, 4][l];
-        assert!(close(
-            state_uncertainty_lx(part, mixed, &[1.0, 1.0]),
-            20f64.hypot(40.0)
-        ));
+        assert_state(mixed, &[1.0, 1.0], 20f64.hypot(40.0));
         // the flat rows read the same groups (empty: alone)
         let parts: Vec<f64> = (0..2)
             .flat_map(|l| (0..UNCERTAINTY_PARTS).map(move |c| part(l, c)))

@@ -11,6 +11,7 @@ use luxnode::image_build::with_live;
 use luxnode::live::{self, Live, LiveFrame, LiveModel, LiveSettings, Source, Verdict, flags};
 use luxnode::sim::camera::{SimDepthOptions, SimLuminanceOptions, SimWorld, WorldExtras};
 use luxnode::sim::scenario::{Event, EventKind, Scenario};
+use luxnode::store::live::{LIVE_VERSION, LIVE_VERSION_WITHOUT_GROUPS, LIVE_VERSION_WITHOUT_PARTS};
 use luxnode::store::{Image, sensor_flags};
 
 struct Rig {
@@ -88,6 +89,15 @@ fn update<'a>(
     live.desks()
 }
 
+/// `old` with `body` framed as a live section of this version (older layouts, byte for byte).
+fn live_section_as(
+    old: &[u8],
+    version: u16,
+    body: &[u8],
+) -> Result<Vec<u8>, luxnode::image_build::BuildError> {
+    luxnode::image_build::with_section(old, luxnode::store::LIVE_MAGIC, version, Some(body))
+}
+
 #[test]
 fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     let bytes = &rig().image;
@@ -158,26 +168,12 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     five.extend_from_slice(&[(s_n * l_n) as u8]);
     five.resize(five.len() + s_n * l_n, beyond);
     assert!(s_n * l_n < 128, "one postcard length byte");
-    assert!(
-        luxnode::image_build::with_section(
-            &old,
-            luxnode::store::LIVE_MAGIC,
-            luxnode::store::live::LIVE_VERSION,
-            Some(&five),
-        )
-        .is_err()
-    );
+    assert!(live_section_as(&old, LIVE_VERSION, &five).is_err());
     // a version-3 section (before the groups: the same body without its last byte string)
     // still parses, every luminaire alone
     assert_eq!(body[0], 4, "the body's first field is its version");
     body[0] = 3;
-    let three = luxnode::image_build::with_section(
-        &old,
-        luxnode::store::LIVE_MAGIC,
-        luxnode::store::live::LIVE_VERSION_WITHOUT_GROUPS,
-        Some(&body),
-    )
-    .unwrap();
+    let three = live_section_as(&old, LIVE_VERSION_WITHOUT_GROUPS, &body).unwrap();
     let i3 = Image::parse(&three).unwrap();
     let l3 = i3.live.as_ref().expect("a version-3 live section is read");
     assert!(l3.has_uncertainty_parts());
@@ -197,23 +193,9 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     assert_eq!(body.pop(), Some(0), "an empty byte string is one zero byte");
     assert_eq!(body.pop(), Some(0));
     // a version-4 section without its parts' and groups' byte strings is not a section
-    assert!(
-        luxnode::image_build::with_section(
-            &old,
-            luxnode::store::LIVE_MAGIC,
-            luxnode::store::live::LIVE_VERSION,
-            Some(&body),
-        )
-        .is_err()
-    );
+    assert!(live_section_as(&old, LIVE_VERSION, &body).is_err());
     body[0] = 2;
-    let two = luxnode::image_build::with_section(
-        &old,
-        luxnode::store::LIVE_MAGIC,
-        luxnode::store::live::LIVE_VERSION_WITHOUT_PARTS,
-        Some(&body),
-    )
-    .unwrap();
+    let two = live_section_as(&old, LIVE_VERSION_WITHOUT_PARTS, &body).unwrap();
     let i2 = Image::parse(&two).unwrap();
     let l2 = i2.live.as_ref().expect("a version-2 live section is read");
     assert!(!l2.has_uncertainty_parts());

@@ -1553,18 +1553,17 @@ impl Live {
             n_sat += usize::from(stt & S_SATURATED != 0);
             n_chg += usize::from(u32::from(self.changed[i]) >= st.geometry_frames);
             if stt & S_VALID != 0 {
-                let art: f64 = m.art[i * l..(i + 1) * l]
+                // at these levels, and every luminaire at 100 % (for the share)
+                let (art, all_on) = m.art[i * l..(i + 1) * l]
                     .iter()
                     .zip(ctx.levels.iter().zip(&self.ageing))
-                    .map(|(e, (x, a))| f64::from(*e) * x * a)
-                    .sum();
+                    .fold((0.0, 0.0), |(a_lx, on_lx), (e, (x, a))| {
+                        let e = f64::from(*e);
+                        (a_lx + e * x * a, on_lx + e)
+                    });
                 if self.d[i] < -(0.3 * art + 5.0) {
                     n_dark += 1;
                 }
-                let all_on: f64 = m.art[i * l..(i + 1) * l]
-                    .iter()
-                    .map(|e| f64::from(*e))
-                    .sum();
                 values.push(Sample {
                     extraneous_lx: self.d[i],
                     all_on_lx: all_on,

@@ -199,22 +199,22 @@ impl<'a> LiveV1<'a> {
     ) -> Result<Self, ImageError> {
         let (mut live, rest): (LiveV1<'a>, _) =
             postcard::take_from_bytes(body).map_err(|_| ImageError::Decode)?;
-        let rest = if version >= LIVE_VERSION_WITHOUT_GROUPS {
-            let (parts, rest): (Bytes<'a>, _) =
-                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
-            live.sensor_uncertainty_parts_lx = parts;
-            rest
-        } else {
-            rest
-        };
-        let rest = if version >= LIVE_VERSION {
-            let (groups, rest): (Bytes<'a>, _) =
-                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
-            live.sensor_occluder_group = groups;
-            rest
-        } else {
-            rest
-        };
+        // the byte strings later versions append, in order
+        let mut rest = rest;
+        for (since, field) in [
+            (
+                LIVE_VERSION_WITHOUT_GROUPS,
+                &mut live.sensor_uncertainty_parts_lx,
+            ),
+            (LIVE_VERSION, &mut live.sensor_occluder_group),
+        ] {
+            if version >= since {
+                let (bytes, r): (Bytes<'a>, _) =
+                    postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+                *field = bytes;
+                rest = r;
+            }
+        }
         check(rest.is_empty(), "bytes after the live section")?;
         check(live.version == version, "live section version")?;
         live.validate(patches, luminaires, sensors)?;
