@@ -6,8 +6,8 @@ computes the truth at the desk sensors, commissions each room with `luxnode comm
 scores the node's desk lux against the truth: the distribution of errors over rooms and desks,
 one node and two nodes, night (the model, every scenario; and the live estimate of an all-on
 frame) and day (the live estimate of an all-on frame under an overcast sky through the
-windows), in view and out of view, with the fraction of values whose truth lies within two
-stated uncertainties.
+windows, and under a clear sky with sun), in view and out of view, with the fraction of values
+whose truth lies within two stated uncertainties.
 
 Rooms (--write). Room i of a seed is of kind i mod 8 (KINDS below: a small office, islands, a
 long narrow room, an L-shaped room, a large open office, a tall square room, a room of rows
@@ -33,10 +33,15 @@ Rendering (--render). open_plan_nodes.py's machinery: `rtrace` on every pixel ra
 node's camera (pinhole, or the sim-fisheye board's Kannala-Brandt lens), with its fast
 irradiance-cache settings (-ab 7 -ad 512 -as 128 -aa 0.15 -ar 128 -lw 1e-4 -ds 0.05 -dj 0.7
 -dt 0; --frame-ab/--frame-ad lower them for smoke runs); frames: depth, each luminaire alone,
-all luminaires (a live frame with its own noise) and the overcast sky alone (luminaires off).
+all luminaires (a live frame with its own noise), the overcast sky alone and the clear sky
+alone (luminaires off). The clear sky is gensky's CIE clear sky with sun (+s) on 21 March at
+the solar hour the first window faces the sun (`clear_hour`: 9:00-15:00; noon for a window
+facing the northern half of the sky, where only the sky comes in), written to
+radiance/sky_clear.rad.
 Assembled as capture sets (camera.json, 3 depth frames with office_a's ToF error model,
 luminance_L<k>.png at 0.02 cd/m^2 per unit) and live frames (night: all on; day: all on + the
-sky; depth with the ToF model, another seed). `--resolution WxH` scales the intrinsics (the
+overcast sky; clear: all on + the clear sky, where sun patches saturate the fixed gain as a
+real camera's would; depth with the ToF model, another seed). `--resolution WxH` scales the intrinsics (the
 default 320x240 is office_a's; 80x60 for smoke runs). The fast cache's error is stated in
 daylight.py: luminaire frames within 0.2 % of the truth at desk sensors (pi L / rho); sky
 frames 3-17 % off at some desks, so the day column carries the renderer's error too.
@@ -48,13 +53,16 @@ README.md's sweep); the direct part with -ab 0; the sky (daylight.py's gensky CI
 21 March 12:00 solar time, 47.4 N, ground 0.2) with -ad 32768 and twice the passes (the
 window is a small bright source to -I's sampling). truth.csv in the shared scenes' columns
 plus `lux_sky` (and `lux_sky_stderr`): the overcast sky's illuminance with every luminaire off
-(the day truth of a scenario is lux + lux_sky).
+(the day truth of a scenario is lux + lux_sky); truth_clear.csv (`sensor_id,lux_sky,
+lux_sky_stderr`) the clear sky's the same way. `--clear-sky` renders the clear frames and
+computes truth_clear.csv alone, for rooms rendered before the clear day existed.
 
 Evaluation (--evaluate). Per room: `luxnode commission` on node a's capture (one node), and
 when the room has node b on node b's alone (one node (b)) and on both (two nodes), with `--room-plan room.json` as a further column
 when `luxnode commission --help` offers the option (else "n/a"); night: `luxnode simulate
 --image` on states.csv against truth.csv; live: `luxnode live` on each node's frame (two nodes:
-per desk the node that measures it, the smaller uncertainty first). Desk error = sum |lux -
+per desk the node that measures it, the smaller uncertainty first; a node that sees the desk
+saturated, and so publishes it as not available, over another's inference). Desk error = sum |lux -
 true| / sum true over the desk's values; in view = commission's flags (any node sees it).
 Stated uncertainty: commission's per-desk relative standard uncertainty (night) and live's
 uncertainty_lx (live). An image over the 4 MiB flash region (room_05's two nodes) is
@@ -107,6 +115,9 @@ RGB_Y = (0.265, 0.670, 0.065)
 GAIN = opn.GAIN  # 0.02 cd/m^2 per unit
 FISHEYE_K = opn.FISHEYE_K
 SKY = ("overcast", 3, 21, 12.0)  # daylight.py's overcast_12
+# The clear day: gensky's CIE clear sky with sun (+s), 21 March, at the hour the window wall
+# faces the sun (`clear_hour`)
+CLEAR = ("clear", 3, 21)
 SITE = {"latitude_deg": 47.4, "longitude_deg": 8.5, "north": [0.0, -1.0]}  # daylight.py's
 GLAZING_RHO = 0.08
 DESK_Z = 0.75
@@ -725,11 +736,63 @@ def write_all(a) -> None:
 # ------------------------------------------------------------------ rendering
 
 
-def files_for(d: Path, on: set[int], sky: bool) -> list[str]:
+def files_for(d: Path, on: set[int], sky: str | None) -> list[str]:
+    """The Radiance files of a frame: these luminaires on, the others' openings dark, and the
+    sky `sky` ("overcast", "clear") or none."""
     lums = json.loads((d / "luminaires.json").read_text())
     f = ["materials.rad", "geometry.rad"] + [
         f"lum_on_{l['id']}.rad" if l["id"] in on else f"lum_off_{l['id']}.rad" for l in lums]
-    return f + (["sky_overcast.rad"] if sky else [])
+    return f + ([f"sky_{sky}.rad"] if sky else [])
+
+
+def inside_outline(pts: list, x: float, y: float) -> bool:
+    """Even-odd test of (x, y) against a polygon."""
+    inside = False
+    for (x0, y0), (x1, y1) in zip(pts, pts[1:] + pts[:1]):
+        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
+            inside = not inside
+    return inside
+
+
+def window_azimuth_deg(d: Path) -> float | None:
+    """Compass azimuth (0 north, 90 east) of the first window's outward normal, from room.json
+    (its outline, its site's north); None without a window."""
+    plan = json.loads((d / "room.json").read_text())
+    wins = plan.get("windows") or []
+    if not wins:
+        return None
+    c = wins[0]["corners_m"]
+    ex, ey = c[3][0] - c[0][0], c[3][1] - c[0][1]
+    ln = math.hypot(ex, ey)
+    nx, ny = ey / ln, -ex / ln
+    mx = sum(p[0] for p in c) / len(c)
+    my = sum(p[1] for p in c) / len(c)
+    if inside_outline(plan["outline_m"], mx + 0.05 * nx, my + 0.05 * ny):
+        nx, ny = -nx, -ny
+    north = plan.get("site", SITE)["north"]
+    east = (north[1], -north[0])  # north turned 90 degrees clockwise, seen from above
+    return math.degrees(math.atan2(nx * east[0] + ny * east[1],
+                                   nx * north[0] + ny * north[1])) % 360.0
+
+
+def clear_hour(d: Path) -> float:
+    """The solar hour of the clear day: when the sun's azimuth (15 degrees an hour from south
+    at noon) faces the window wall, within 9:00-15:00, to the half hour; noon for a window
+    that faces the northern half of the sky (no sun comes in, the sky does)."""
+    az = window_azimuth_deg(d)
+    if az is None or math.cos(math.radians(az - 180.0)) <= 0.0:
+        return 12.0
+    return min(15.0, max(9.0, round(2.0 * (12.0 + (az - 180.0) / 15.0)) / 2.0))
+
+
+def write_clear_sky(d: Path) -> None:
+    """radiance/sky_clear.rad of room d (the sky file rotates gensky's north to the site's -y,
+    the plans' SITE north)."""
+    north = json.loads((d / "room.json").read_text()).get("site", SITE)["north"]
+    if north != SITE["north"]:
+        sys.exit(f"{d.name}: the clear sky is written for north {SITE['north']}, not {north}")
+    (d / "radiance" / "sky_clear.rad").write_text(
+        sky_rad(CLEAR[1], CLEAR[2], clear_hour(d), CLEAR[0]))
 
 
 def res_dir(a, d: Path) -> Path:
@@ -752,14 +815,16 @@ def render_room(a, d: Path) -> float:
     frames = rd / "frames"
     frames.mkdir(parents=True, exist_ok=True)
     rad = d / "radiance"
+    write_clear_sky(d)
     jobs = []
     for n in nodes:
         c = camera_json(n, a.width, a.height, d.name)
         cam = f"node_{n['id']}"
-        jobs.append((c, f"{cam}_sky", files_for(d, set(), True), False))
-        jobs.append((c, f"{cam}_all", files_for(d, set(ids), False), False))
-        jobs += [(c, f"{cam}_L{k}", files_for(d, {k}, False), False) for k in ids]
-        jobs.append((c, f"{cam}_depth", files_for(d, set(), False), True))
+        jobs.append((c, f"{cam}_sky", files_for(d, set(), "overcast"), False))
+        jobs.append((c, f"{cam}_clear", files_for(d, set(), "clear"), False))
+        jobs.append((c, f"{cam}_all", files_for(d, set(ids), None), False))
+        jobs += [(c, f"{cam}_L{k}", files_for(d, {k}, None), False) for k in ids]
+        jobs.append((c, f"{cam}_depth", files_for(d, set(), None), True))
     t0 = time.time()
     with ThreadPoolExecutor(a.jobs) as ex:
         list(ex.map(lambda j: render_frame(j[0], j[1], j[2], frames, j[3], rad), jobs))
@@ -784,6 +849,10 @@ def render_room(a, d: Path) -> float:
         write_png16(live / f"{cam}_day.png", quantise(all_on + sky, GAIN))
         sat = float(np.mean(quantise(all_on + sky, GAIN) == 65535))
         print(f"{d.name} {cam}: day frame {100 * sat:.1f} % saturated")
+        clear = np.load(frames / f"{cam}_clear.npy")
+        write_png16(live / f"{cam}_clear.png", quantise(all_on + clear, GAIN))
+        sat = float(np.mean(quantise(all_on + clear, GAIN) == 65535))
+        print(f"{d.name} {cam}: clear day frame {100 * sat:.1f} % saturated")
     return dt
 
 
@@ -795,9 +864,9 @@ def render_all(a) -> None:
         n = len(json.loads((d / "nodes.json").read_text()))
         k = len(json.loads((d / "luminaires.json").read_text()))
         timings.setdefault(d.name, {})["render_s"] = round(dt, 1)
-        timings[d.name]["render_frames"] = n * (k + 3)
+        timings[d.name]["render_frames"] = n * (k + 4)
         timings[d.name]["render_settings"] = f"{a.width}x{a.height} " + " ".join(opts[2:])
-        print(f"{d.name}: rendered {n * (k + 3)} frames in {dt:.0f} s", flush=True)
+        print(f"{d.name}: rendered {n * (k + 4)} frames in {dt:.0f} s", flush=True)
         save_timings(a, timings)
 
 
@@ -833,8 +902,8 @@ def truth_one(a, d: Path, name: str, files: list[str], sky: bool) -> dict:
 def truth_room(a, d: Path) -> float:
     ids = [l["id"] for l in json.loads((d / "luminaires.json").read_text())]
     sens = json.loads((d / "sensors.json").read_text())
-    jobs = [("sky", files_for(d, set(), True), True)]
-    jobs += [(f"L{k}", files_for(d, {k}, False), False) for k in ids]
+    jobs = [("sky", files_for(d, set(), "overcast"), True)]
+    jobs += [(f"L{k}", files_for(d, {k}, None), False) for k in ids]
     t0 = time.time()
     with ThreadPoolExecutor(a.jobs) as ex:
         res = dict(zip([j[0] for j in jobs],
@@ -865,10 +934,44 @@ def truth_room(a, d: Path) -> float:
     return dt
 
 
+def truth_clear(a, d: Path) -> float:
+    """truth_clear.csv: the clear sky's illuminance at each sensor, every luminaire off
+    (`sensor_id,lux_sky,lux_sky_stderr`), with the overcast sky's settings and passes; the day
+    truth of the clear frame is truth.csv's all-on lux plus lux_sky."""
+    write_clear_sky(d)
+    sens = json.loads((d / "sensors.json").read_text())
+    t0 = time.time()
+    res = truth_one(a, d, "clear", files_for(d, set(), "clear"), True)
+    with open(d / "truth_clear.csv", "w") as f:
+        f.write("sensor_id,lux_sky,lux_sky_stderr\n")
+        for i, s in enumerate(sens):
+            v = res["total"][i]
+            se = statistics.stdev(v) / len(v) ** 0.5 if len(v) > 1 else 0.0
+            f.write(f"{s['id']},{statistics.fmean(v):.3f},{se:.3f}\n")
+    with open(d / "truth.txt", "a") as f:
+        f.write(f"truth_clear.csv: the CIE clear sky with sun ({CLEAR[1]}/{CLEAR[2]} "
+                f"{clear_hour(d):.1f} solar, every luminaire off): rtrace {res['opts_total']}, "
+                f"{2 * a.seeds} passes\n")
+    return time.time() - t0
+
+
+def clear_sky_all(a) -> None:
+    """The clear day alone, for rooms rendered and truthed before it: the missing frames
+    (render_frame skips those that exist) and truth_clear.csv."""
+    set_frame_opts(a)
+    timings = load_timings(a)
+    for d in selected(a):
+        dt = render_room(a, d)
+        dt += truth_clear(a, d)
+        timings.setdefault(d.name, {})["clear_s"] = round(dt, 1)
+        print(f"{d.name}: clear day in {dt:.0f} s", flush=True)
+        save_timings(a, timings)
+
+
 def truth_all(a) -> None:
     timings = load_timings(a)
     for d in selected(a):
-        dt = truth_room(a, d)
+        dt = truth_room(a, d) + truth_clear(a, d)
         timings.setdefault(d.name, {})["truth_s"] = round(dt, 1)
         timings[d.name]["truth_settings"] = (f"-ab {a.truth_ab} -ad {a.truth_ad} seeds {a.seeds}"
                                              f" (sky -ad {a.sky_ad}, {2 * a.seeds} passes)")
@@ -885,6 +988,15 @@ def read_states(d: Path) -> list[tuple[int, list[int]]]:
         for r in csv.DictReader(f):
             out.append((int(r["scenario_id"]), [int(x) for x in r["luminaires_on"].split(";") if x]))
     return out
+
+
+def read_truth_clear(d: Path) -> dict | None:
+    """Per sensor, the clear sky's lux (truth_clear.csv), or None before it was computed."""
+    p = d / "truth_clear.csv"
+    if not p.exists():
+        return None
+    with open(p) as f:
+        return {int(r["sensor_id"]): float(r["lux_sky"]) for r in csv.DictReader(f)}
 
 
 def read_truth(d: Path) -> dict:
@@ -978,14 +1090,18 @@ def night_model(a, d: Path, com: dict, truth: dict) -> dict:
 
 # The frames' time for `luxnode live --time`: the day sky is gensky's for 21 March, 12:00 at
 # longitude 0 (`-o 0 -m 0`); the plans' site is at 8.5 E, where the sun stands as high and in
-# the same direction 34 minutes earlier in UTC (8.5 degrees of longitude).
-def frame_time(d: Path) -> str:
+# the same direction 34 minutes earlier in UTC (8.5 degrees of longitude). The clear day's
+# frame is at `clear_hour` the same way.
+def frame_time(d: Path, hour: float = 12.0) -> str:
     site = json.loads((d / "room.json").read_text()).get("site") or {}
-    minutes = 12 * 60 - round(4 * float(site.get("longitude_deg", 0.0)))
+    minutes = round(hour * 60) - round(4 * float(site.get("longitude_deg", 0.0)))
     return f"2026-03-21T{minutes // 60:02d}:{minutes % 60:02d}:00Z"
 
 
-def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dict:
+def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
+                clear: dict | None = None) -> dict:
+    """Per sensor, [(estimate, truth, stated u, source)] of the live frame `light`: night (all
+    on), day (all on + the overcast sky), clear (all on + the clear sky with sun)."""
     n_lum = len(json.loads((d / "luminaires.json").read_text()))
     arc = ",".join(["254"] * n_lum)
     per_node = []
@@ -994,7 +1110,7 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dic
         cmd = [luxnode_bin(a), "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
                "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"]
         if has_time:
-            cmd += ["--time", frame_time(d)]
+            cmd += ["--time", frame_time(d, clear_hour(d) if light == "clear" else 12.0)]
         p = run(cmd)
         rows = {int(r["sensor_id"]): r for r in csv.DictReader(p.stdout.splitlines())}
         per_node.append(rows)
@@ -1002,12 +1118,16 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str) -> dic
     for s in per_node[0]:
         cands = [rows[s] for rows in per_node if s in rows]
         measured = [r for r in cands if r["source"] == "measured"]
+        # a node that sees the desk saturated knows it is beyond its range: its "not available"
+        # stands over another node's inference
+        beyond = [r for r in cands if "saturated" in r["flags"] and "bad_frame" not in r["flags"]
+                  and not r["lux_total"]]
         # a value not available (empty: NaN, flagged) is taken only when no node gives one
         valued = [r for r in cands if r["lux_total"]]
         pick = (min(measured, key=lambda r: float(r["uncertainty_lx"])) if measured
-                else valued[0] if valued else cands[0])
+                else beyond[0] if beyond else valued[0] if valued else cands[0])
         lux, sky = truth[(1, s)]
-        t = lux + (sky if light == "day" else 0.0)
+        t = lux + {"day": sky, "clear": (clear or {}).get(s, math.nan)}.get(light, 0.0)
         out[s] = [(float(pick["lux_total"] or "nan"), t, float(pick["uncertainty_lx"] or "nan"))]
         out[s][0] += (pick["source"],)
     return out
@@ -1104,6 +1224,10 @@ def evaluate(a) -> None:
         checks += checks_room
         nodes = [f"node_{n['id']}" for n in json.loads((d / "nodes.json").read_text())]
         truth = read_truth(d)
+        clear = read_truth_clear(d)
+        lights = ["night", "day"]
+        if clear is not None and (rd / "live" / f"{nodes[0]}_clear.png").exists():
+            lights.append("clear")
         configs = [("one node", nodes[:1])]
         if len(nodes) > 1:
             configs += [("one node (b)", nodes[1:2]), ("two nodes", nodes[:2])]
@@ -1124,10 +1248,11 @@ def evaluate(a) -> None:
                     failures.append(f"{d.name}, {label}: {com['note']}")
                 rows += desk_rows(d.name, label, "night, model", night_model(a, d, com, truth),
                                   com["flags"])
-                for light in ("night", "day"):
+                for light in lights:
                     try:
                         rows += desk_rows(d.name, label, f"{light}, live",
-                                          live_values(a, d, rd, com, truth, light), com["flags"])
+                                          live_values(a, d, rd, com, truth, light, clear),
+                                          com["flags"])
                     except RuntimeError as e:
                         print(f"{d.name} {label} {light}: live FAILED\n{e}", flush=True)
                         failures.append(f"{d.name}, {label}, {light}: live failed "
@@ -1177,10 +1302,13 @@ def quantile(xs: list[float], q: float) -> float:
 def report(rows: list[dict], has_plan: bool, a) -> str:
     out = []
     lights = ["night, model", "night, live", "day, live"]
+    if any(r["light"] == "clear, live" for r in rows):
+        lights.append("clear, live")
     configs = sorted({r["config"] for r in rows}, key=lambda c: (c.startswith("two"), c))
     out.append(f"Rendered at {a.width}x{a.height}. Desk error = Σ|lux − truth| / Σ truth over the "
                "desk's values (night, model: every scenario of states.csv; live: one all-on "
-               "frame, day with the overcast sky). Errors in %.\n")
+               "frame, day with the overcast sky at noon, clear with the CIE clear sky and its "
+               "sun at the hour the window wall faces it). Errors in %.\n")
     out.append("### Over rooms and desks\n")
     out.append("| config | light | desks | view | median | p90 | worst | room means: median | "
                "worst room mean | truth within 2 u | live: measured |")
@@ -1263,6 +1391,9 @@ def main(argv=None) -> int:
     ap.add_argument("--render", action="store_true", help="render capture sets and live frames")
     ap.add_argument("--truth", action="store_true", help="truth.csv per room with Radiance")
     ap.add_argument("--evaluate", action="store_true", help="commission and score")
+    ap.add_argument("--clear-sky", action="store_true",
+                    help="the clear day alone for rooms rendered before it: its frames (existing "
+                    "frames are kept) and truth_clear.csv")
     ap.add_argument("--seed", type=int, default=28)
     ap.add_argument("--count", type=int, default=8)
     ap.add_argument("--out", type=Path, default=REPO / "scenes" / "rooms",
@@ -1287,14 +1418,16 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="--evaluate: write the raw rows as JSON")
     a = ap.parse_args(argv)
     a.width, a.height = (int(x) for x in a.resolution.lower().split("x"))
-    if not (a.write or a.render or a.truth or a.evaluate):
-        ap.error("nothing to do: --write, --render, --truth, --evaluate")
+    if not (a.write or a.render or a.truth or a.evaluate or a.clear_sky):
+        ap.error("nothing to do: --write, --render, --truth, --clear-sky, --evaluate")
     if a.write:
         write_all(a)
     if a.render:
         render_all(a)
     if a.truth:
         truth_all(a)
+    if a.clear_sky:
+        clear_sky_all(a)
     if a.evaluate:
         evaluate(a)
     return 0

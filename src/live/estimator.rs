@@ -1314,6 +1314,9 @@ impl Live {
             // 0 is a dark surface (the samples are pixels that saw one at commissioning)
             if v == u16::MAX {
                 state |= S_SATURATED;
+                // what the sample is at least: its light at the saturation level
+                let floor = g * f64::from(u16::MAX) * self.model.pi_over_rho[i];
+                self.d[i] = floor - self.sample_artificial_lx(i, wa);
             } else if state & S_OCCLUDED == 0 {
                 state |= S_VALID;
                 c.used += 1;
@@ -1487,14 +1490,27 @@ impl Live {
             let f = extra
                 | if w.saturated { flags::SATURATED } else { 0 }
                 | if w.covered { flags::OCCLUDED } else { 0 };
+            // a saturated window is at least this bright: a value below that contradicts the
+            // camera (a desk in the sun the model does not put there) and is not published
+            let floor_day = if w.saturated && !w.covered {
+                weighted_median(&mut self.model.extraneous_at_desk(s, &w.floor))
+            } else {
+                None
+            };
+            let below_floor = |day_lx: f64| floor_day.is_some_and(|f| day_lx < f);
             // held while the last good value is fresh (a person leaning over the desk);
             // covered for longer (a box left on it, a desk moved away), the inferred
             // daylight is the better value, as for a desk out of view
-            let fresh = self.held[s]
+            let held = self.held[s]
                 .daylight
-                .is_some_and(|(_, t, _)| ctx.taken_s - t <= st.stale_after_s);
-            if fresh {
+                .filter(|(_, t, _)| ctx.taken_s - t <= st.stale_after_s);
+            if held.is_some_and(|(d, _, _)| !below_floor(d)) {
                 return Action::Hold(f);
+            }
+            if below_floor(day) {
+                let nan = f64::NAN;
+                let f = f | flags::DAYLIGHT_UNKNOWN;
+                return Action::Set(art, nan, nan, Source::Inferred, f);
             }
             let unc =
                 ((ctx.daylight_rel * day).powi(2) + placement.powi(2) + (model_rel * art).powi(2))
@@ -1546,40 +1562,49 @@ impl Live {
         let w = &m.windows[s];
         let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
         let mut values: Vec<Sample> = Vec::with_capacity(w.sample.len());
+        let mut floor: Vec<Sample> = Vec::new();
         for (&i, &wt) in w.sample.iter().zip(&w.weight) {
             let i = i as usize;
             let stt = self.state[i];
             n_occ += usize::from(stt & S_OCCLUDED != 0);
             n_sat += usize::from(stt & S_SATURATED != 0);
             n_chg += usize::from(u32::from(self.changed[i]) >= st.geometry_frames);
+            if stt & (S_VALID | S_SATURATED) == 0 || stt & S_OCCLUDED != 0 {
+                continue;
+            }
+            // at these levels, and every luminaire at 100 % (for the share)
+            let (art, all_on) = m.art[i * l..(i + 1) * l]
+                .iter()
+                .zip(ctx.levels.iter().zip(&self.ageing))
+                .fold((0.0, 0.0), |(a_lx, on_lx), (e, (x, a))| {
+                    let e = f64::from(*e);
+                    (a_lx + e * x * a, on_lx + e)
+                });
+            let sample = Sample {
+                extraneous_lx: self.d[i],
+                all_on_lx: all_on,
+                weight: wt,
+            };
+            floor.push(sample);
             if stt & S_VALID != 0 {
-                // at these levels, and every luminaire at 100 % (for the share)
-                let (art, all_on) = m.art[i * l..(i + 1) * l]
-                    .iter()
-                    .zip(ctx.levels.iter().zip(&self.ageing))
-                    .fold((0.0, 0.0), |(a_lx, on_lx), (e, (x, a))| {
-                        let e = f64::from(*e);
-                        (a_lx + e * x * a, on_lx + e)
-                    });
                 if self.d[i] < -(0.3 * art + 5.0) {
                     n_dark += 1;
                 }
-                values.push(Sample {
-                    extraneous_lx: self.d[i],
-                    all_on_lx: all_on,
-                    weight: wt,
-                });
+                values.push(sample);
             }
         }
         let total_w = w.sample.len() as f64;
         let covered_depth = n_occ as f64 > st.occluded_fraction * total_w;
         // without depth: most of the window far darker than the luminaires make it
         let covered_light = ctx.no_depth && n_dark as f64 > 0.5 * values.len().max(1) as f64;
+        let saturated = n_sat as f64 > st.window_saturated_fraction * total_w;
         WindowState {
-            covered: covered_depth || covered_light || values.len() < 3,
-            saturated: n_sat as f64 > st.window_saturated_fraction * total_w,
+            // too few valid samples: covered, unless saturation took them
+            covered: covered_depth || covered_light || (values.len() < 3 && !saturated),
+            saturated,
             changed: n_chg as f64 > 0.5 * total_w,
             values,
+            floor,
         }
     }
 
@@ -1972,6 +1997,9 @@ struct WindowState {
     changed: bool,
     /// The valid samples.
     values: Vec<Sample>,
+    /// The valid samples and the saturated ones at their saturation level: the window's light
+    /// is at least what these say.
+    floor: Vec<Sample>,
 }
 
 /// One valid sample of a desk's window in a frame.

@@ -58,7 +58,10 @@
 //! dimming unchanged the value is exactly the last good one), flagged, with the age of the frame
 //! it comes from. A desk covered for longer than [`LiveSettings::stale_after_s`] (a box left on
 //! it, the desk moved away) gets the inferred daylight instead, like a desk out of view, still
-//! flagged occluded.
+//! flagged occluded. A saturated window is at least as bright as its saturated samples at the
+//! saturation level say (a desk in the sun: tens of klx); a held or inferred daylight below that
+//! contradicts the camera, and the desk's total and daylight are not available instead
+//! ([`flags::DAYLIGHT_UNKNOWN`], with [`flags::SATURATED`]), its artificial part kept.
 //!
 //! **Ageing.** A frame is *night* when two non-negative fits give the unknown emitters less than
 //! [`LiveSettings::night_fraction`] (0.5 %) of the measured light on the seen surfaces: a joint
