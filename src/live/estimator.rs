@@ -250,6 +250,18 @@ impl LiveSettings {
 /// A seen patch whose unexplained light exceeds this multiple of the median is in direct sun.
 const SUN_FACTOR: f64 = 8.0;
 
+/// A seen patch in direct sun gets at least this much unexplained light, lx: the sun's direct
+/// normal illuminance on a clear day (60-100 klx) through clear glass (0.6) 10° above the
+/// horizon gives 6 klx; the diffuse daylight by a window, a few klx at most (the noise of a
+/// night frame is relative, so the ratio alone finds "sun" in every frame).
+pub const SUN_PATCH_MIN_LX: f64 = 5000.0;
+
+/// A desk the camera does not see may be in the sun when it sees this much of the sun's sky
+/// patch through the plan's windows ([`super::sky_fit::SkyCoefficients::sun_view`]: a tenth of
+/// clear glass's view of the whole patch; the interreflected light alone gives a few
+/// hundredths).
+pub const SUN_VIEW_MIN: f64 = 0.07;
+
 /// A frame on the commissioned camera's grid.
 #[derive(Debug, Clone, Copy)]
 pub struct LiveFrame<'a> {
@@ -1178,6 +1190,7 @@ impl Live {
             fit_residual,
             daylight_seen_lx: daylight_seen,
             by_emitters,
+            sun_may_reach,
         } = inferred;
         // 4. ageing: night frames accumulate the luminaires' fit
         let (night, ageing_updated) = self.ageing_step(&seen.d, &seen.w, &seen.a, daylight_seen);
@@ -1193,6 +1206,7 @@ impl Live {
                 self.settings.inferred_rel_uncertainty
             },
             taken_s: frame.taken_s,
+            sun_may_reach: &sun_may_reach,
         };
         let actions: Vec<Action> = (0..self.model.sensors())
             .map(|s| self.desk_action(s, d_inferred.get(s).copied().unwrap_or(0.0), &ctx))
@@ -1424,7 +1438,9 @@ impl Live {
     }
 
     /// Step 2: per seen patch, the median extraneous light of its valid samples, its weight
-    /// (their count, at most 64) and the mean artificial light per luminaire at `levels`.
+    /// (their count, at most 64) and the mean artificial light per luminaire at `levels`. A
+    /// saturated sample counts at its floor (its light at the saturation level): a sun patch
+    /// the camera sees saturated is at least that bright, not dark.
     fn seen_patches(&self, levels: &[f64]) -> SeenPatches {
         let m = &self.model;
         let (l, n_seen) = (m.luminaires, m.seen.len());
@@ -1438,7 +1454,8 @@ impl Live {
             buf.clear();
             let mut cnt = 0.0f64;
             for i in a as usize..b as usize {
-                if self.state[i] & S_VALID != 0 {
+                let stt = self.state[i];
+                if stt & S_VALID != 0 || (stt & S_SATURATED != 0 && stt & S_OCCLUDED == 0) {
                     buf.push(self.d[i]);
                     let art = m.art[i * l..(i + 1) * l].iter().zip(levels);
                     for (o, (e, x)) in out.a[r * l..(r + 1) * l].iter_mut().zip(art) {
@@ -1474,6 +1491,12 @@ impl Live {
         let day = inferred_lx.max(0.0);
         let placement = ctx.placement_lx.get(s).copied().unwrap_or(0.0);
         if self.model.windows[s].sample.is_empty() {
+            if ctx.sun_may_reach.get(s).copied().unwrap_or(false) {
+                // a sun patch nobody sees may lie on it: tens of klx the diffuse sky's
+                // coefficients do not give
+                let (nan, f) = (f64::NAN, extra | flags::DAYLIGHT_UNKNOWN);
+                return Action::Set(art, nan, nan, Source::Inferred, f);
+            }
             // out of view: the model's light and the inferred daylight
             let unc = ((ctx.daylight_rel * day).powi(2)
                 + (ctx.fit_residual * day).powi(2)
@@ -1707,13 +1730,24 @@ impl Live {
             .filter(|&r| w_use[r] > 0.0)
             .map(|r| y[r])
             .collect();
+        let mut sun_rows = 0usize;
         if let Some(med) = median(&mut ys).filter(|m| *m > 0.0) {
             for r in 0..n_seen {
                 if y[r] > SUN_FACTOR * med {
+                    sun_rows += usize::from(w_use[r] > 0.0 && y[r] > SUN_PATCH_MIN_LX);
                     w_use[r] = 0.0;
                 }
             }
         }
+        // the sun shines into the room (the camera sees its patches): the desks out of view
+        // that see the sun's sky patch through a window may be in one, which the sky's
+        // coefficients (diffuse light) do not give
+        let sun_may_reach: Vec<bool> = match (&bases, self.time) {
+            (Some((sky, _)), Some(t)) if sun_rows > 0 => (0..s_count)
+                .map(|s| sky.sun_view(s, t).is_some_and(|v| v >= SUN_VIEW_MIN))
+                .collect(),
+            _ => vec![false; s_count],
+        };
         let (x, resid, w_use, chosen, gram) = match bases {
             Some((sky, mut bases)) => {
                 // the fit over the seen rows whose coefficients the image stores
@@ -1774,6 +1808,7 @@ impl Live {
             fit_residual: finite_or(rel, 0.0),
             daylight_seen_lx: if sw > 0.0 { fitted / sw } else { 0.0 },
             by_emitters: chosen.is_none(),
+            sun_may_reach,
         })
     }
 
@@ -1975,6 +2010,8 @@ struct Inferred {
     daylight_seen_lx: f64,
     /// The unknown emitters gave the daylight (no sky fit).
     by_emitters: bool,
+    /// Per sensor: the sun shines into the room and may reach it ([`SUN_VIEW_MIN`]).
+    sun_may_reach: Vec<bool>,
 }
 
 struct DeskContext<'a> {
@@ -1988,6 +2025,8 @@ struct DeskContext<'a> {
     /// emitters' ([`LiveSettings`]).
     daylight_rel: f64,
     taken_s: f64,
+    /// Per sensor: the sun may reach it where no camera sees ([`Inferred::sun_may_reach`]).
+    sun_may_reach: &'a [bool],
 }
 
 /// A desk's window in one frame.
