@@ -934,6 +934,13 @@ fn a_desk_in_the_sun_that_saturates_the_camera_is_not_published_below_it() {
         for (j, o) in after.iter().enumerate().filter(|(j, _)| *j != k) {
             assert_eq!(o.flags & flags::SATURATED, 0, "desk {j}");
         }
+        // the control plans the sunlit desk with what its window is at least (the sim
+        // camera's saturation level over the desk's reflectance: klx), the others with theirs
+        let control = live.daylight_for_control(60.0).expect("fresh values");
+        assert!(control[k] > 5.0 * before[k].daylight_lx, "{control:?}");
+        for (j, o) in after.iter().enumerate().filter(|(j, _)| *j != k) {
+            assert_eq!(control[j], o.daylight_lx, "desk {j}");
+        }
     }
 }
 

@@ -775,6 +775,9 @@ fn extraneous_shares(all_on_lx: f64, samples: &[Sample]) -> Option<Vec<(f64, f64
 struct Held {
     /// Last good daylight, lx, and when its frame was taken, s.
     daylight: Option<(f64, f64, f64)>,
+    /// What a saturated window says the desk's daylight is at least, lx, while its value is
+    /// not available for it (0 otherwise): the control plans with it.
+    floor_lx: f64,
 }
 
 /// The night accumulator of the ageing fit.
@@ -1018,16 +1021,18 @@ impl Live {
 
     /// Daylight per desk for the lighting control (`crate::control::regulator::Inputs`), lx:
     /// `None` when any desk's value is older than `max_age_s` (the loop then plans as if there
-    /// were no daylight, the safe side) or no frame was used yet.
+    /// were no daylight, the safe side) or no frame was used yet. A desk whose daylight is not
+    /// known plans with what it is sure of: what its saturated window says it is at least (a
+    /// desk in the sun needs no light), else none.
     pub fn daylight_for_control(&self, max_age_s: f64) -> Option<Vec<f64>> {
         let ok = self.desks.iter().all(|d| {
             d.source != Source::Model && d.frame_age_s <= max_age_s && d.flags & flags::STALE == 0
         });
-        // a desk whose daylight is not known plans without it (the safe side)
         ok.then(|| {
             self.desks
                 .iter()
-                .map(|d| finite_or(d.daylight_lx, 0.0))
+                .zip(&self.held)
+                .map(|(d, h)| finite_or(d.daylight_lx, h.floor_lx))
                 .collect()
         })
     }
@@ -1218,14 +1223,23 @@ impl Live {
         // any more: that alone advises recommissioning, whatever the area
         let recommission = geometry.recommission
             || actions.iter().any(|a| match a {
-                Action::Set(.., f) | Action::Hold(f) => f & flags::GEOMETRY_CHANGED != 0,
+                Action::Set(.., f) | Action::Hold(f) | Action::Beyond(.., f) => {
+                    f & flags::GEOMETRY_CHANGED != 0
+                }
             });
         for (s, a) in actions.into_iter().enumerate() {
             match a {
                 Action::Set(art, day, unc, source, f) => {
-                    self.set_desk(s, art, day, unc, source, f, frame.taken_s, now_s)
+                    self.set_desk(s, art, day, unc, source, f, frame.taken_s, now_s);
+                    self.held[s].floor_lx = 0.0;
                 }
                 Action::Hold(f) => self.hold(s, levels, now_s, f),
+                Action::Beyond(art, floor_lx, f) => {
+                    let nan = f64::NAN;
+                    let src = Source::Inferred;
+                    self.set_desk(s, art, nan, nan, src, f, frame.taken_s, now_s);
+                    self.held[s].floor_lx = floor_lx;
+                }
             }
         }
         self.report = Some(FrameReport {
@@ -1533,10 +1547,8 @@ impl Live {
             if held.is_some_and(|(d, _, _)| !below_floor(d)) {
                 return Action::Hold(f);
             }
-            if below_floor(day) {
-                let nan = f64::NAN;
-                let f = f | flags::DAYLIGHT_UNKNOWN;
-                return Action::Set(art, nan, nan, Source::Inferred, f);
+            if let Some(floor_lx) = floor_day.filter(|f| day < *f) {
+                return Action::Beyond(art, floor_lx, f | flags::DAYLIGHT_UNKNOWN);
             }
             let unc =
                 ((ctx.daylight_rel * day).powi(2) + placement.powi(2) + (model_rel * art).powi(2))
@@ -2061,6 +2073,9 @@ enum Action {
     Set(f64, f64, f64, Source, u16),
     /// Keep the last good daylight, with these flags.
     Hold(u16),
+    /// Daylight not available, at least this much (a saturated window): (artificial, the
+    /// floor, flags).
+    Beyond(f64, f64, u16),
 }
 
 fn finite_or(x: f64, fallback: f64) -> f64 {
