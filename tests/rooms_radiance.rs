@@ -235,25 +235,11 @@ fn room_02_with_its_plan_holds_at_every_desk_night_and_day() {
     // measured: worst 2.1 % (desk 6)
     assert!(w <= 0.042, "desk {s}: {:.1} %", 100.0 * w);
     // the bench's frame time: gensky's 12:00 at longitude 0, the site at 8.5° E
-    let (live, _) = luxnode(&[
-        "live".into(),
-        "--image".into(),
-        p(img),
-        "--frame".into(),
-        p(data("room_02").join("live/node_a_day.png")),
-        "--depth".into(),
-        p(data("room_02").join("live/node_a_depth.png")),
-        "--arc".into(),
-        "254,254,254,254".into(),
-        "--time".into(),
-        "2026-03-21T11:26:00Z".into(),
-    ]);
+    let live = live_rows("room_02", &img, "node_a_day.png");
     let truth = truth("room_02");
     let mut worst_day = (0, 0.0);
-    for l in live.lines().skip(1) {
-        let f: Vec<&str> = l.split(',').collect();
-        let s: u32 = f[0].parse().expect("id");
-        let total: f64 = f[1].parse().expect("lux");
+    for (&s, (total, ..)) in &live {
+        let total = total.expect("lux");
         let (lux, sky) = truth[&(1, s)];
         let e = (total / (lux + sky) - 1.0).abs();
         if e > worst_day.1 {
@@ -266,7 +252,7 @@ fn room_02_with_its_plan_holds_at_every_desk_night_and_day() {
         100.0 * worst_day.1
     );
     // measured: worst 2.5 % (desk 1, out of view)
-    assert!(worst_day.1 <= 0.05, "{worst_day:?}: {live}");
+    assert!(worst_day.1 <= 0.05, "{worst_day:?}: {live:?}");
 }
 
 /// room_04 of seed 28 without its plan (`scenes/rooms/room_04`: a 10.1 × 7.9 m office, seven

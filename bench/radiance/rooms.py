@@ -846,13 +846,11 @@ def render_room(a, d: Path) -> float:
         all_on = np.load(frames / f"{cam}_all.npy")
         sky = np.load(frames / f"{cam}_sky.npy")
         write_png16(live / f"{cam}_night.png", quantise(all_on, GAIN))
-        write_png16(live / f"{cam}_day.png", quantise(all_on + sky, GAIN))
-        sat = float(np.mean(quantise(all_on + sky, GAIN) == 65535))
-        print(f"{d.name} {cam}: day frame {100 * sat:.1f} % saturated")
-        clear = np.load(frames / f"{cam}_clear.npy")
-        write_png16(live / f"{cam}_clear.png", quantise(all_on + clear, GAIN))
-        sat = float(np.mean(quantise(all_on + clear, GAIN) == 65535))
-        print(f"{d.name} {cam}: clear day frame {100 * sat:.1f} % saturated")
+        for light, frame in (("day", sky), ("clear", np.load(frames / f"{cam}_clear.npy"))):
+            q = quantise(all_on + frame, GAIN)
+            write_png16(live / f"{cam}_{light}.png", q)
+            print(f"{d.name} {cam}: {light} frame {100 * float(np.mean(q == 65535)):.1f} % "
+                  "saturated")
     return dt
 
 

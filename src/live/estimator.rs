@@ -260,7 +260,7 @@ const SUN_FACTOR: f64 = 8.0;
 pub const SUN_PATCH_MIN_LX: f64 = 5000.0;
 
 /// A desk the camera does not see may be in the sun when it sees this much of the sun's sky
-/// patch through the plan's windows ([`super::sky_fit::SkyCoefficients::sun_view`]: a tenth of
+/// patch through the plan's windows ([`super::sky_fit::SkyCoefficients::sun_views`]: a tenth of
 /// clear glass's view of the whole patch; the interreflected light alone gives a few
 /// hundredths).
 pub const SUN_VIEW_MIN: f64 = 0.07;
@@ -1511,8 +1511,7 @@ impl Live {
             if ctx.sun_may_reach.get(s).copied().unwrap_or(false) {
                 // a sun patch nobody sees may lie on it: tens of klx the diffuse sky's
                 // coefficients do not give
-                let (nan, f) = (f64::NAN, extra | flags::DAYLIGHT_UNKNOWN);
-                return Action::Set(art, nan, nan, Source::Inferred, f);
+                return Action::daylight_unknown(art, extra);
             }
             // out of view: the model's light and the inferred daylight
             let unc = ((ctx.daylight_rel * day).powi(2)
@@ -1533,7 +1532,8 @@ impl Live {
             // a saturated window is at least this bright: a value below that contradicts the
             // camera (a desk in the sun the model does not put there) and is not published
             let floor_day = if w.saturated && !w.covered {
-                weighted_median(&mut self.model.extraneous_at_desk(s, &w.floor))
+                let floor = [&w.values[..], &w.saturated_at_floor[..]].concat();
+                weighted_median(&mut self.model.extraneous_at_desk(s, &floor))
             } else {
                 None
             };
@@ -1581,13 +1581,7 @@ impl Live {
     fn inferred(&self, art: f64, day: f64, unc: f64, f: u16) -> Action {
         let total = art + day;
         if unc > self.settings.unknown_above_rel_uncertainty * total {
-            return Action::Set(
-                art,
-                f64::NAN,
-                f64::NAN,
-                Source::Inferred,
-                f | flags::DAYLIGHT_UNKNOWN,
-            );
+            return Action::daylight_unknown(art, f);
         }
         Action::Set(art, day, unc, Source::Inferred, f)
     }
@@ -1600,7 +1594,7 @@ impl Live {
         let w = &m.windows[s];
         let (mut n_occ, mut n_sat, mut n_chg, mut n_dark) = (0usize, 0usize, 0usize, 0usize);
         let mut values: Vec<Sample> = Vec::with_capacity(w.sample.len());
-        let mut floor: Vec<Sample> = Vec::new();
+        let mut saturated_at_floor: Vec<Sample> = Vec::new();
         for (&i, &wt) in w.sample.iter().zip(&w.weight) {
             let i = i as usize;
             let stt = self.state[i];
@@ -1623,12 +1617,13 @@ impl Live {
                 all_on_lx: all_on,
                 weight: wt,
             };
-            floor.push(sample);
             if stt & S_VALID != 0 {
                 if self.d[i] < -(0.3 * art + 5.0) {
                     n_dark += 1;
                 }
                 values.push(sample);
+            } else {
+                saturated_at_floor.push(sample);
             }
         }
         let total_w = w.sample.len() as f64;
@@ -1642,7 +1637,7 @@ impl Live {
             saturated,
             changed: n_chg as f64 > 0.5 * total_w,
             values,
-            floor,
+            saturated_at_floor,
         }
     }
 
@@ -1757,12 +1752,18 @@ impl Live {
         // the sun shines into the room (the camera sees its patches): the desks out of view
         // that see the sun's sky patch through a window may be in one, which the sky's
         // coefficients (diffuse light) do not give
-        let sun_may_reach: Vec<bool> = match (&bases, self.time) {
-            (Some((sky, _)), Some(t)) if sun_rows > 0 => (0..s_count)
-                .map(|s| sky.sun_view(s, t).is_some_and(|v| v >= SUN_VIEW_MIN))
-                .collect(),
-            _ => vec![false; s_count],
+        let views = match (&bases, self.time) {
+            (Some((sky, _)), Some(t)) if sun_rows > 0 => sky.sun_views(t),
+            _ => None,
         };
+        let sun_may_reach: Vec<bool> = (0..s_count)
+            .map(|s| {
+                views
+                    .as_ref()
+                    .and_then(|v| v.get(s))
+                    .is_some_and(|v| *v >= SUN_VIEW_MIN)
+            })
+            .collect();
         let (x, resid, w_use, chosen, gram) = match bases {
             Some((sky, mut bases)) => {
                 // the fit over the seen rows whose coefficients the image stores
@@ -2051,9 +2052,9 @@ struct WindowState {
     changed: bool,
     /// The valid samples.
     values: Vec<Sample>,
-    /// The valid samples and the saturated ones at their saturation level: the window's light
-    /// is at least what these say.
-    floor: Vec<Sample>,
+    /// The saturated samples at their saturation level: with the valid ones, the window's
+    /// light is at least what they say.
+    saturated_at_floor: Vec<Sample>,
 }
 
 /// One valid sample of a desk's window in a frame.
@@ -2076,6 +2077,14 @@ enum Action {
     /// Daylight not available, at least this much (a saturated window): (artificial, the
     /// floor, flags).
     Beyond(f64, f64, u16),
+}
+
+impl Action {
+    /// The artificial part alone: the daylight and the total not available, flagged.
+    fn daylight_unknown(art: f64, f: u16) -> Action {
+        let nan = f64::NAN;
+        Action::Set(art, nan, nan, Source::Inferred, f | flags::DAYLIGHT_UNKNOWN)
+    }
 }
 
 fn finite_or(x: f64, fallback: f64) -> f64 {

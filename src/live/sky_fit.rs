@@ -131,12 +131,12 @@ impl SkyCoefficients {
         )
     }
 
-    /// How much of the sun's sky patch sensor s sees through the windows at time t: its
+    /// How much of the sun's sky patch each sensor sees through the windows at time t: its
     /// coefficient for the Tregenza patch the sun is in over that patch's projected solid angle
     /// (an upward receiver that sees the whole patch through clear glass: the glazing's
     /// transmittance, about 0.6-0.8; one that does not: the patch's interreflected light alone,
     /// a few hundredths). `None` with the sun below the horizon.
-    pub fn sun_view(&self, s: usize, t: UnixTime) -> Option<f64> {
+    pub fn sun_views(&self, t: UnixTime) -> Option<Vec<f64>> {
         let sun = sun_position(t, self.latitude_deg, self.longitude_deg);
         if sun.apparent_altitude_rad() < MIN_SUN_ALTITUDE_RAD {
             return None;
@@ -144,8 +144,12 @@ impl SkyCoefficients {
         let dir = crate::sky::sky_direction(sun.apparent_altitude_rad(), sun.azimuth_rad);
         let j = crate::sky::patch_of(dir)?;
         let omega = patches().nth(j)?.projected_solid_angle_sr;
-        let c = *self.sensor.get(s * COLUMNS + j)?;
-        (omega > 0.0).then(|| c / omega)
+        (omega > 0.0).then(|| {
+            self.sensor
+                .chunks_exact(COLUMNS)
+                .map(|row| row[j] / omega)
+                .collect()
+        })
     }
 
     /// Whether seen row r has stored coefficients (the sky fit's rows).
