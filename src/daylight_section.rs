@@ -24,10 +24,11 @@ use crate::commission::{Commissioned, RoomBox};
 use crate::engine::daylight::{COLUMNS, DaylightRoom, DaylightSettings, Glazing, Window};
 use crate::engine::raycast::RayCaster;
 use crate::scene::plan::{OpeningKind, RoomPlan};
-use crate::sky::SkyFrame;
+use crate::sky::{SkyFrame, SunGrid};
 use crate::solver::{self, CsrSystem, RhsState, Rows, Workspace};
 use crate::store::daylight::{
-    DAYLIGHT_MAGIC, DAYLIGHT_VERSION, DaylightCoefficients, MAX_COEFFICIENT,
+    DAYLIGHT_MAGIC, DAYLIGHT_VERSION, DAYLIGHT_VERSION_WITHOUT_SUN, DaylightCoefficients,
+    MAX_COEFFICIENT, SUN_SEEN_MIN,
 };
 use crate::store::{Bytes, Image};
 
@@ -44,6 +45,16 @@ pub const MAX_SEEN_ROWS: usize = 256;
 /// relative change of 1e-6 is far below what is kept.
 const BOUNDARY_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions {
     tolerance: 1e-6,
+    max_iterations: 10_000,
+};
+
+/// The sun columns' stop: their coefficients find the seen patches and desks in the beam and
+/// carry the beam's reflections off unseen surfaces, a few hundredths of it, so three digits
+/// are more than they need (room_07 of the generalization bench, one node, 141 of its 231
+/// positions in the beam of a window: the section in 1.08 s, 1.37 s at the sky's 1e-6; the sky
+/// alone 0.66 s).
+const SUN_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions {
+    tolerance: 1e-3,
     max_iterations: 10_000,
 };
 
@@ -64,6 +75,12 @@ pub struct DaylightSectionData {
     pub sensor_lx: Vec<f32>,
     /// The seen patches that are glazing, ascending.
     pub glazing_seen: Vec<u32>,
+    /// The sun's positions over the year at the site.
+    pub sun_grid: SunGrid,
+    /// `[position][seen]`, lx per lx of direct normal illuminance.
+    pub sun_seen_lx: Vec<f32>,
+    /// `[position][sensor]`, lx per lx of direct normal illuminance.
+    pub sun_sensor_lx: Vec<f32>,
 }
 
 /// The plan's windows on the commissioned room's walls (which may stand behind the plan's where
@@ -137,8 +154,20 @@ pub fn build(
     let direct = room_dc
         .direct_sky_where(settings, wanted)
         .map_err(|e| e.to_string())?;
-    let direct = (&direct.patch.values[..], &direct.sensor.values[..]);
-    let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, direct)?;
+    // the sun at every grid position above the horizon: more columns of the same solve
+    let grid = SunGrid::for_latitude(site.latitude_deg);
+    let active = sun_positions_in(&room_dc, &grid, site.latitude_deg);
+    let sun = direct_sun_grid(&room_dc, &active, settings)?;
+    let sky = (&direct.patch.values[..], &direct.sensor.values[..]);
+    let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, sky, COLUMNS, BOUNDARY_SOLVE)?;
+    let (sun_seen, sun_sensor) = if active.is_empty() {
+        (Vec::new(), Vec::new())
+    } else {
+        let sun = (&sun.0[..], &sun.1[..]);
+        boundary(c, &all_seen, &seen_patch, sun, active.len(), SUN_SOLVE)?
+    };
+    let sun_seen_lx = by_position(&sun_seen, &active, grid.positions());
+    let sun_sensor_lx = by_position(&sun_sensor, &active, grid.positions());
     // the seen patches on the plan's windows: the live estimator holds them at zero
     let glazing = crate::commission::glazing_patches(c).unwrap_or_default();
     let glazing_seen: Vec<u32> = all_seen
@@ -158,20 +187,80 @@ pub fn build(
         seen_lx,
         sensor_lx,
         glazing_seen,
+        sun_grid: grid,
+        sun_seen_lx,
+        sun_sensor_lx,
     })
 }
 
-/// The boundary coefficients: the direct sky on the unseen patches reflected over them (seen
-/// patches held at 0), at the seen patches and the sensors, every column in one solve.
+/// The grid positions whose sun can shine in: above the horizon and on the outside of at least
+/// one window (its position and world direction). The others have no beam: zero coefficients,
+/// without a ray or a column of the solve.
+fn sun_positions_in(
+    room: &DaylightRoom<'_>,
+    grid: &SunGrid,
+    latitude_deg: f64,
+) -> Vec<(usize, DVec3)> {
+    (0..grid.positions())
+        .filter_map(|k| {
+            let sun = DVec3::from(room.frame.to_world(grid.direction_sky(k, latitude_deg)?));
+            room.windows
+                .iter()
+                .any(|w| -w.inward.dot(sun) > 1e-12)
+                .then_some((k, sun))
+        })
+        .collect()
+}
+
+/// The sun's direct light (lx per lx of direct normal illuminance) at every patch and sensor
+/// for each of the `active` positions, row-major `[patch][active]` and `[sensor][active]`.
+fn direct_sun_grid(
+    room: &DaylightRoom<'_>,
+    active: &[(usize, DVec3)],
+    settings: &DaylightSettings,
+) -> Result<(Vec<f32>, Vec<f32>), String> {
+    let p = active.len();
+    let (n, s) = (room.patches.len(), room.sensors.len());
+    let (mut patch, mut sensor) = (vec![0.0f32; n * p], vec![0.0f32; s * p]);
+    for (q, (_, sun)) in active.iter().enumerate() {
+        let d = room.direct_sun(*sun, settings).map_err(|e| e.to_string())?;
+        for (i, x) in d.patch_lx.iter().enumerate() {
+            patch[i * p + q] = *x as f32;
+        }
+        for (i, x) in d.sensor_lx.iter().enumerate() {
+            sensor[i * p + q] = *x as f32;
+        }
+    }
+    Ok((patch, sensor))
+}
+
+/// `[row][active]` as `[position][row]` over all `positions` of the grid (zero at the
+/// positions not active).
+fn by_position(rows_by_active: &[f32], active: &[(usize, DVec3)], positions: usize) -> Vec<f32> {
+    let p = active.len();
+    let rows = rows_by_active.len() / p.max(1);
+    let mut out = vec![0.0f32; positions * rows];
+    for (q, (pos, _)) in active.iter().enumerate() {
+        for r in 0..rows {
+            out[pos * rows + r] = rows_by_active[r * p + q];
+        }
+    }
+    out
+}
+
+/// The boundary coefficients: the direct light of each of `k` columns on the unseen patches
+/// reflected over them (seen patches held at 0), at the seen patches and the sensors, every
+/// column in one solve.
 fn boundary(
     c: &Commissioned,
     seen: &[u32],
     stored: &[u32],
     (patch_direct, sensor_direct): (&[f32], &[f32]),
+    k: usize,
+    stop: crate::solver::SolveOptions,
 ) -> Result<(Vec<f32>, Vec<f32>), String> {
     let m = &c.model;
     let n = m.patches.len();
-    let k = COLUMNS;
     // every patch the camera sees is held at zero, stored or not
     let mut is_seen = vec![false; n];
     for &p in seen {
@@ -203,7 +292,7 @@ fn boundary(
         solver::Source::Irradiance(&e),
         &mut b,
         work,
-        BOUNDARY_SOLVE,
+        stop,
     )
     .map_err(|e| format!("daylight boundary solve: {e}"))?;
     let gather_row = |csr: &crate::engine::Csr, i: usize, direct: &[f32]| -> Vec<f32> {
@@ -231,8 +320,9 @@ fn boundary(
     Ok((seen_lx, sensor_lx))
 }
 
-/// The postcard body of the section.
-pub fn encode(d: &DaylightSectionData) -> Result<Vec<u8>, String> {
+/// The postcard body of the section, at [`DAYLIGHT_VERSION`] with the sun's beam, or at
+/// [`DAYLIGHT_VERSION_WITHOUT_SUN`] without it (an image with no room for it).
+pub fn encode(d: &DaylightSectionData, with_sun: bool) -> Result<Vec<u8>, String> {
     let le = |v: &[f32]| -> Vec<u8> {
         v.iter()
             .flat_map(|x| half::f16::from_f32(*x).to_bits().to_le_bytes())
@@ -240,13 +330,15 @@ pub fn encode(d: &DaylightSectionData) -> Result<Vec<u8>, String> {
     };
     let seen: Vec<u8> = d.seen_patch.iter().flat_map(|p| p.to_le_bytes()).collect();
     let (seen_lx, sensor_lx) = (le(&d.seen_lx), le(&d.sensor_lx));
+    let sun_seen = sparse_sun_seen(&d.sun_seen_lx, d.seen_patch.len())?;
+    let sun_sensor = le(&d.sun_sensor_lx);
     let glazing: Vec<u8> = d
         .glazing_seen
         .iter()
         .flat_map(|p| p.to_le_bytes())
         .collect();
     let s = DaylightCoefficients {
-        version: DAYLIGHT_VERSION,
+        version: section_version(with_sun),
         latitude_deg: d.site.0,
         longitude_deg: d.site.1,
         north: d.site.2,
@@ -257,47 +349,94 @@ pub fn encode(d: &DaylightSectionData) -> Result<Vec<u8>, String> {
         seen_lx: Bytes(&seen_lx),
         sensor_lx: Bytes(&sensor_lx),
         glazing_seen: Bytes(&glazing),
+        sun_grid: with_sun.then_some(d.sun_grid),
+        sun_seen_lx: Bytes(&sun_seen),
+        sun_sensor_lx: Bytes(&sun_sensor),
     };
     s.encode().map_err(|e| e.to_string())
 }
 
+/// The seen sun coefficients `[position][seen]` in the section's sparse form: per position a
+/// count, then (row, f16) for each coefficient of at least [`SUN_SEEN_MIN`].
+fn sparse_sun_seen(dense: &[f32], rows: usize) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    for position in dense.chunks(rows.max(1)) {
+        let kept: Vec<(u16, f32)> = position
+            .iter()
+            .enumerate()
+            .filter(|(_, x)| **x >= SUN_SEEN_MIN)
+            .map(|(r, x)| u16::try_from(r).map(|r| (r, *x)))
+            .collect::<Result<_, _>>()
+            .map_err(|_| "too many seen rows")?;
+        let count = u16::try_from(kept.len()).map_err(|_| "too many seen rows")?;
+        out.extend(count.to_le_bytes());
+        for (r, x) in kept {
+            out.extend(r.to_le_bytes());
+            out.extend(half::f16::from_f32(x).to_bits().to_le_bytes());
+        }
+    }
+    Ok(out)
+}
+
+/// The section's version with or without the sun's beam.
+fn section_version(with_sun: bool) -> u16 {
+    if with_sun {
+        DAYLIGHT_VERSION
+    } else {
+        DAYLIGHT_VERSION_WITHOUT_SUN
+    }
+}
+
 /// The image with the daylight section of a commissioning with a plan added, within the
-/// formfactors flash region; the image as it is (logged) when there is nothing to add or no
-/// room for it.
+/// formfactors flash region: with the sun's beam, or, when that does not fit, the sky alone
+/// (logged); the image as it is (logged) when there is nothing to add or no room for either.
 pub fn with_daylight_section(image: Vec<u8>, c: &Commissioned, plan: Option<&RoomPlan>) -> Vec<u8> {
     let Some(plan) = plan else {
         return image;
     };
     let t0 = std::time::Instant::now();
-    let built = Image::parse(&image)
+    let data = Image::parse(&image)
         .map_err(|e| e.to_string())
-        .and_then(|img| build(c, plan, &img, &DaylightSettings::default()))
-        .and_then(|d| encode(&d))
-        .and_then(|body| {
-            crate::image_build::with_section(&image, DAYLIGHT_MAGIC, DAYLIGHT_VERSION, Some(&body))
-                .map_err(|e| e.to_string())
-        });
-    match built {
-        Ok(bytes) if bytes.len() <= crate::image_build::formfactors_region_bytes() => {
-            tracing::info!(
-                "commission: daylight coefficients of {} bytes added (the plan's windows) in \
-                 {:.0} ms",
-                bytes.len() - image.len(),
-                t0.elapsed().as_secs_f64() * 1e3
-            );
-            bytes
-        }
-        Ok(bytes) => {
-            tracing::warn!(
-                "commission: no room for the daylight coefficients ({} bytes) in the flash \
-                 region; daylight through the plan's windows is fitted by emitters",
-                bytes.len() - image.len()
-            );
-            image
-        }
+        .and_then(|img| build(c, plan, &img, &DaylightSettings::default()));
+    let data = match data {
+        Ok(d) => d,
         Err(why) => {
             tracing::info!("commission: no daylight coefficients: {why}");
-            image
+            return image;
+        }
+    };
+    let mut tried = Vec::new();
+    for with_sun in [true, false] {
+        let built = encode(&data, with_sun).and_then(|body| {
+            let v = section_version(with_sun);
+            crate::image_build::with_section(&image, DAYLIGHT_MAGIC, v, Some(&body))
+                .map_err(|e| e.to_string())
+        });
+        match built {
+            Ok(bytes) if bytes.len() <= crate::image_build::formfactors_region_bytes() => {
+                tracing::info!(
+                    "commission: daylight coefficients of {} bytes added (the plan's windows; \
+                     {}) in {:.0} ms",
+                    bytes.len() - image.len(),
+                    if with_sun {
+                        "sky and sun"
+                    } else {
+                        "the sky alone: no room for the sun's beam"
+                    },
+                    t0.elapsed().as_secs_f64() * 1e3
+                );
+                return bytes;
+            }
+            Ok(bytes) => tried.push(bytes.len() - image.len()),
+            Err(why) => {
+                tracing::info!("commission: no daylight coefficients: {why}");
+                return image;
+            }
         }
     }
+    tracing::warn!(
+        "commission: no room for the daylight coefficients ({tried:?} bytes with and without \
+         the sun) in the flash region; daylight through the plan's windows is fitted by emitters"
+    );
+    image
 }

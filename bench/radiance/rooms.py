@@ -41,7 +41,9 @@ radiance/sky_clear.rad.
 Assembled as capture sets (camera.json, 3 depth frames with office_a's ToF error model,
 luminance_L<k>.png at 0.02 cd/m^2 per unit) and live frames (night: all on; day: all on + the
 overcast sky; clear: all on + the clear sky, where sun patches saturate the fixed gain as a
-real camera's would; depth with the ToF model, another seed). `--resolution WxH` scales the intrinsics (the
+real camera's would; hazy: all on + a quarter of the clear sky (`HAZY`: a low winter sun or
+haze, its sun patches below saturation, truth lux + HAZY lux_sky of truth_clear.csv); depth
+with the ToF model, another seed). `--resolution WxH` scales the intrinsics (the
 default 320x240 is office_a's; 80x60 for smoke runs). The fast cache's error is stated in
 daylight.py: luminaire frames within 0.2 % of the truth at desk sensors (pi L / rho); sky
 frames 3-17 % off at some desks, so the day column carries the renderer's error too.
@@ -118,6 +120,10 @@ SKY = ("overcast", 3, 21, 12.0)  # daylight.py's overcast_12
 # The clear day: gensky's CIE clear sky with sun (+s), 21 March, at the hour the window wall
 # faces the sun (`clear_hour`)
 CLEAR = ("clear", 3, 21)
+# the hazy day: the clear sky and its sun at this share of their strength (a low winter sun, or
+# haze): Radiance is linear in its sources, so its frames and truth are the clear day's scaled,
+# and its sun patches stay below the camera's saturation, where the node can fit the sun
+HAZY = 0.25
 SITE = {"latitude_deg": 47.4, "longitude_deg": 8.5, "north": [0.0, -1.0]}  # daylight.py's
 GLAZING_RHO = 0.08
 DESK_Z = 0.75
@@ -846,7 +852,8 @@ def render_room(a, d: Path) -> float:
         all_on = np.load(frames / f"{cam}_all.npy")
         sky = np.load(frames / f"{cam}_sky.npy")
         write_png16(live / f"{cam}_night.png", quantise(all_on, GAIN))
-        for light, frame in (("day", sky), ("clear", np.load(frames / f"{cam}_clear.npy"))):
+        clear = np.load(frames / f"{cam}_clear.npy")
+        for light, frame in (("day", sky), ("clear", clear), ("hazy", HAZY * clear)):
             q = quantise(all_on + frame, GAIN)
             write_png16(live / f"{cam}_{light}.png", q)
             print(f"{d.name} {cam}: {light} frame {100 * float(np.mean(q == 65535)):.1f} % "
@@ -1108,7 +1115,8 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
         cmd = [luxnode_bin(a), "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
                "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"]
         if has_time:
-            cmd += ["--time", frame_time(d, clear_hour(d) if light == "clear" else 12.0)]
+            sunny = light in ("clear", "hazy")
+            cmd += ["--time", frame_time(d, clear_hour(d) if sunny else 12.0)]
         p = run(cmd)
         rows = {int(r["sensor_id"]): r for r in csv.DictReader(p.stdout.splitlines())}
         per_node.append(rows)
@@ -1125,7 +1133,8 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
         pick = (min(measured, key=lambda r: float(r["uncertainty_lx"])) if measured
                 else beyond[0] if beyond else valued[0] if valued else cands[0])
         lux, sky = truth[(1, s)]
-        t = lux + {"day": sky, "clear": (clear or {}).get(s, math.nan)}.get(light, 0.0)
+        c = (clear or {}).get(s, math.nan)
+        t = lux + {"day": sky, "clear": c, "hazy": HAZY * c}.get(light, 0.0)
         out[s] = [(float(pick["lux_total"] or "nan"), t, float(pick["uncertainty_lx"] or "nan"))]
         out[s][0] += (pick["source"],)
     return out
@@ -1226,6 +1235,8 @@ def evaluate(a) -> None:
         lights = ["night", "day"]
         if clear is not None and (rd / "live" / f"{nodes[0]}_clear.png").exists():
             lights.append("clear")
+            if (rd / "live" / f"{nodes[0]}_hazy.png").exists():
+                lights.append("hazy")
         configs = [("one node", nodes[:1])]
         if len(nodes) > 1:
             configs += [("one node (b)", nodes[1:2]), ("two nodes", nodes[:2])]
@@ -1300,13 +1311,15 @@ def quantile(xs: list[float], q: float) -> float:
 def report(rows: list[dict], has_plan: bool, a) -> str:
     out = []
     lights = ["night, model", "night, live", "day, live"]
-    if any(r["light"] == "clear, live" for r in rows):
-        lights.append("clear, live")
+    for light in ("clear, live", "hazy, live"):
+        if any(r["light"] == light for r in rows):
+            lights.append(light)
     configs = sorted({r["config"] for r in rows}, key=lambda c: (c.startswith("two"), c))
     out.append(f"Rendered at {a.width}x{a.height}. Desk error = Σ|lux − truth| / Σ truth over the "
                "desk's values (night, model: every scenario of states.csv; live: one all-on "
                "frame, day with the overcast sky at noon, clear with the CIE clear sky and its "
-               "sun at the hour the window wall faces it). Errors in %.\n")
+               "sun at the hour the window wall faces it, hazy with a quarter of that sky and "
+               "sun). Errors in %.\n")
     out.append("### Over rooms and desks\n")
     out.append("| config | light | desks | view | median | p90 | worst | room means: median | "
                "worst room mean | truth within 2 u | live: measured |")

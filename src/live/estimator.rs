@@ -9,7 +9,8 @@ use crate::store::Image;
 
 use super::emitters::{EmitterFit, placement_lx, robust_fit};
 use super::nnls::nnls_gram;
-use super::sky_fit::{SkyBasis, SkyCoefficients};
+use super::sky_fit::{SkyBasis, SkyCoefficients, SunBasis};
+use super::sun_fit::{SUN_LIT, SeenSun, SunFit, fit_sun};
 use super::window::{farthest_m, window_sigma_m};
 use super::{LiveError, flags};
 use crate::sky::UnixTime;
@@ -258,6 +259,11 @@ const SUN_FACTOR: f64 = 8.0;
 /// horizon gives 6 klx; the diffuse daylight by a window, a few klx at most (the noise of a
 /// night frame is relative, so the ratio alone finds "sun" in every frame).
 pub const SUN_PATCH_MIN_LX: f64 = 5000.0;
+
+/// The fitted skies that have no sun: ISO 15469's overcast type 1 and the 1942 overcast
+/// sky (16). On the generalization bench the overcast day fits one of them at every node, the
+/// clear day none (it fits 4-15).
+const OVERCAST_SKIES: [u8; 2] = [1, 16];
 
 /// A desk the camera does not see may be in the sun when it sees this much of the sun's sky
 /// patch through the plan's windows ([`super::sky_fit::SkyCoefficients::sun_views`]: a tenth of
@@ -1182,7 +1188,7 @@ impl Live {
         // 2. per seen patch: the median residual (daylight) and the artificial part
         let seen = self.seen_patches(levels);
         // 3. inference: the seen exitance propagated over the unseen patches, plus emitters
-        let inferred = match self.infer(&seen.d, &seen.w) {
+        let inferred = match self.infer(&seen) {
             Ok(inferred) => inferred,
             Err(e) => {
                 // the stored system was checked at boot, so this is a broken invariant: no
@@ -1198,10 +1204,20 @@ impl Live {
             fit_residual,
             daylight_seen_lx: daylight_seen,
             by_emitters,
-            sun_may_reach,
+            mut sun_may_reach,
+            sun_unc_lx,
+            sun_floor_lx,
+            sun_unseen_in_beam,
         } = inferred;
         // 4. ageing: night frames accumulate the luminaires' fit
         let (night, ageing_updated) = self.ageing_step(&seen.d, &seen.w, &seen.a, daylight_seen);
+        // by day under a sky that is not overcast, a desk in the sun's beam whose light no seen
+        // patch tells may be in the sun
+        if !night {
+            for (m, u) in sun_may_reach.iter_mut().zip(&sun_unseen_in_beam) {
+                *m |= *u;
+            }
+        }
         // 5. desks: decided with the model borrowed, applied after
         let ctx = DeskContext {
             levels,
@@ -1215,6 +1231,8 @@ impl Live {
             },
             taken_s: frame.taken_s,
             sun_may_reach: &sun_may_reach,
+            sun_unc_lx: &sun_unc_lx,
+            sun_floor_lx: &sun_floor_lx,
         };
         let actions: Vec<Action> = (0..self.model.sensors())
             .map(|s| self.desk_action(s, d_inferred.get(s).copied().unwrap_or(0.0), &ctx))
@@ -1465,6 +1483,7 @@ impl Live {
             d: vec![0.0; n_seen],
             w: vec![0.0; n_seen],
             a: vec![0.0; n_seen * l],
+            sat: vec![false; n_seen],
         };
         let mut buf = Vec::new();
         for (r, &(a, b)) in m.seen_range.iter().enumerate() {
@@ -1473,6 +1492,7 @@ impl Live {
             for i in a as usize..b as usize {
                 let stt = self.state[i];
                 if stt & S_VALID != 0 || (stt & S_SATURATED != 0 && stt & S_OCCLUDED == 0) {
+                    out.sat[r] |= stt & S_VALID == 0;
                     buf.push(self.d[i]);
                     let art = m.art[i * l..(i + 1) * l].iter().zip(levels);
                     for (o, (e, x)) in out.a[r * l..(r + 1) * l].iter_mut().zip(art) {
@@ -1510,13 +1530,18 @@ impl Live {
         if self.model.windows[s].sample.is_empty() {
             if ctx.sun_may_reach.get(s).copied().unwrap_or(false) {
                 // a sun patch nobody sees may lie on it: tens of klx the diffuse sky's
-                // coefficients do not give
-                return Action::daylight_unknown(art, extra);
+                // coefficients do not give; at least what the sun's bound says
+                return match ctx.sun_floor_lx.get(s).copied().filter(|f| *f > 0.0) {
+                    Some(floor) => Action::Beyond(art, floor, extra | flags::DAYLIGHT_UNKNOWN),
+                    None => Action::daylight_unknown(art, extra),
+                };
             }
             // out of view: the model's light and the inferred daylight
+            let sun_unc = ctx.sun_unc_lx.get(s).copied().unwrap_or(0.0);
             let unc = ((ctx.daylight_rel * day).powi(2)
                 + (ctx.fit_residual * day).powi(2)
                 + placement.powi(2)
+                + sun_unc.powi(2)
                 + (model_rel * art).powi(2))
             .sqrt();
             return self.inferred(art, day, unc, extra);
@@ -1547,12 +1572,25 @@ impl Live {
             if held.is_some_and(|(d, _, _)| !below_floor(d)) {
                 return Action::Hold(f);
             }
+            if ctx.sun_may_reach.get(s).copied().unwrap_or(false) {
+                // the sun may be on it, by a strength the node cannot tell
+                let sun_floor = ctx.sun_floor_lx.get(s).copied().unwrap_or(0.0);
+                let floor_lx = floor_day.unwrap_or(0.0).max(sun_floor);
+                return if floor_lx > 0.0 {
+                    Action::Beyond(art, floor_lx, f | flags::DAYLIGHT_UNKNOWN)
+                } else {
+                    Action::daylight_unknown(art, f)
+                };
+            }
             if let Some(floor_lx) = floor_day.filter(|f| day < *f) {
                 return Action::Beyond(art, floor_lx, f | flags::DAYLIGHT_UNKNOWN);
             }
-            let unc =
-                ((ctx.daylight_rel * day).powi(2) + placement.powi(2) + (model_rel * art).powi(2))
-                    .sqrt();
+            let sun_unc = ctx.sun_unc_lx.get(s).copied().unwrap_or(0.0);
+            let unc = ((ctx.daylight_rel * day).powi(2)
+                + placement.powi(2)
+                + sun_unc.powi(2)
+                + (model_rel * art).powi(2))
+            .sqrt();
             return self.inferred(art, day, unc, f);
         }
         // the weighted median residual of the window; spread for the uncertainty
@@ -1700,7 +1738,8 @@ impl Live {
     /// `ρ D` propagated over the unseen patches (Gauss-Seidel, warm), plus unknown emitters
     /// fitted to what that leaves unexplained on the seen surfaces (robust NNLS). Returns
     /// (daylight per sensor, relative RMS residual, mean fitted daylight on the seen surfaces).
-    fn infer(&mut self, d_seen: &[f64], w_seen: &[f64]) -> Result<Inferred, SolveError> {
+    fn infer(&mut self, seen: &SeenPatches) -> Result<Inferred, SolveError> {
+        let (d_seen, w_seen) = (&seen.d[..], &seen.w[..]);
         let m = &self.model;
         let (k, n_seen, s_count) = (m.k, m.seen.len(), m.sensors());
         // the sky through the plan's windows when the image has its coefficients and the time
@@ -1712,6 +1751,12 @@ impl Live {
         // a window's glass the camera sees: its light is in the sky's coefficients, and its
         // luminance (the ground's, seen through it from the ceiling) is not what it lets in
         let glass = |r: usize| bases.as_ref().is_some_and(|(sky, _)| sky.glazing(r));
+        let is_glass: Vec<bool> = (0..n_seen).map(glass).collect();
+        // the sun's beam through the plan's windows at this time (a version-3 image)
+        let sun = match (&m.sky, self.time) {
+            (Some(sky), Some(t)) => sky.sun(t, n_seen),
+            _ => None,
+        };
         // seen exitance fixed, unseen solved
         let b = &mut self.b_boundary;
         for (r, &p) in m.seen.iter().enumerate() {
@@ -1756,12 +1801,13 @@ impl Live {
             (Some((sky, _)), Some(t)) if sun_rows > 0 => sky.sun_views(t),
             _ => None,
         };
-        let sun_may_reach: Vec<bool> = (0..s_count)
+        let mut sun_may_reach: Vec<bool> = (0..s_count)
             .map(|s| {
-                views
-                    .as_ref()
-                    .and_then(|v| v.get(s))
-                    .is_some_and(|v| *v >= SUN_VIEW_MIN)
+                sun.is_none()
+                    && views
+                        .as_ref()
+                        .and_then(|v| v.get(s))
+                        .is_some_and(|v| *v >= SUN_VIEW_MIN)
             })
             .collect();
         let (x, resid, w_use, chosen, gram) = match bases {
@@ -1798,12 +1844,42 @@ impl Live {
             }
         }
         let rel = if den > 0.0 { (num / den).sqrt() } else { 0.0 };
-        let out: Vec<f64> = (0..s_count)
+        let mut out: Vec<f64> = (0..s_count)
             .map(|s| {
                 let e: f64 = (0..k).map(|q| g_basis[s * k + q] * x[q]).sum();
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
+        // the sun: its strength from the seen patches in its beam, its light at every desk
+        let (mut sun_unc_lx, mut sun_floor_lx) = (vec![0.0; s_count], vec![0.0; s_count]);
+        let mut sun_unseen_in_beam = vec![false; s_count];
+        if let (Some(sun), Some(b)) = (&sun, &chosen) {
+            let fit = fit_sun(
+                (0..n_seen)
+                    .filter(|&r| w_seen[r] > 0.0 && !is_glass[r])
+                    .map(|r| SeenSun {
+                        beyond_sky_lx: y[r] - b.seen_lx[r] * x[0],
+                        sky_lx: c[r] + b.seen_lx[r] * x[0],
+                        coefficient: sun.seen_lx[r],
+                        coefficient_min: sun.seen_min_lx[r],
+                        saturated: seen.sat[r],
+                    }),
+            );
+            tracing::debug!("live: the sun's fit {fit:?}, {sun_rows} seen patches in sun");
+            let beam = SunAtDesks {
+                sun,
+                from_seen: &from_seen,
+                sun_seen: sun_rows > 0,
+                overcast: OVERCAST_SKIES.contains(&b.sky_type),
+            };
+            beam.apply(
+                fit,
+                &mut out,
+                &mut sun_may_reach,
+                &mut sun_unseen_in_beam,
+                (&mut sun_unc_lx, &mut sun_floor_lx),
+            );
+        }
         // without the sky: where the emitters are is known only as well as the seen surfaces
         // tell them apart
         let placement_lx = if chosen.is_none() {
@@ -1825,6 +1901,9 @@ impl Live {
             daylight_seen_lx: if sw > 0.0 { fitted / sw } else { 0.0 },
             by_emitters: chosen.is_none(),
             sun_may_reach,
+            sun_unc_lx,
+            sun_floor_lx,
+            sun_unseen_in_beam,
         })
     }
 
@@ -2011,6 +2090,8 @@ struct SeenPatches {
     d: Vec<f64>,
     w: Vec<f64>,
     a: Vec<f64>,
+    /// Some of the patch's samples saturated: its light is a lower bound.
+    sat: Vec<bool>,
 }
 
 /// What every desk of one frame shares.
@@ -2026,8 +2107,17 @@ struct Inferred {
     daylight_seen_lx: f64,
     /// The unknown emitters gave the daylight (no sky fit).
     by_emitters: bool,
-    /// Per sensor: the sun shines into the room and may reach it ([`SUN_VIEW_MIN`]).
+    /// Per sensor: the sun shines into the room and may reach it, by a strength the node
+    /// cannot tell ([`SUN_VIEW_MIN`], or the sun's grid with its strength bounded only).
     sun_may_reach: Vec<bool>,
+    /// Per sensor, the standard uncertainty of the sun's part of its daylight, lx.
+    sun_unc_lx: Vec<f64>,
+    /// Per sensor, its daylight's lower bound where the sun may reach it, lx (0: none).
+    sun_floor_lx: Vec<f64>,
+    /// Per sensor: in the sun's beam, with no seen patch in the beam to tell whether the sun
+    /// shines, under a fitted sky that is not overcast (taken as [`Self::sun_may_reach`] by
+    /// day).
+    sun_unseen_in_beam: Vec<bool>,
 }
 
 struct DeskContext<'a> {
@@ -2043,6 +2133,10 @@ struct DeskContext<'a> {
     taken_s: f64,
     /// Per sensor: the sun may reach it where no camera sees ([`Inferred::sun_may_reach`]).
     sun_may_reach: &'a [bool],
+    /// Per sensor, the standard uncertainty of its sun part ([`Inferred::sun_unc_lx`]).
+    sun_unc_lx: &'a [f64],
+    /// Per sensor, its daylight's lower bound where the sun may reach it, lx (0: none).
+    sun_floor_lx: &'a [f64],
 }
 
 /// A desk's window in one frame.
@@ -2084,6 +2178,65 @@ impl Action {
     fn daylight_unknown(art: f64, f: u16) -> Action {
         let nan = f64::NAN;
         Action::Set(art, nan, nan, Source::Inferred, f | flags::DAYLIGHT_UNKNOWN)
+    }
+}
+
+/// The sun's beam at the desks in one frame.
+struct SunAtDesks<'a> {
+    sun: &'a SunBasis,
+    /// Per sensor, the seen surfaces' measured light propagated to it, lx.
+    from_seen: &'a [f64],
+    /// The camera sees a sun patch (a seen patch far brighter than the rest).
+    sun_seen: bool,
+    /// The fitted sky is an overcast one ([`OVERCAST_SKIES`]): no sun.
+    overcast: bool,
+}
+
+impl SunAtDesks<'_> {
+    /// Adds the fitted sun to the daylight of each desk in its beam, with its uncertainty (the
+    /// fit's, and a sun patch's edge between the grid's positions); a desk out of the beam gets
+    /// its reflected share as uncertainty only. With the sun's strength bounded only, a desk in
+    /// the beam is not published (at least its bound's light); with no seen patch in the beam,
+    /// a desk in it is not published when the camera sees sun elsewhere; under clouds (the sun
+    /// not standing out), no desk gets sun, each the fit's doubt.
+    fn apply(
+        &self,
+        fit: Option<SunFit>,
+        out: &mut [f64],
+        may_reach: &mut [bool],
+        unseen_in_beam: &mut [bool],
+        (unc_lx, floor_lx): (&mut [f64], &mut [f64]),
+    ) {
+        let sun = self.sun;
+        for s in 0..out.len() {
+            let (c, lo, hi) = (sun.sensor_lx[s], sun.sensor_min_lx[s], sun.sensor_max_lx[s]);
+            // in the beam at the sun's blend of the grid's positions (half lit: on a patch's
+            // edge between them)
+            let in_beam = c >= 0.5 * SUN_LIT;
+            let Some(f) = fit else {
+                may_reach[s] = self.sun_seen && in_beam;
+                unseen_in_beam[s] = in_beam && !self.overcast;
+                continue;
+            };
+            let e = f.e_dn_lx;
+            let edge = 0.5 * (hi - lo) * e;
+            if !f.present {
+                // under clouds: no sun, as much doubt as the sky's residual allows
+                unc_lx[s] = edge.hypot(c * e);
+            } else if f.bounded_only && in_beam {
+                // at least the bound's light: the desk's daylight is beyond what is known
+                may_reach[s] = true;
+                floor_lx[s] = self.from_seen.get(s).copied().unwrap_or(0.0) + lo * e;
+            } else if !in_beam {
+                // the sun's light reflected off what no camera sees: the sky's fit has taken
+                // most of it already (the seen surfaces get it too, and the stored sky is all
+                // the fit has to explain them), so it is a doubt, not an addition
+                unc_lx[s] = edge.hypot(c * e);
+            } else {
+                out[s] += c * e;
+                unc_lx[s] = edge.hypot(f.rel * c * e);
+            }
+        }
     }
 }
 

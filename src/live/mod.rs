@@ -51,7 +51,10 @@
 //!
 //! With a room plan's daylight coefficients and the frame's time, step 3 fits a CIE sky through
 //! the plan's windows instead ([`sky_fit`]); a window the camera sees is held at zero exitance
-//! there (the camera sees the ground through it, not the sky it lets in).
+//! there (the camera sees the ground through it, not the sky it lets in). With the sun's beam in
+//! the section (version 3), the sun's strength is then fitted to the seen patches in its beam
+//! ([`sun_fit`]), and the desks in the beam get their share of it, or, when the camera can only
+//! bound it or cannot see the beam, are not available.
 //!
 //! **Held values.** A covered desk, a saturated window, a bad or stale frame: the desk keeps its
 //! last good daylight and gets the artificial part at the current dimming state (so with the
@@ -88,6 +91,7 @@ pub mod emitters;
 pub mod estimator;
 pub mod nnls;
 pub mod sky_fit;
+pub mod sun_fit;
 pub mod window;
 
 pub use estimator::{

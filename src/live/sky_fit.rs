@@ -9,7 +9,7 @@
 //! the vault, which the seen surfaces tell apart only partly: the desks' spread over the skies
 //! that fit nearly as well as the best is part of their stated uncertainty.
 
-use crate::sky::{SkyFrame, SkyModel, UnixTime, patches, sun_position};
+use crate::sky::{SkyFrame, SkyModel, SunGrid, UnixTime, patches, sun_position};
 use crate::store::Image;
 use crate::store::daylight::COLUMNS;
 
@@ -36,6 +36,39 @@ pub struct SkyCoefficients {
     /// Whether seen row r is glazing (a window the camera sees: its light is in the
     /// coefficients, its measured luminance is the ground's through the glass).
     glazing: Vec<bool>,
+    /// The sun's beam per grid position (a version-3 section; `None` before).
+    sun: Option<SunCoefficients>,
+}
+
+/// The sun's stored coefficients, decoded at boot.
+#[derive(Debug, Clone)]
+struct SunCoefficients {
+    grid: SunGrid,
+    /// (estimator seen row, stored row) of every stored seen row the estimator has.
+    rows: Vec<(usize, usize)>,
+    /// Stored seen rows.
+    stored: usize,
+    /// `[position][stored row]`, lx per lx of direct normal illuminance.
+    seen: Vec<f32>,
+    /// `[position][sensor]`.
+    sensor: Vec<f32>,
+}
+
+/// The sun's beam at one instant, blended from the grid's four positions around it (lx per lx
+/// of direct normal illuminance), with the least and most of those positions: where they
+/// differ, a sun patch's edge lies between them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SunBasis {
+    /// At each seen row (the estimator's order; 0 where the image stores none).
+    pub seen_lx: Vec<f64>,
+    /// The least of the four positions at each seen row.
+    pub seen_min_lx: Vec<f64>,
+    /// At each sensor.
+    pub sensor_lx: Vec<f64>,
+    /// The least of the four positions at each sensor.
+    pub sensor_min_lx: Vec<f64>,
+    /// The most of the four positions at each sensor.
+    pub sensor_max_lx: Vec<f64>,
 }
 
 /// One candidate sky: its basis at the seen patches and the sensors, per cd/m² of zenith
@@ -73,7 +106,34 @@ impl SkyCoefficients {
         let sensor = (0..sensors * COLUMNS)
             .map(|k| d.sensor_lx(k / COLUMNS, k % COLUMNS))
             .collect();
+        let sun = d.sun_grid().map(|grid| {
+            let p = grid.positions();
+            let rows: Vec<(usize, usize)> = seen
+                .iter()
+                .enumerate()
+                .filter_map(|(r, &q)| stored.binary_search(&(q as usize)).ok().map(|k| (r, k)))
+                .collect();
+            let n = stored.len();
+            let mut seen_sun = vec![0.0f32; p * n];
+            d.for_each_sun_seen(|k, r, x| {
+                if let Some(o) = seen_sun.get_mut(k * n + r) {
+                    *o = x as f32;
+                }
+            });
+            SunCoefficients {
+                grid,
+                rows,
+                stored: n,
+                seen: seen_sun,
+                sensor: (0..p * sensors)
+                    .map(|i| {
+                        d.sun_sensor_lx(i / sensors.max(1), i % sensors.max(1), sensors) as f32
+                    })
+                    .collect(),
+            }
+        });
         Some(Self {
+            sun,
             latitude_deg: d.latitude_deg,
             longitude_deg: d.longitude_deg,
             ground_rho: d.ground_rho,
@@ -152,6 +212,62 @@ impl SkyCoefficients {
         })
     }
 
+    /// The sun's beam at time t (see [`SunBasis`]), or `None` without a sun grid in the image
+    /// or with the sun below the horizon.
+    pub fn sun(&self, t: UnixTime, n_seen: usize) -> Option<SunBasis> {
+        let c = self.sun.as_ref()?;
+        let pos = sun_position(t, self.latitude_deg, self.longitude_deg);
+        if pos.apparent_altitude_rad() < MIN_SUN_ALTITUDE_RAD {
+            return None;
+        }
+        let corners: Vec<(usize, f64)> = c
+            .grid
+            .weights(pos.declination_rad, pos.hour_angle_rad)
+            .into_iter()
+            .filter(|(_, w)| *w > 0.0)
+            .collect();
+        let sensors = self.sensor.len() / COLUMNS;
+        // blend, least and most over the corners of one row set
+        let blend = |len: usize, at: &dyn Fn(usize, usize) -> f64| -> [Vec<f64>; 3] {
+            let [mut mix, mut lo, mut hi] =
+                [vec![0.0; len], vec![f64::INFINITY; len], vec![0.0; len]];
+            for &(k, w) in &corners {
+                let rows = mix.iter_mut().zip(lo.iter_mut()).zip(hi.iter_mut());
+                for (i, ((m, l), h)) in rows.enumerate() {
+                    let x = at(k, i);
+                    *m += w * x;
+                    *l = l.min(x);
+                    *h = h.max(x);
+                }
+            }
+            lo.iter_mut().for_each(|x| *x = finite_or_zero(*x));
+            [mix, lo, hi]
+        };
+        let seen_at = |k: usize, i: usize| f64::from(c.seen[k * c.stored + i]);
+        let [stored_lx, stored_min, _] = blend(c.stored, &seen_at);
+        let (mut seen_lx, mut seen_min_lx) = (vec![0.0; n_seen], vec![0.0; n_seen]);
+        for &(r, q) in &c.rows {
+            if r < n_seen {
+                seen_lx[r] = stored_lx[q];
+                seen_min_lx[r] = stored_min[q];
+            }
+        }
+        let sensor_at = |k: usize, i: usize| f64::from(c.sensor[k * sensors + i]);
+        let [sensor_lx, sensor_min_lx, sensor_max_lx] = blend(sensors, &sensor_at);
+        Some(SunBasis {
+            seen_lx,
+            seen_min_lx,
+            sensor_lx,
+            sensor_min_lx,
+            sensor_max_lx,
+        })
+    }
+
+    /// Whether the image holds the sun's beam (a version-3 daylight section).
+    pub fn has_sun(&self) -> bool {
+        self.sun.is_some()
+    }
+
     /// Whether seen row r has stored coefficients (the sky fit's rows).
     pub fn stored(&self, r: usize) -> bool {
         self.stored.get(r).copied().unwrap_or(false)
@@ -164,6 +280,15 @@ impl SkyCoefficients {
 
     /// Heap bytes.
     pub fn memory_bytes(&self) -> usize {
-        (self.seen.len() + self.sensor.len()) * core::mem::size_of::<f64>() + self.glazing.len()
+        (self.seen.len() + self.sensor.len()) * core::mem::size_of::<f64>()
+            + self.glazing.len()
+            + self.sun.as_ref().map_or(0, |c| {
+                (c.seen.len() + c.sensor.len()) * core::mem::size_of::<f32>()
+                    + c.rows.len() * 2 * core::mem::size_of::<usize>()
+            })
     }
+}
+
+fn finite_or_zero(x: f64) -> f64 {
+    if x.is_finite() { x } else { 0.0 }
 }

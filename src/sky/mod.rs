@@ -5,6 +5,7 @@
 //! * [`time`]: RFC 3339 timestamps to Unix time, the civil calendar both ways.
 //! * [`sun`]: the sun's altitude and azimuth (NOAA), the room's [`SkyFrame`] (its `north`)
 //!   that turns sky directions into world directions.
+//! * [`sun_grid`]: the sun's positions over a year at a site (declination × hour angle).
 //! * [`tregenza`]: the 145 patches, their ranges and solid angles, [`patch_of`].
 //! * [`cie`]: the 15 CIE standard skies (ISO 15469) and the 1942 overcast sky, their
 //!   relative luminance and diffuse horizontal illuminance.
@@ -17,6 +18,7 @@
 
 pub mod cie;
 pub mod sun;
+pub mod sun_grid;
 pub mod time;
 pub mod tregenza;
 
@@ -25,6 +27,7 @@ pub use cie::{
     horizontal_illuminance_tregenza_lx, patch_luminances_cd_m2,
 };
 pub use sun::{SkyFrame, SunPosition, altitude_azimuth, sky_direction, sun_position};
+pub use sun_grid::SunGrid;
 pub use time::{
     TimeError, UnixTime, civil_from_days, days_from_civil, days_in_month, parse_rfc3339,
 };

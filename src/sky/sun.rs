@@ -102,15 +102,8 @@ pub fn sun_position(time: UnixTime, latitude_deg: f64, longitude_deg: f64) -> Su
         1440.0,
     );
     let hour_angle_rad = (true_solar_min / 4.0 - 180.0) * DEG;
-    let lat = latitude_deg * DEG;
-    let sin_alt =
-        sin(lat) * sin(declination_rad) + cos(lat) * cos(declination_rad) * cos(hour_angle_rad);
-    let altitude_rad = asin(sin_alt.clamp(-1.0, 1.0));
-    // azimuth from north, clockwise: atan2(east, north) of the direction to the sun
-    let east = -cos(declination_rad) * sin(hour_angle_rad);
-    let north =
-        cos(lat) * sin(declination_rad) - sin(lat) * cos(declination_rad) * cos(hour_angle_rad);
-    let azimuth_rad = wrap(atan2(east, north), TAU);
+    let (altitude_rad, azimuth_rad) =
+        horizontal_of_equatorial(declination_rad, hour_angle_rad, latitude_deg);
     SunPosition {
         altitude_rad,
         azimuth_rad,
@@ -119,6 +112,25 @@ pub fn sun_position(time: UnixTime, latitude_deg: f64, longitude_deg: f64) -> Su
         hour_angle_rad,
         refraction_rad: refraction_rad(altitude_rad),
     }
+}
+
+/// The geometric `(altitude_rad, azimuth_rad)` (azimuth from north, clockwise, 0..2π) of a
+/// body at `declination_rad` and `hour_angle_rad` (0 at the meridian, positive west) seen from
+/// latitude `latitude_deg`: the spherical triangle pole-zenith-body.
+pub fn horizontal_of_equatorial(
+    declination_rad: f64,
+    hour_angle_rad: f64,
+    latitude_deg: f64,
+) -> (f64, f64) {
+    let lat = latitude_deg * DEG;
+    let sin_alt =
+        sin(lat) * sin(declination_rad) + cos(lat) * cos(declination_rad) * cos(hour_angle_rad);
+    let altitude_rad = asin(sin_alt.clamp(-1.0, 1.0));
+    // azimuth from north, clockwise: atan2(east, north) of the direction to the body
+    let east = -cos(declination_rad) * sin(hour_angle_rad);
+    let north =
+        cos(lat) * sin(declination_rad) - sin(lat) * cos(declination_rad) * cos(hour_angle_rad);
+    (altitude_rad, wrap(atan2(east, north), TAU))
 }
 
 /// The unit vector in the sky frame (x east, y north, z up; Radiance's frame) of a direction

@@ -14,27 +14,43 @@
 //!
 //! With the sky's luminance `L_j` (a CIE standard sky at the frame's sun, scaled by the fit),
 //! the seen patch gets `Σ_j seen_lx[r][j] L_j` and the sensor `Σ_j sensor_lx[s][j] L_j`.
+//!
+//! From version 3, the sun's direct beam the same way, per position k of a [`SunGrid`] (the
+//! site's suns over a year), lx per lx of the sun's direct normal illuminance `E_dn`:
+//! `sun_sensor_lx[k][s]` dense (0 where the sun is below the horizon), and at the seen patches
+//! only where the beam falls (at least [`SUN_SEEN_MIN`]): per position, a u16 count and that
+//! many (seen row u16, f16) pairs, rows ascending. The run time uses the seen coefficients to
+//! find the patches in the beam and fit the sun's strength; a room's sun patches cover a few of
+//! its seen patches at any one position, so the sparse form is a fifth of the dense one.
 
 use serde::{Deserialize, Serialize};
 
 use super::values::f16_bits_to_f64;
 use super::{Bytes, ImageError, check};
+use crate::sky::SunGrid;
 
 /// Magic of the daylight-coefficient section.
 pub const DAYLIGHT_MAGIC: [u8; 4] = *b"LXDC";
-/// Version of the section this build writes (2: with the seen glazing patches).
-pub const DAYLIGHT_VERSION: u16 = 2;
+/// Version of the section this build writes (3: with the sun's grid).
+pub const DAYLIGHT_VERSION: u16 = 3;
+/// The second version: the seen glazing patches, no sun (still read: the sky alone).
+pub const DAYLIGHT_VERSION_WITHOUT_SUN: u16 = 2;
 /// The first version, without [`DaylightCoefficients::glazing_seen`] (still read: no seen
 /// window then).
 pub const DAYLIGHT_VERSION_WITHOUT_GLAZING: u16 = 1;
 /// Columns: the 145 Tregenza patches and the ground.
 pub const COLUMNS: usize = 146;
+/// The least sun coefficient stored at a seen patch (lx per lx of direct normal illuminance):
+/// the beam through clear glass at 85° incidence; below it, interreflections only.
+pub const SUN_SEEN_MIN: f32 = 0.05;
 /// Largest coefficient accepted, lx per cd/m² (a receiver at a window sees at most π sr of
 /// sky: π).
 pub const MAX_COEFFICIENT: f32 = 4.0;
 
 /// The daylight-coefficient section (version [`DAYLIGHT_VERSION`]; the body is these fields in
-/// postcard, then, from version 2, [`Self::glazing_seen`] as one more postcard byte string).
+/// postcard, then, from version 2, [`Self::glazing_seen`] as one more postcard byte string,
+/// then, from version 3, [`Self::sun_grid`], [`Self::sun_seen_lx`] and
+/// [`Self::sun_sensor_lx`] in postcard).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DaylightCoefficients<'a> {
     /// [`DAYLIGHT_VERSION`].
@@ -68,6 +84,26 @@ pub struct DaylightCoefficients<'a> {
     /// and its measured luminance is not the exitance it sends into the room.
     #[serde(skip)]
     pub glazing_seen: Bytes<'a>,
+    /// The sun's positions (version 3; `None` before).
+    #[serde(skip)]
+    pub sun_grid: Option<SunGrid>,
+    /// Per position: a u16 LE count, then (seen row u16 LE, f16 LE) pairs with ascending rows,
+    /// lx per lx of direct normal illuminance (version 3; see the module's documentation).
+    #[serde(skip)]
+    pub sun_seen_lx: Bytes<'a>,
+    /// `[position][sensor]` f16 LE, lx per lx of direct normal illuminance (version 3).
+    #[serde(skip)]
+    pub sun_sensor_lx: Bytes<'a>,
+}
+
+/// The version-3 tail, in postcard.
+#[derive(Serialize, Deserialize)]
+struct SunTail<'a> {
+    grid: SunGrid,
+    #[serde(borrow)]
+    seen_lx: Bytes<'a>,
+    #[serde(borrow)]
+    sensor_lx: Bytes<'a>,
 }
 
 impl<'a> DaylightCoefficients<'a> {
@@ -76,10 +112,20 @@ impl<'a> DaylightCoefficients<'a> {
     pub fn parse(body: &'a [u8], patches: usize, sensors: usize) -> Result<Self, ImageError> {
         let (mut d, rest): (DaylightCoefficients<'a>, &'a [u8]) =
             postcard::take_from_bytes(body).map_err(|_| ImageError::Decode)?;
-        let rest = if d.version >= DAYLIGHT_VERSION {
+        let rest = if d.version >= DAYLIGHT_VERSION_WITHOUT_SUN {
             let (g, rest): (Bytes<'a>, &'a [u8]) =
                 postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
             d.glazing_seen = g;
+            rest
+        } else {
+            rest
+        };
+        let rest = if d.version >= DAYLIGHT_VERSION {
+            let (t, rest): (SunTail<'a>, &'a [u8]) =
+                postcard::take_from_bytes(rest).map_err(|_| ImageError::Decode)?;
+            d.sun_grid = Some(t.grid);
+            d.sun_seen_lx = t.seen_lx;
+            d.sun_sensor_lx = t.sensor_lx;
             rest
         } else {
             rest
@@ -93,8 +139,16 @@ impl<'a> DaylightCoefficients<'a> {
     #[cfg(feature = "std")]
     pub fn encode(&self) -> Result<std::vec::Vec<u8>, postcard::Error> {
         let mut out = postcard::to_stdvec(self)?;
-        if self.version >= DAYLIGHT_VERSION {
+        if self.version >= DAYLIGHT_VERSION_WITHOUT_SUN {
             out.extend(postcard::to_stdvec(&self.glazing_seen)?);
+        }
+        if self.version >= DAYLIGHT_VERSION {
+            let grid = self.sun_grid.ok_or(postcard::Error::SerializeBufferFull)?;
+            out.extend(postcard::to_stdvec(&SunTail {
+                grid,
+                seen_lx: self.sun_seen_lx,
+                sensor_lx: self.sun_sensor_lx,
+            })?);
         }
         Ok(out)
     }
@@ -134,23 +188,16 @@ impl<'a> DaylightCoefficients<'a> {
                 "daylight seen patches not ascending",
             ],
         )?;
-        let rows_ok = |b: &Bytes<'_>, rows: usize| -> Result<(), ImageError> {
-            let want = rows.checked_mul(COLUMNS);
-            check(
-                want.is_some() && b.count(2) == want,
-                "daylight coefficients",
-            )?;
-            for k in 0..rows * COLUMNS {
-                let x = f16_bits_to_f64(b.u16_at(k));
-                check(
-                    x.is_finite() && (0.0..=f64::from(MAX_COEFFICIENT)).contains(&x),
-                    "daylight coefficient out of range",
-                )?;
-            }
-            Ok(())
-        };
-        rows_ok(&self.seen_lx, n)?;
-        rows_ok(&self.sensor_lx, sensors)?;
+        coefficients_ok(
+            &self.seen_lx,
+            n.checked_mul(COLUMNS),
+            "daylight coefficients",
+        )?;
+        coefficients_ok(
+            &self.sensor_lx,
+            sensors.checked_mul(COLUMNS),
+            "daylight coefficients",
+        )?;
         ascending_patches(
             &self.glazing_seen,
             patches,
@@ -160,7 +207,47 @@ impl<'a> DaylightCoefficients<'a> {
                 "daylight glazing patches not ascending",
             ],
         )?;
+        if let Some(g) = &self.sun_grid {
+            check(g.is_valid(), "daylight sun grid")?;
+            let p = g.positions();
+            sparse_ok(&self.sun_seen_lx, p, n)?;
+            coefficients_ok(
+                &self.sun_sensor_lx,
+                p.checked_mul(sensors),
+                "daylight sun coefficients",
+            )?;
+        }
         Ok(())
+    }
+
+    /// The sun's grid, when the section has one (version 3).
+    pub fn sun_grid(&self) -> Option<SunGrid> {
+        self.sun_grid
+    }
+
+    /// Every stored sun coefficient at the seen patches: `f(position, seen row, lx per lx)`.
+    pub fn for_each_sun_seen(&self, mut f: impl FnMut(usize, usize, f64)) {
+        let b = &self.sun_seen_lx.0;
+        let word = |i: usize| {
+            b.get(2 * i..2 * i + 2)
+                .map(|w| u16::from_le_bytes([w[0], w[1]]))
+        };
+        let (mut at, mut k) = (0usize, 0usize);
+        while let Some(count) = word(at) {
+            for e in 0..usize::from(count) {
+                let (Some(r), Some(x)) = (word(at + 1 + 2 * e), word(at + 2 + 2 * e)) else {
+                    return;
+                };
+                f(k, usize::from(r), f16_bits_to_f64(x));
+            }
+            at += 1 + 2 * usize::from(count);
+            k += 1;
+        }
+    }
+
+    /// The sun's coefficient at sensor s for grid position k, with `sensors` sensors.
+    pub fn sun_sensor_lx(&self, k: usize, s: usize, sensors: usize) -> f64 {
+        f16_bits_to_f64(self.sun_sensor_lx.u16_at(k * sensors + s))
     }
 
     /// Whether seen patch `p` is glazing (a window the camera sees).
@@ -200,6 +287,50 @@ impl<'a> DaylightCoefficients<'a> {
     }
 }
 
+/// Checks the sparse seen sun coefficients: `positions` runs of a count and (row, f16) pairs,
+/// rows ascending below `rows`, values in range, nothing after.
+fn sparse_ok(b: &Bytes<'_>, positions: usize, rows: usize) -> Result<(), ImageError> {
+    const WHAT: &str = "daylight sun coefficients at the seen patches";
+    let words = b.count(2).ok_or(ImageError::Inconsistent(WHAT))?;
+    let mut at = 0usize;
+    for _ in 0..positions {
+        check(at < words, WHAT)?;
+        let count = usize::from(b.u16_at(at));
+        check(at + 1 + 2 * count <= words, WHAT)?;
+        let mut last: Option<u16> = None;
+        for e in 0..count {
+            let r = b.u16_at(at + 1 + 2 * e);
+            let x = f16_bits_to_f64(b.u16_at(at + 2 + 2 * e));
+            check(usize::from(r) < rows && last.is_none_or(|l| l < r), WHAT)?;
+            check(
+                x.is_finite() && (0.0..=f64::from(MAX_COEFFICIENT)).contains(&x),
+                "daylight coefficient out of range",
+            )?;
+            last = Some(r);
+        }
+        at += 1 + 2 * count;
+    }
+    check(at == words, WHAT)
+}
+
+/// Checks `want` f16 coefficients, each finite in `0..=MAX_COEFFICIENT`.
+fn coefficients_ok(
+    b: &Bytes<'_>,
+    want: Option<usize>,
+    what: &'static str,
+) -> Result<(), ImageError> {
+    let n = want.filter(|w| b.count(2) == Some(*w));
+    let n = n.ok_or(ImageError::Inconsistent(what))?;
+    for k in 0..n {
+        let x = f16_bits_to_f64(b.u16_at(k));
+        check(
+            x.is_finite() && (0.0..=f64::from(MAX_COEFFICIENT)).contains(&x),
+            "daylight coefficient out of range",
+        )?;
+    }
+    Ok(())
+}
+
 /// The count of a list of ascending u32 patch ids below `patches`, or the error named by
 /// `what` (length, range, order).
 fn ascending_patches(
@@ -235,6 +366,27 @@ mod tests {
         let seen_b: Vec<u8> = seen.iter().flat_map(|p| p.to_le_bytes()).collect();
         let seen_lx = f16s(&std::vec![c; seen.len() * COLUMNS]);
         let sensor_lx = f16s(&std::vec![0.5; 2 * COLUMNS]);
+        let grid = SunGrid {
+            declination0_rad: -0.4,
+            declination_step_rad: 0.4,
+            declinations: 3,
+            hour0_rad: -0.5,
+            hour_step_rad: 0.5,
+            hours: 3,
+        };
+        // every position: one entry, at the last seen row
+        let sun_seen: Vec<u8> = (0..9)
+            .flat_map(|_| {
+                [
+                    1u16,
+                    seen.len() as u16 - 1,
+                    half::f16::from_f32(0.3).to_bits(),
+                ]
+                .into_iter()
+                .flat_map(u16::to_le_bytes)
+            })
+            .collect();
+        let sun_sensor = f16s(&std::vec![0.6; 9 * 2]);
         let d = DaylightCoefficients {
             version,
             latitude_deg: 47.4,
@@ -247,6 +399,9 @@ mod tests {
             seen_lx: Bytes(&seen_lx),
             sensor_lx: Bytes(&sensor_lx),
             glazing_seen: Bytes(&glazing_b),
+            sun_grid: (version >= DAYLIGHT_VERSION).then_some(grid),
+            sun_seen_lx: Bytes(&sun_seen),
+            sun_sensor_lx: Bytes(&sun_sensor),
         };
         d.encode().expect("encode")
     }
@@ -338,8 +493,54 @@ mod tests {
     }
 
     #[test]
-    fn version_2_names_the_seen_glazing_and_version_1_still_reads_without_it() {
+    fn version_3_holds_the_suns_grid_and_version_2_still_reads_without_it() {
         let b = body_with(DAYLIGHT_VERSION, &[1, 4, 9], &[4, 9], 0.25, [0.0, 1.0]);
+        let d = DaylightCoefficients::parse(&b, 10, 2).expect("v3");
+        let g = d.sun_grid().expect("grid");
+        assert_eq!(g.positions(), 9);
+        let mut entries = Vec::new();
+        d.for_each_sun_seen(|k, r, x| entries.push((k, r, x)));
+        assert_eq!(entries.len(), 9);
+        assert!(
+            entries
+                .iter()
+                .enumerate()
+                .all(|(i, (k, r, x))| *k == i && *r == 2 && (x - 0.3).abs() < 1e-3)
+        );
+        assert!((d.sun_sensor_lx(8, 1, 2) - 0.6).abs() < 1e-3);
+        assert!(d.is_glazing(4));
+        let b2 = body_with(
+            DAYLIGHT_VERSION_WITHOUT_SUN,
+            &[1, 4, 9],
+            &[4, 9],
+            0.25,
+            [0.0, 1.0],
+        );
+        let d2 = DaylightCoefficients::parse(&b2, 10, 2).expect("v2");
+        assert!(d2.sun_grid().is_none() && d2.is_glazing(9));
+        // a seen row out of range in the last position's entry (before the sensors' 36 bytes
+        // and their length)
+        let mut bad_row = b.clone();
+        let at = b.len() - 37 - 4;
+        bad_row[at..at + 2].copy_from_slice(&3u16.to_le_bytes());
+        assert!(DaylightCoefficients::parse(&bad_row, 10, 2).is_err());
+        // a v3 body cut inside its sun coefficients, and a grid of a NaN step
+        assert!(DaylightCoefficients::parse(&b[..b.len() - 2], 10, 2).is_err());
+        let at = b2.len() + 8; // inside the grid's first f64s
+        let mut bad = b.clone();
+        bad[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        assert!(DaylightCoefficients::parse(&bad, 10, 2).is_err());
+    }
+
+    #[test]
+    fn version_2_names_the_seen_glazing_and_version_1_still_reads_without_it() {
+        let b = body_with(
+            DAYLIGHT_VERSION_WITHOUT_SUN,
+            &[1, 4, 9],
+            &[4, 9],
+            0.25,
+            [0.0, 1.0],
+        );
         let d = DaylightCoefficients::parse(&b, 10, 2).expect("v2");
         assert!(d.is_glazing(4) && d.is_glazing(9));
         assert!(!d.is_glazing(1) && !d.is_glazing(5) && !d.is_glazing(0));
