@@ -344,9 +344,9 @@ fn room_04s_desks_by_an_unseen_window_band_take_the_desks_reflectance() {
     }
 }
 
-/// `luxnode live` of an image on one of the room's frames at the bench's frame time: per desk,
-/// (total lx or `None` when not available, its source, its flags).
-fn live_rows(name: &str, img: &Path, frame: &str) -> HashMap<u32, (Option<f64>, String, String)> {
+/// `luxnode live`'s CSV for one of room `name`'s frames (node a's depth, every luminaire at
+/// 254, the bench's time for room_07's clear and hazy days).
+fn live_csv(name: &str, img: &Path, frame: &str) -> String {
     let n = std::fs::read_to_string(room(name).join("luminaires.json"))
         .expect("luminaires.json")
         .matches("\"id\"")
@@ -364,6 +364,26 @@ fn live_rows(name: &str, img: &Path, frame: &str) -> HashMap<u32, (Option<f64>, 
         "--time".into(),
         "2026-03-21T11:26:00Z".into(),
     ]);
+    live
+}
+
+/// Room `name`'s clear-sky truth (`truth_clear.csv`): per sensor, lx.
+fn truth_clear(name: &str) -> HashMap<u32, f64> {
+    std::fs::read_to_string(room(name).join("truth_clear.csv"))
+        .expect("truth_clear")
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].parse().expect("id"), f[1].parse().expect("lux"))
+        })
+        .collect()
+}
+
+/// `luxnode live` of an image on one of the room's frames at the bench's frame time: per desk,
+/// (total lx or `None` when not available, its source, its flags).
+fn live_rows(name: &str, img: &Path, frame: &str) -> HashMap<u32, (Option<f64>, String, String)> {
+    let live = live_csv(name, img, frame);
     live.lines()
         .skip(1)
         .map(|l| {
@@ -387,33 +407,8 @@ fn room_07s_desk_in_a_sun_patch_nobody_sees_is_published_when_the_camera_measure
     let dir = tempfile::tempdir().expect("tempdir");
     let (img, _) = commission("room_07", dir.path(), true);
     let truth = truth("room_07");
-    let clear_text =
-        std::fs::read_to_string(room("room_07").join("truth_clear.csv")).expect("truth_clear");
-    let clear: HashMap<u32, f64> = clear_text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            (f[0].parse().expect("id"), f[1].parse().expect("lux"))
-        })
-        .collect();
-    let n = std::fs::read_to_string(room("room_07").join("luminaires.json"))
-        .expect("luminaires.json")
-        .matches("\"id\"")
-        .count();
-    let (live, _) = luxnode(&[
-        "live".into(),
-        "--image".into(),
-        p(img.clone()),
-        "--frame".into(),
-        p(data("room_07").join("live/node_a_hazy.png")),
-        "--depth".into(),
-        p(data("room_07").join("live/node_a_depth.png")),
-        "--arc".into(),
-        vec!["254"; n].join(","),
-        "--time".into(),
-        "2026-03-21T11:26:00Z".into(),
-    ]);
+    let clear = truth_clear("room_07");
+    let live = live_csv("room_07", &img, "node_a_hazy.png");
     for l in live.lines().skip(1) {
         let f: Vec<&str> = l.split(',').collect();
         let s: u32 = f[0].parse().expect("id");
@@ -454,16 +449,7 @@ fn room_07s_desk_in_a_sun_patch_nobody_sees_is_not_available_under_the_sun_only(
     let seen = in_view(&out);
     assert!(!seen.contains(&1), "{out}");
     let truth = truth("room_07");
-    let clear_text =
-        std::fs::read_to_string(room("room_07").join("truth_clear.csv")).expect("truth_clear");
-    let clear: HashMap<u32, f64> = clear_text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            (f[0].parse().expect("id"), f[1].parse().expect("lux"))
-        })
-        .collect();
+    let clear = truth_clear("room_07");
     assert!(clear[&1] > 20_000.0, "desk 1 in the sun: {}", clear[&1]);
     let sunny = live_rows("room_07", &img, "node_a_clear.png");
     let (total, _, flags) = &sunny[&1];

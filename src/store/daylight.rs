@@ -440,6 +440,19 @@ mod tests {
                         prop_assert!(x.is_finite() && (0.0..=4.0).contains(&x));
                     }
                 }
+                // the sun's: every stored entry in range, at a position and row that exist
+                let mut sun = Vec::new();
+                d.for_each_sun_seen(|k, r, x| sun.push((k, r, x)));
+                if let Some(g) = d.sun_grid() {
+                    for (k, r, x) in sun {
+                        prop_assert!(k < g.positions() && r < d.seen());
+                        prop_assert!(x.is_finite() && (0.0..=4.0).contains(&x));
+                    }
+                    for k in 0..g.positions() {
+                        let x = d.sun_sensor_lx(k, 1, 2);
+                        prop_assert!(x.is_finite() && (0.0..=4.0).contains(&x));
+                    }
+                }
             }
         }
     }
