@@ -1753,10 +1753,7 @@ impl Live {
         let glass = |r: usize| bases.as_ref().is_some_and(|(sky, _)| sky.glazing(r));
         let is_glass: Vec<bool> = (0..n_seen).map(glass).collect();
         // the sun's beam through the plan's windows at this time (a version-3 image)
-        let sun = match (&m.sky, self.time) {
-            (Some(sky), Some(t)) => sky.sun(t, n_seen),
-            _ => None,
-        };
+        let sun = (m.sky.as_ref().zip(self.time)).and_then(|(sky, t)| sky.sun(t, n_seen));
         // seen exitance fixed, unseen solved
         let b = &mut self.b_boundary;
         for (r, &p) in m.seen.iter().enumerate() {
@@ -1851,35 +1848,20 @@ impl Live {
             })
             .collect();
         // the sun: its strength from the seen patches in its beam, its light at every desk
-        let (mut sun_unc_lx, mut sun_floor_lx) = (vec![0.0; s_count], vec![0.0; s_count]);
-        let mut sun_unseen_in_beam = vec![false; s_count];
-        if let (Some(sun), Some(b)) = (&sun, &chosen) {
-            let fit = fit_sun(
-                (0..n_seen)
-                    .filter(|&r| w_seen[r] > 0.0 && !is_glass[r])
-                    .map(|r| SeenSun {
-                        beyond_sky_lx: y[r] - b.seen_lx[r] * x[0],
-                        sky_lx: c[r] + b.seen_lx[r] * x[0],
-                        coefficient: sun.seen_lx[r],
-                        coefficient_min: sun.seen_min_lx[r],
-                        saturated: seen.sat[r],
-                    }),
-            );
-            tracing::debug!("live: the sun's fit {fit:?}, {sun_rows} seen patches in sun");
-            let beam = SunAtDesks {
+        let sun_out = match (&sun, &chosen) {
+            (Some(sun), Some(b)) => SunStage {
                 sun,
+                sky: (b, x.first().copied().unwrap_or(0.0)),
+                seen,
+                y: &y,
+                incident: &c,
+                is_glass: &is_glass,
                 from_seen: &from_seen,
-                sun_seen: sun_rows > 0,
-                overcast: OVERCAST_SKIES.contains(&b.sky_type),
-            };
-            beam.apply(
-                fit,
-                &mut out,
-                &mut sun_may_reach,
-                &mut sun_unseen_in_beam,
-                (&mut sun_unc_lx, &mut sun_floor_lx),
-            );
-        }
+                sun_rows,
+            }
+            .apply(&mut out, &mut sun_may_reach),
+            _ => SunOutcome::none(s_count),
+        };
         // without the sky: where the emitters are is known only as well as the seen surfaces
         // tell them apart
         let placement_lx = if chosen.is_none() {
@@ -1901,9 +1883,9 @@ impl Live {
             daylight_seen_lx: if sw > 0.0 { fitted / sw } else { 0.0 },
             by_emitters: chosen.is_none(),
             sun_may_reach,
-            sun_unc_lx,
-            sun_floor_lx,
-            sun_unseen_in_beam,
+            sun_unc_lx: sun_out.unc_lx,
+            sun_floor_lx: sun_out.floor_lx,
+            sun_unseen_in_beam: sun_out.unseen_in_beam,
         })
     }
 
@@ -2181,62 +2163,102 @@ impl Action {
     }
 }
 
-/// The sun's beam at the desks in one frame.
-struct SunAtDesks<'a> {
+/// Step 3b, the sun through the plan's windows: its beam at this time and what the sky's fit
+/// left on the seen patches.
+struct SunStage<'a> {
     sun: &'a SunBasis,
+    /// The fitted sky's basis and its scale.
+    sky: (&'a SkyBasis, f64),
+    seen: &'a SeenPatches,
+    /// Per seen patch, its daylight beyond the seen exitance's reflections, lx.
+    y: &'a [f64],
+    /// Per seen patch, the seen exitance's reflections on it, lx.
+    incident: &'a [f64],
+    is_glass: &'a [bool],
     /// Per sensor, the seen surfaces' measured light propagated to it, lx.
     from_seen: &'a [f64],
-    /// The camera sees a sun patch (a seen patch far brighter than the rest).
-    sun_seen: bool,
-    /// The fitted sky is an overcast one ([`OVERCAST_SKIES`]): no sun.
-    overcast: bool,
+    /// Seen patches far brighter than the rest (sun patches).
+    sun_rows: usize,
 }
 
-impl SunAtDesks<'_> {
+/// What step 3b gives each desk.
+struct SunOutcome {
+    unc_lx: Vec<f64>,
+    floor_lx: Vec<f64>,
+    unseen_in_beam: Vec<bool>,
+}
+
+impl SunOutcome {
+    fn none(sensors: usize) -> Self {
+        Self {
+            unc_lx: vec![0.0; sensors],
+            floor_lx: vec![0.0; sensors],
+            unseen_in_beam: vec![false; sensors],
+        }
+    }
+}
+
+impl SunStage<'_> {
+    /// The sun's strength from the seen patches in its beam ([`fit_sun`]).
+    fn fit(&self) -> Option<SunFit> {
+        let (b, scale) = self.sky;
+        let (sun, seen) = (self.sun, self.seen);
+        let rows = (0..seen.w.len()).filter(|&r| seen.w[r] > 0.0 && !self.is_glass[r]);
+        fit_sun(rows.map(|r| SeenSun {
+            beyond_sky_lx: self.y[r] - b.seen_lx[r] * scale,
+            sky_lx: self.incident[r] + b.seen_lx[r] * scale,
+            coefficient: sun.seen_lx[r],
+            coefficient_min: sun.seen_min_lx[r],
+            saturated: seen.sat[r],
+        }))
+    }
+
     /// Adds the fitted sun to the daylight of each desk in its beam, with its uncertainty (the
     /// fit's, and a sun patch's edge between the grid's positions); a desk out of the beam gets
     /// its reflected share as uncertainty only. With the sun's strength bounded only, a desk in
     /// the beam is not published (at least its bound's light); with no seen patch in the beam,
-    /// a desk in it is not published when the camera sees sun elsewhere; under clouds (the sun
-    /// not standing out), no desk gets sun, each the fit's doubt.
-    fn apply(
-        &self,
-        fit: Option<SunFit>,
-        out: &mut [f64],
-        may_reach: &mut [bool],
-        unseen_in_beam: &mut [bool],
-        (unc_lx, floor_lx): (&mut [f64], &mut [f64]),
-    ) {
+    /// a desk in it is not published when the camera sees sun elsewhere, and is marked for the
+    /// day rule ([`SunOutcome::unseen_in_beam`]) under a sky that is not overcast; under clouds
+    /// (the sun not standing out), no desk gets sun, each the fit's doubt.
+    fn apply(&self, out: &mut [f64], may_reach: &mut [bool]) -> SunOutcome {
+        let fit = self.fit();
+        tracing::debug!(
+            "live: the sun's fit {fit:?}, {} seen patches in sun",
+            self.sun_rows
+        );
+        let overcast = OVERCAST_SKIES.contains(&self.sky.0.sky_type);
         let sun = self.sun;
+        let mut o = SunOutcome::none(out.len());
         for s in 0..out.len() {
             let (c, lo, hi) = (sun.sensor_lx[s], sun.sensor_min_lx[s], sun.sensor_max_lx[s]);
             // in the beam at the sun's blend of the grid's positions (half lit: on a patch's
             // edge between them)
             let in_beam = c >= 0.5 * SUN_LIT;
             let Some(f) = fit else {
-                may_reach[s] = self.sun_seen && in_beam;
-                unseen_in_beam[s] = in_beam && !self.overcast;
+                may_reach[s] = self.sun_rows > 0 && in_beam;
+                o.unseen_in_beam[s] = in_beam && !overcast;
                 continue;
             };
             let e = f.e_dn_lx;
             let edge = 0.5 * (hi - lo) * e;
             if !f.present {
                 // under clouds: no sun, as much doubt as the sky's residual allows
-                unc_lx[s] = edge.hypot(c * e);
+                o.unc_lx[s] = edge.hypot(c * e);
             } else if f.bounded_only && in_beam {
                 // at least the bound's light: the desk's daylight is beyond what is known
                 may_reach[s] = true;
-                floor_lx[s] = self.from_seen.get(s).copied().unwrap_or(0.0) + lo * e;
+                o.floor_lx[s] = self.from_seen.get(s).copied().unwrap_or(0.0) + lo * e;
             } else if !in_beam {
                 // the sun's light reflected off what no camera sees: the sky's fit has taken
                 // most of it already (the seen surfaces get it too, and the stored sky is all
                 // the fit has to explain them), so it is a doubt, not an addition
-                unc_lx[s] = edge.hypot(c * e);
+                o.unc_lx[s] = edge.hypot(c * e);
             } else {
                 out[s] += c * e;
-                unc_lx[s] = edge.hypot(f.rel * c * e);
+                o.unc_lx[s] = edge.hypot(f.rel * c * e);
             }
         }
+        o
     }
 }
 
