@@ -41,18 +41,19 @@ pub const GROUND_RHO: f64 = 0.2;
 /// region's size).
 pub const MAX_SEEN_ROWS: usize = 256;
 
-/// The boundary solve's stop: the coefficients are stored as f16 (3 significant digits), so a
-/// relative change of 1e-6 is far below what is kept.
+/// The boundary solve's stop: the coefficients are stored as f16 (3 significant digits, a
+/// relative step of 5e-4), so a relative change of 1e-4 is below what is kept (1e-6 until stop
+/// 49: room_07's section 0.15 s slower, its desks' values the same to 0.01 lx).
 const BOUNDARY_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions {
-    tolerance: 1e-6,
+    tolerance: 1e-4,
     max_iterations: 10_000,
 };
 
 /// The sun columns' stop: their coefficients find the seen patches and desks in the beam and
 /// carry the beam's reflections off unseen surfaces, a few hundredths of it, so three digits
 /// are more than they need (room_07 of the generalization bench, one node, 141 of its 231
-/// positions in the beam of a window: the section in 1.08 s, 1.37 s at the sky's 1e-6; the sky
-/// alone 0.66 s).
+/// positions in the beam of a window: the section in 0.95 s, 1.37 s with the sun at the sky's
+/// stop of 1e-6; the sky alone at 1e-6 0.66 s).
 const SUN_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions {
     tolerance: 1e-3,
     max_iterations: 10_000,
@@ -376,6 +377,29 @@ fn sparse_sun_seen(dense: &[f32], rows: usize) -> Result<Vec<u8>, String> {
         }
     }
     Ok(out)
+}
+
+/// Room for the section and its framing beyond the dense rows: the seen patches' list, the sun's
+/// sparse entries at the seen patches (a few thousand), the glazing list, bytes.
+const RESERVE_SLACK_BYTES: usize = 16 * 1024;
+
+/// The flash a room plan's daylight section may take in the image of a room of `sensors` desk
+/// sensors, bytes: what commissioning keeps free for it when it shrinks the model and lays out
+/// the live section (0 without a plan, a site or a window: no section then).
+pub fn reserve_bytes(plan: Option<&RoomPlan>, sensors: usize) -> usize {
+    let Some((plan, site)) = plan.and_then(|p| Some((p, p.site.as_ref()?))) else {
+        return 0;
+    };
+    let windows = plan
+        .openings
+        .iter()
+        .any(|o| matches!(o.kind, OpeningKind::Window { .. }));
+    if !windows {
+        return 0;
+    }
+    let sky = (MAX_SEEN_ROWS + sensors) * COLUMNS * 2;
+    let sun = sensors * SunGrid::for_latitude(site.latitude_deg).positions() * 2;
+    sky + sun + RESERVE_SLACK_BYTES
 }
 
 /// The section's version with or without the sun's beam.

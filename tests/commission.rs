@@ -983,9 +983,17 @@ fn the_plans_unseen_window_gets_daylight_coefficients() {
     let (_, _, cap) = inputs("capture");
     let img =
         luxnode::image_build::build_image(&planned.model, &Default::default()).expect("image");
-    let img = luxnode::live_section::with_capture_section(img, &planned, &cap);
+    let reserve =
+        luxnode::daylight_section::reserve_bytes(Some(&plan), planned.scene.sensors.len());
+    let img = luxnode::live_section::with_capture_section(img, &planned, &cap, reserve);
     let before = img.len();
     let img = luxnode::daylight_section::with_daylight_section(img, &planned, Some(&plan));
+    // the room commissioning keeps for the section holds it (sky, sun and lists)
+    assert!(
+        img.len() - before <= reserve,
+        "{} > {reserve}",
+        img.len() - before
+    );
     let parsed = luxnode::store::Image::parse(&img).expect("parse");
     let d = parsed.daylight.expect("a daylight section");
     eprintln!(

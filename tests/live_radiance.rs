@@ -101,7 +101,7 @@ fn build_rig(c: Commissioning) -> Rig {
             },
         )
         .unwrap();
-        let image = luxnode::live_section::with_capture_section(img, &c, &cap);
+        let image = luxnode::live_section::with_capture_section(img, &c, &cap, 0);
         assert!(Image::parse(&image).unwrap().live.is_some());
         let live = s.join("live");
         let mut components = HashMap::new();

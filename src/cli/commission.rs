@@ -493,11 +493,14 @@ fn write_images(
             }),
         };
         let region = formfactors_region_bytes();
+        // room kept for the plan's daylight coefficients, after the live section
+        let daylight = luxnode::daylight_section::reserve_bytes(plan, node.scene.sensors.len());
         let bytes = if a.store.explicit() {
             build_for_region(&node.model, &options, region)?
         } else {
             // the engineer chose no storage: shrink it to fit, keeping room for live light
-            let f = build_to_fit(&node.model, &options, region, SECTION_RESERVE_BYTES)?;
+            let reserve = SECTION_RESERVE_BYTES + daylight;
+            let f = build_to_fit(&node.model, &options, region, reserve)?;
             if f.step > 0 {
                 println!(
                     "{}: stored at {} with form factors below {:.0e} dropped to fit the {:.2} MiB \
@@ -516,7 +519,7 @@ fn write_images(
             f.bytes
         };
         // live light: the section that turns run-time frames into desk lux (docs/live.md)
-        let bytes = luxnode::live_section::with_capture_section(bytes, node, cap);
+        let bytes = luxnode::live_section::with_capture_section(bytes, node, cap, daylight);
         // daylight through the plan's windows the camera does not see (docs/live.md)
         let bytes = luxnode::daylight_section::with_daylight_section(bytes, node, plan);
         let image = Image::parse(&bytes)?;

@@ -345,11 +345,13 @@ impl CameraSource {
         let mut section = self.report.section(&c.scene, &c.model);
         section.unseen_walls = crate::image_geometry::unseen_walls_of(&c.report);
         options.geometry = Some(section);
+        let plan = self.commission.room_plan.as_ref();
+        let daylight = crate::daylight_section::reserve_bytes(plan, c.scene.sensors.len());
         let image = crate::image_build::build_to_fit(
             &c.model,
             &options,
             formfactors_region_bytes(),
-            crate::image_build::SECTION_RESERVE_BYTES,
+            crate::image_build::SECTION_RESERVE_BYTES + daylight,
         )?;
         if image.step > 0 {
             tracing::warn!(
@@ -360,8 +362,7 @@ impl CameraSource {
             );
         }
         let image = image.bytes;
-        let bytes = crate::live_section::with_capture_section(image, c, &seq.capture);
-        let plan = self.commission.room_plan.as_ref();
+        let bytes = crate::live_section::with_capture_section(image, c, &seq.capture, daylight);
         Ok(crate::daylight_section::with_daylight_section(
             bytes, c, plan,
         ))

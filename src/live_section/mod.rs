@@ -910,20 +910,31 @@ pub fn attach(
 const ATTACH_TRIES: usize = 3;
 
 /// The image with the live-light section of a commissioning from `capture` added, within the
-/// formfactors flash region; the image as it is when the section cannot be built or does not fit
-/// (logged: the node then serves the model only).
+/// formfactors flash region less `reserve_bytes` for the sections after it (the room plan's
+/// daylight coefficients: [`crate::daylight_section::reserve_bytes`]), or within the whole
+/// region when it fits only there (logged: the daylight section may then find no room); the
+/// image as it is when the section cannot be built or does not fit (logged: the node then serves
+/// the model only).
 pub fn with_capture_section(
     image: Vec<u8>,
     c: &crate::commission::Commissioned,
     capture: &crate::camera::capture::Capture,
+    reserve_bytes: usize,
 ) -> Vec<u8> {
     let o = SectionOptions::default();
-    match attach(
-        &image,
-        |o| from_capture(c, capture, o),
-        &o,
-        crate::image_build::formfactors_region_bytes(),
-    ) {
+    let region = crate::image_build::formfactors_region_bytes();
+    let build = |o: &SectionOptions| from_capture(c, capture, o);
+    let attached = match attach(&image, build, &o, region.saturating_sub(reserve_bytes)) {
+        Ok(None) if reserve_bytes > 0 => {
+            tracing::warn!(
+                "commission: the live-light section fits only in the room kept for the daylight \
+                 coefficients ({reserve_bytes} bytes)"
+            );
+            attach(&image, build, &o, region)
+        }
+        other => other,
+    };
+    match attached {
         Ok(Some(bytes)) => {
             tracing::info!(
                 "commission: live-light section of {} bytes added",
