@@ -263,11 +263,6 @@ impl SkyCoefficients {
         })
     }
 
-    /// Whether the image holds the sun's beam (a version-3 daylight section).
-    pub fn has_sun(&self) -> bool {
-        self.sun.is_some()
-    }
-
     /// Whether seen row r has stored coefficients (the sky fit's rows).
     pub fn stored(&self, r: usize) -> bool {
         self.stored.get(r).copied().unwrap_or(false)

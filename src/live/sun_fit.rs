@@ -88,7 +88,8 @@ pub fn fit_sun(seen: impl Iterator<Item = SeenSun>) -> Option<SunFit> {
     }
     let lower = median(&mut bound).unwrap_or(0.0);
     if free.len() >= SUN_MIN_PATCHES {
-        let e = median(&mut free.clone()).unwrap_or(0.0);
+        // the median reorders `free`, which the spread below does not mind
+        let e = median(&mut free).unwrap_or(0.0);
         let mut dev: Vec<f64> = free.iter().map(|q| (q - e).abs()).collect();
         let spread = 1.4826 * median(&mut dev).unwrap_or(0.0) / (free.len() as f64).sqrt();
         let rel = if e > 0.0 {
