@@ -52,12 +52,18 @@ const BOUNDARY_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions 
 /// The sun columns' stop: their coefficients find the seen patches and desks in the beam and
 /// carry the beam's reflections off unseen surfaces, a few hundredths of it, so three digits
 /// are more than they need (room_07 of the generalization bench, one node, 141 of its 231
-/// positions in the beam of a window: the section in 0.95 s, 1.37 s with the sun at the sky's
-/// stop of 1e-6; the sky alone at 1e-6 0.66 s).
+/// positions in the beam of a window: at stop 49 the section took 0.95 s, 1.37 s with the sun
+/// at the sky's stop of 1e-6).
 const SUN_SOLVE: crate::solver::SolveOptions = crate::solver::SolveOptions {
     tolerance: 1e-3,
     max_iterations: 10_000,
 };
+
+/// Right-hand sides per solve: a chunk's unknowns (patches × 16 × 8 bytes, 0.45 MB at room_07's
+/// 3548 patches) stay in a core's cache while a sweep reads them once per form factor, and the
+/// chunks run on every core (room_07 on 2 cores: the two solves in 0.24 s instead of 0.61 s
+/// as one solve each; chunks of 8 to 32 within 10 % of each other, 48 slower).
+const SOLVE_CHUNK: usize = 16;
 
 /// The section's data, owned.
 #[derive(Debug, Clone, PartialEq)]
@@ -145,6 +151,7 @@ pub fn build(
     all_seen.dedup();
     let step = all_seen.len().div_ceil(MAX_SEEN_ROWS).max(1);
     let seen_patch: Vec<u32> = all_seen.iter().copied().step_by(step).collect();
+    let clock = std::time::Instant::now();
     // the direct sky where it is used: the unseen patches (the boundary solve's source) and
     // the stored seen ones; the other seen patches are held at zero
     let room_dc = DaylightRoom::of_model(&c.model, &caster, &sensors, &windows, frame);
@@ -158,15 +165,26 @@ pub fn build(
     // the sun at every grid position above the horizon: more columns of the same solve
     let grid = SunGrid::for_latitude(site.latitude_deg);
     let active = sun_positions_in(&room_dc, &grid, site.latitude_deg);
-    let sun = direct_sun_grid(&room_dc, &active, settings)?;
+    let direct_sky_at = clock.elapsed();
+    let sun = direct_sun_grid(&room_dc, &active, settings, &wanted)?;
+    let direct_sun_at = clock.elapsed();
     let sky = (&direct.patch.values[..], &direct.sensor.values[..]);
     let (seen_lx, sensor_lx) = boundary(c, &all_seen, &seen_patch, sky, COLUMNS, BOUNDARY_SOLVE)?;
+    let sky_solve_at = clock.elapsed();
     let (sun_seen, sun_sensor) = if active.is_empty() {
         (Vec::new(), Vec::new())
     } else {
         let sun = (&sun.0[..], &sun.1[..]);
         boundary(c, &all_seen, &seen_patch, sun, active.len(), SUN_SOLVE)?
     };
+    tracing::debug!(
+        "daylight section: the direct sky in {direct_sky_at:?}, the direct sun at {} positions \
+         in {:?}, the sky's solve in {:?}, the sun's in {:?}",
+        active.len(),
+        direct_sun_at - direct_sky_at,
+        sky_solve_at - direct_sun_at,
+        clock.elapsed() - sky_solve_at
+    );
     let sun_seen_lx = by_position(&sun_seen, &active, grid.positions());
     let sun_sensor_lx = by_position(&sun_sensor, &active, grid.positions());
     // the seen patches on the plan's windows: the live estimator holds them at zero
@@ -213,18 +231,22 @@ fn sun_positions_in(
         .collect()
 }
 
-/// The sun's direct light (lx per lx of direct normal illuminance) at every patch and sensor
-/// for each of the `active` positions, row-major `[patch][active]` and `[sensor][active]`.
+/// The sun's direct light (lx per lx of direct normal illuminance) at the `wanted` patches
+/// and every sensor for each of the `active` positions, row-major `[patch][active]` and
+/// `[sensor][active]`.
 fn direct_sun_grid(
     room: &DaylightRoom<'_>,
     active: &[(usize, DVec3)],
     settings: &DaylightSettings,
+    wanted: &(impl Fn(usize) -> bool + Sync),
 ) -> Result<(Vec<f32>, Vec<f32>), String> {
     let p = active.len();
     let (n, s) = (room.patches.len(), room.sensors.len());
     let (mut patch, mut sensor) = (vec![0.0f32; n * p], vec![0.0f32; s * p]);
     for (q, (_, sun)) in active.iter().enumerate() {
-        let d = room.direct_sun(*sun, settings).map_err(|e| e.to_string())?;
+        let d = room
+            .direct_sun_where(*sun, settings, wanted)
+            .map_err(|e| e.to_string())?;
         for (i, x) in d.patch_lx.iter().enumerate() {
             patch[i * p + q] = *x as f32;
         }
@@ -268,34 +290,7 @@ fn boundary(
         is_seen[p as usize] = true;
     }
     let unseen: Vec<u32> = (0..n as u32).filter(|&p| !is_seen[p as usize]).collect();
-    let e: Vec<f64> = (0..n * k)
-        .map(|at| {
-            if is_seen[at / k] {
-                0.0
-            } else {
-                f64::from(patch_direct.get(at).copied().unwrap_or(0.0))
-            }
-        })
-        .collect();
-    let mut b = vec![0.0; n * k];
-    let sys = CsrSystem {
-        f: m.ff.f.view(),
-        rho: &m.patches.rho,
-    };
-    let (mut acc, mut state) = (vec![0.0; k], vec![RhsState::default(); k]);
-    let work = Workspace {
-        acc: &mut acc,
-        state: &mut state,
-    };
-    solver::solve(
-        &sys,
-        Rows::Listed(&unseen),
-        solver::Source::Irradiance(&e),
-        &mut b,
-        work,
-        stop,
-    )
-    .map_err(|e| format!("daylight boundary solve: {e}"))?;
+    let b = solve_in_chunks(c, (&unseen, &is_seen), patch_direct, k, stop)?;
     let gather_row = |csr: &crate::engine::Csr, i: usize, direct: &[f32]| -> Vec<f32> {
         let mut row: Vec<f64> = (0..k)
             .map(|j| f64::from(direct.get(i * k + j).copied().unwrap_or(0.0)))
@@ -319,6 +314,69 @@ fn boundary(
         .flat_map_iter(|s| gather_row(&m.gather, s, sensor_direct))
         .collect();
     Ok((seen_lx, sensor_lx))
+}
+
+/// The boundary solve of `k` columns over the `unseen` rows (the seen ones held at zero),
+/// `[patch][k]`. The columns are independent (each stops on its own, its values then frozen),
+/// so they are solved in chunks side by side, each chunk's unknowns small enough to stay in a
+/// core's cache: the same values as one solve of all of them.
+fn solve_in_chunks(
+    c: &Commissioned,
+    (unseen, is_seen): (&[u32], &[bool]),
+    patch_direct: &[f32],
+    k: usize,
+    stop: crate::solver::SolveOptions,
+) -> Result<Vec<f64>, String> {
+    let m = &c.model;
+    let n = m.patches.len();
+    let sys = CsrSystem {
+        f: m.ff.f.view(),
+        rho: &m.patches.rho,
+    };
+    let chunks: Vec<(usize, usize)> = (0..k)
+        .step_by(SOLVE_CHUNK)
+        .map(|c0| (c0, (c0 + SOLVE_CHUNK).min(k)))
+        .collect();
+    let solved: Vec<Vec<f64>> = chunks
+        .par_iter()
+        .map(|&(c0, c1)| {
+            let kc = c1 - c0;
+            let e: Vec<f64> = (0..n * kc)
+                .map(|at| {
+                    let (i, q) = (at / kc, at % kc);
+                    if is_seen[i] {
+                        0.0
+                    } else {
+                        f64::from(patch_direct.get(i * k + c0 + q).copied().unwrap_or(0.0))
+                    }
+                })
+                .collect();
+            let mut b = vec![0.0; n * kc];
+            let (mut acc, mut state) = (vec![0.0; kc], vec![RhsState::default(); kc]);
+            let work = Workspace {
+                acc: &mut acc,
+                state: &mut state,
+            };
+            solver::solve(
+                &sys,
+                Rows::Listed(unseen),
+                solver::Source::Irradiance(&e),
+                &mut b,
+                work,
+                stop,
+            )
+            .map_err(|e| format!("daylight boundary solve: {e}"))?;
+            Ok(b)
+        })
+        .collect::<Result<_, String>>()?;
+    let mut b = vec![0.0; n * k];
+    for (&(c0, c1), bc) in chunks.iter().zip(&solved) {
+        let kc = c1 - c0;
+        for i in 0..n {
+            b[i * k + c0..i * k + c1].copy_from_slice(&bc[i * kc..i * kc + kc]);
+        }
+    }
+    Ok(b)
 }
 
 /// The postcard body of the section, at [`DAYLIGHT_VERSION`] with the sun's beam, or at

@@ -478,6 +478,17 @@ impl<'a> DaylightRoom<'a> {
         sun_world: DVec3,
         settings: &DaylightSettings,
     ) -> Result<DirectSun, DaylightError> {
+        self.direct_sun_where(sun_world, settings, |_| true)
+    }
+
+    /// [`DaylightRoom::direct_sun`] at the patches `wanted` selects (the others' are zero)
+    /// and at every sensor.
+    pub fn direct_sun_where(
+        &self,
+        sun_world: DVec3,
+        settings: &DaylightSettings,
+        wanted: impl Fn(usize) -> bool + Sync,
+    ) -> Result<DirectSun, DaylightError> {
         self.check(settings)?;
         let sun = sun_world.normalize_or_zero();
         if !sun.is_finite() || sun == DVec3::ZERO {
@@ -490,6 +501,9 @@ impl<'a> DaylightRoom<'a> {
         let patch_lx = (0..patches.len())
             .into_par_iter()
             .map(|i| {
+                if !wanted(i) {
+                    return 0.0;
+                }
                 let (shift, _) = patch_jitter(i, settings.seed ^ 0x5A7);
                 let n = patches.normal[i];
                 (0..m)
