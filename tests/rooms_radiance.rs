@@ -474,3 +474,44 @@ fn room_07s_desk_in_a_sun_patch_nobody_sees_is_not_available_under_the_sun_only(
     // measured: 3.6 %
     assert!(e.is_some_and(|e| e < 0.08), "{overcast:?}");
 }
+
+/// room_07 without its plan (`scenes/rooms/room_07`; node a tilted away from the south window
+/// wall), under the bench's clear sky and its hazy quarter. Desk 1, out of view by the window,
+/// lies in a sun patch (27 klx clear); the unknown emitters give it the diffuse daylight alone
+/// and stop 49 published it 92 % low (hazy 84.5 %), far outside its statement. The camera sees
+/// the sun's patches on the floor and desk tops; the emitters' fit gives them a diffuse
+/// daylight of 0.9 klx at least (hazy 0.23 klx), and desk 1's own is higher: it is as near the
+/// windows as a patch the sun lights, and its daylight is not available. Desks farther in keep
+/// their values, within their statements. Under the overcast sky no sun patch is seen and desk
+/// 1 is published (with the emitters' error by a window nobody declared, 43 % low: the
+/// generalization bench's worst overcast value without a plan, docs/generalization.md).
+#[test]
+fn without_a_plan_a_desk_as_near_the_windows_as_a_seen_sun_patch_is_not_available() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (img, out) = commission("room_07", dir.path(), false);
+    assert!(!in_view(&out).contains(&1), "{out}");
+    let truth = truth("room_07");
+    let clear = truth_clear("room_07");
+    for (frame, k) in [("node_a_clear.png", 1.0), ("node_a_hazy.png", 0.25)] {
+        let live = live_csv("room_07", &img, frame);
+        let rows = live_rows("room_07", &img, frame);
+        let (total, _, flags) = &rows[&1];
+        assert!(
+            total.is_none() && flags.contains("daylight_unknown"),
+            "{frame}: {live}"
+        );
+        for l in live.lines().skip(1).filter(|l| !l.starts_with("1,")) {
+            let f: Vec<&str> = l.split(',').collect();
+            let s: u32 = f[0].parse().expect("id");
+            let t = truth[&(1, s)].0 + k * clear[&s];
+            let (v, u): (f64, f64) = (
+                f[1].parse().unwrap_or(f64::NAN),
+                f[6].parse().unwrap_or(f64::NAN),
+            );
+            eprintln!("room_07, {frame}, no plan: desk {s} {v:.0} ± {u:.0} lx, truth {t:.0}");
+            assert!((v - t).abs() <= 2.0 * u, "{frame}: desk {s}: {live}");
+        }
+    }
+    let overcast = live_rows("room_07", &img, "node_a_day.png");
+    assert!(overcast[&1].0.is_some_and(f64::is_finite), "{overcast:?}");
+}

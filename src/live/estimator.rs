@@ -381,6 +381,10 @@ pub struct LiveModel {
     u_seen: Vec<f64>,
     // daylight coefficients through the plan's unseen windows (None: the emitters alone)
     sky: Option<SkyCoefficients>,
+    // per seen patch: it faces up (floor, desk tops: where a sun patch lies; the glass of a
+    // window the camera sees, bright with the sky, does not), from the image's geometry
+    // section (all false without one)
+    seen_up: Vec<bool>,
     // neighbouring samples across an edge of the commissioned luminance: (i, j, ln L_i/L_j)
     edges: Vec<(u32, u32, f32)>,
 }
@@ -509,9 +513,11 @@ impl LiveModel {
             g_sensor: Vec::new(),
             u_seen: Vec::new(),
             sky: None,
+            seen_up: Vec::new(),
             edges: Vec::new(),
         };
         model.sky = SkyCoefficients::from_image(image, &model.seen);
+        model.seen_up = seen_faces_up(image, &model.seen);
         model.edges = model.luminance_edges();
         model.disagreement = (0..s).map(|k| model.disagreement_at_boot(k)).collect();
         model.boundary_basis().map_err(LiveError::Solve)?;
@@ -723,6 +729,102 @@ impl LiveModel {
 }
 
 /// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
+/// The seen surfaces' measured exitance held (`seen.d`, the glass the sky's coefficients
+/// carry at zero), the unseen patches solved (into `b`, the boundary solve's scratch): the
+/// light it gives the seen patches and the desks.
+fn propagate_seen(
+    m: &LiveModel,
+    b: &mut [f64],
+    seen: &SeenPatches,
+    is_glass: &[bool],
+) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+    for (r, &p) in m.seen.iter().enumerate() {
+        let p = p as usize;
+        b[p] = if seen.w[r] > 0.0 && !is_glass[r] {
+            m.rho[p] * seen.d[r].max(0.0)
+        } else {
+            0.0
+        };
+    }
+    let zeros = vec![0.0; b.len()];
+    solve_rows(&m.ff, &m.rho, Rows::Listed(&m.unseen), &zeros, b, 1)?;
+    let c = incident(&m.ff, &m.seen, b, 1);
+    let rows: Vec<u32> = (0..m.sensors() as u32).collect();
+    Ok((c, incident(&m.gather, &rows, b, 1)))
+}
+
+/// Direct sun: seen patches far brighter than the diffuse daylight of the rest (a sun patch on
+/// the floor gets tens of klx where the sky gives hundreds of lx) are measured and propagated
+/// as seen exitance, but no diffuse emitter can explain them: left out of the fit (weight 0),
+/// which they would otherwise drag to 1e5 lm/m² windows. Returns how many of them are in the
+/// sun (above [`SUN_PATCH_MIN_LX`]) and which of those face up (`up`: where
+/// [`sun_reach_without_plan`] looks).
+fn exclude_sun_patches(y: &[f64], w_use: &mut [f64], up: &[bool]) -> (usize, Vec<usize>) {
+    let mut ys: Vec<f64> = (0..y.len())
+        .filter(|&r| w_use[r] > 0.0)
+        .map(|r| y[r])
+        .collect();
+    let (mut sun_rows, mut sun_up) = (0usize, Vec::new());
+    if let Some(med) = median(&mut ys).filter(|m| *m > 0.0) {
+        for r in 0..y.len() {
+            if y[r] > SUN_FACTOR * med {
+                let sun = w_use[r] > 0.0 && y[r] > SUN_PATCH_MIN_LX;
+                sun_rows += usize::from(sun);
+                if sun && up.get(r).copied().unwrap_or(false) {
+                    sun_up.push(r);
+                }
+                w_use[r] = 0.0;
+            }
+        }
+    }
+    (sun_rows, sun_up)
+}
+
+/// Per seen patch, whether it faces up (its normal within 45° of the vertical), from the
+/// image's geometry section; all false when the image has none (or it does not decode), which
+/// turns off the rule that needs it ([`sun_reach_without_plan`]).
+fn seen_faces_up(image: &Image<'_>, seen: &[u32]) -> Vec<bool> {
+    let section = image
+        .geometry_bytes()
+        .map(crate::store::geometry::GeometrySection::decode);
+    let Some(Ok(g)) = section else {
+        tracing::info!("live: no geometry section: sun patches are not told from bright glass");
+        return vec![false; seen.len()];
+    };
+    seen.iter()
+        .map(|&p| {
+            g.patch_corners_m.get(p as usize).is_some_and(|c| {
+                let v = |k: usize| {
+                    glam::DVec3::new(
+                        f64::from(c[3 * k]),
+                        f64::from(c[3 * k + 1]),
+                        f64::from(c[3 * k + 2]),
+                    )
+                };
+                let n = (v(1) - v(0)).cross(v(2) - v(0)).normalize_or_zero();
+                n.z > core::f64::consts::FRAC_1_SQRT_2
+            })
+        })
+        .collect()
+}
+
+/// Without the plan's windows the node cannot trace the sun's beam, but a sun patch it sees
+/// tells how near the windows the beam reaches: an upward face (`sun_up`: floor, desk tops)
+/// lit far above the diffuse daylight. A desk whose inferred diffuse daylight is at least the
+/// fit's diffuse daylight at one of those patches (`diffuse_lx`) is as near the windows as a
+/// patch the sun already lights: the sun may lie on it, by a strength nothing seen tells. The
+/// others are farther in than any seen sun patch. Fewer than [`super::sun_fit::SUN_MIN_PATCHES`] sun patches:
+/// none (a glint).
+fn sun_reach_without_plan(sun_up: &[usize], diffuse_lx: &[f64], out: &[f64]) -> Vec<bool> {
+    let reach_lx = sun_up
+        .iter()
+        .filter_map(|&r| diffuse_lx.get(r).copied())
+        .filter(|x| x.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let seen_sun = sun_up.len() >= super::sun_fit::SUN_MIN_PATCHES && reach_lx.is_finite();
+    out.iter().map(|d| seen_sun && *d >= reach_lx).collect()
+}
+
 fn incident(m: &Csr<f32>, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
     let mut out = vec![0.0; rows.len() * k];
     if k == 0 {
@@ -1754,43 +1856,13 @@ impl Live {
         let is_glass: Vec<bool> = (0..n_seen).map(glass).collect();
         // the sun's beam through the plan's windows at this time (a version-3 image)
         let sun = (m.sky.as_ref().zip(self.time)).and_then(|(sky, t)| sky.sun(t, n_seen));
-        // seen exitance fixed, unseen solved
-        let b = &mut self.b_boundary;
-        for (r, &p) in m.seen.iter().enumerate() {
-            let p = p as usize;
-            b[p] = if w_seen[r] > 0.0 && !glass(r) {
-                m.rho[p] * d_seen[r].max(0.0)
-            } else {
-                0.0
-            };
-        }
-        let zeros = vec![0.0; b.len()];
-        solve_rows(&m.ff, &m.rho, Rows::Listed(&m.unseen), &zeros, b, 1)?;
-        let c = incident(&m.ff, &m.seen, b, 1);
-        let rows: Vec<u32> = (0..s_count as u32).collect();
-        let from_seen = incident(&m.gather, &rows, b, 1);
+        let (c, from_seen) = propagate_seen(m, &mut self.b_boundary, seen, &is_glass)?;
         // emitters: y = D − c ≈ V w, weighted, twice (the second without outliers: sun patches)
         let mut w_use: Vec<f64> = (0..n_seen)
             .map(|r| if glass(r) { 0.0 } else { w_seen[r] })
             .collect();
         let y: Vec<f64> = (0..n_seen).map(|r| d_seen[r] - c[r]).collect();
-        // direct sun: seen patches far brighter than the diffuse daylight of the rest (a sun
-        // patch on the floor gets tens of klx where the sky gives hundreds of lx) are measured
-        // and propagated as seen exitance above, but no diffuse emitter can explain them: left
-        // out of the fit, which they would otherwise drag to 1e5 lm/m² windows
-        let mut ys: Vec<f64> = (0..n_seen)
-            .filter(|&r| w_use[r] > 0.0)
-            .map(|r| y[r])
-            .collect();
-        let mut sun_rows = 0usize;
-        if let Some(med) = median(&mut ys).filter(|m| *m > 0.0) {
-            for r in 0..n_seen {
-                if y[r] > SUN_FACTOR * med {
-                    sun_rows += usize::from(w_use[r] > 0.0 && y[r] > SUN_PATCH_MIN_LX);
-                    w_use[r] = 0.0;
-                }
-            }
-        }
+        let (sun_rows, sun_up) = exclude_sun_patches(&y, &mut w_use, &m.seen_up);
         // the sun shines into the room (the camera sees its patches): the desks out of view
         // that see the sun's sky patch through a window may be in one, which the sky's
         // coefficients (diffuse light) do not give
@@ -1847,6 +1919,16 @@ impl Live {
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
+        // without the sky (no plan): the desks as near the windows as a seen sun patch
+        if chosen.is_none() {
+            let diffuse: Vec<f64> = (0..n_seen)
+                .map(|r| c[r] + (0..k).map(|q| v_basis[r * k + q] * x[q]).sum::<f64>())
+                .collect();
+            let reach = sun_reach_without_plan(&sun_up, &diffuse, &out);
+            for (m, r) in sun_may_reach.iter_mut().zip(reach) {
+                *m |= r;
+            }
+        }
         // the sun: its strength from the seen patches in its beam, its light at every desk
         let sun_out = match (&sun, &chosen) {
             (Some(sun), Some(b)) => SunStage {
@@ -2310,6 +2392,51 @@ fn best_sky(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Without a plan: the seen sun patches on upward faces lie where the fit's diffuse
+    /// daylight is 250 and 300 lx; a desk with at least 250 lx of diffuse daylight is as near
+    /// the windows as one of them, a desk with less is farther in. One sun patch (a glint) or
+    /// none: no desk. A non-finite diffuse value is not a threshold.
+    #[test]
+    fn the_sun_may_reach_the_desks_as_near_the_windows_as_a_seen_sun_patch() {
+        let diffuse = [100.0, 300.0, 250.0, f64::NAN];
+        let desks = [240.0, 250.0, 900.0];
+        assert_eq!(
+            sun_reach_without_plan(&[1, 2], &diffuse, &desks),
+            [false, true, true]
+        );
+        assert_eq!(
+            sun_reach_without_plan(&[1, 2, 3], &diffuse, &desks),
+            [false, true, true]
+        );
+        assert_eq!(sun_reach_without_plan(&[2], &diffuse, &desks), [false; 3]);
+        assert_eq!(sun_reach_without_plan(&[], &diffuse, &desks), [false; 3]);
+        assert_eq!(
+            sun_reach_without_plan(&[3, 3], &diffuse, &desks),
+            [false; 3]
+        );
+        // a patch beyond the seen rows (a malformed list) is no threshold either
+        assert_eq!(
+            sun_reach_without_plan(&[9, 9], &diffuse, &desks),
+            [false; 3]
+        );
+    }
+
+    /// The weighted rows' median is about 110 lx: rows above 8 times it leave the fit; those
+    /// above 5 klx are sun, and of them the upward ones are listed.
+    #[test]
+    fn sun_patches_leave_the_fit_and_the_upward_ones_are_listed() {
+        let y = [
+            100.0, 90.0, 110.0, 95.0, 105.0, 1000.0, 6000.0, 20_000.0, 7000.0,
+        ];
+        let mut w = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0];
+        let up = [true, true, true, true, true, true, true, false, true];
+        let (rows, upward) = exclude_sun_patches(&y, &mut w, &up);
+        // the last row had no weight: not a measured sun patch; the glass-like row 7 is sun
+        // but not upward
+        assert_eq!((rows, upward), (2, vec![6]));
+        assert_eq!(w, [1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    }
 
     /// room_03's desk 7: a window whose patch (reflectance 0.326) mixes the desk top (0.40)
     /// with a monitor (0.10). Both the frame's and the luminaires' light go through the patch's
