@@ -712,6 +712,7 @@ impl LiveModel {
             + self.art.len() * 4
             + self.rho.len() * f
             + (self.seen.len() + self.unseen.len()) * 4
+            + self.seen_up.len()
             + self.seen_range.len() * 8
             + self.ff.bytes()
             + self.gather.bytes()
@@ -728,7 +729,6 @@ impl LiveModel {
     }
 }
 
-/// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
 /// The seen surfaces' measured exitance held (`seen.d`, the glass the sky's coefficients
 /// carry at zero), the unseen patches solved (into `b`, the boundary solve's scratch): the
 /// light it gives the seen patches and the desks.
@@ -781,15 +781,22 @@ fn exclude_sun_patches(y: &[f64], w_use: &mut [f64], up: &[bool]) -> (usize, Vec
 }
 
 /// Per seen patch, whether it faces up (its normal within 45° of the vertical), from the
-/// image's geometry section; all false when the image has none (or it does not decode), which
-/// turns off the rule that needs it ([`sun_reach_without_plan`]).
+/// image's geometry section; all false when the image has none (or it does not decode, or
+/// holds another number of patches), which turns off the rule that needs it
+/// ([`sun_reach_without_plan`]).
 fn seen_faces_up(image: &Image<'_>, seen: &[u32]) -> Vec<bool> {
     let section = image
         .geometry_bytes()
         .map(crate::store::geometry::GeometrySection::decode);
-    let Some(Ok(g)) = section else {
-        tracing::info!("live: no geometry section: sun patches are not told from bright glass");
-        return vec![false; seen.len()];
+    let g = match section {
+        Some(Ok(g)) if g.patch_corners_m.len() == image.patches() => g,
+        _ => {
+            tracing::info!(
+                "live: no geometry section of the image's patches: sun patches are not told \
+                 from bright glass"
+            );
+            return vec![false; seen.len()];
+        }
     };
     seen.iter()
         .map(|&p| {
@@ -813,8 +820,8 @@ fn seen_faces_up(image: &Image<'_>, seen: &[u32]) -> Vec<bool> {
 /// lit far above the diffuse daylight. A desk whose inferred diffuse daylight is at least the
 /// fit's diffuse daylight at one of those patches (`diffuse_lx`) is as near the windows as a
 /// patch the sun already lights: the sun may lie on it, by a strength nothing seen tells. The
-/// others are farther in than any seen sun patch. Fewer than [`super::sun_fit::SUN_MIN_PATCHES`] sun patches:
-/// none (a glint).
+/// others are farther in than any seen sun patch. Fewer than
+/// [`super::sun_fit::SUN_MIN_PATCHES`] sun patches: none (a glint).
 fn sun_reach_without_plan(sun_up: &[usize], diffuse_lx: &[f64], out: &[f64]) -> Vec<bool> {
     let reach_lx = sun_up
         .iter()
@@ -825,6 +832,7 @@ fn sun_reach_without_plan(sun_up: &[usize], diffuse_lx: &[f64], out: &[f64]) -> 
     out.iter().map(|d| seen_sun && *d >= reach_lx).collect()
 }
 
+/// `(M b)_i` for the listed rows, `k` right-hand sides: `[row][k]`.
 fn incident(m: &Csr<f32>, rows: &[u32], b: &[f64], k: usize) -> Vec<f64> {
     let mut out = vec![0.0; rows.len() * k];
     if k == 0 {
