@@ -935,12 +935,23 @@ fn a_desk_in_the_sun_that_saturates_the_camera_is_not_published_below_it() {
             assert_eq!(o.flags & flags::SATURATED, 0, "desk {j}");
         }
         // the control plans the sunlit desk with what its window is at least (the sim
-        // camera's saturation level over the desk's reflectance: klx), the others with theirs
+        // camera's saturation level over the desk's reflectance: klx), the others with theirs;
+        // a desk out of view as near the window as the sun patch (its inferred daylight at
+        // least the emitters' at the patch: stop 50, no plan) is not available, and planned
+        // with none
         let control = live.daylight_for_control(60.0).expect("fresh values");
         assert!(control[k] > 5.0 * before[k].daylight_lx, "{control:?}");
         for (j, o) in after.iter().enumerate().filter(|(j, _)| *j != k) {
-            assert_eq!(control[j], o.daylight_lx, "desk {j}");
+            if o.daylight_lx.is_nan() {
+                assert_eq!(o.source, Source::Inferred, "desk {j}: {o:?}");
+                assert_ne!(o.flags & flags::DAYLIGHT_UNKNOWN, 0, "desk {j}: {o:?}");
+                assert_eq!(control[j], 0.0, "desk {j}");
+            } else {
+                assert_eq!(control[j], o.daylight_lx, "desk {j}");
+            }
         }
+        let unknown = after.iter().filter(|o| o.daylight_lx.is_nan()).count();
+        eprintln!("{unknown} desks not available (the sunlit one among them)");
     }
 }
 
