@@ -205,6 +205,20 @@ pub const UNSEEN_OCCLUDER_ELEVATION_RAD: f64 = core::f64::consts::FRAC_PI_4;
 /// a desk screen; the common 24-27" monitors: 0.40-0.50 m), m.
 pub const EDGE_OCCLUDER_HEIGHT_M: f64 = 0.45;
 
+/// How far in from the back edge that monitor's screen may stand (on its foot, 0.1-0.2 m deep),
+/// m: the elevation it hides and where along the edge it shades are taken there, at least
+/// [`EDGE_OCCLUDER_MIN_DISTANCE_M`] from the sensor (seed 29's room_07: monitors 0.13 m in from
+/// the edge, 0.12 m behind the sensor).
+pub const EDGE_OCCLUDER_INSET_M: f64 = 0.15;
+/// The least horizontal distance from a sensor to the monitor behind it, m.
+pub const EDGE_OCCLUDER_MIN_DISTANCE_M: f64 = 0.05;
+
+/// The horizontal distance from the sensor to a monitor at a back edge `t` away (m), standing
+/// [`EDGE_OCCLUDER_INSET_M`] in from it.
+fn monitor_distance_m(t: f64) -> f64 {
+    (t - EDGE_OCCLUDER_INSET_M).max(EDGE_OCCLUDER_MIN_DISTANCE_M)
+}
+
 /// The width of that monitor, m (a 24-27" screen): the luminaires it shades together leave the
 /// desk through its back edge within this of each other ([`edge_groups`]).
 pub const EDGE_OCCLUDER_WIDTH_M: f64 = 0.6;
@@ -214,7 +228,11 @@ pub const BACK_EDGE_GAP_M: f64 = 0.3;
 
 /// The back edges of a desk, where monitors and desk screens stand: those that face another
 /// desk across at most [`BACK_EDGE_GAP_M`] (an island's shared edge) or the room's boundary
-/// `room_xy_m` (`[x0, y0, x1, y1]`; the wall side). In the order x low, x high, y low, y high.
+/// `room_xy_m` (`[x0, y0, x1, y1]`; the wall side); when neither long side is one of those (a
+/// desk in a row, or alone), both long sides: its monitor stands along one of them (issue 28,
+/// seed 29's room_07: row desks with their monitors 0.12-0.26 m behind the sensors, out of
+/// view, modelled 22-43 % high at all on and stated at 8.5 %). In the order x low, x high, y
+/// low, y high.
 pub fn back_edges(
     desk: &crate::scene::Desk,
     desks: &[crate::scene::Desk],
@@ -239,15 +257,27 @@ pub fn back_edges(
             _ => y1 - desk.y_m[1] <= g,
         })
     };
-    core::array::from_fn(|side| {
+    let mut back: [bool; 4] = core::array::from_fn(|side| {
         wall(side) || desks.iter().any(|o| o.id != desk.id && faces(side, o))
-    })
+    });
+    // a desk whose long sides face neither a desk nor a wall (a row's desk, one alone): its
+    // monitor stands along one of them, which the node cannot tell, so both are back edges
+    let long = if desk.x_m[1] - desk.x_m[0] >= desk.y_m[1] - desk.y_m[0] {
+        [2, 3]
+    } else {
+        [0, 1]
+    };
+    if !long.iter().any(|&side| back[side]) {
+        long.iter().for_each(|&side| back[side] = true);
+    }
+    back
 }
 
 /// The highest elevation at which an unseen object may hide a luminaire from a sensor, rad:
 /// [`UNSEEN_OCCLUDER_ELEVATION_RAD`], or higher toward a near back edge of the desk the sensor
 /// stands on ([`back_edges`]), where a monitor [`EDGE_OCCLUDER_HEIGHT_M`] tall hides
-/// `atan(h / d)`, `d` the horizontal distance to the edge along the luminaire's direction
+/// `atan(h / d)`, `d` the horizontal distance along the luminaire's direction to the monitor
+/// standing [`EDGE_OCCLUDER_INSET_M`] in from the edge
 /// (issue 28: room_08's island desk 3, its sensor 0.27 m from the shared edge its monitor stands
 /// at, read 28 % high with the luminaire at 47° behind it counted as unhideable).
 /// `desk`: the sensor's desk and its back edges (x low, x high, y low, y high).
@@ -257,8 +287,9 @@ pub fn occluder_elevation_limit_rad(
     desk: Option<(&crate::scene::Desk, [bool; 4])>,
 ) -> f64 {
     let base = UNSEEN_OCCLUDER_ELEVATION_RAD;
-    back_edge_toward(sensor_m, toward_xy, desk)
-        .map_or(base, |(_, t)| base.max(EDGE_OCCLUDER_HEIGHT_M.atan2(t)))
+    back_edge_toward(sensor_m, toward_xy, desk).map_or(base, |(_, t)| {
+        base.max(EDGE_OCCLUDER_HEIGHT_M.atan2(monitor_distance_m(t)))
+    })
 }
 
 /// The back edge of the sensor's desk that a direction leaves it through (x low, x high, y low,
@@ -337,7 +368,7 @@ pub fn unseen_occluder_lx(
                     let dir = d.truncate().normalize_or_zero();
                     let at =
                         back_edge_toward(sensor.position_m, d.truncate(), desk).map(|(side, t)| {
-                            let p = sensor.position_m.truncate() + dir * t;
+                            let p = sensor.position_m.truncate() + dir * monitor_distance_m(t);
                             (side, if side < 2 { p.y } else { p.x })
                         });
                     let lx = row.and_then(|r| r.get(j)).copied().unwrap_or(0.0);
@@ -604,11 +635,20 @@ mod tests {
         assert_eq!(back_edges(&d[0], &d, room), [false, false, false, true]);
         assert_eq!(back_edges(&d[1], &d, room), [false, false, true, false]);
         assert_eq!(back_edges(&d[2], &d, room), [false, false, false, true]);
-        // without the room's extent the wall side is not known
-        assert_eq!(back_edges(&d[2], &d, None), [false; 4]);
-        // a desk alone in the room's middle has none
+        // without the room's extent the wall side is not known: either long side may hold
+        // its monitor
+        assert_eq!(back_edges(&d[2], &d, None), [false, false, true, true]);
+        // so too for a desk alone in the room's middle, and for one turned by 90°
         let alone = [desk(1, [4.0, 5.6], [3.0, 3.8])];
-        assert_eq!(back_edges(&alone[0], &alone, room), [false; 4]);
+        assert_eq!(
+            back_edges(&alone[0], &alone, room),
+            [false, false, true, true]
+        );
+        let turned = [desk(1, [4.0, 4.8], [3.0, 4.6])];
+        assert_eq!(
+            back_edges(&turned[0], &turned, room),
+            [true, true, false, false]
+        );
     }
 
     #[test]
@@ -616,19 +656,25 @@ mod tests {
         let d = island();
         let back = back_edges(&d[0], &d, None);
         let s = DVec3::new(5.525, 3.229, 0.751);
-        // straight toward the shared edge, 0.271 m away: atan(0.45 / 0.271) = 58.9°
+        // straight toward the shared edge, 0.271 m away, its monitor 0.15 m in from it:
+        // atan(0.45 / 0.121) = 75.0°
         let up = occluder_elevation_limit_rad(s, DVec2::new(0.0, 1.0), Some((&d[0], back)));
         assert!(
-            (up - 0.45f64.atan2(0.271)).abs() < 1e-9,
+            (up - 0.45f64.atan2(0.121)).abs() < 1e-9,
             "{}",
             up.to_degrees()
         );
         // diagonally toward room_08's luminaire 7 at (6.312, 5.25): the ray leaves through the
-        // same edge after 0.271 / sin(atan2(2.021, 0.787)) m
+        // same edge after 0.271 / sin(atan2(2.021, 0.787)) m, and meets the monitor 0.15 m
+        // before
         let dir = DVec2::new(6.312 - 5.525, 5.25 - 3.229);
         let t = 0.271 / (dir.y / dir.length());
         let diag = occluder_elevation_limit_rad(s, dir, Some((&d[0], back)));
-        assert!((diag - 0.45f64.atan2(t)).abs() < 1e-9);
+        assert!((diag - 0.45f64.atan2(t - EDGE_OCCLUDER_INSET_M)).abs() < 1e-9);
+        // a sensor at the edge: the monitor no nearer than 0.05 m
+        let at_edge = DVec3::new(5.525, 3.49, 0.751);
+        let near = occluder_elevation_limit_rad(at_edge, DVec2::new(0.0, 1.0), Some((&d[0], back)));
+        assert!((near - 0.45f64.atan2(EDGE_OCCLUDER_MIN_DISTANCE_M)).abs() < 1e-9);
         // that luminaire, 2.306 m above the sensor, stands at 46.8°: below the limit now,
         // above the 45° of furniture anywhere on the desk
         let elev = (3.057f64 - 0.751).atan2(dir.length());
@@ -697,10 +743,18 @@ mod tests {
                 base
             );
         }
-        // the same side edge as a back edge: 0.475 m gives 43.5°, below the anywhere limit
+        // the same side edge as a back edge: its monitor 0.475 − 0.15 m away hides 54.2°
         let all = Some((&d[0], [true; 4]));
+        let side = occluder_elevation_limit_rad(s, DVec2::new(-1.0, 0.0), all);
+        assert!(
+            (side - 0.45f64.atan2(0.325)).abs() < 1e-9,
+            "{}",
+            side.to_degrees()
+        );
+        // the far side edge x = 6.65 as a back edge: 1.125 − 0.15 m gives 24.8°, below the
+        // anywhere limit
         assert_eq!(
-            occluder_elevation_limit_rad(s, DVec2::new(-1.0, 0.0), all),
+            occluder_elevation_limit_rad(s, DVec2::new(1.0, 0.0), all),
             base
         );
         assert_eq!(
