@@ -150,8 +150,13 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     let gi = Image::parse(&g_img).unwrap();
     let gl = gi.live.as_ref().expect("a version-4 live section");
     assert_eq!(gl.occluder_group(s_n - 1, l_n - 1, l_n), 2);
-    // the rig's desks: every luminaire alone (none behind an unseen monitor)
-    assert!((0..s_n).all(|k| (0..l_n).all(|j| live.occluder_group(k, j, l_n) == 0)));
+    // the rig's own groups read back as built (stop 50: its free-standing desks out of view
+    // have both long sides as back edges, so a monitor there may shade a group)
+    let built = &rig().section.model_occluder_groups;
+    assert!(
+        (0..s_n).all(|k| (0..l_n).all(|j| live.occluder_group(k, j, l_n) == built[k][j])),
+        "{built:?}"
+    );
     // a group beyond the format's is refused when built, and when read
     let beyond = luxnode::store::live::OCCLUDER_GROUPS + 1;
     grouped.model_occluder_groups[0][0] = beyond;
@@ -178,11 +183,18 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     let l3 = i3.live.as_ref().expect("a version-3 live section is read");
     assert!(l3.has_uncertainty_parts());
     assert_eq!(l3.occluder_group(0, 0, l_n), 0);
-    for k in 0..s_n {
-        assert_eq!(
-            luxnode::runtime::model_rel_uncertainty_at(&i3, k, &all_on),
-            luxnode::runtime::model_rel_uncertainty_at(&image, k, &all_on)
+    // a desk with no group states the same; one with a group states at most the version-4
+    // value (the largest luminaire alone, not the group's sum)
+    for (k, groups) in built.iter().enumerate().take(s_n) {
+        let (v3, v4) = (
+            luxnode::runtime::model_rel_uncertainty_at(&i3, k, &all_on).expect("v3"),
+            luxnode::runtime::model_rel_uncertainty_at(&image, k, &all_on).expect("v4"),
         );
+        if groups.iter().all(|g| *g == 0) {
+            assert_eq!(v3, v4, "sensor {k}");
+        } else {
+            assert!(v3 <= v4, "sensor {k}: {v3} > {v4}");
+        }
     }
     // a version-2 section (before the parts: the same body without its last two byte strings,
     // here empty) still parses, and states the all-on uncertainty for every state
