@@ -1927,11 +1927,13 @@ impl Live {
                 finite_or(from_seen[s] + e, 0.0)
             })
             .collect();
-        // without the sky (no plan): the desks as near the windows as a seen sun patch
-        if chosen.is_none() {
-            let diffuse: Vec<f64> = (0..n_seen)
-                .map(|r| c[r] + (0..k).map(|q| v_basis[r * k + q] * x[q]).sum::<f64>())
-                .collect();
+        // without the sky (no plan): the desks as near the windows as a seen sun patch (the
+        // fit's diffuse light wanted only at the sun patches, and only when there are some)
+        if chosen.is_none() && sun_up.len() >= super::sun_fit::SUN_MIN_PATCHES {
+            let mut diffuse = vec![f64::NAN; n_seen];
+            for &r in &sun_up {
+                diffuse[r] = c[r] + (0..k).map(|q| v_basis[r * k + q] * x[q]).sum::<f64>();
+            }
             let reach = sun_reach_without_plan(&sun_up, &diffuse, &out);
             for (m, r) in sun_may_reach.iter_mut().zip(reach) {
                 *m |= r;
