@@ -957,6 +957,8 @@ fn a_desk_in_the_sun_that_saturates_the_camera_is_not_published_below_it() {
             if o.daylight_lx.is_nan() {
                 assert_eq!(o.source, Source::Inferred, "desk {j}: {o:?}");
                 assert_ne!(o.flags & flags::DAYLIGHT_UNKNOWN, 0, "desk {j}: {o:?}");
+                // and says why: a merger of nodes takes no other node's inference over it
+                assert_ne!(o.flags & flags::SUN_MAY_REACH, 0, "desk {j}: {o:?}");
                 assert_eq!(control[j], 0.0, "desk {j}");
             } else {
                 assert_eq!(control[j], o.daylight_lx, "desk {j}");

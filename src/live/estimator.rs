@@ -1641,9 +1641,10 @@ impl Live {
             if ctx.sun_may_reach.get(s).copied().unwrap_or(false) {
                 // a sun patch nobody sees may lie on it: tens of klx the diffuse sky's
                 // coefficients do not give; at least what the sun's bound says
+                let f = extra | flags::SUN_MAY_REACH;
                 return match ctx.sun_floor_lx.get(s).copied().filter(|f| *f > 0.0) {
-                    Some(floor) => Action::Beyond(art, floor, extra | flags::DAYLIGHT_UNKNOWN),
-                    None => Action::daylight_unknown(art, extra),
+                    Some(floor) => Action::Beyond(art, floor, f | flags::DAYLIGHT_UNKNOWN),
+                    None => Action::daylight_unknown(art, f),
                 };
             }
             // out of view: the model's light and the inferred daylight
@@ -1686,6 +1687,7 @@ impl Live {
                 // the sun may be on it, by a strength the node cannot tell
                 let sun_floor = ctx.sun_floor_lx.get(s).copied().unwrap_or(0.0);
                 let floor_lx = floor_day.unwrap_or(0.0).max(sun_floor);
+                let f = f | flags::SUN_MAY_REACH;
                 return if floor_lx > 0.0 {
                     Action::Beyond(art, floor_lx, f | flags::DAYLIGHT_UNKNOWN)
                 } else {

@@ -133,6 +133,7 @@ pub mod flags {
             (NO_DEPTH, "no_depth"),
             (NOT_ESTIMATED, "not_estimated"),
             (DAYLIGHT_UNKNOWN, "daylight_unknown"),
+            (SUN_MAY_REACH, "sun_may_reach"),
         ];
         let v: Vec<&str> = names
             .iter()

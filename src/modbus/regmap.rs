@@ -257,6 +257,12 @@ pub mod live_flags {
     /// taken (boot, a camera that never answered, every frame refused): the daylight is not
     /// known at all, day or night.
     pub const DAYLIGHT_UNKNOWN: u16 = 1 << 9;
+    /// With [`DAYLIGHT_UNKNOWN`]: the sun may be on this desk now, by a strength no camera
+    /// sees (the desk out of view, covered or saturated, and as near the windows as a sun
+    /// patch a camera sees, or in the beam the room plan's windows trace). Another node's
+    /// inferred value of the same desk does not know of that sun either and is not a
+    /// substitute; only a node that measures the desk is.
+    pub const SUN_MAY_REACH: u16 = 1 << 10;
 }
 
 /// Where a desk's live value comes from (input 3900 + k).
@@ -1489,7 +1495,7 @@ pub const TABLE: &[RegisterDoc] = &[
         "",
         "",
         "R",
-        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame, 8 not estimated (the value is NaN / 0xFFFF), 9 daylight unknown (with 8: by day without a room plan, the daylight is not bounded by what the cameras see; the total and daylight are NaN / 0xFFFF, the artificial part is the model's)"
+        "desk k at 4100 + k: bit 0 occluded (value held), 1 held (daylight from an older frame), 2 stale, 3 bad frame, 4 saturated, 5 ageing (a luminaire lighting it below the maintenance factor), 6 geometry changed (recommission), 7 no depth frame, 8 not estimated (the value is NaN / 0xFFFF), 9 daylight unknown (with 8: by day without a room plan, the daylight is not bounded by what the cameras see; the total and daylight are NaN / 0xFFFF, the artificial part is the model's), 10 sun may reach (with 9: a sun patch may lie on the desk, which no camera sees; another node's inferred value is no substitute, a node measuring the desk is)"
     ),
     row!(
         Input,
