@@ -1154,8 +1154,11 @@ def desk_rows(room: str, config: str, light: str, vals: dict, flags: dict) -> li
         err = (sum(abs(e - t) for e, t, *_ in known) / max(1e-9, sum(t for _, t, *_ in known))
                if known else math.nan)
         cov = [abs(e - t) <= 2 * u for e, t, u, *_ in known if math.isfinite(u)]
+        # the stated relative standard uncertainty, over the values that have one
+        stated = [u / e for e, t, u, *_ in known if math.isfinite(u) and e > 0]
         rows.append({"room": room, "config": config, "light": light, "sensor": s,
                      "in_view": (flags.get(s, 1) & 1) == 0, "error": err,
+                     "stated": statistics.fmean(stated) if stated else math.nan,
                      "values": len(v), "within_2u": sum(cov), "with_u": len(cov),
                      "unknown": len(v) - len(known),
                      "source": v[0][3] if len(v[0]) > 3 else "model"})
