@@ -184,7 +184,8 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
     assert!(l3.has_uncertainty_parts());
     assert_eq!(l3.occluder_group(0, 0, l_n), 0);
     // a desk with no group states the same; one with a group states at most the version-4
-    // value (the largest luminaire alone, not the group's sum)
+    // value (the largest luminaire alone, not the group's sum; where the groups widened the
+    // all-on statement, the version-3 reading falls back to it, stored in steps of 1e-4)
     for (k, groups) in built.iter().enumerate().take(s_n) {
         let (v3, v4) = (
             luxnode::runtime::model_rel_uncertainty_at(&i3, k, &all_on).expect("v3"),
@@ -193,7 +194,7 @@ fn the_image_keeps_its_live_section_and_old_images_still_parse() {
         if groups.iter().all(|g| *g == 0) {
             assert_eq!(v3, v4, "sensor {k}");
         } else {
-            assert!(v3 <= v4, "sensor {k}: {v3} > {v4}");
+            assert!(v3 <= v4 + 1e-4, "sensor {k}: {v3} > {v4}");
         }
     }
     // a version-2 section (before the parts: the same body without its last two byte strings,
