@@ -476,21 +476,25 @@ fn with_monitor_indirect(
         return (shaded, group);
     }
     // the nearest monitor's group: its largest on that edge, or the next free number
-    let mut sums = [0.0f64; 256];
-    for ((lx, at), g) in shaded.iter().zip(&group) {
-        if at.is_some_and(|a| a.0 == nearest) && *g > 0 {
-            sums[usize::from(*g)] += lx;
-        }
-    }
-    let largest = (1..256).max_by(|&a, &b| sums[a].total_cmp(&sums[b]));
-    let target = match largest.filter(|&g| sums[g] > 0.0) {
-        Some(g) => u8::try_from(g).ok(),
-        None => group
+    let sum = |g: u8| -> f64 {
+        shaded
             .iter()
-            .max()
-            .map(|m| m + 1)
-            .filter(|g| *g <= crate::store::live::OCCLUDER_GROUPS),
+            .zip(&group)
+            .filter(|(_, h)| **h == g)
+            .map(|(x, _)| x.0)
+            .sum()
     };
+    let target = shaded
+        .iter()
+        .zip(&group)
+        .filter(|((_, at), g)| **g > 0 && at.is_some_and(|a| a.0 == nearest))
+        .map(|(_, g)| *g)
+        .max_by(|a, b| sum(*a).total_cmp(&sum(*b)))
+        .filter(|g| sum(*g) > 0.0)
+        .or_else(|| {
+            let next = group.iter().max().map_or(1, |m| m + 1);
+            (next <= crate::store::live::OCCLUDER_GROUPS).then_some(next)
+        });
     for (l, ((lx, at), g)) in shaded.iter_mut().zip(group.iter_mut()).enumerate() {
         let own = indirect_lx.get(l).copied().unwrap_or(0.0).max(0.0);
         let hidden = |side: usize| UNSEEN_OCCLUDER_SHARE * view[side] * own;
