@@ -55,7 +55,7 @@ pub struct SetResult {
     pub missed_seated: usize,
     /// (frame, desk) pairs with a person.
     pub occupied: usize,
-    /// Mean time of an update (each frame the fastest of three), µs.
+    /// Mean time of an update (each frame the fastest of fifteen), µs.
     pub update_us: f64,
     /// Bytes occupancy holds.
     pub memory_bytes: usize,
@@ -183,7 +183,7 @@ pub fn run_set(dir: &Path, stride: u32) -> Result<SetResult, OccupancyBenchError
     for name in &frames {
         let path = dir.join("frames").join(format!("{name}.png"));
         let f = read_frame16(&path).map_err(|e| file_error(&path, e))?;
-        // the update's cost: the fastest of three (an update is a function of the frame; the
+        // the update's cost: the fastest of fifteen (an update is a function of the frame; the
         // slower ones measure whatever else shared the cores)
         let mut fastest_s = f64::INFINITY;
         let mut report = None;
@@ -213,7 +213,7 @@ pub fn run_set(dir: &Path, stride: u32) -> Result<SetResult, OccupancyBenchError
 }
 
 /// Each frame's update is timed this many times, the fastest kept.
-const TIMED_REPEATS: usize = 3;
+const TIMED_REPEATS: usize = 15;
 
 /// One (frame, desk) into the result.
 fn score(r: &mut SetResult, t: &Truth, got: Occupied) {
