@@ -44,13 +44,18 @@ fn p(path: PathBuf) -> String {
     path.display().to_string()
 }
 
-/// Commissions the node (with the room plan when `plan`); returns the image and stdout.
+/// Commissions node a (with the room plan when `plan`); returns the image and stdout.
 fn commission(name: &str, dir: &Path, plan: bool) -> (PathBuf, String) {
+    commission_node(name, "node_a", dir, plan)
+}
+
+/// Commissions one node from its capture set `tests/data/rooms/NAME/NODE`.
+fn commission_node(name: &str, node: &str, dir: &Path, plan: bool) -> (PathBuf, String) {
     let img = dir.join(if plan { "plan.img" } else { "plain.img" });
     let mut args: Vec<String> = vec![
         "commission".into(),
         "--capture".into(),
-        p(data(name).join("node_a")),
+        p(data(name).join(node)),
     ];
     for (flag, file) in [
         ("--luminaires", "luminaires.json"),
@@ -347,6 +352,12 @@ fn room_04s_desks_by_an_unseen_window_band_take_the_desks_reflectance() {
 /// `luxnode live`'s CSV for one of room `name`'s frames (node a's depth, every luminaire at
 /// 254, the bench's time for room_07's clear and hazy days).
 fn live_csv(name: &str, img: &Path, frame: &str) -> String {
+    live_csv_of(name, "node_a", img, frame, "2026-03-21T11:26:00Z")
+}
+
+/// `luxnode live`'s CSV for one of room `name`'s frames: `NODE_depth.png`'s depth, every
+/// luminaire at 254, at `time`.
+fn live_csv_of(name: &str, node: &str, img: &Path, frame: &str, time: &str) -> String {
     let n = std::fs::read_to_string(room(name).join("luminaires.json"))
         .expect("luminaires.json")
         .matches("\"id\"")
@@ -358,11 +369,11 @@ fn live_csv(name: &str, img: &Path, frame: &str) -> String {
         "--frame".into(),
         p(data(name).join("live").join(frame)),
         "--depth".into(),
-        p(data(name).join("live/node_a_depth.png")),
+        p(data(name).join(format!("live/{node}_depth.png"))),
         "--arc".into(),
         vec!["254"; n].join(","),
         "--time".into(),
-        "2026-03-21T11:26:00Z".into(),
+        time.into(),
     ]);
     live
 }
@@ -516,4 +527,52 @@ fn without_a_plan_a_desk_as_near_the_windows_as_a_seen_sun_patch_is_not_availabl
     }
     let overcast = live_rows("room_07", &img, "node_a_day.png");
     assert!(overcast[&1].0.is_some_and(f64::is_finite), "{overcast:?}");
+}
+
+/// room_06 seen by node b alone (a straight-down pinhole over half the room; 9 luminaires, the
+/// windows out of view; data `tests/data/rooms/room_06`) on the bench's hazy day, no plan: the
+/// clear sky and its sun at a quarter of their strength at 08:26 UTC, when the window wall faces
+/// the sun. The sun patches the camera sees on the floor get about 4.5 klx of light the
+/// emitters do not explain: below the 5 klx that stop 51 took for direct sun, so no desk was
+/// held back, and desk 1, out of view in a sun patch (6.1 klx), was published at 1.5 klx ±
+/// 0.29 klx, 75 % low. With sun patches from 2.5 klx (`SUN_PATCH_MIN_LX`: a hazy day's sun
+/// through glass at a low sun) desk 1 is not available, flagged `sun_may_reach`, as are the
+/// out-of-view desks as near the windows as a seen sun patch (6 and 7); the desks the camera
+/// sees keep their measured values, within their statements.
+#[test]
+fn room_06s_weak_sun_patches_hold_back_the_desks_as_near_the_windows() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (img, out) = commission_node("room_06", "node_b", dir.path(), false);
+    let seen = in_view(&out);
+    assert!(!seen.contains(&1), "{out}");
+    let truth = truth("room_06");
+    let clear = truth_clear("room_06");
+    let live = live_csv_of(
+        "room_06",
+        "node_b",
+        &img,
+        "node_b_hazy.png",
+        "2026-03-21T08:26:00Z",
+    );
+    let mut held_back = Vec::new();
+    for l in live.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        let s: u32 = f[0].parse().expect("id");
+        let t = truth[&(1, s)].0 + 0.25 * clear[&s];
+        if f[1].is_empty() {
+            assert!(
+                f[5].contains("daylight_unknown") && f[5].contains("sun_may_reach"),
+                "desk {s}: {live}"
+            );
+            held_back.push(s);
+            continue;
+        }
+        let (v, u): (f64, f64) = (f[1].parse().expect("lx"), f[6].parse().expect("u"));
+        eprintln!("room_06, node b, hazy, no plan: desk {s} {v:.0} ± {u:.0} lx, truth {t:.0}");
+        assert!((v - t).abs() <= 2.0 * u, "desk {s}: {live}");
+    }
+    assert!(held_back.contains(&1), "{live}");
+    // only desks out of view are held back: the camera measures the others
+    assert!(held_back.iter().all(|s| !seen.contains(s)), "{live}\n{out}");
+    assert!(held_back.len() < 5, "{live}");
 }
