@@ -61,7 +61,6 @@ fn the_cost_and_memory_are_the_documented_ones() {
     let sets = results();
     for r in &sets {
         let doc = doc_row(&r.name);
-        // the profile this test is built in: its time against that profile's figure
         // the fixture's figure in the profile this test is built in
         let fixture = doc_row(&format!("fixture {}", r.name));
         let us: f64 = fixture[if cfg!(debug_assertions) { 2 } else { 1 }]

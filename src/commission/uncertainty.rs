@@ -475,7 +475,8 @@ fn with_monitor_indirect(
     if view[nearest] <= 0.0 {
         return (shaded, group);
     }
-    // the nearest monitor's group: its largest on that edge, or the next free number
+    // the nearest monitor's group: of the groups with a member at that edge, the one whose
+    // members (wherever they are) sum to the most; else the next free number
     let sum = |g: u8| -> f64 {
         shaded
             .iter()

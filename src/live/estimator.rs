@@ -260,8 +260,8 @@ const SUN_FACTOR: f64 = 8.0;
 /// [`SUN_FACTOR`] times the median (the noise of a night frame is relative, so the ratio alone
 /// finds "sun" in every frame). 5 klx missed the hazy day's sun patches of the generalization
 /// bench (seed 28's room_06: 4.5 klx; a desk by them published 75 % low, outside its
-/// statement); at 2.5 klx no overcast or night frame of 12 rooms found one (docs/generalization.md,
-/// sixteenth measurement).
+/// statement); at 2.5 klx no overcast or night value of 12 rooms changed
+/// (docs/generalization.md, sixteenth measurement).
 pub const SUN_PATCH_MIN_LX: f64 = 2500.0;
 
 /// The fitted skies that have no sun: ISO 15469's overcast type 1 and the 1942 overcast
