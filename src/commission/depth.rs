@@ -80,7 +80,26 @@ impl DepthMap {
         self.at(u, v)
             .and_then(|z| back_project(camera, f64::from(u), f64::from(v), z))
     }
+
+    /// Whether the depth seen at pixel (u, v) puts the surface at the world point `p`: within
+    /// [`SEEN_AT_ABS_M`] + [`SEEN_AT_REL`] of its distance from the camera. `None` when the
+    /// pixel has no depth.
+    pub fn sees_at(&self, camera: &Camera, u: u32, v: u32, p: DVec3) -> Option<bool> {
+        let q = self.point_m(camera, u, v)?;
+        let (dq, dp) = (
+            (q - camera.position_m).length(),
+            (p - camera.position_m).length(),
+        );
+        Some((dq - dp).abs() <= SEEN_AT_ABS_M + SEEN_AT_REL * dp)
+    }
 }
+
+/// A depth within this of a point's distance (plus [`SEEN_AT_REL`] of it) sees the point: a
+/// ToF camera's noise after the temporal median and the coarse mesh's flatness, well under a
+/// monitor's height above its desk.
+pub const SEEN_AT_ABS_M: f64 = 0.05;
+/// The part of [`DepthMap::sees_at`]'s tolerance that grows with the distance.
+pub const SEEN_AT_REL: f64 = 0.03;
 
 /// The world point at depth `z_m` (along the optical axis) through pixel (u, v), `None` outside
 /// the lens's field.
@@ -239,5 +258,41 @@ mod tests {
         let z = frame(8, 8, |_, _| 0);
         assert!(fuse(&[z], &DepthOptions::default()).is_err());
         assert!(fuse(&[], &DepthOptions::default()).is_err());
+    }
+
+    #[test]
+    fn a_pixels_depth_sees_the_surface_at_its_distance_and_not_a_monitor_above_it() {
+        // a straight-down pinhole 2 m over a desk top: every pixel's depth 2 m, but a monitor
+        // 0.4 m tall over the pixels u ≥ 10
+        let camera = Camera {
+            position_m: DVec3::new(0.0, 0.0, 2.0),
+            world_from_camera: glam::DMat3::from_cols(DVec3::X, DVec3::NEG_Y, DVec3::NEG_Z),
+            fx: 20.0,
+            fy: 20.0,
+            cx: 9.5,
+            cy: 9.5,
+            width: 20,
+            height: 20,
+            luminance_cd_m2_per_unit: None,
+            lens: crate::scene::Lens::Pinhole,
+        };
+        let depth = |u: u32| if u >= 10 { 1600 } else { 2000 };
+        let m = fuse(&[frame(20, 20, |u, _| depth(u))], &DepthOptions::default()).expect("fuses");
+        // the desk-top point each pixel's ray meets
+        let on_desk = |u: u32, v: u32| {
+            let d = camera.ray_world(f64::from(u), f64::from(v)).expect("a ray");
+            camera.position_m + d * (2.0 / -d.z)
+        };
+        assert_eq!(m.sees_at(&camera, 3, 4, on_desk(3, 4)), Some(true));
+        assert_eq!(m.sees_at(&camera, 15, 4, on_desk(15, 4)), Some(false));
+        // within the tolerance: 5 cm + 3 % of the distance (11 cm at 2 m)
+        let p = on_desk(3, 4) + DVec3::new(0.0, 0.0, 0.1);
+        assert_eq!(m.sees_at(&camera, 3, 4, p), Some(true));
+        let p = on_desk(3, 4) + DVec3::new(0.0, 0.0, 0.13);
+        assert_eq!(m.sees_at(&camera, 3, 4, p), Some(false));
+        // no depth at the pixel: no answer
+        let mut hole = m.clone();
+        hole.z_m[(4 * 20 + 3) as usize] = f64::NAN;
+        assert_eq!(hole.sees_at(&camera, 3, 4, on_desk(3, 4)), None);
     }
 }

@@ -835,9 +835,7 @@ pub fn from_capture(
 /// At most this many nodes (capture sets) commission one room together.
 pub const MAX_NODES: usize = 16;
 
-/// Whether node `j` sees the world point `p`: it projects into `j`'s image, where the depth seen
-/// is within 5 cm + 3 % of the point's.
-/// Per sensor: whether no node sees it.
+/// Per sensor: whether no node sees it (see [`node_sees`]).
 fn out_of_every_view(captures: &[Capture], depths: &[DepthMap], sensors: &[Sensor]) -> Vec<bool> {
     sensors
         .iter()
@@ -850,15 +848,12 @@ fn out_of_every_view(captures: &[Capture], depths: &[DepthMap], sensors: &[Senso
         .collect()
 }
 
+/// Whether a node sees the world point `p`: it projects into the node's image, where the depth
+/// seen puts the surface at `p` ([`DepthMap::sees_at`]).
 fn node_sees(cam: &crate::scene::Camera, depth: &DepthMap, p: DVec3) -> bool {
-    let Some((u, v)) = cam.pixel_of(p) else {
-        return false;
-    };
-    let Some(q) = depth.point_m(cam, u, v) else {
-        return false;
-    };
-    let (dq, dp) = ((q - cam.position_m).length(), (p - cam.position_m).length());
-    (dq - dp).abs() <= 0.05 + 0.03 * dp
+    cam.pixel_of(p)
+        .and_then(|(u, v)| depth.sees_at(cam, u, v, p))
+        .unwrap_or(false)
 }
 
 /// [`from_captures`] with luxmeter readings ([`refit`]): commissions at the default wall and
@@ -1530,6 +1525,7 @@ fn pass_solve(what: &str, source: crate::solver::SolveError) -> CommissionError 
 /// hooded ambient sensor's, or the one for which the model predicts a reading).
 fn estimate_reflectances(
     i: &Inputs,
+    depths: &[DepthMap],
     meshed: &Meshed,
     start_rho: &[f64],
     report: &mut Report,
@@ -1545,19 +1541,18 @@ fn estimate_reflectances(
     let st = Stage::start("reflectances", &i.progress);
     let caster = RayCaster::new(&pass_model.patches);
     let first = i.first();
-    let mut samples = reflectance::sample(
-        first,
-        i.luminaires,
-        &pass_model,
-        &caster,
-        reco,
-        &o.reflectance,
-    );
+    let sample = |k: usize| {
+        let on = (&pass_model, &caster, reco);
+        reflectance::sample(&i.captures[k], &depths[k], i.luminaires, on, &o.reflectance)
+    };
+    let mut samples = sample(0);
     // the other nodes' pixels, in the first camera's units
     let g0 = first.camera.luminance_cd_m2_per_unit.unwrap_or(1.0);
-    for c in &i.captures[1..] {
-        let more = reflectance::sample(c, i.luminaires, &pass_model, &caster, reco, &o.reflectance);
-        samples.extend(more, c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0);
+    for (k, c) in i.captures.iter().enumerate().skip(1) {
+        samples.extend(
+            sample(k),
+            c.camera.luminance_cd_m2_per_unit.unwrap_or(g0) / g0,
+        );
     }
     // seen furniture tops: the inferred desk tops take their reflectance
     let tops_seen: Vec<Part> = meshed
@@ -1941,7 +1936,7 @@ pub fn from_captures(
 
     let start_rho = start_rho(&meshed.reco, o, meshed.room.as_ref());
     let refl = if o.estimate_reflectances {
-        estimate_reflectances(&i, &meshed, &start_rho, &mut report)?
+        estimate_reflectances(&i, &depths, &meshed, &start_rho, &mut report)?
     } else {
         Reflectances {
             tri_rho: start_rho,

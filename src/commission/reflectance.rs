@@ -20,6 +20,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::depth::DepthMap;
 use super::mesh::{Part, RecoMesh};
 use crate::camera::capture::Capture;
 use crate::engine::direct::{self, Receiver};
@@ -154,13 +155,14 @@ pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
     })
 }
 
-/// Collects the pixel samples on the pass model's patches.
+/// Collects the pixel samples on the pass model's patches: `(model, caster, reco)`, the pass
+/// model, its ray caster and the mesh it was built from; a pixel whose cleaned depth (`depth`,
+/// the capture's) disagrees with the patch its ray hits is left out.
 pub fn sample(
     capture: &Capture,
+    depth: &DepthMap,
     luminaires: &[Luminaire],
-    model: &Model,
-    caster: &RayCaster,
-    reco: &RecoMesh,
+    (model, caster, reco): (&Model, &RayCaster, &RecoMesh),
     o: &ReflectanceOptions,
 ) -> Samples {
     let cam = &capture.camera;
@@ -185,6 +187,11 @@ pub fn sample(
                 return None;
             }
             let x = cam.position_m + dir * t_m;
+            // the pixel's own depth puts its surface elsewhere: it sees something the mesh
+            // lacks (a monitor seen edge-on at another node's image edge), not this patch
+            if depth.sees_at(cam, u, v, x) == Some(false) {
+                return None;
+            }
             let n = model.patches.normal[patch as usize];
             let i = (v * cam.width + u) as usize;
             // the luminaire's own light: its frame less the all-off frame (daylight), if any

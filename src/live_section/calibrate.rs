@@ -64,7 +64,7 @@ pub(crate) fn camera_rows(
             if f & sensor_flags::OUT_OF_VIEW != 0 {
                 Vec::new()
             } else {
-                window_pixels(camera, &hits, model, s, o)
+                window_pixels(camera, Some(&c.depth), &hits, model, s, o)
             }
         })
         .collect();

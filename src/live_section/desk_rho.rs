@@ -20,8 +20,12 @@
 //!   stated error at the desk explains the difference. A desk further off is another material
 //!   (a white desk among grey ones) and keeps its own estimate; the class's reflectance is then
 //!   the median over its members (at least [`CLASS_MIN_DESKS`] again);
-//! * a member's top takes `ρ_c`: the patches under its window are scaled by `ρ_c / ρ` (a patch
-//!   under several windows by the geometric mean of their factors).
+//! * a member's top takes `ρ_c`: every patch under its window is set to it; a desk of another
+//!   material, to its own estimate (a patch under several windows takes the geometric mean).
+//!   A desk top is one material: patches are larger than a window, so two patches under one
+//!   window that differ tell an estimate's error at a patch's edge, not two materials (seed
+//!   29's room_07, node b: a window pixel on a patch estimated at 0.35 among the desk's 0.57
+//!   read 1.6 times its neighbours).
 //!
 //! The model's light is not changed here (a desk top's own reflectance hardly changes the light
 //! on it); the camera's measurement at the desk is, and where it then disagrees with the model
@@ -56,7 +60,7 @@ pub struct DeskRho {
     pub sensor_id: u32,
     /// The node (index of its capture).
     pub node: usize,
-    /// The desk top's own estimate under the sensor's window (median over its pixels).
+    /// The desk top's own estimate under the sensor's window (the highest of its patches').
     pub local: f64,
     /// The class reflectance it took, `None` when it kept its own (another material, or too few
     /// desks in view).
@@ -101,8 +105,8 @@ fn median(v: &[f64]) -> Option<f64> {
     crate::commission::reflectance::median(&mut finite)
 }
 
-/// A desk sensor's window in one node's view: the patches under its pixels, their median
-/// reflectance and the desk's stated relative uncertainty of the model.
+/// A desk sensor's window in one node's view: the patches under its pixels, the highest of their
+/// reflectances and the desk's stated relative uncertainty of the model.
 struct DeskWindow {
     sensor: usize,
     patches: Vec<u32>,
@@ -130,7 +134,7 @@ fn desk_windows(c: &Commissioned, o: &SectionOptions) -> Vec<DeskWindow> {
         if !(seen && on_furniture) {
             continue;
         }
-        let patches: Vec<u32> = window_pixels(camera, &hits, model, sensor, o)
+        let patches: Vec<u32> = window_pixels(camera, Some(&c.depth), &hits, model, sensor, o)
             .iter()
             .filter_map(|&(px, _, _)| hits.get(px as usize).copied().flatten())
             .map(|h| h.patch)
@@ -140,7 +144,15 @@ fn desk_windows(c: &Commissioned, o: &SectionOptions) -> Vec<DeskWindow> {
             .map(|&p| model.patches.rho[p as usize])
             .collect();
         let u_rel = c.report.stated_rel(sensor.id);
-        if let Some(local) = median(&rhos) {
+        // the highest of the window's patches: an estimate through the model is pulled low
+        // where the model lights a patch the room shades (a monitor the mesh lost, pixels of
+        // one the depth missed), hardly ever high on a desk top
+        let local = rhos
+            .iter()
+            .copied()
+            .filter(|r| r.is_finite())
+            .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
+        if let Some(local) = local {
             out.push(DeskWindow {
                 sensor: s,
                 patches,
@@ -165,14 +177,17 @@ pub(crate) fn share(c: &mut Commissioned, node: usize, o: &SectionOptions) -> Ve
         let taken = class
             .as_ref()
             .and_then(|(rho_c, member)| member[k].then_some(*rho_c));
-        if let Some(rho_c) = taken {
-            let f = (rho_c / d.local).ln();
-            let unique: std::collections::BTreeSet<u32> = d.patches.iter().copied().collect();
-            for p in unique {
-                let e = factor_ln.entry(p).or_insert((0.0, 0));
-                e.0 += f;
-                e.1 += 1;
-            }
+        // one desk top, one material: every patch under the window takes the class's
+        // reflectance, or the desk's own (its window's estimate) when it is another material
+        let rho_top = taken.unwrap_or(d.local);
+        let unique: std::collections::BTreeSet<u32> = d.patches.iter().copied().collect();
+        for p in unique {
+            let Some(&rho_p) = c.model.patches.rho.get(p as usize).filter(|r| **r > 0.0) else {
+                continue;
+            };
+            let e = factor_ln.entry(p).or_insert((0.0, 0));
+            e.0 += (rho_top / rho_p).ln();
+            e.1 += 1;
         }
         out.push(DeskRho {
             sensor_id: c.scene.sensors[d.sensor].id,

@@ -22,7 +22,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::camera::capture::Capture;
-use crate::commission::Commissioned;
+use crate::commission::{Commissioned, DepthMap};
 use crate::engine::direct::{self, Receiver};
 use crate::engine::raycast::{Hit, RayCaster};
 use crate::engine::{Csr, Model};
@@ -242,6 +242,7 @@ fn project(camera: &Camera, p: DVec3) -> Option<(f64, f64, f64)> {
 /// more than the window). Empty when the camera does not see the sensor's plane there.
 fn window_pixels(
     camera: &Camera,
+    depth: Option<&DepthMap>,
     hits: &[Option<PixelHit>],
     model: &Model,
     sensor: &Sensor,
@@ -269,6 +270,11 @@ fn window_pixels(
             let Some(hit) = hits[i as usize] else {
                 continue;
             };
+            // the pixel's own depth puts its surface elsewhere: it sees something the mesh
+            // lacks (a monitor seen edge-on), not the desk top
+            if depth.and_then(|m| m.sees_at(camera, u, v, hit.point)) == Some(false) {
+                continue;
+            }
             let d = hit.point - sensor.position_m;
             let along = d.dot(n);
             let inplane = d - n * along;
@@ -420,6 +426,7 @@ struct Layout {
 
 fn layout(
     camera: &Camera,
+    depth: Option<&DepthMap>,
     model: &Model,
     sensors: &[Sensor],
     flags: &[u8],
@@ -438,7 +445,7 @@ fn layout(
             {
                 Vec::new()
             } else {
-                window_pixels(camera, &hits, model, s, o)
+                window_pixels(camera, depth, &hits, model, s, o)
             }
         })
         .collect();
@@ -610,6 +617,7 @@ pub fn from_capture(
     let glazing = crate::commission::glazing_patches(c);
     let mut lay = layout(
         camera,
+        Some(&c.depth),
         model,
         &c.scene.sensors,
         &c.sensor_flags,
@@ -813,7 +821,7 @@ pub fn from_model(
             }
         })
         .collect();
-    let lay = layout(camera, model, &scene.sensors, &flags, None, o);
+    let lay = layout(camera, None, model, &scene.sensors, &flags, None, o);
     let indirect = indirect_lx(&model.ff.f, &model.basis_b);
     let points: Vec<Vec<DVec3>> = scene
         .luminaires
