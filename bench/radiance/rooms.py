@@ -65,7 +65,7 @@ when `luxnode commission --help` offers the option (else "n/a"); night: `luxnode
 --image` on states.csv against truth.csv; live: `luxnode live` on each node's frame (two nodes:
 per desk the node that measures it, the smaller uncertainty first; a node that sees the desk
 saturated, and so publishes it as not available, or that flags the sun may be on it, over
-another's inference). Desk error = sum |lux -
+another's inference; of two inferences, the smaller uncertainty). Desk error = sum |lux -
 true| / sum true over the desk's values; in view = commission's flags (any node sees it).
 Stated uncertainty: commission's per-desk relative standard uncertainty (night) and live's
 uncertainty_lx (live). An image over the 4 MiB flash region (room_05's two nodes) is
@@ -1133,10 +1133,12 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
         # or the plan's beam) knows of a sun another node's inference does not: its "not
         # available" stands over that inference too, not over a measurement
         sun = [r for r in cands if "sun_may_reach" in r["flags"] and not r["lux_total"]]
-        # a value not available (empty: NaN, flagged) is taken only when no node gives one
+        # a value not available (empty: NaN, flagged) is taken only when no node gives one;
+        # of several nodes' inferences, the one with the smallest statement (as of measurements)
         valued = [r for r in cands if r["lux_total"]]
-        pick = (min(measured, key=lambda r: float(r["uncertainty_lx"])) if measured
-                else beyond[0] if beyond else sun[0] if sun else valued[0] if valued
+        u = lambda r: float(r["uncertainty_lx"] or "inf")  # noqa: E731
+        pick = (min(measured, key=u) if measured
+                else beyond[0] if beyond else sun[0] if sun else min(valued, key=u) if valued
                 else cands[0])
         lux, sky = truth[(1, s)]
         c = (clear or {}).get(s, math.nan)
