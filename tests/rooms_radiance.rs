@@ -395,6 +395,15 @@ fn live_csv_of(name: &str, node: &str, img: &Path, frame: &str, time: &str) -> S
     live
 }
 
+/// Desk `s`'s published total in `luxnode live`'s CSV, lx (`None` when not available).
+fn published_lx(live: &str, s: u32) -> Option<f64> {
+    live.lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|f| f[0].parse() == Ok(s))
+        .and_then(|f| f.get(1)?.parse().ok())
+}
+
 /// Room `name`'s clear-sky truth (`truth_clear.csv`): per sensor, lx.
 fn truth_clear(name: &str) -> HashMap<u32, f64> {
     std::fs::read_to_string(room(name).join("truth_clear.csv"))
@@ -455,11 +464,7 @@ fn room_07s_desk_in_a_sun_patch_nobody_sees_is_published_when_the_camera_measure
         assert!((v / t - 1.0).abs() < 0.4, "desk {s}: {v}, truth {t}");
     }
     // desk 1 has the sun's beam: over 5 klx (the sky alone gives it under 2 klx)
-    let d1: f64 = live
-        .lines()
-        .find(|l| l.starts_with("1,"))
-        .and_then(|l| l.split(',').nth(1)?.parse().ok())
-        .expect("desk 1");
+    let d1 = published_lx(&live, 1).expect("desk 1");
     assert!(d1 > 5000.0, "{live}");
 }
 
@@ -644,11 +649,7 @@ fn room_03s_two_nodes_sample_a_desk_only_where_their_depth_sees_it() {
         "node_a_night.png",
         "2026-03-21T11:26:00Z",
     );
-    let d2 = live
-        .lines()
-        .find(|l| l.starts_with("2,"))
-        .and_then(|l| l.split(',').nth(1)?.parse::<f64>().ok())
-        .expect("desk 2 measured");
+    let d2 = published_lx(&live, 2).expect("desk 2 measured");
     let t = truth[&(1, 2)].0;
     eprintln!("room_03, two nodes, night: desk 2 {d2:.0} lx, truth {t:.0}");
     assert!((d2 / t - 1.0).abs() <= 0.05, "{d2} for {t}: {live}");

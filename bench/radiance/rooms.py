@@ -1104,6 +1104,11 @@ def frame_time(d: Path, hour: float = 12.0) -> str:
     return f"2026-03-21T{minutes // 60:02d}:{minutes % 60:02d}:00Z"
 
 
+def stated_lx(row: dict) -> float:
+    """A live CSV row's stated uncertainty, lx (infinite when it states none)."""
+    return float(row["uncertainty_lx"] or "inf")
+
+
 def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
                 clear: dict | None = None) -> dict:
     """Per sensor, [(estimate, truth, stated u, source)] of the live frame `light`: night (all
@@ -1136,10 +1141,9 @@ def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
         # a value not available (empty: NaN, flagged) is taken only when no node gives one;
         # of several nodes' inferences, the one with the smallest statement (as of measurements)
         valued = [r for r in cands if r["lux_total"]]
-        u = lambda r: float(r["uncertainty_lx"] or "inf")  # noqa: E731
-        pick = (min(measured, key=u) if measured
-                else beyond[0] if beyond else sun[0] if sun else min(valued, key=u) if valued
-                else cands[0])
+        pick = (min(measured, key=stated_lx) if measured
+                else beyond[0] if beyond else sun[0] if sun
+                else min(valued, key=stated_lx) if valued else cands[0])
         lux, sky = truth[(1, s)]
         c = (clear or {}).get(s, math.nan)
         t = lux + {"day": sky, "clear": c, "hazy": HAZY * c}.get(light, 0.0)

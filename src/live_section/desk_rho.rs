@@ -151,7 +151,7 @@ fn desk_windows(c: &Commissioned, o: &SectionOptions) -> Vec<DeskWindow> {
             .iter()
             .copied()
             .filter(|r| r.is_finite())
-            .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
+            .reduce(f64::max);
         if let Some(local) = local {
             out.push(DeskWindow {
                 sensor: s,
