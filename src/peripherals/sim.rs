@@ -56,6 +56,16 @@ impl SimClock {
         }
     }
 
+    /// A transfer that holds its thread for `d` (a stuck bus's adapter timeout): sleeps in
+    /// real time on either clock, since what watches it (the node's deadline) runs in real
+    /// time, and moves a virtual clock on by `d` too.
+    pub fn stall(&self, d: Duration) {
+        std::thread::sleep(d);
+        if self.virtual_ns.is_some() {
+            self.advance(d);
+        }
+    }
+
     /// Lets `d` pass (sleeps in real time).
     pub fn advance(&self, d: Duration) {
         match &self.virtual_ns {
@@ -210,7 +220,7 @@ impl I2c for SimBus {
         };
         if faults.stuck {
             self.control.lock().1.timeouts += 1;
-            self.clock.advance(faults.stuck_timeout);
+            self.clock.stall(faults.stuck_timeout);
             return Err(ErrorKind::Bus);
         }
         let now = self.clock.now();

@@ -353,13 +353,13 @@ mod tests {
     #[test]
     fn the_patch_sum_agrees_with_the_fine_quadrature_for_every_type() {
         // every standard sky, sun low and high: the 145-patch sum (centre luminance) against
-        // the 400-ring midpoint rule
+        // the 100-ring midpoint rule (within 7e-5 of 400 rings on these skies: converged)
         let mut worst: f64 = 0.0;
         for altitude_deg in [10.0, 35.0, 60.0] {
             let sun = sun_at(altitude_deg, 150.0);
             for t in 1..=16 {
                 let model = SkyModel::cie_standard(t).expect("type");
-                let fine = horizontal_illuminance_quadrature_lx(&model, sun, 1.0, 400);
+                let fine = horizontal_illuminance_quadrature_lx(&model, sun, 1.0, 100);
                 let coarse = horizontal_illuminance_tregenza_lx(&model, sun, 1.0);
                 worst = worst.max((coarse / fine - 1.0).abs());
             }
