@@ -38,8 +38,7 @@ echo "== tests (release build: the physics tests cast millions of rays)"
 # one test more than cores: a dozen tests spend most of their time waiting on a node process or
 # a client program (the HIL rig's simulated day, BACnet and Modbus timeouts), and a core would
 # sit idle under each (stop 54, 2 cores: 830 s before, 611 s with this and the sim board's virtual
-# I2C time);
-# the timed tests run alone (.config/nextest.toml)
+# I2C time); the timed tests run alone (.config/nextest.toml)
 export NEXTEST_TEST_THREADS="${NEXTEST_TEST_THREADS:-$(($(nproc) + 1))}"
 cargo nextest run --release --no-fail-fast "$@"
 
