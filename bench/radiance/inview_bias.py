@@ -15,46 +15,28 @@ error at those desks (rows.json's frame checks: the renderer's).
         --room-set scenes/rooms /tmp/rooms --room-set /tmp/scenes29 /tmp/rooms29
 """
 import argparse
-import csv
 import json
 import math
 import statistics as st
-import subprocess
 from pathlib import Path
 
 import rooms
 
 
-def truth_of(d: Path) -> tuple[dict, dict]:
-    allon = {int(r["sensor_id"]): (float(r["lux"]), float(r["lux_sky"]))
-             for r in csv.DictReader(open(d / "truth.csv")) if r["scenario_id"] == "1"}
-    clear_csv = d / "truth_clear.csv"
-    clear = ({int(r["sensor_id"]): float(r["lux_sky"]) for r in csv.DictReader(open(clear_csv))}
-             if clear_csv.exists() else {})
-    return allon, clear
-
-
 def measured_rows(a, d: Path, rd: Path, key: str) -> list[dict]:
-    allon, clear = truth_of(d)
-    arc = ",".join(["254"] * len(json.loads((d / "luminaires.json").read_text())))
+    allon = rooms.read_truth(d)
+    clear = rooms.read_truth_clear(d) or {}
     out = []
     for cfg in ("one_node", "one_node_plan"):
         for img in sorted((rd / "eval" / cfg).glob("node_*.img")):
             cam = img.stem
             for light in ("night", "day", "clear"):
-                frame = rd / "live" / f"{cam}_{light}.png"
-                if not frame.exists():
+                if not (rd / "live" / f"{cam}_{light}.png").exists():
                     continue
-                hour = rooms.clear_hour(d) if light == "clear" else 12.0
-                p = subprocess.run([a.luxnode, "live", "--image", img, "--frame", frame,
-                                    "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png",
-                                    "--format", "csv", "--time", rooms.frame_time(d, hour)],
-                                   capture_output=True, text=True, check=True)
-                for r in csv.DictReader(p.stdout.splitlines()):
+                for s, r in rooms.live_rows(Path(a.luxnode), d, rd, cam, img, light).items():
                     if r["source"] != "measured" or not r["lux_total"]:
                         continue
-                    s = int(r["sensor_id"])
-                    art_t, sky = allon[s]
+                    art_t, sky = allon[(1, s)]
                     day_t = {"night": 0.0, "day": sky, "clear": clear.get(s, math.nan)}[light]
                     out.append(dict(key=key, room=d.name, cfg=cfg, cam=cam, light=light, s=s,
                                     art=float(r["lux_artificial"]), day=float(r["lux_daylight"]),

@@ -1109,23 +1109,26 @@ def stated_lx(row: dict) -> float:
     return float(row["uncertainty_lx"] or "inf")
 
 
+def live_rows(lux: Path, d: Path, rd: Path, cam: str, img: Path, light: str,
+              has_time: bool = True) -> dict:
+    """`luxnode live`'s CSV rows by sensor for node `cam`'s image `img` on its live frame
+    `light`, every luminaire at 100 %, at the frame's time (the clear hour on a sunny day)."""
+    arc = ",".join(["254"] * len(json.loads((d / "luminaires.json").read_text())))
+    cmd = [lux, "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
+           "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"]
+    if has_time:
+        sunny = light in ("clear", "hazy")
+        cmd += ["--time", frame_time(d, clear_hour(d) if sunny else 12.0)]
+    return {int(r["sensor_id"]): r for r in csv.DictReader(run(cmd).stdout.splitlines())}
+
+
 def live_values(a, d: Path, rd: Path, com: dict, truth: dict, light: str,
                 clear: dict | None = None) -> dict:
     """Per sensor, [(estimate, truth, stated u, source)] of the live frame `light`: night (all
     on), day (all on + the overcast sky), clear (all on + the clear sky with sun)."""
-    n_lum = len(json.loads((d / "luminaires.json").read_text()))
-    arc = ",".join(["254"] * n_lum)
-    per_node = []
     has_time = "--time" in run([luxnode_bin(a), "live", "--help"]).stdout
-    for cam, img in com["images"].items():
-        cmd = [luxnode_bin(a), "live", "--image", img, "--frame", rd / "live" / f"{cam}_{light}.png",
-               "--arc", arc, "--depth", rd / "live" / f"{cam}_depth.png", "--format", "csv"]
-        if has_time:
-            sunny = light in ("clear", "hazy")
-            cmd += ["--time", frame_time(d, clear_hour(d) if sunny else 12.0)]
-        p = run(cmd)
-        rows = {int(r["sensor_id"]): r for r in csv.DictReader(p.stdout.splitlines())}
-        per_node.append(rows)
+    per_node = [live_rows(luxnode_bin(a), d, rd, cam, img, light, has_time)
+                for cam, img in com["images"].items()]
     out = {}
     for s in per_node[0]:
         cands = [rows[s] for rows in per_node if s in rows]
